@@ -1,0 +1,1 @@
+//! sdfmo-distance (placeholder)

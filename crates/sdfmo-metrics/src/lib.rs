@@ -1,0 +1,1 @@
+//! sdfmo-metrics (placeholder)
