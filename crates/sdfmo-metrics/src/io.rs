@@ -1,0 +1,192 @@
+//! Loading and saving 8-bit RGB PNG images for comparisons.
+
+use crate::{MetricsError, Result};
+use image::{ImageEncoder, ImageFormat, ImageReader, RgbImage};
+use std::fs;
+use std::io::{BufReader, Write};
+use std::path::Path;
+
+/// Loads an image file as 8-bit RGB, ready for [`psnr`](crate::psnr) and [`flip`](crate::flip).
+///
+/// The format is detected from the content, not the extension; PNG is supported. The channels
+/// are taken as they are stored (no colour-profile conversion), as NVIDIA's FLIP tool does:
+/// alpha is dropped without compositing, grey is replicated to RGB, and 16-bit channels are
+/// rounded to 8 bits. The `image` crate's default decoding limits guard against huge images.
+///
+/// # Errors
+///
+/// [`MetricsError::Read`] if the file cannot be opened or read,
+/// [`MetricsError::UnsupportedFormat`] if its content is not a recognised image format, and
+/// [`MetricsError::Decode`] if decoding fails (corrupt, truncated, too large).
+pub fn load_rgb8(path: impl AsRef<Path>) -> Result<RgbImage> {
+    let path = path.as_ref();
+    let read_error = |source| MetricsError::Read {
+        path: path.to_path_buf(),
+        source,
+    };
+    let file = fs::File::open(path).map_err(read_error)?;
+    let reader = ImageReader::new(BufReader::new(file))
+        .with_guessed_format()
+        .map_err(read_error)?;
+    if reader.format() != Some(ImageFormat::Png) {
+        return Err(MetricsError::UnsupportedFormat {
+            path: path.to_path_buf(),
+        });
+    }
+    let image = reader.decode().map_err(|source| match source {
+        image::ImageError::IoError(source) => read_error(source),
+        source => MetricsError::Decode {
+            path: path.to_path_buf(),
+            source,
+        },
+    })?;
+    Ok(image.into_rgb8())
+}
+
+/// Saves an 8-bit RGB image as PNG, atomically: the file is written next to `path` under a
+/// temporary name and then renamed over it, so a crash never leaves half a file.
+///
+/// # Errors
+///
+/// [`MetricsError::Encode`] if PNG encoding fails, [`MetricsError::Write`] if the temporary
+/// file cannot be written or renamed (the temporary file is removed).
+pub fn save_png(image: &RgbImage, path: impl AsRef<Path>) -> Result<()> {
+    let path = path.as_ref();
+    let mut bytes = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut bytes)
+        .write_image(
+            crate::rgb_bytes(image),
+            image.width(),
+            image.height(),
+            image::ExtendedColorType::Rgb8,
+        )
+        .map_err(|source| MetricsError::Encode {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    let file_name = path.file_name().ok_or_else(|| MetricsError::Write {
+        path: path.to_path_buf(),
+        source: std::io::Error::new(std::io::ErrorKind::InvalidInput, "path has no file name"),
+    })?;
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(file_name);
+    tmp_name.push(format!(".tmp{}", std::process::id()));
+    let tmp = path.with_file_name(tmp_name);
+    let write = || -> std::io::Result<()> {
+        let mut file = fs::File::create(&tmp)?;
+        file.write_all(&bytes)?;
+        file.sync_all()?;
+        fs::rename(&tmp, path)
+    };
+    write().map_err(|source| {
+        // Best effort: the temporary may not exist if creating it failed.
+        let _ = fs::remove_file(&tmp);
+        MetricsError::Write {
+            path: path.to_path_buf(),
+            source,
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use image::Rgb;
+    use std::path::PathBuf;
+
+    /// A fresh directory under the system temp dir, removed on drop.
+    struct TempDir(PathBuf);
+    impl TempDir {
+        fn new(tag: &str) -> TempDir {
+            let dir = std::env::temp_dir().join(format!(
+                "sdfmo-metrics-{tag}-{}-{:?}",
+                std::process::id(),
+                std::thread::current().id()
+            ));
+            let _ = fs::remove_dir_all(&dir);
+            fs::create_dir_all(&dir).unwrap();
+            TempDir(dir)
+        }
+    }
+    impl Drop for TempDir {
+        fn drop(&mut self) {
+            let _ = fs::remove_dir_all(&self.0);
+        }
+    }
+
+    #[test]
+    fn png_round_trip_is_exact_and_leaves_no_temporary() {
+        let dir = TempDir::new("roundtrip");
+        let image = RgbImage::from_fn(13, 7, |x, y| Rgb([(x * 19) as u8, (y * 36) as u8, 200]));
+        let path = dir.0.join("image.png");
+        save_png(&image, &path).unwrap();
+        // Overwriting an existing file works too.
+        save_png(&image, &path).unwrap();
+        assert_eq!(load_rgb8(&path).unwrap(), image);
+        let names: Vec<_> = fs::read_dir(&dir.0)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names, vec![std::ffi::OsString::from("image.png")]);
+    }
+
+    #[test]
+    fn rgba_and_grey_pngs_load_as_rgb() {
+        let dir = TempDir::new("channels");
+        let rgba = image::RgbaImage::from_pixel(2, 2, image::Rgba([10, 20, 30, 0]));
+        let rgba_path = dir.0.join("rgba.png");
+        rgba.save(&rgba_path).unwrap();
+        assert_eq!(
+            load_rgb8(&rgba_path).unwrap(),
+            RgbImage::from_pixel(2, 2, Rgb([10, 20, 30]))
+        );
+        let grey = image::GrayImage::from_pixel(3, 1, image::Luma([77]));
+        let grey_path = dir.0.join("grey.png");
+        grey.save(&grey_path).unwrap();
+        assert_eq!(
+            load_rgb8(&grey_path).unwrap(),
+            RgbImage::from_pixel(3, 1, Rgb([77, 77, 77]))
+        );
+    }
+
+    #[test]
+    fn missing_file_is_a_read_error_naming_it() {
+        let err = load_rgb8("/nonexistent/sdfmo/metrics.png").unwrap_err();
+        assert!(matches!(err, MetricsError::Read { .. }));
+        assert_eq!(
+            err.to_string(),
+            "cannot read image /nonexistent/sdfmo/metrics.png"
+        );
+    }
+
+    #[test]
+    fn non_image_and_corrupt_png_are_typed_errors() {
+        let dir = TempDir::new("corrupt");
+        let text = dir.0.join("not-an-image.png");
+        fs::write(&text, b"v 0 0 0\nv 1 0 0\n").unwrap();
+        assert!(matches!(
+            load_rgb8(&text),
+            Err(MetricsError::UnsupportedFormat { .. })
+        ));
+
+        let good = dir.0.join("good.png");
+        save_png(&RgbImage::from_pixel(64, 64, Rgb([1, 2, 3])), &good).unwrap();
+        let bytes = fs::read(&good).unwrap();
+        let truncated = dir.0.join("truncated.png");
+        fs::write(&truncated, &bytes[..bytes.len() / 2]).unwrap();
+        let err = load_rgb8(&truncated).unwrap_err();
+        assert!(
+            matches!(err, MetricsError::Decode { .. } | MetricsError::Read { .. }),
+            "{err:?}"
+        );
+        assert!(err.to_string().contains("truncated.png"));
+    }
+
+    #[test]
+    fn saving_into_a_missing_directory_is_a_write_error() {
+        let err = save_png(&RgbImage::new(1, 1), "/nonexistent/sdfmo/out.png").unwrap_err();
+        assert!(matches!(err, MetricsError::Write { .. }), "{err:?}");
+        let err = save_png(&RgbImage::new(1, 1), "/").unwrap_err();
+        assert!(matches!(err, MetricsError::Write { .. }), "{err:?}");
+    }
+}
