@@ -1,7 +1,7 @@
 //! Loading and saving 8-bit RGB PNG images for comparisons.
 
 use crate::{MetricsError, Result};
-use image::{ImageEncoder, ImageFormat, ImageReader, RgbImage};
+use image::{DynamicImage, ImageEncoder, ImageFormat, ImageReader, RgbImage};
 use std::fs;
 use std::io::{BufReader, Write};
 use std::path::Path;
@@ -9,9 +9,10 @@ use std::path::Path;
 /// Loads an image file as 8-bit RGB, ready for [`psnr`](crate::psnr) and [`flip`](crate::flip).
 ///
 /// The format is detected from the content, not the extension; PNG is supported. The channels
-/// are taken as they are stored (no colour-profile conversion), as NVIDIA's FLIP tool does:
-/// alpha is dropped without compositing, grey is replicated to RGB, and 16-bit channels are
-/// rounded to 8 bits. The `image` crate's default decoding limits guard against huge images.
+/// are taken as they are stored (no colour-profile conversion), exactly as NVIDIA's FLIP tool
+/// reads them through `stb_image`: alpha is dropped without compositing, grey is replicated to
+/// RGB, and 16-bit channels keep their high byte. The `image` crate's default decoding limits
+/// guard against huge images.
 ///
 /// # Errors
 ///
@@ -40,7 +41,27 @@ pub fn load_rgb8(path: impl AsRef<Path>) -> Result<RgbImage> {
             source,
         },
     })?;
-    Ok(image.into_rgb8())
+    Ok(to_rgb8_like_stb(image))
+}
+
+/// 8-bit RGB as `stb_image` (which NVIDIA's tool loads PNGs with) produces it: 16-bit channels
+/// keep their high byte (the `image` crate would round instead), alpha is dropped, grey is
+/// replicated.
+fn to_rgb8_like_stb(image: DynamicImage) -> RgbImage {
+    use DynamicImage::{ImageLuma16, ImageLumaA16, ImageRgb16, ImageRgba16};
+    match image {
+        ImageLuma16(_) | ImageLumaA16(_) | ImageRgb16(_) | ImageRgba16(_) => {
+            let wide = image.into_rgb16();
+            let (w, h) = wide.dimensions();
+            let narrow = wide
+                .into_raw()
+                .into_iter()
+                .map(|v| (v >> 8) as u8)
+                .collect();
+            RgbImage::from_raw(w, h, narrow).unwrap_or_default()
+        }
+        image => image.into_rgb8(),
+    }
 }
 
 /// Saves an 8-bit RGB image as PNG, atomically: the file is written next to `path` under a
@@ -146,6 +167,24 @@ mod tests {
         assert_eq!(
             load_rgb8(&grey_path).unwrap(),
             RgbImage::from_pixel(3, 1, Rgb([77, 77, 77]))
+        );
+    }
+
+    #[test]
+    fn sixteen_bit_pngs_keep_the_high_byte_as_stb_image_does() {
+        let dir = TempDir::new("sixteen");
+        // 0x80FF would round to 0x81 (129) with the image crate's conversion; stb gives 0x80.
+        let wide = image::ImageBuffer::<image::Rgb<u16>, _>::from_raw(
+            2,
+            1,
+            vec![0x80FF, 0xFFFF, 0x0000, 0x00FF, 0x1234, 0xFF00],
+        )
+        .unwrap();
+        let path = dir.0.join("wide.png");
+        wide.save(&path).unwrap();
+        assert_eq!(
+            load_rgb8(&path).unwrap().into_raw(),
+            vec![0x80, 0xFF, 0x00, 0x00, 0x12, 0xFF]
         );
     }
 
