@@ -1,0 +1,47 @@
+//! The builder's error type.
+
+use thiserror::Error;
+
+/// What can go wrong in [`crate::build`].
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum BuildError {
+    /// The mesh has no triangles.
+    #[error("the mesh has no triangles")]
+    EmptyMesh,
+    /// The mesh's arrays are inconsistent (its fields are public, so they are checked again).
+    #[error("invalid mesh: {0}")]
+    InvalidMesh(String),
+    /// All triangles have zero area, or the mesh has no extent to normalise.
+    #[error("degenerate mesh: {0}")]
+    DegenerateMesh(String),
+    /// The depth is outside the supported range.
+    #[error("depth {depth} is out of range (0..={max})")]
+    InvalidDepth {
+        /// The requested depth.
+        depth: u8,
+        /// The deepest supported.
+        max: u8,
+    },
+    /// `Method::Multi { max_voxels: 0 }`.
+    #[error("max_voxels must be at least 1 (got {0})")]
+    InvalidMaxVoxels(u8),
+    /// `threads: Some(0)`.
+    #[error("threads must be at least 1")]
+    InvalidThreads,
+    /// The normalisation margin is not in [0, 0.5).
+    #[error("margin {0} is out of range [0, 0.5)")]
+    InvalidMargin(f32),
+    /// The local thread pool could not be created.
+    #[error("could not create a thread pool")]
+    ThreadPool(#[from] rayon::ThreadPoolBuildError),
+    /// The distance structure refused the mesh.
+    #[error("building the distance structure")]
+    Distance(#[from] sdfmo_distance::DistanceError),
+    /// Packing the octree failed.
+    #[error("packing the octree")]
+    Format(#[from] sdfmo_format::FormatError),
+}
+
+/// `Result` with a [`BuildError`].
+pub type Result<T> = std::result::Result<T, BuildError>;

@@ -1,0 +1,292 @@
+//! Small geometric helpers of the builder: closest point on a triangle with the feature it lies
+//! on, triangle clipping against a box, and the trilinear interpolant.
+
+use glam::Vec3;
+
+/// The feature of a triangle a closest point lies on (Voronoi region).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Feature {
+    /// Vertex 0, 1 or 2.
+    Vertex(u8),
+    /// Edge 0 (v0–v1), 1 (v1–v2) or 2 (v2–v0).
+    Edge(u8),
+    /// The interior of the face.
+    Face,
+}
+
+/// Closest point on triangle `(a, b, c)` to `p` and the feature it lies on (Ericson,
+/// *Real-Time Collision Detection*, 5.1.5). Degenerate triangles fall into vertex or edge regions.
+#[inline]
+pub fn closest_point_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> (Vec3, Feature) {
+    let ab = b - a;
+    let ac = c - a;
+    let ap = p - a;
+    let d1 = ab.dot(ap);
+    let d2 = ac.dot(ap);
+    // Vertex region of a.
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return (a, Feature::Vertex(0));
+    }
+    let bp = p - b;
+    let d3 = ab.dot(bp);
+    let d4 = ac.dot(bp);
+    // Vertex region of b.
+    if d3 >= 0.0 && d4 <= d3 {
+        return (b, Feature::Vertex(1));
+    }
+    // Edge region of ab.
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let denom = d1 - d3;
+        let v = if denom > 0.0 { d1 / denom } else { 0.0 };
+        return (a + ab * v, Feature::Edge(0));
+    }
+    let cp = p - c;
+    let d5 = ab.dot(cp);
+    let d6 = ac.dot(cp);
+    // Vertex region of c.
+    if d6 >= 0.0 && d5 <= d6 {
+        return (c, Feature::Vertex(2));
+    }
+    // Edge region of ac (edge 2: v2–v0).
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let denom = d2 - d6;
+        let w = if denom > 0.0 { d2 / denom } else { 0.0 };
+        return (a + ac * w, Feature::Edge(2));
+    }
+    // Edge region of bc (edge 1).
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let denom = (d4 - d3) + (d5 - d6);
+        let w = if denom > 0.0 { (d4 - d3) / denom } else { 0.0 };
+        return (b + (c - b) * w, Feature::Edge(1));
+    }
+    // Face region.
+    let sum = va + vb + vc;
+    if !(sum > 0.0) || !sum.is_finite() {
+        // Degenerate (collinear) triangle that slipped through: nearest of the three edges.
+        let mut best = (a, Feature::Vertex(0));
+        let mut bd = f32::INFINITY;
+        for (i, (s, e)) in [(a, b), (b, c), (c, a)].into_iter().enumerate() {
+            let q = closest_on_segment(p, s, e);
+            let d = (q - p).length_squared();
+            if d < bd {
+                bd = d;
+                best = (q, Feature::Edge(i as u8));
+            }
+        }
+        return best;
+    }
+    let denom = 1.0 / sum;
+    let v = vb * denom;
+    let w = vc * denom;
+    (a + ab * v + ac * w, Feature::Face)
+}
+
+#[inline]
+fn closest_on_segment(p: Vec3, a: Vec3, b: Vec3) -> Vec3 {
+    let d = b - a;
+    let l = d.length_squared();
+    if l <= 0.0 {
+        return a;
+    }
+    a + d * ((p - a).dot(d) / l).clamp(0.0, 1.0)
+}
+
+/// Most vertices a triangle clipped by the six planes of a box can have.
+pub const MAX_CLIP: usize = 9;
+
+/// Clips triangle `tri` to the box `[lo, hi]` (Sutherland–Hodgman over the six planes); writes
+/// the polygon into `out` and returns its vertex count (0 when the triangle misses the box).
+pub fn clip_triangle(tri: [Vec3; 3], lo: Vec3, hi: Vec3, out: &mut [Vec3; MAX_CLIP + 1]) -> usize {
+    let mut buf_a = [Vec3::ZERO; MAX_CLIP + 1];
+    let mut n = 3;
+    buf_a[..3].copy_from_slice(&tri);
+    let mut buf_b = [Vec3::ZERO; MAX_CLIP + 1];
+    let mut src = &mut buf_a;
+    let mut dst = &mut buf_b;
+    for axis in 0..3 {
+        for side in 0..2 {
+            // Keep the half-space s·(p[axis] − bound) ≤ 0.
+            let (bound, s) = if side == 0 {
+                (lo[axis], -1.0f32)
+            } else {
+                (hi[axis], 1.0f32)
+            };
+            let mut m = 0;
+            for i in 0..n {
+                let p = src[i];
+                let q = src[(i + 1) % n];
+                let dp = s * (p[axis] - bound);
+                let dq = s * (q[axis] - bound);
+                if dp <= 0.0 {
+                    if m < MAX_CLIP + 1 {
+                        dst[m] = p;
+                        m += 1;
+                    }
+                }
+                if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
+                    let t = dp / (dp - dq);
+                    let mut x = p + (q - p) * t;
+                    x[axis] = bound;
+                    if m < MAX_CLIP + 1 {
+                        dst[m] = x;
+                        m += 1;
+                    }
+                }
+            }
+            n = m;
+            std::mem::swap(&mut src, &mut dst);
+            if n == 0 {
+                return 0;
+            }
+        }
+    }
+    out[..n].copy_from_slice(&src[..n]);
+    n
+}
+
+/// The trilinear interpolant of `corners` (index `4x + 2y + z`) at local coordinates `l ∈ [0,1]³`.
+#[inline]
+pub fn trilinear(c: &[f32; 8], l: Vec3) -> f32 {
+    let (x, y, z) = (l.x, l.y, l.z);
+    let c00 = c[0] + (c[1] - c[0]) * z;
+    let c01 = c[2] + (c[3] - c[2]) * z;
+    let c10 = c[4] + (c[5] - c[4]) * z;
+    let c11 = c[6] + (c[7] - c[6]) * z;
+    let c0 = c00 + (c01 - c00) * y;
+    let c1 = c10 + (c11 - c10) * y;
+    c0 + (c1 - c0) * x
+}
+
+/// Offset of corner `i` (`4x + 2y + z`) in units of the cell size.
+#[inline]
+pub fn corner_offset(i: usize) -> Vec3 {
+    Vec3::new(((i >> 2) & 1) as f32, ((i >> 1) & 1) as f32, (i & 1) as f32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn closest_point_regions() {
+        let a = Vec3::ZERO;
+        let b = Vec3::X;
+        let c = Vec3::Y;
+        assert_eq!(
+            closest_point_triangle(Vec3::new(-1.0, -1.0, 0.0), a, b, c),
+            (a, Feature::Vertex(0))
+        );
+        assert_eq!(
+            closest_point_triangle(Vec3::new(2.0, -0.1, 0.0), a, b, c),
+            (b, Feature::Vertex(1))
+        );
+        assert_eq!(
+            closest_point_triangle(Vec3::new(-0.1, 2.0, 0.0), a, b, c),
+            (c, Feature::Vertex(2))
+        );
+        let (q, f) = closest_point_triangle(Vec3::new(0.5, -1.0, 0.3), a, b, c);
+        assert_eq!(f, Feature::Edge(0));
+        assert!((q - Vec3::new(0.5, 0.0, 0.0)).length() < 1e-6);
+        let (q, f) = closest_point_triangle(Vec3::new(1.0, 1.0, 0.0), a, b, c);
+        assert_eq!(f, Feature::Edge(1));
+        assert!((q - Vec3::new(0.5, 0.5, 0.0)).length() < 1e-6);
+        let (q, f) = closest_point_triangle(Vec3::new(-1.0, 0.5, 0.0), a, b, c);
+        assert_eq!(f, Feature::Edge(2));
+        assert!((q - Vec3::new(0.0, 0.5, 0.0)).length() < 1e-6);
+        let (q, f) = closest_point_triangle(Vec3::new(0.2, 0.2, 5.0), a, b, c);
+        assert_eq!(f, Feature::Face);
+        assert!((q - Vec3::new(0.2, 0.2, 0.0)).length() < 1e-6);
+    }
+
+    #[test]
+    fn closest_point_matches_brute_force() {
+        let tris = [
+            [
+                Vec3::new(0.1, 0.2, 0.3),
+                Vec3::new(1.0, -0.5, 0.2),
+                Vec3::new(-0.3, 0.9, 1.1),
+            ],
+            [
+                Vec3::ZERO,
+                Vec3::new(1.0, 1.0, 1.0),
+                Vec3::new(2.0, 2.0, 2.0),
+            ], // degenerate
+        ];
+        for t in tris {
+            for i in 0..200 {
+                let f = i as f32;
+                let p = Vec3::new(
+                    (f * 0.37).sin() * 2.0,
+                    (f * 0.73).cos() * 2.0,
+                    (f * 0.11).sin() * 2.0,
+                );
+                let (q, _) = closest_point_triangle(p, t[0], t[1], t[2]);
+                let mut best = f32::INFINITY;
+                let n = 200;
+                for u in 0..=n {
+                    for v in 0..=(n - u) {
+                        let s = t[0]
+                            + (t[1] - t[0]) * (u as f32 / n as f32)
+                            + (t[2] - t[0]) * (v as f32 / n as f32);
+                        best = best.min((s - p).length());
+                    }
+                }
+                let d = (q - p).length();
+                assert!(
+                    d <= best + 1e-4 && d >= best - 0.03,
+                    "p {p} d {d} brute {best}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn clipping_keeps_the_inside() {
+        let mut out = [Vec3::ZERO; MAX_CLIP + 1];
+        // Inside: unchanged.
+        let t = [
+            Vec3::splat(0.1),
+            Vec3::new(0.5, 0.1, 0.1),
+            Vec3::new(0.1, 0.5, 0.1),
+        ];
+        assert_eq!(clip_triangle(t, Vec3::ZERO, Vec3::ONE, &mut out), 3);
+        // Outside: empty.
+        let t = [
+            Vec3::splat(2.0),
+            Vec3::new(3.0, 2.0, 2.0),
+            Vec3::new(2.0, 3.0, 2.0),
+        ];
+        assert_eq!(clip_triangle(t, Vec3::ZERO, Vec3::ONE, &mut out), 0);
+        // A big triangle in the plane z = 0.5 clipped to the unit square: four corners.
+        let t = [
+            Vec3::new(-10.0, -10.0, 0.5),
+            Vec3::new(10.0, -10.0, 0.5),
+            Vec3::new(-10.0, 30.0, 0.5),
+        ];
+        let n = clip_triangle(t, Vec3::ZERO, Vec3::ONE, &mut out);
+        assert_eq!(n, 4);
+        for p in &out[..n] {
+            assert!(p.cmpge(Vec3::splat(-1e-6)).all() && p.cmple(Vec3::splat(1.0 + 1e-6)).all());
+        }
+    }
+
+    #[test]
+    fn trilinear_reproduces_linear_functions() {
+        let f = |p: Vec3| 0.3 * p.x - 0.7 * p.y + 0.2 * p.z + 0.1;
+        let mut c = [0.0; 8];
+        for (i, ci) in c.iter_mut().enumerate() {
+            *ci = f(corner_offset(i));
+        }
+        for p in [
+            Vec3::ZERO,
+            Vec3::ONE,
+            Vec3::new(0.25, 0.5, 0.75),
+            Vec3::new(0.9, 0.1, 0.4),
+        ] {
+            assert!((trilinear(&c, p) - f(p)).abs() < 1e-6);
+        }
+    }
+}

@@ -1,0 +1,548 @@
+//! Per-leaf voxel construction: the SVO's single voxel and the multi-octree's component voxels,
+//! volume or surface, reduced to the cap, and kept only where they earn their place.
+//!
+//! # The multi-octree decision, leaf by leaf
+//!
+//! 1. *Samples.* Every gathered triangle is clipped to the leaf cell; the clipped polygon's
+//!    vertices, centroid and centroid–vertex midpoints are points of the true surface inside the
+//!    leaf (signed distance 0).
+//! 2. *Does the SVO voxel already do?* The single voxel from the global signed distance (shared
+//!    corners, quantised as the file stores them) is evaluated at the samples. If the largest
+//!    `|f|` is below [`Params::accept`] of the cell size, the leaf gets that voxel, exactly as the
+//!    SVO (most leaves: smooth surfaces, sharp edges of one component).
+//! 3. *Components.* The gathered triangles split into connected components through shared edges
+//!    of vertices welded by position (never at a sharp edge: a sharp edge shares its vertices;
+//!    part ids pre-split). One voxel per component, corners = signed distance to that component
+//!    alone (pseudo-normal sign over the whole mesh). A component with boundary edges (open) gets
+//!    a *surface* voxel. A component its own voxel does not reproduce (error above
+//!    [`Params::thin`] at its samples: a plate thinner than a voxel whose corners all come out
+//!    positive) is split by opposing face normals into two surface voxels, one per face.
+//! 4. *Reduction.* Voxels whose quantised corners do not change sign cannot be hit and go;
+//!    voxels whose surface samples all lie inside another volume voxel are hidden and go; above
+//!    the cap, the most similar volume voxels merge (min = union), then the most nearly coplanar
+//!    surface voxels merge (average, oriented alike); a cap hit is counted.
+//! 5. *Earn its place.* The voxel set and the SVO voxel are scored on the same samples: the
+//!    mean error `max(min_v |f_v(p)|, buried depth inside a volume voxel)` plus a false-surface
+//!    term (on a 3×3×3 grid in the cell, how much closer some voxel's zero set is than the
+//!    true surface) plus a small cost per extra voxel. The multi set is kept only when it
+//!    scores better by [`Params::earn`]; otherwise the leaf gets the SVO voxel.
+
+use glam::Vec3;
+use sdfmo_format::{quant, ValueBits, Voxel};
+
+use crate::geom::{clip_triangle, corner_offset, trilinear, MAX_CLIP};
+use crate::local::LocalMesh;
+
+/// Tuning of the per-leaf decision (fractions of the cell edge `h`).
+#[derive(Clone, Copy, Debug)]
+pub struct Params {
+    /// Cell edge.
+    pub h: f32,
+    /// Quantisation range (the cell diagonal).
+    pub dmax: f32,
+    /// Corner bits.
+    pub bits: ValueBits,
+    /// Voxel cap per leaf.
+    pub max_voxels: usize,
+    /// The SVO voxel is accepted outright when its largest sample error is below this.
+    pub accept: f32,
+    /// A component voxel with a larger sample error is considered thin (split into surfaces).
+    pub thin: f32,
+    /// The multi set must beat the SVO voxel's score by this much.
+    pub earn: f32,
+    /// Score cost of every voxel beyond the first.
+    pub voxel_cost: f32,
+}
+
+impl Params {
+    /// Defaults for a depth and quantisation.
+    pub fn new(depth: u8, bits: ValueBits, max_voxels: usize) -> Params {
+        Params {
+            h: 2.0 / (1u64 << depth) as f32,
+            dmax: quant::voxel_diagonal(depth),
+            bits,
+            max_voxels,
+            accept: 0.08,
+            thin: 0.2,
+            earn: 0.03,
+            voxel_cost: 0.01,
+        }
+    }
+
+    /// The value the file stores for `v` (quantised and read back).
+    #[inline]
+    pub fn q(&self, v: f32) -> f32 {
+        let code = quant::quantize(v, self.dmax, self.bits);
+        code as f32 * (self.dmax / quant::max_code(self.bits) as f32)
+    }
+
+    /// All eight corners quantised.
+    #[inline]
+    pub fn q8(&self, c: &[f32; 8]) -> [f32; 8] {
+        c.map(|v| self.q(v))
+    }
+
+    /// Whether the quantised corners change sign (the interpolant reaches zero in the cell).
+    #[inline]
+    pub fn crosses(&self, c: &[f32; 8]) -> bool {
+        let mut lo = i32::MAX;
+        let mut hi = i32::MIN;
+        for &v in c {
+            let k = quant::quantize(v, self.dmax, self.bits);
+            lo = lo.min(k);
+            hi = hi.max(k);
+        }
+        lo <= 0 && hi >= 0 && lo != hi
+    }
+}
+
+/// The outcome of one leaf.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LeafResult {
+    /// The voxels (empty: the leaf is dropped).
+    pub voxels: Vec<Voxel>,
+    /// The component split produced more voxels than the cap.
+    pub cap_hit: bool,
+}
+
+/// A voxel under construction: corners, quantised corners, surface flag, owning component.
+#[derive(Clone, Copy, Debug)]
+struct Cand {
+    c: [f32; 8],
+    q: [f32; 8],
+    surface: bool,
+    comp: u32,
+}
+
+/// Reusable buffers of one worker (no allocation per leaf after warm-up).
+#[derive(Default)]
+pub struct Scratch {
+    samples: Vec<Vec3>,
+    sample_tri: Vec<u32>,
+    parent: Vec<u32>,
+    edges: Vec<(u64, u32)>,
+    comp_of: Vec<u32>,
+    comp_tris: Vec<Vec<u32>>,
+    group_a: Vec<u32>,
+    group_b: Vec<u32>,
+    cands: Vec<Cand>,
+}
+
+/// The SVO leaf: the global-distance voxel if its quantised corners change sign.
+#[inline]
+pub fn svo_leaf(p: &Params, g: &[f32; 8]) -> LeafResult {
+    if p.crosses(g) {
+        LeafResult {
+            voxels: vec![Voxel {
+                corners: *g,
+                surface: false,
+            }],
+            cap_hit: false,
+        }
+    } else {
+        LeafResult::default()
+    }
+}
+
+fn find(parent: &mut [u32], mut i: u32) -> u32 {
+    while parent[i as usize] != i {
+        let gp = parent[parent[i as usize] as usize];
+        parent[i as usize] = gp;
+        i = gp;
+    }
+    i
+}
+
+/// The multi-octree leaf at cell `coord` with gathered triangles `tris` and global corners `g`.
+pub fn multi_leaf(
+    p: &Params,
+    mesh: &LocalMesh,
+    coord: [u32; 3],
+    tris: &[u32],
+    g: &[f32; 8],
+    s: &mut Scratch,
+) -> LeafResult {
+    let h = p.h;
+    let lo = Vec3::new(coord[0] as f32, coord[1] as f32, coord[2] as f32) * h - Vec3::ONE;
+    let hi = lo + Vec3::splat(h);
+    let inv_h = 1.0 / h;
+
+    // 1. Samples of the true surface inside the cell, in local coordinates.
+    s.samples.clear();
+    s.sample_tri.clear();
+    let rich = tris.len() <= 16;
+    let mut poly = [Vec3::ZERO; MAX_CLIP + 1];
+    for (li, &t) in tris.iter().enumerate() {
+        let n = clip_triangle(mesh.tris[t as usize], lo, hi, &mut poly);
+        if n == 0 {
+            continue;
+        }
+        let mut centroid = Vec3::ZERO;
+        for v in &poly[..n] {
+            centroid += *v;
+        }
+        centroid /= n as f32;
+        let cl = (centroid - lo) * inv_h;
+        s.samples.push(cl);
+        s.sample_tri.push(li as u32);
+        for v in &poly[..n] {
+            let vl = (*v - lo) * inv_h;
+            s.samples.push(vl);
+            s.sample_tri.push(li as u32);
+            if rich {
+                s.samples.push((vl + cl) * 0.5);
+                s.sample_tri.push(li as u32);
+            }
+        }
+    }
+    if s.samples.is_empty() {
+        return svo_leaf(p, g);
+    }
+
+    // 2. The SVO voxel.
+    let gq = p.q8(g);
+    let mut svo_max = 0.0f32;
+    let mut svo_sum = 0.0f32;
+    for l in &s.samples {
+        let e = (trilinear(&gq, *l).abs() * inv_h).min(1.0);
+        svo_max = svo_max.max(e);
+        svo_sum += e;
+    }
+    if svo_max <= p.accept {
+        return svo_leaf(p, g);
+    }
+    let svo_mean = svo_sum / s.samples.len() as f32;
+
+    // 3. Components through shared welded edges (same part only).
+    let n = tris.len();
+    s.parent.clear();
+    s.parent.extend(0..n as u32);
+    s.edges.clear();
+    for (li, &t) in tris.iter().enumerate() {
+        let v = mesh.vids[t as usize];
+        for k in 0..3 {
+            let a = v[k];
+            let b = v[(k + 1) % 3];
+            if a != b {
+                s.edges
+                    .push((((a.min(b) as u64) << 32) | a.max(b) as u64, li as u32));
+            }
+        }
+    }
+    s.edges.sort_unstable();
+    for w in 0..s.edges.len().saturating_sub(1) {
+        let (ka, ta) = s.edges[w];
+        let (kb, tb) = s.edges[w + 1];
+        if ka == kb
+            && mesh.parts[tris[ta as usize] as usize] == mesh.parts[tris[tb as usize] as usize]
+        {
+            let ra = find(&mut s.parent, ta);
+            let rb = find(&mut s.parent, tb);
+            if ra != rb {
+                // Smaller root wins: deterministic.
+                let (r, o) = if ra < rb { (ra, rb) } else { (rb, ra) };
+                s.parent[o as usize] = r;
+            }
+        }
+    }
+    // Component ids in order of first triangle.
+    s.comp_of.clear();
+    s.comp_of.resize(n, u32::MAX);
+    let mut k = 0usize;
+    for li in 0..n {
+        let r = find(&mut s.parent, li as u32) as usize;
+        if s.comp_of[r] == u32::MAX {
+            s.comp_of[r] = k as u32;
+            k += 1;
+        }
+        s.comp_of[li] = s.comp_of[r];
+    }
+    while s.comp_tris.len() < k {
+        s.comp_tris.push(Vec::new());
+    }
+    for c in s.comp_tris.iter_mut().take(k) {
+        c.clear();
+    }
+    for li in 0..n {
+        s.comp_tris[s.comp_of[li] as usize].push(tris[li]);
+    }
+
+    // One (or two) voxels per component.
+    s.cands.clear();
+    let corner_pos: [Vec3; 8] = std::array::from_fn(|i| lo + corner_offset(i) * h);
+    for ci in 0..k {
+        let ctris = &s.comp_tris[ci];
+        // Does this component reach into the cell at all?
+        if !s
+            .sample_tri
+            .iter()
+            .any(|&li| s.comp_of[li as usize] == ci as u32)
+        {
+            continue;
+        }
+        let c: [f32; 8] = if k == 1 {
+            *g
+        } else {
+            corner_pos.map(|x| mesh.signed_distance_subset(ctris, x))
+        };
+        let q = p.q8(&c);
+        let open = ctris.iter().any(|&t| mesh.boundary[t as usize] != 0);
+        let mut err = 0.0f32;
+        for (l, &li) in s.samples.iter().zip(&s.sample_tri) {
+            if s.comp_of[li as usize] == ci as u32 {
+                err = err.max(trilinear(&q, *l).abs() * inv_h);
+            }
+        }
+        if err > p.thin && ctris.len() >= 2 {
+            // Split by opposing normals: reference = the largest triangle's normal.
+            let mut best = ctris[0];
+            for &t in ctris.iter() {
+                if mesh.area2[t as usize] > mesh.area2[best as usize] {
+                    best = t;
+                }
+            }
+            let nref = mesh.face_normal[best as usize];
+            s.group_a.clear();
+            s.group_b.clear();
+            for &t in ctris.iter() {
+                if mesh.face_normal[t as usize].dot(nref) >= 0.0 {
+                    s.group_a.push(t);
+                } else {
+                    s.group_b.push(t);
+                }
+            }
+            if !s.group_a.is_empty() && !s.group_b.is_empty() {
+                let ca = corner_pos.map(|x| mesh.signed_distance_subset(&s.group_a, x));
+                let cb = corner_pos.map(|x| mesh.signed_distance_subset(&s.group_b, x));
+                let qa = p.q8(&ca);
+                let qb = p.q8(&cb);
+                let mut err2 = 0.0f32;
+                for (l, &li) in s.samples.iter().zip(&s.sample_tri) {
+                    if s.comp_of[li as usize] == ci as u32 {
+                        let e = trilinear(&qa, *l).abs().min(trilinear(&qb, *l).abs()) * inv_h;
+                        err2 = err2.max(e);
+                    }
+                }
+                if err2 < 0.5 * err {
+                    s.cands.push(Cand {
+                        c: ca,
+                        q: qa,
+                        surface: true,
+                        comp: ci as u32,
+                    });
+                    s.cands.push(Cand {
+                        c: cb,
+                        q: qb,
+                        surface: true,
+                        comp: ci as u32,
+                    });
+                    continue;
+                }
+            }
+        }
+        s.cands.push(Cand {
+            c,
+            q,
+            surface: open,
+            comp: ci as u32,
+        });
+    }
+    if k == 1 && s.cands.len() == 1 && !s.cands[0].surface {
+        // One component, one volume voxel: that is the SVO voxel.
+        return svo_leaf(p, g);
+    }
+
+    // 4. Reduction: voxels that cannot be hit, hidden voxels, then the cap.
+    s.cands.retain(|c| p.crosses(&c.q));
+    let bury = 0.05 * h;
+    let mut i = 0;
+    while i < s.cands.len() {
+        let me = s.cands[i];
+        let mut any = false;
+        let mut hidden = true;
+        for (l, &li) in s.samples.iter().zip(&s.sample_tri) {
+            if s.comp_of[li as usize] != me.comp {
+                continue;
+            }
+            any = true;
+            let inside = s.cands.iter().enumerate().any(|(j, o)| {
+                j != i && !o.surface && o.comp != me.comp && trilinear(&o.q, *l) < -bury
+            });
+            if !inside {
+                hidden = false;
+                break;
+            }
+        }
+        if any && hidden {
+            s.cands.remove(i);
+        } else {
+            i += 1;
+        }
+    }
+    let mut cap_hit = false;
+    if s.cands.len() > p.max_voxels {
+        cap_hit = true;
+        reduce(p, &mut s.cands);
+    }
+    if s.cands.is_empty() {
+        return svo_leaf(p, g);
+    }
+
+    // 5. Earn its place: score both on the same samples and grid.
+    let mut m_sum = 0.0f32;
+    for l in &s.samples {
+        let mut near = f32::INFINITY;
+        let mut deepest = 0.0f32;
+        for c in &s.cands {
+            let f = trilinear(&c.q, *l);
+            near = near.min(f.abs());
+            if !c.surface {
+                deepest = deepest.max(-f);
+            }
+        }
+        m_sum += (near.max(deepest) * inv_h).min(1.0);
+    }
+    let multi_mean = m_sum / s.samples.len() as f32;
+    let svo_crosses = p.crosses(g);
+    let mut false_m = 0.0f32;
+    let mut false_s = 0.0f32;
+    let cap = h;
+    for gi in 0..27 {
+        let l = Vec3::new((gi / 9) as f32, ((gi / 3) % 3) as f32, (gi % 3) as f32) * 0.25
+            + Vec3::splat(0.25);
+        let x = lo + l * h;
+        let u = mesh.unsigned_distance_subset(tris, x, cap);
+        let rm = s
+            .cands
+            .iter()
+            .map(|c| trilinear(&c.q, l).abs())
+            .fold(f32::INFINITY, f32::min);
+        false_m += ((u - rm - 0.1 * h).max(0.0) * inv_h).min(1.0);
+        if svo_crosses {
+            let rs = trilinear(&gq, l).abs();
+            false_s += ((u - rs - 0.1 * h).max(0.0) * inv_h).min(1.0);
+        }
+    }
+    false_m /= 27.0;
+    false_s /= 27.0;
+    let svo_score = if svo_crosses { svo_mean + false_s } else { 1.0 };
+    let multi_score = multi_mean + false_m + p.voxel_cost * (s.cands.len() as f32 - 1.0);
+    if multi_score + p.earn < svo_score {
+        LeafResult {
+            voxels: s
+                .cands
+                .iter()
+                .map(|c| Voxel {
+                    corners: c.c,
+                    surface: c.surface,
+                })
+                .collect(),
+            cap_hit,
+        }
+    } else {
+        let mut r = svo_leaf(p, g);
+        r.cap_hit = cap_hit;
+        r
+    }
+}
+
+/// Reduces `cands` to `p.max_voxels`: merge the most similar volume voxels (min = union), then
+/// the most nearly coplanar surface voxels (average of the two, oriented alike), then drop the
+/// last ones.
+fn reduce(p: &Params, cands: &mut Vec<Cand>) {
+    let diff = |a: &[f32; 8], b: &[f32; 8], s: f32| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - s * y).abs())
+            .fold(0.0f32, f32::max)
+    };
+    while cands.len() > p.max_voxels {
+        // Most similar pair of the same kind, volume pairs first.
+        let mut best: Option<(usize, usize, f32, f32)> = None;
+        for surface in [false, true] {
+            for i in 0..cands.len() {
+                if cands[i].surface != surface {
+                    continue;
+                }
+                for j in i + 1..cands.len() {
+                    if cands[j].surface != surface {
+                        continue;
+                    }
+                    let (d, sg) = if surface {
+                        let dp = diff(&cands[i].c, &cands[j].c, 1.0);
+                        let dn = diff(&cands[i].c, &cands[j].c, -1.0);
+                        if dn < dp {
+                            (dn, -1.0)
+                        } else {
+                            (dp, 1.0)
+                        }
+                    } else {
+                        (diff(&cands[i].c, &cands[j].c, 1.0), 1.0)
+                    };
+                    if best.is_none_or(|b| d < b.2) {
+                        best = Some((i, j, d, sg));
+                    }
+                }
+            }
+            if best.is_some() {
+                break;
+            }
+        }
+        let Some((i, j, _, sg)) = best else {
+            cands.truncate(p.max_voxels);
+            break;
+        };
+        let b = cands.remove(j);
+        let a = &mut cands[i];
+        for k in 0..8 {
+            a.c[k] = if a.surface {
+                0.5 * (a.c[k] + sg * b.c[k])
+            } else {
+                a.c[k].min(b.c[k])
+            };
+        }
+        a.q = p.q8(&a.c);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn crossing_uses_quantised_values() {
+        let p = Params::new(4, ValueBits::Eight, 8);
+        let step = p.dmax / 127.0;
+        let mut c = [p.h; 8];
+        assert!(!p.crosses(&c));
+        c[3] = 0.4 * step; // rounds to 0: touches zero
+        assert!(p.crosses(&c));
+        c[3] = 0.6 * step;
+        assert!(!p.crosses(&c));
+        c[3] = -0.6 * step;
+        assert!(p.crosses(&c));
+        assert!(!p.crosses(&[0.0; 8]));
+    }
+
+    #[test]
+    fn reduce_merges_volume_then_surface() {
+        let p = Params::new(4, ValueBits::Eight, 2);
+        let mk = |v: f32, surface: bool| Cand {
+            c: [v; 8],
+            q: [v; 8],
+            surface,
+            comp: 0,
+        };
+        let mut c = vec![
+            mk(0.1, false),
+            mk(0.2, false),
+            mk(0.5, true),
+            mk(-0.5, true),
+        ];
+        reduce(&p, &mut c);
+        assert_eq!(c.len(), 2);
+        assert!(!c[0].surface && c[0].c[0] == 0.1);
+        // The two surface voxels are F and −F: they merge with orientation into one.
+        assert!(c[1].surface && (c[1].c[0].abs() - 0.5).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,272 @@
+//! The builder's own view of the normalised mesh: triangles with vertices welded by position,
+//! face and angle-weighted pseudo-normals (Bærentzen & Aanæs 2005) over the whole mesh, boundary
+//! edges, and brute-force signed distance to a small triangle subset (a leaf's component).
+//!
+//! The subset queries run on a handful of triangles per leaf, millions of times per build, so
+//! they are written here against flat arrays (no BVH, no allocation) rather than through the
+//! general [`sdfmo_distance::MeshDistance`] API.
+
+use std::collections::HashMap;
+
+use glam::Vec3;
+use sdfmo_mesh::TriMesh;
+
+use crate::geom::{closest_point_triangle, Feature};
+
+/// Per-triangle data for the leaf-level work.
+#[derive(Clone, Debug)]
+pub struct LocalMesh {
+    /// Triangle vertex positions (normalised frame).
+    pub tris: Vec<[Vec3; 3]>,
+    /// Welded vertex ids per triangle (vertices welded by exact position across parts).
+    pub vids: Vec<[u32; 3]>,
+    /// Part id per triangle.
+    pub parts: Vec<u32>,
+    /// Unit face normal (zero for a degenerate triangle).
+    pub face_normal: Vec<Vec3>,
+    /// Pseudo-normal of edge `i` (v_i → v_{i+1}): sum of the incident faces' unit normals.
+    pub edge_normal: Vec<[Vec3; 3]>,
+    /// Bit `i` set: edge `i` is a boundary edge of the whole mesh (one incident triangle).
+    pub boundary: Vec<u8>,
+    /// Angle-weighted pseudo-normal per welded vertex.
+    pub vertex_normal: Vec<Vec3>,
+    /// Triangle bounding boxes (min, max).
+    pub bbox: Vec<(Vec3, Vec3)>,
+    /// Twice the area per triangle.
+    pub area2: Vec<f32>,
+}
+
+impl LocalMesh {
+    /// Builds the per-triangle tables of `mesh` (already normalised).
+    pub fn new(mesh: &TriMesh) -> LocalMesh {
+        // Weld by exact position (the loaders weld bit-identical vertices per part; OBJ objects
+        // and glTF primitives may still repeat a position across parts).
+        let mut weld: HashMap<[u32; 3], u32> = HashMap::with_capacity(mesh.positions.len());
+        let mut remap = Vec::with_capacity(mesh.positions.len());
+        let mut welded_pos: Vec<Vec3> = Vec::with_capacity(mesh.positions.len());
+        for p in &mesh.positions {
+            // +0.0 and -0.0 weld together.
+            let key = [
+                (p.x + 0.0).to_bits(),
+                (p.y + 0.0).to_bits(),
+                (p.z + 0.0).to_bits(),
+            ];
+            let id = *weld.entry(key).or_insert_with(|| {
+                welded_pos.push(*p);
+                (welded_pos.len() - 1) as u32
+            });
+            remap.push(id);
+        }
+        let n = mesh.triangles.len();
+        let mut tris = Vec::with_capacity(n);
+        let mut vids = Vec::with_capacity(n);
+        let mut face_normal = Vec::with_capacity(n);
+        let mut bbox = Vec::with_capacity(n);
+        let mut area2 = Vec::with_capacity(n);
+        let mut vertex_normal = vec![Vec3::ZERO; welded_pos.len()];
+        for t in &mesh.triangles {
+            let v = [
+                remap[t[0] as usize],
+                remap[t[1] as usize],
+                remap[t[2] as usize],
+            ];
+            let p = [
+                welded_pos[v[0] as usize],
+                welded_pos[v[1] as usize],
+                welded_pos[v[2] as usize],
+            ];
+            let cr = (p[1] - p[0]).cross(p[2] - p[0]);
+            let nrm = cr.normalize_or_zero();
+            for k in 0..3 {
+                let e1 = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
+                let e2 = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
+                let angle = e1.dot(e2).clamp(-1.0, 1.0).acos();
+                vertex_normal[v[k] as usize] += nrm * angle;
+            }
+            tris.push(p);
+            vids.push(v);
+            face_normal.push(nrm);
+            bbox.push((p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2])));
+            area2.push(cr.length());
+        }
+        // Edges: sort (min vid, max vid, triangle, local edge) and group.
+        let mut edges: Vec<(u64, u32, u8)> = Vec::with_capacity(3 * n);
+        for (ti, v) in vids.iter().enumerate() {
+            for k in 0..3 {
+                let a = v[k];
+                let b = v[(k + 1) % 3];
+                if a == b {
+                    continue;
+                }
+                let key = ((a.min(b) as u64) << 32) | a.max(b) as u64;
+                edges.push((key, ti as u32, k as u8));
+            }
+        }
+        edges.sort_unstable();
+        let mut edge_normal = vec![[Vec3::ZERO; 3]; n];
+        let mut boundary = vec![0u8; n];
+        let mut i = 0;
+        while i < edges.len() {
+            let mut j = i;
+            let mut sum = Vec3::ZERO;
+            while j < edges.len() && edges[j].0 == edges[i].0 {
+                sum += face_normal[edges[j].1 as usize];
+                j += 1;
+            }
+            for e in &edges[i..j] {
+                edge_normal[e.1 as usize][e.2 as usize] = sum;
+                if j - i == 1 {
+                    boundary[e.1 as usize] |= 1 << e.2;
+                }
+            }
+            i = j;
+        }
+        LocalMesh {
+            tris,
+            vids,
+            parts: mesh.parts.clone(),
+            face_normal,
+            edge_normal,
+            boundary,
+            vertex_normal,
+            bbox,
+            area2,
+        }
+    }
+
+    /// Number of triangles.
+    pub fn len(&self) -> usize {
+        self.tris.len()
+    }
+
+    /// Signed distance from `p` to the triangles `subset` (indices into this mesh), signed by the
+    /// pseudo-normal of the closest feature (computed over the whole mesh). `f32::INFINITY` for an
+    /// empty subset.
+    #[inline]
+    pub fn signed_distance_subset(&self, subset: &[u32], p: Vec3) -> f32 {
+        let mut best = f32::INFINITY;
+        let mut best_q = p;
+        let mut best_t = u32::MAX;
+        let mut best_f = Feature::Face;
+        for &t in subset {
+            let (lo, hi) = self.bbox[t as usize];
+            // Cheap lower bound: distance to the triangle's bounding box.
+            let d = (lo - p).max(p - hi).max(Vec3::ZERO).length_squared();
+            if d >= best {
+                continue;
+            }
+            let [a, b, c] = self.tris[t as usize];
+            let (q, f) = closest_point_triangle(p, a, b, c);
+            let d2 = (q - p).length_squared();
+            if d2 < best {
+                best = d2;
+                best_q = q;
+                best_t = t;
+                best_f = f;
+            }
+        }
+        if best_t == u32::MAX {
+            return f32::INFINITY;
+        }
+        let n = self.pseudo_normal(best_t as usize, best_f);
+        let d = best.sqrt();
+        if (p - best_q).dot(n) < 0.0 {
+            -d
+        } else {
+            d
+        }
+    }
+
+    /// Unsigned distance from `p` to `subset`, stopping early below `stop`.
+    #[inline]
+    pub fn unsigned_distance_subset(&self, subset: &[u32], p: Vec3, cap: f32) -> f32 {
+        let mut best = cap * cap;
+        for &t in subset {
+            let (lo, hi) = self.bbox[t as usize];
+            let d = (lo - p).max(p - hi).max(Vec3::ZERO).length_squared();
+            if d >= best {
+                continue;
+            }
+            let [a, b, c] = self.tris[t as usize];
+            let (q, _) = closest_point_triangle(p, a, b, c);
+            best = best.min((q - p).length_squared());
+        }
+        best.sqrt()
+    }
+
+    /// The pseudo-normal of feature `f` of triangle `t`.
+    #[inline]
+    pub fn pseudo_normal(&self, t: usize, f: Feature) -> Vec3 {
+        match f {
+            Feature::Face => self.face_normal[t],
+            Feature::Edge(k) => self.edge_normal[t][k as usize],
+            Feature::Vertex(k) => self.vertex_normal[self.vids[t][k as usize] as usize],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cube() -> TriMesh {
+        // Unit cube [-0.5, 0.5]³, outward normals.
+        let p = (0..8)
+            .map(|i| {
+                Vec3::new(
+                    ((i >> 2) & 1) as f32 - 0.5,
+                    ((i >> 1) & 1) as f32 - 0.5,
+                    (i & 1) as f32 - 0.5,
+                )
+            })
+            .collect::<Vec<_>>();
+        let quads = [
+            [0, 1, 3, 2], // x = -0.5
+            [4, 6, 7, 5], // x = +0.5
+            [0, 4, 5, 1], // y = -0.5
+            [2, 3, 7, 6], // y = +0.5
+            [0, 2, 6, 4], // z = -0.5
+            [1, 5, 7, 3], // z = +0.5
+        ];
+        let mut t = Vec::new();
+        for q in quads {
+            t.push([q[0], q[1], q[2]]);
+            t.push([q[0], q[2], q[3]]);
+        }
+        let n = t.len();
+        TriMesh::new(p, t, vec![0; n]).unwrap()
+    }
+
+    #[test]
+    fn cube_signs_and_boundary() {
+        let m = cube();
+        let l = LocalMesh::new(&m);
+        assert!(l.boundary.iter().all(|&b| b == 0));
+        let all: Vec<u32> = (0..l.len() as u32).collect();
+        // Inside, outside near faces, edges and corners.
+        assert!((l.signed_distance_subset(&all, Vec3::ZERO) + 0.5).abs() < 1e-6);
+        assert!((l.signed_distance_subset(&all, Vec3::new(0.7, 0.0, 0.0)) - 0.2).abs() < 1e-6);
+        let d = l.signed_distance_subset(&all, Vec3::new(0.6, 0.6, 0.0));
+        assert!((d - 0.1 * 2f32.sqrt()).abs() < 1e-6, "{d}");
+        let d = l.signed_distance_subset(&all, Vec3::splat(0.6));
+        assert!((d - 0.1 * 3f32.sqrt()).abs() < 1e-6, "{d}");
+        let d = l.signed_distance_subset(&all, Vec3::splat(0.45));
+        assert!((d + 0.05).abs() < 1e-6, "{d}");
+        // Subset: the +y face alone still signs by the whole mesh's pseudo-normals.
+        let top: Vec<u32> = vec![6, 7];
+        assert!(l.signed_distance_subset(&top, Vec3::new(0.0, 0.4, 0.0)) < 0.0);
+        assert!(l.signed_distance_subset(&top, Vec3::new(0.0, 0.6, 0.0)) > 0.0);
+        assert_eq!(l.signed_distance_subset(&[], Vec3::ZERO), f32::INFINITY);
+        assert!(
+            (l.unsigned_distance_subset(&top, Vec3::new(0.0, 0.2, 0.0), 1.0) - 0.3).abs() < 1e-6
+        );
+    }
+
+    #[test]
+    fn open_sheet_has_boundary_edges() {
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 0.0, 1.0), Vec3::Z];
+        let m = TriMesh::new(p, vec![[0, 2, 1], [0, 3, 2]], vec![0, 0]).unwrap();
+        let l = LocalMesh::new(&m);
+        assert_eq!(l.boundary[0].count_ones() + l.boundary[1].count_ones(), 4);
+    }
+}
