@@ -1,0 +1,200 @@
+//! Welding of bit-identical vertices and removal of degenerate and duplicate triangles.
+
+use std::collections::{HashMap, HashSet};
+
+use glam::Vec3;
+
+use crate::error::{MeshError, Result};
+use crate::mesh::{cross_f64, validate, TriMesh};
+
+/// What cleaning changed (all counts refer to the input as loaded).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct CleanReport {
+    /// Vertices in the input (STL: three per triangle).
+    pub input_vertices: usize,
+    /// Triangles in the input (after triangulating polygons).
+    pub input_triangles: usize,
+    /// Referenced input vertices merged into an earlier vertex with bit-identical coordinates
+    /// (−0.0 and +0.0 count as identical).
+    pub welded_vertices: usize,
+    /// Vertices dropped because no kept triangle uses them.
+    pub unreferenced_vertices: usize,
+    /// Triangles removed because their area is zero (a repeated welded vertex, or collinear
+    /// corners: the f64 cross product of two edges is exactly zero).
+    pub degenerate_triangles: usize,
+    /// Triangles removed because an earlier triangle has the same three welded vertices (in any
+    /// order or orientation, whatever their parts).
+    pub duplicate_triangles: usize,
+}
+
+#[inline]
+fn key(p: Vec3) -> [u32; 3] {
+    // +0.0 for −0.0, so the two zeros weld; NaN never reaches here (validated first).
+    p.to_array().map(|c| (c + 0.0).to_bits())
+}
+
+/// Welds bit-identical vertices, drops degenerate and duplicate triangles and unreferenced
+/// vertices, and returns the clean mesh with a report. `file` names the source in errors.
+///
+/// Vertices of the result are numbered in order of first use by the kept triangles; triangles
+/// keep their order and part ids.
+///
+/// # Errors
+/// [`MeshError::NonFinite`], [`MeshError::IndexOutOfRange`], [`MeshError::InvalidMesh`] for
+/// invalid input; [`MeshError::NoTriangles`] if nothing is left.
+pub fn clean(
+    file: &str,
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    parts: &[u32],
+) -> Result<(TriMesh, CleanReport)> {
+    validate(file, positions, triangles)?;
+    if parts.len() != triangles.len() {
+        return Err(MeshError::InvalidMesh {
+            file: file.into(),
+            reason: format!("{} part ids for {} triangles", parts.len(), triangles.len()),
+        });
+    }
+    let mut report = CleanReport {
+        input_vertices: positions.len(),
+        input_triangles: triangles.len(),
+        ..CleanReport::default()
+    };
+
+    // 1. Weld: map each referenced input vertex to the first vertex with the same bits.
+    let mut weld = vec![u32::MAX; positions.len()];
+    let mut first_of_key: HashMap<[u32; 3], u32> =
+        HashMap::with_capacity(positions.len().min(1 << 20));
+    let mut referenced = 0usize;
+    for t in triangles {
+        for &v in t {
+            if weld[v as usize] == u32::MAX {
+                referenced += 1;
+                weld[v as usize] = *first_of_key.entry(key(positions[v as usize])).or_insert(v);
+            }
+        }
+    }
+    report.welded_vertices = referenced - first_of_key.len();
+
+    // 2. Drop degenerate and duplicate triangles.
+    let mut seen: HashSet<[u32; 3]> = HashSet::with_capacity(triangles.len().min(1 << 22));
+    let mut kept = Vec::with_capacity(triangles.len());
+    let mut kept_parts = Vec::with_capacity(triangles.len());
+    for (t, &part) in triangles.iter().zip(parts) {
+        let w = t.map(|v| weld[v as usize]);
+        if w[0] == w[1] || w[1] == w[2] || w[0] == w[2] {
+            report.degenerate_triangles += 1;
+            continue;
+        }
+        let n = cross_f64(
+            positions[w[0] as usize],
+            positions[w[1] as usize],
+            positions[w[2] as usize],
+        );
+        if n == [0.0; 3] {
+            report.degenerate_triangles += 1;
+            continue;
+        }
+        let mut sorted = w;
+        sorted.sort_unstable();
+        if !seen.insert(sorted) {
+            report.duplicate_triangles += 1;
+            continue;
+        }
+        kept.push(w);
+        kept_parts.push(part);
+    }
+    if kept.is_empty() {
+        return Err(MeshError::NoTriangles {
+            file: file.into(),
+            reason: format!(
+                "all {} triangles are degenerate or duplicates",
+                triangles.len()
+            ),
+        });
+    }
+
+    // 3. Compact the vertices in order of first use.
+    let mut compact = vec![u32::MAX; positions.len()];
+    let mut out_positions = Vec::with_capacity(first_of_key.len());
+    for t in kept.iter_mut() {
+        for v in t.iter_mut() {
+            let c = &mut compact[*v as usize];
+            if *c == u32::MAX {
+                *c = out_positions.len() as u32;
+                out_positions.push(positions[*v as usize]);
+            }
+            *v = *c;
+        }
+    }
+    report.unreferenced_vertices = positions.len() - out_positions.len() - report.welded_vertices;
+    Ok((
+        TriMesh {
+            positions: out_positions,
+            triangles: kept,
+            parts: kept_parts,
+        },
+        report,
+    ))
+}
+
+impl TriMesh {
+    /// This mesh welded and cleaned (see [`clean`]).
+    ///
+    /// # Errors
+    /// [`MeshError::NoTriangles`] if every triangle is degenerate or a duplicate.
+    pub fn cleaned(&self) -> Result<(TriMesh, CleanReport)> {
+        clean(
+            crate::mesh::MEMORY,
+            &self.positions,
+            &self.triangles,
+            &self.parts,
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn welds_drops_and_counts() {
+        // A quad as a triangle soup (6 vertices), plus a duplicate with flipped orientation,
+        // a degenerate (collinear) triangle, a repeated-vertex one and an unused vertex.
+        let p = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(-0.0, 0.0, 0.0), // welds with vertex 0 (signed zero)
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(9.0, 9.0, 9.0), // unused
+        ];
+        let t = vec![[0, 1, 2], [3, 4, 5], [2, 1, 0], [0, 1, 6], [0, 3, 2]];
+        let (m, r) = clean("x", &p, &t, &[0, 1, 2, 3, 4]).unwrap();
+        assert_eq!(m.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(m.parts, vec![0, 1]);
+        assert_eq!(m.positions.len(), 4);
+        assert_eq!(
+            r,
+            CleanReport {
+                input_vertices: 8,
+                input_triangles: 5,
+                welded_vertices: 2,
+                unreferenced_vertices: 2,
+                degenerate_triangles: 2,
+                duplicate_triangles: 1,
+            }
+        );
+        assert!(m.topology().component_count == 1);
+    }
+
+    #[test]
+    fn all_degenerate_is_an_error() {
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0];
+        let e = clean("f.stl", &p, &[[0, 1, 2]], &[0]).unwrap_err();
+        assert!(matches!(e, MeshError::NoTriangles { .. }));
+        assert!(e.to_string().starts_with("f.stl: "));
+    }
+}

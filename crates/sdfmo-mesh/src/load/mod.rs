@@ -1,0 +1,256 @@
+//! Loading meshes from files or bytes: format detection, the per-format readers, cleaning.
+
+mod gltf;
+mod obj;
+mod stl;
+
+use std::path::Path;
+
+use glam::Vec3;
+
+use crate::clean::{clean, CleanReport};
+use crate::error::{MeshError, Result};
+use crate::mesh::TriMesh;
+
+/// The mesh file formats understood by [`load_mesh`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum MeshFormat {
+    /// Wavefront OBJ (text); `o` and `g` become parts.
+    Obj,
+    /// glTF 2.0 JSON (`.gltf`), buffers embedded as `data:` URIs or relative files.
+    Gltf,
+    /// glTF 2.0 binary container (`.glb`).
+    Glb,
+    /// STL, binary or ASCII; each ASCII `solid` is a part.
+    Stl,
+}
+
+impl MeshFormat {
+    /// The format implied by a file extension (case-insensitive), if any.
+    pub fn from_extension(ext: &str) -> Option<MeshFormat> {
+        match ext.to_ascii_lowercase().as_str() {
+            "obj" => Some(MeshFormat::Obj),
+            "gltf" => Some(MeshFormat::Gltf),
+            "glb" => Some(MeshFormat::Glb),
+            "stl" => Some(MeshFormat::Stl),
+            _ => None,
+        }
+    }
+
+    /// Lower-case name (`"obj"`, `"gltf"`, `"glb"`, `"stl"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            MeshFormat::Obj => "obj",
+            MeshFormat::Gltf => "gltf",
+            MeshFormat::Glb => "glb",
+            MeshFormat::Stl => "stl",
+        }
+    }
+}
+
+/// Bounds that keep a hostile file from making the loader allocate without limit. Counts are
+/// always checked against the bytes actually present as well; these caps bound what a small
+/// file can legitimately amplify into (glTF node instancing, OBJ polygons).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LoadLimits {
+    /// Most triangles a file may produce (after triangulation and instancing).
+    pub max_triangles: usize,
+    /// Most vertices a file may hold.
+    pub max_vertices: usize,
+    /// Most glTF node visits while walking the scene (instancing, deep hierarchies).
+    pub max_node_visits: usize,
+}
+
+impl Default for LoadLimits {
+    /// 2^27 triangles and vertices (a few GB of mesh), 2^20 node visits.
+    fn default() -> Self {
+        LoadLimits {
+            max_triangles: 1 << 27,
+            max_vertices: 1 << 27,
+            max_node_visits: 1 << 20,
+        }
+    }
+}
+
+/// A loaded, welded and cleaned mesh with what cleaning did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadedMesh {
+    /// The clean mesh in model units.
+    pub mesh: TriMesh,
+    /// What welding and cleaning changed.
+    pub report: CleanReport,
+    /// The format the file was read as.
+    pub format: MeshFormat,
+    /// Name of each part (index = part id): OBJ object/group, glTF `mesh[/primitive]`, STL
+    /// solid name; empty when the file gives none.
+    pub part_names: Vec<String>,
+}
+
+/// What a format reader produces before cleaning: validated positions and indices.
+#[derive(Debug, Default)]
+pub(crate) struct RawMesh {
+    pub positions: Vec<Vec3>,
+    pub triangles: Vec<[u32; 3]>,
+    pub parts: Vec<u32>,
+    pub part_names: Vec<String>,
+}
+
+impl RawMesh {
+    /// Error if adding `n` more triangles would pass the limit.
+    pub(crate) fn check_room(&self, file: &str, n: usize, limits: &LoadLimits) -> Result<()> {
+        let count = self.triangles.len().saturating_add(n);
+        if count > limits.max_triangles {
+            return Err(MeshError::TooLarge {
+                file: file.into(),
+                what: "triangle count".into(),
+                count: count as u64,
+                limit: limits.max_triangles as u64,
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Loads OBJ / glTF / GLB / STL (binary and ASCII), welds bit-identical vertices, removes
+/// degenerate and duplicate triangles (counted in the report).
+///
+/// The format is chosen by the extension and confirmed by the content (magic bytes, binary STL
+/// length); a file whose content clearly says otherwise is read as what it is. External glTF
+/// buffers are read from files relative to `path` (no other URI schemes than `data:`).
+///
+/// # Errors
+/// A [`MeshError`] naming the file and the reason for every malformed input.
+pub fn load_mesh(path: &Path) -> Result<LoadedMesh> {
+    load_mesh_with_limits(path, &LoadLimits::default())
+}
+
+/// [`load_mesh`] with explicit [`LoadLimits`].
+///
+/// # Errors
+/// As [`load_mesh`].
+pub fn load_mesh_with_limits(path: &Path, limits: &LoadLimits) -> Result<LoadedMesh> {
+    let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let name = path.display().to_string();
+    let hint = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .and_then(MeshFormat::from_extension);
+    load_impl(&bytes, &name, hint, path.parent(), limits)
+}
+
+/// Loads a mesh from bytes in memory (used by the fuzz targets). `name` is used in errors;
+/// `hint` is the format the caller expects (e.g. from an extension): content sniffing confirms
+/// or overrides it, and without a hint the content alone decides. glTF files referring to
+/// external buffers are [`MeshError::Unsupported`] here.
+///
+/// # Errors
+/// As [`load_mesh`].
+pub fn load_mesh_from_bytes(
+    bytes: &[u8],
+    name: &str,
+    hint: Option<MeshFormat>,
+) -> Result<LoadedMesh> {
+    load_impl(bytes, name, hint, None, &LoadLimits::default())
+}
+
+/// [`load_mesh_from_bytes`] with explicit [`LoadLimits`].
+///
+/// # Errors
+/// As [`load_mesh`].
+pub fn load_mesh_from_bytes_with_limits(
+    bytes: &[u8],
+    name: &str,
+    hint: Option<MeshFormat>,
+    limits: &LoadLimits,
+) -> Result<LoadedMesh> {
+    load_impl(bytes, name, hint, None, limits)
+}
+
+/// What the content says, strongly (magic bytes, exact binary STL length) or weakly.
+#[derive(Debug, PartialEq, Eq)]
+enum Sniff {
+    Strong(MeshFormat),
+    Weak(MeshFormat),
+    Nothing,
+}
+
+fn sniff(bytes: &[u8]) -> Sniff {
+    if bytes.starts_with(b"glTF") {
+        return Sniff::Strong(MeshFormat::Glb);
+    }
+    if stl::is_binary_length(bytes) {
+        return Sniff::Strong(MeshFormat::Stl);
+    }
+    let text = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    let start = text
+        .iter()
+        .position(|b| !b.is_ascii_whitespace())
+        .unwrap_or(text.len());
+    let text = &text[start..];
+    if text.starts_with(b"{") {
+        return Sniff::Strong(MeshFormat::Gltf);
+    }
+    if text.len() >= 5 && text[..5].eq_ignore_ascii_case(b"solid") {
+        return Sniff::Weak(MeshFormat::Stl);
+    }
+    if obj::looks_like_obj(text) {
+        return Sniff::Weak(MeshFormat::Obj);
+    }
+    Sniff::Nothing
+}
+
+/// Picks the format: strong content evidence wins, then the hint, then weak evidence.
+pub fn detect_format(bytes: &[u8], hint: Option<MeshFormat>) -> Option<MeshFormat> {
+    match (sniff(bytes), hint) {
+        (Sniff::Strong(f), _) => Some(f),
+        (_, Some(h)) => Some(h),
+        (Sniff::Weak(f), None) => Some(f),
+        (Sniff::Nothing, None) => None,
+    }
+}
+
+fn load_impl(
+    bytes: &[u8],
+    name: &str,
+    hint: Option<MeshFormat>,
+    base: Option<&Path>,
+    limits: &LoadLimits,
+) -> Result<LoadedMesh> {
+    let format = detect_format(bytes, hint).ok_or_else(|| MeshError::UnknownFormat {
+        file: name.into(),
+        reason: if bytes.is_empty() {
+            "the file is empty".into()
+        } else {
+            "no known extension and the content matches no format".into()
+        },
+    })?;
+    let raw = match format {
+        MeshFormat::Stl => stl::read(bytes, name, limits)?,
+        MeshFormat::Obj => obj::read(bytes, name, limits)?,
+        MeshFormat::Gltf | MeshFormat::Glb => gltf::read(bytes, name, base, limits)?,
+    };
+    if raw.positions.len() > limits.max_vertices {
+        return Err(MeshError::TooLarge {
+            file: name.into(),
+            what: "vertex count".into(),
+            count: raw.positions.len() as u64,
+            limit: limits.max_vertices as u64,
+        });
+    }
+    if raw.triangles.is_empty() {
+        return Err(MeshError::NoTriangles {
+            file: name.into(),
+            reason: "the file holds no triangle".into(),
+        });
+    }
+    let (mesh, report) = clean(name, &raw.positions, &raw.triangles, &raw.parts)?;
+    Ok(LoadedMesh {
+        mesh,
+        report,
+        format,
+        part_names: raw.part_names,
+    })
+}
