@@ -1,1 +1,164 @@
-//! sdfmo-format (placeholder)
+//! The packed SDF multi-octree: its in-memory layout, its `.smo` file and its validation.
+//!
+//! A [`PackedOctree`] is built from the leaves the builder produces ([`LeafInput`]: a cell at the
+//! target depth and its voxels, each 8 corner signed distances plus a *surface* flag) with
+//! [`PackedOctree::from_leaves`], saved with [`PackedOctree::save`] / [`PackedOctree::to_bytes`]
+//! and read back with [`PackedOctree::load`] / [`PackedOctree::from_bytes`], which validate every
+//! count, offset and index, and the CRC-32, before using anything. [`PackedOctreeView`] reads the
+//! same bytes in place (zero copy).
+//!
+//! # Layout (also the file's payload; `docs/format.md` specifies it byte by byte)
+//!
+//! Nodes are numbered breadth first: the root is node 0, and the children of every node follow
+//! in order, so the children of one node are contiguous and, because a child's octant is
+//! `4x + 2y + z`, the leaves come out in Morton order. All inner nodes (levels `0..depth`) come
+//! before all leaves (level `depth`); node `k` is a leaf iff `k >= inner_count`.
+//!
+//! * **Inner nodes** are stored in groups of eight (a 12-byte record): the eight child
+//!   masks (bit `i` set = a child in octant `i = 4x + 2y + z`) and the node index of the first
+//!   child of the group's first node. The first child of any node is that base plus the popcount
+//!   of the masks before it in the group, and its child in octant `o` adds the popcount of its own
+//!   mask below bit `o`: one 64-bit popcount in all ([`PackedOctree::child`]). 1.5 bytes per
+//!   inner node.
+//! * **Leaves** are not nodes with records of their own: they are stored in groups of eight
+//!   (a 12-byte record): the eight voxel counts (1..=255) and the index of the first voxel
+//!   of the group's first leaf; a leaf's voxels start after its predecessors' in the group.
+//!   1.5 bytes per leaf.
+//! * **Surface flags**: one bit per voxel (bit `v % 64` of 64-bit word `v / 64`).
+//! * **Corners**: 8 signed codes per voxel, corner `i = 4x + 2y + z`, quantised symmetrically over
+//!   `± dmax` (the leaf diagonal, see [`quant`]): 8 bytes per voxel at 8 bits, 16 at 16 bits.
+//!
+//! With one voxel per leaf (the SVO) and about four children per inner node that is
+//! 8 + 1.5 + 1.5 / 3 + 1/8 ≈ 10.1 bytes per voxel at 8 bits, everything included.
+//!
+//! # Traversal access
+//!
+//! The tracer walks the octree with [`PackedOctree::root`], [`PackedOctree::child_mask`],
+//! [`PackedOctree::child`], [`PackedOctree::is_leaf`], [`PackedOctree::leaf_voxels`],
+//! [`PackedOctree::voxel_corners`] and [`PackedOctree::voxel_is_surface`]: `#[inline]`,
+//! allocation-free, a couple of loads each. A [`NodeRef`] is a `Copy` node index.
+
+#![deny(missing_docs)]
+
+mod crc32;
+mod error;
+mod file;
+mod morton;
+mod octree;
+pub mod quant;
+mod view;
+
+use glam::Vec3;
+
+pub use crc32::crc32;
+pub use error::{FormatError, Result};
+pub use file::{
+    HeaderField, SectionSizes, CHECKSUM_SIZE, FLAG_MULTI_VOXEL, FLAG_SURFACE_VOXELS,
+    FORMAT_VERSION_MAJOR, FORMAT_VERSION_MINOR, HEADER_FIELDS, HEADER_SIZE, KNOWN_FLAGS, MAGIC,
+};
+pub use octree::{NodeRef, PackedOctree};
+pub use view::PackedOctreeView;
+
+/// Deepest supported octree (leaf coordinates up to 2^16 per axis).
+pub const MAX_DEPTH: u8 = 16;
+
+/// Most voxels one leaf may hold (its count is one byte).
+pub const MAX_VOXELS_PER_LEAF: usize = 255;
+
+/// Bits per quantised corner value.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum ValueBits {
+    /// 8-bit codes in −127..=127 (the default: 8 bytes per voxel).
+    #[default]
+    Eight,
+    /// 16-bit codes in −32767..=32767 (16 bytes per voxel).
+    Sixteen,
+}
+
+impl ValueBits {
+    /// 8 or 16.
+    #[inline]
+    pub const fn bits(self) -> u8 {
+        match self {
+            ValueBits::Eight => 8,
+            ValueBits::Sixteen => 16,
+        }
+    }
+
+    /// Bytes of one corner code (1 or 2).
+    #[inline]
+    pub const fn bytes(self) -> usize {
+        self.bits() as usize / 8
+    }
+
+    /// `ValueBits` from 8 or 16.
+    pub const fn from_bits(bits: u8) -> Option<ValueBits> {
+        match bits {
+            8 => Some(ValueBits::Eight),
+            16 => Some(ValueBits::Sixteen),
+            _ => None,
+        }
+    }
+}
+
+/// One voxel as the builder produces it: corner signed distances in normalised units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Voxel {
+    /// Signed distances at the cell corners, index `4x + 2y + z`, negative inside.
+    pub corners: [f32; 8],
+    /// Surface (thin) voxel: its zero set is a surface without inside or outside.
+    pub surface: bool,
+}
+
+/// A leaf at the target depth: integer cell coordinates in `[0, 2^depth)³` and its voxels (≥ 1).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LeafInput {
+    /// Cell coordinates; the cell spans `[-1 + c·h, -1 + (c + 1)·h]` with `h = 2 / 2^depth`.
+    pub coord: [u32; 3],
+    /// The leaf's voxels (1..=255), in the order they are stored.
+    pub voxels: Vec<Voxel>,
+}
+
+/// What describes the octree as a whole.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OctreeMeta {
+    /// Leaves sit at this level; the root cube `[-1, 1]³` is level 0.
+    pub depth: u8,
+    /// Corner quantisation.
+    pub bits: ValueBits,
+    /// Normalisation: `normalized = (model − center) · scale`.
+    pub center: Vec3,
+    /// Normalisation scale (finite, > 0).
+    pub scale: f32,
+}
+
+impl OctreeMeta {
+    /// Checks depth and transform.
+    pub fn validate(&self) -> Result<()> {
+        if self.depth > MAX_DEPTH {
+            return Err(FormatError::InvalidDepth {
+                depth: self.depth,
+                max: MAX_DEPTH,
+            });
+        }
+        if !self.center.is_finite() || !self.scale.is_finite() || self.scale <= 0.0 {
+            return Err(FormatError::InvalidTransform {
+                center: self.center.to_array(),
+                scale: self.scale,
+            });
+        }
+        Ok(())
+    }
+
+    /// Edge of a leaf cell: `2 / 2^depth`.
+    #[inline]
+    pub fn leaf_size(&self) -> f32 {
+        2.0 / (1u64 << self.depth.min(63)) as f32
+    }
+
+    /// The quantisation range `dmax`: the leaf diagonal `√3 · 2 / 2^depth`.
+    #[inline]
+    pub fn dmax(&self) -> f32 {
+        quant::voxel_diagonal(self.depth)
+    }
+}
