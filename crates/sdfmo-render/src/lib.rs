@@ -1,1 +1,93 @@
-//! sdfmo-render (placeholder)
+//! Rendering for sdf-multioctree: cameras, render modes, effect planning, tiles in parallel,
+//! PNG/EXR output, for the packed octree and for the source mesh (the reference image).
+//!
+//! Conventions (design §3): right-handed, +Y up, the octree root is [-1, 1]³ and meshes are
+//! rendered in the same normalised frame. The camera is described in [`camera`], the exact
+//! shading formulas in [`shading`], the planning in [`plan`].
+//!
+//! ```
+//! use sdfmo_render::{render, Camera, Mode, RenderSettings, Spheres};
+//! use glam::Vec3;
+//!
+//! let scene = Spheres::one(Vec3::ZERO, 0.5);
+//! let camera = Camera::paper_view(0, 64, 64);
+//! let img = render(&scene, &camera, &RenderSettings::new(Mode::Mask)).unwrap();
+//! assert_eq!(img.counters.rays, 64 * 64);
+//! assert_eq!(img.counters.normal_evals, 0); // a mask needs no normals
+//! ```
+#![deny(missing_docs)]
+
+pub mod camera;
+mod output;
+pub mod plan;
+mod render;
+pub mod scene;
+pub mod shading;
+
+use std::path::PathBuf;
+
+pub use camera::{Camera, CameraFrame};
+pub use output::{save_exr, save_png};
+pub use plan::{Counters, Mode, RenderPlan, RenderSettings};
+pub use render::{render, render_with_plan, Rendered};
+pub use scene::{SphereHit, Spheres, Traceable};
+
+/// Everything that can go wrong while rendering or writing images.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RenderError {
+    /// The camera is degenerate (size, field of view, eye = target, non-finite values).
+    #[error("invalid camera: {0}")]
+    InvalidCamera(String),
+    /// The settings or plan are inconsistent (zero threads, unknown mode, …).
+    #[error("invalid render settings: {0}")]
+    InvalidSettings(String),
+    /// The local thread pool could not be created.
+    #[error("cannot create a pool of {threads} threads: {source}")]
+    ThreadPool {
+        /// Requested threads.
+        threads: usize,
+        /// Rayon's error.
+        #[source]
+        source: rayon::ThreadPoolBuildError,
+    },
+    /// A [`Rendered`] buffer does not match its width and height.
+    #[error("{what} buffer of {len} values does not match a {width}x{height} image")]
+    BufferSize {
+        /// Which buffer.
+        what: String,
+        /// Its length.
+        len: usize,
+        /// Image width.
+        width: u32,
+        /// Image height.
+        height: u32,
+    },
+    /// PNG encoding failed.
+    #[error("cannot encode PNG {}: {source}", path.display())]
+    Png {
+        /// Destination.
+        path: PathBuf,
+        /// The image crate's error.
+        #[source]
+        source: image::ImageError,
+    },
+    /// EXR encoding or writing failed.
+    #[error("cannot write EXR {}: {source}", path.display())]
+    Exr {
+        /// Destination.
+        path: PathBuf,
+        /// The exr crate's error.
+        #[source]
+        source: exr::error::Error,
+    },
+    /// A file could not be written or renamed.
+    #[error("cannot write {}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+}

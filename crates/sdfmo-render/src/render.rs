@@ -1,0 +1,260 @@
+//! The tiled renderer: plans, renders tiles in parallel, sums their counters.
+
+use std::time::Instant;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::camera::{Camera, CameraFrame};
+use crate::plan::{Counters, Mode, RenderPlan, RenderSettings};
+use crate::scene::Traceable;
+use crate::shading::{
+    cosine_hemisphere, depth_grey, lambert_value, light_dir, normal_rgb, DepthRange, PixelRng,
+    AO_DISTANCE,
+};
+use crate::RenderError;
+
+/// A rendered image and what it cost.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rendered {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// 8-bit RGB, row-major from the top, `width · height · 3` bytes.
+    pub rgb: Vec<u8>,
+    /// Distance along the unit primary ray per pixel (+∞ for background), when the plan keeps it
+    /// (depth mode).
+    pub depth: Option<Vec<f32>>,
+    /// Viewer-facing unit normal per pixel (zero for background), when the plan keeps it
+    /// (normal mode).
+    pub normals: Option<Vec<Vec3>>,
+    /// Work done.
+    pub counters: Counters,
+    /// Wall time of the rendering alone (tiles and their assembly; not the pool creation, not
+    /// saving), milliseconds.
+    pub render_ms: f64,
+}
+
+impl Rendered {
+    /// The image as an `image::RgbImage` (for metrics and saving).
+    pub fn to_image(&self) -> image::RgbImage {
+        image::RgbImage::from_raw(self.width, self.height, self.rgb.clone())
+            .unwrap_or_else(|| image::RgbImage::new(self.width, self.height))
+    }
+
+    /// Primary rays per second of this render (0 if it took no measurable time).
+    pub fn rays_per_second(&self) -> f64 {
+        if self.render_ms > 0.0 {
+            self.counters.rays as f64 / (self.render_ms * 1e-3)
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Renders `scene` seen by `camera` with the plan of `settings` (see [`RenderPlan::new`]).
+pub fn render<T: Traceable>(
+    scene: &T,
+    camera: &Camera,
+    settings: &RenderSettings,
+) -> Result<Rendered, RenderError> {
+    render_with_plan(scene, camera, &RenderPlan::new(settings)?)
+}
+
+/// Renders with an explicit plan. Tiles of `plan.tile_size` pixels are rendered in parallel
+/// (rayon; a local pool of `plan.threads` threads when set) and every pixel depends only on its
+/// own coordinates, so the image and counters are identical for any thread count.
+pub fn render_with_plan<T: Traceable>(
+    scene: &T,
+    camera: &Camera,
+    plan: &RenderPlan,
+) -> Result<Rendered, RenderError> {
+    plan.validate()?;
+    let frame = camera.frame()?;
+    let (bmin, bmax) = scene.bounds();
+    let ctx = Ctx {
+        scene,
+        frame,
+        plan: *plan,
+        range: DepthRange::new(camera.eye, bmin, bmax),
+        light: light_dir(),
+        eps: scene.epsilon(),
+    };
+    match plan.threads {
+        None => Ok(ctx.run()),
+        Some(n) => {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .map_err(|source| RenderError::ThreadPool { threads: n, source })?;
+            Ok(pool.install(|| ctx.run()))
+        }
+    }
+}
+
+struct Ctx<'a, T> {
+    scene: &'a T,
+    frame: CameraFrame,
+    plan: RenderPlan,
+    range: DepthRange,
+    light: Vec3,
+    eps: f32,
+}
+
+/// The output of one tile: its rectangle and its pixels, row-major within the tile.
+struct Tile {
+    x0: u32,
+    y0: u32,
+    w: u32,
+    h: u32,
+    rgb: Vec<u8>,
+    depth: Vec<f32>,
+    normals: Vec<Vec3>,
+    counters: Counters,
+}
+
+impl<T: Traceable> Ctx<'_, T> {
+    fn run(&self) -> Rendered {
+        let start = Instant::now();
+        let (w, h) = (self.frame.width, self.frame.height);
+        let ts = self.plan.tile_size;
+        let tiles_x = w.div_ceil(ts);
+        let tiles_y = h.div_ceil(ts);
+        let tiles: Vec<Tile> = (0..tiles_x * tiles_y)
+            .into_par_iter()
+            .map(|i| self.tile((i % tiles_x) * ts, (i / tiles_x) * ts))
+            .collect();
+
+        let n = w as usize * h as usize;
+        let mut rgb = vec![0u8; n * 3];
+        let mut depth = if self.plan.keep_depth {
+            vec![f32::INFINITY; n]
+        } else {
+            Vec::new()
+        };
+        let mut normals = if self.plan.keep_normals {
+            vec![Vec3::ZERO; n]
+        } else {
+            Vec::new()
+        };
+        let mut counters = Counters::default();
+        for t in &tiles {
+            counters += t.counters;
+            for row in 0..t.h {
+                let dst = ((t.y0 + row) * w + t.x0) as usize;
+                let src = (row * t.w) as usize;
+                let len = t.w as usize;
+                rgb[dst * 3..(dst + len) * 3].copy_from_slice(&t.rgb[src * 3..(src + len) * 3]);
+                if self.plan.keep_depth {
+                    depth[dst..dst + len].copy_from_slice(&t.depth[src..src + len]);
+                }
+                if self.plan.keep_normals {
+                    normals[dst..dst + len].copy_from_slice(&t.normals[src..src + len]);
+                }
+            }
+        }
+        Rendered {
+            width: w,
+            height: h,
+            rgb,
+            depth: self.plan.keep_depth.then_some(depth),
+            normals: self.plan.keep_normals.then_some(normals),
+            counters,
+            render_ms: start.elapsed().as_secs_f64() * 1e3,
+        }
+    }
+
+    fn tile(&self, x0: u32, y0: u32) -> Tile {
+        let ts = self.plan.tile_size;
+        let tw = ts.min(self.frame.width - x0);
+        let th = ts.min(self.frame.height - y0);
+        let n = (tw * th) as usize;
+        let mut tile = Tile {
+            x0,
+            y0,
+            w: tw,
+            h: th,
+            rgb: vec![0; n * 3],
+            depth: if self.plan.keep_depth {
+                vec![f32::INFINITY; n]
+            } else {
+                Vec::new()
+            },
+            normals: if self.plan.keep_normals {
+                vec![Vec3::ZERO; n]
+            } else {
+                Vec::new()
+            },
+            counters: Counters::default(),
+        };
+        for row in 0..th {
+            for col in 0..tw {
+                let i = (row * tw + col) as usize;
+                self.pixel(x0 + col, y0 + row, i, &mut tile);
+            }
+        }
+        tile
+    }
+
+    #[inline]
+    fn pixel(&self, px: u32, py: u32, i: usize, tile: &mut Tile) {
+        let (o, d) = self.frame.ray(px, py);
+        let c = &mut tile.counters;
+        c.rays += 1;
+        let Some(hit) = self.scene.first_hit(o, d, 0.0, f32::INFINITY) else {
+            return; // background: black, depth +∞, normal 0 (already there)
+        };
+        c.hits += 1;
+        let t = self.scene.hit_t(&hit);
+        if self.plan.keep_depth {
+            tile.depth[i] = t;
+        }
+        let mut n = Vec3::ZERO;
+        if self.plan.normals {
+            c.normal_evals += 1;
+            n = self.scene.normal(o, d, &hit);
+            if n.dot(d) > 0.0 {
+                n = -n; // two-sided: face the viewer
+            }
+            if self.plan.keep_normals {
+                tile.normals[i] = n;
+            }
+        }
+        // Normal and lambert modes always have `plan.normals` (validated).
+        let rgb: [u8; 3] = match self.plan.mode {
+            Mode::Mask => [255; 3],
+            Mode::Depth => [depth_grey(t, self.range); 3],
+            Mode::Normal => normal_rgb(n),
+            Mode::Lambert => [self.lambert(o + d * t, n, px, py, c); 3],
+        };
+        tile.rgb[i * 3..i * 3 + 3].copy_from_slice(&rgb);
+    }
+
+    #[inline]
+    fn lambert(&self, p: Vec3, n: Vec3, px: u32, py: u32, c: &mut Counters) -> u8 {
+        let start = p + n * self.eps;
+        let ndl = n.dot(self.light);
+        let mut shadow = 1.0;
+        if self.plan.shadow_rays && ndl > 0.0 {
+            c.shadow_rays += 1;
+            if self.scene.occluded(start, self.light, 0.0, f32::INFINITY) {
+                shadow = 0.0;
+            }
+        }
+        let mut ambient = 1.0;
+        if self.plan.ao_samples > 0 {
+            let mut rng = PixelRng::new(px, py);
+            let mut open = 0u32;
+            for _ in 0..self.plan.ao_samples {
+                let dir = cosine_hemisphere(n, rng.next_f32(), rng.next_f32());
+                if !self.scene.occluded(start, dir, 0.0, AO_DISTANCE) {
+                    open += 1;
+                }
+            }
+            c.ao_rays += u64::from(self.plan.ao_samples);
+            ambient = open as f32 / self.plan.ao_samples as f32;
+        }
+        lambert_value(n, shadow, ambient)
+    }
+}
