@@ -65,12 +65,14 @@ fn to_rgb8_like_stb(image: DynamicImage) -> RgbImage {
 }
 
 /// Saves an 8-bit RGB image as PNG, atomically: the file is written next to `path` under a
-/// temporary name and then renamed over it, so a crash never leaves half a file.
+/// temporary name and then renamed over it, so a crash never leaves half a file. Missing parent
+/// directories are created (as the CLI's conventions ask).
 ///
 /// # Errors
 ///
-/// [`MetricsError::Encode`] if PNG encoding fails, [`MetricsError::Write`] if the temporary
-/// file cannot be written or renamed (the temporary file is removed).
+/// [`MetricsError::Encode`] if PNG encoding fails (e.g. an empty image),
+/// [`MetricsError::Write`] if the directory or the temporary file cannot be created, written or
+/// renamed (the temporary file is removed).
 pub fn save_png(image: &RgbImage, path: impl AsRef<Path>) -> Result<()> {
     let path = path.as_ref();
     let mut bytes = Vec::new();
@@ -94,6 +96,9 @@ pub fn save_png(image: &RgbImage, path: impl AsRef<Path>) -> Result<()> {
     tmp_name.push(format!(".tmp{}", std::process::id()));
     let tmp = path.with_file_name(tmp_name);
     let write = || -> std::io::Result<()> {
+        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+            fs::create_dir_all(parent)?;
+        }
         let mut file = fs::File::create(&tmp)?;
         file.write_all(&bytes)?;
         file.sync_all()?;
@@ -222,10 +227,26 @@ mod tests {
     }
 
     #[test]
-    fn saving_into_a_missing_directory_is_a_write_error() {
-        let err = save_png(&RgbImage::new(1, 1), "/nonexistent/sdfmo/out.png").unwrap_err();
+    fn saving_creates_missing_directories() {
+        let dir = TempDir::new("mkdir");
+        let path = dir.0.join("a/b/heat.png");
+        save_png(&RgbImage::from_pixel(2, 3, Rgb([9, 8, 7])), &path).unwrap();
+        assert_eq!(load_rgb8(&path).unwrap().dimensions(), (2, 3));
+    }
+
+    #[test]
+    fn unwritable_paths_and_empty_images_are_typed_errors() {
+        let dir = TempDir::new("unwritable");
+        let file = dir.0.join("a-file");
+        fs::write(&file, b"x").unwrap();
+        // A regular file where a directory is needed.
+        let err = save_png(&RgbImage::new(1, 1), file.join("out.png")).unwrap_err();
         assert!(matches!(err, MetricsError::Write { .. }), "{err:?}");
+        assert!(err.to_string().contains("out.png"));
         let err = save_png(&RgbImage::new(1, 1), "/").unwrap_err();
         assert!(matches!(err, MetricsError::Write { .. }), "{err:?}");
+        let err = save_png(&RgbImage::new(0, 4), dir.0.join("empty.png")).unwrap_err();
+        assert!(matches!(err, MetricsError::Encode { .. }), "{err:?}");
+        assert!(!dir.0.join("empty.png").exists());
     }
 }

@@ -124,7 +124,11 @@ fn psnr_matches_golden_for_every_pair() {
     let Some(dir) = golden_dir() else { return };
     for pair in pairs(&dir) {
         let (db, _) = evaluate(&dir, &pair);
-        println!("{:>15}: psnr {db:.12} golden {:?}", pair.name, pair.psnr);
+        let diff = pair.psnr.map_or(0.0, |g| (db - g).abs());
+        println!(
+            "{:>15}: psnr {db:.15} golden {:?} |d| {diff:.1e}",
+            pair.name, pair.psnr
+        );
         match pair.psnr {
             None => assert_eq!(db, f64::INFINITY, "{}", pair.name),
             Some(expected) => assert!(
