@@ -201,6 +201,8 @@ mod tests {
             err.to_string(),
             "cannot read image /nonexistent/sdfmo/metrics.png"
         );
+        let dir = TempDir::new("dir");
+        assert!(matches!(load_rgb8(&dir.0), Err(MetricsError::Read { .. })));
     }
 
     #[test]
