@@ -59,6 +59,13 @@ impl NodeRef {
     pub fn index(self) -> u32 {
         self.0
     }
+
+    /// The node with breadth-first index `index` (for tools that store node indices; the
+    /// accessors panic on an index outside the octree they are given).
+    #[inline]
+    pub fn from_index(index: u32) -> NodeRef {
+        NodeRef(index)
+    }
 }
 
 /// The packed sparse multi-octree (see the crate docs for the layout).

@@ -1,0 +1,92 @@
+//! Generated leaves for the integration tests: shells of analytic shapes, like a builder's output.
+#![allow(dead_code)]
+
+use glam::Vec3;
+use sdfmo_format::{LeafInput, OctreeMeta, ValueBits, Voxel};
+
+/// Corner distances of `sd` over the cell `coord` at `depth`.
+pub fn cell_corners(depth: u8, coord: [u32; 3], sd: &dyn Fn(Vec3) -> f32) -> [f32; 8] {
+    let h = 2.0 / (1u32 << depth) as f32;
+    let lo = Vec3::new(coord[0] as f32, coord[1] as f32, coord[2] as f32) * h - 1.0;
+    std::array::from_fn(|i| {
+        let o = Vec3::new((i >> 2) as f32, (i >> 1 & 1) as f32, (i & 1) as f32);
+        sd(lo + o * h)
+    })
+}
+
+/// The leaves a builder would emit for two concentric-ish shapes close together: a sphere of
+/// radius 0.6 (volume voxels) and a thin plate y = 0.05 (surface voxels); leaves touched by
+/// both hold two voxels. Found by descending only into cells near either surface.
+pub fn shell_leaves(depth: u8) -> Vec<LeafInput> {
+    let sphere = |p: Vec3| p.length() - 0.6;
+    let plate = |p: Vec3| p.y - 0.05;
+    let mut out = Vec::new();
+    let mut stack = vec![(0u8, [0u32; 3])];
+    while let Some((level, c)) = stack.pop() {
+        let h = 2.0 / (1u32 << level) as f32;
+        let center = Vec3::new(c[0] as f32 + 0.5, c[1] as f32 + 0.5, c[2] as f32 + 0.5) * h - 1.0;
+        let reach = h * 0.87;
+        let near_sphere = sphere(center).abs() <= reach;
+        let near_plate =
+            plate(center).abs() <= reach && center.x.abs() < 0.8 && center.z.abs() < 0.8;
+        if !near_sphere && !near_plate {
+            continue;
+        }
+        if level < depth {
+            for o in 0..8u32 {
+                stack.push((
+                    level + 1,
+                    [
+                        2 * c[0] + (o >> 2),
+                        2 * c[1] + (o >> 1 & 1),
+                        2 * c[2] + (o & 1),
+                    ],
+                ));
+            }
+            continue;
+        }
+        let mut voxels = Vec::new();
+        if near_sphere {
+            voxels.push(Voxel {
+                corners: cell_corners(depth, c, &sphere),
+                surface: false,
+            });
+        }
+        if near_plate {
+            voxels.push(Voxel {
+                corners: cell_corners(depth, c, &plate),
+                surface: true,
+            });
+        }
+        out.push(LeafInput { coord: c, voxels });
+    }
+    out
+}
+
+/// A meta with a non-trivial transform.
+pub fn meta(depth: u8, bits: ValueBits) -> OctreeMeta {
+    OctreeMeta {
+        depth,
+        bits,
+        center: Vec3::new(0.25, -1.5, 7.0),
+        scale: 0.75,
+    }
+}
+
+/// Recomputes the trailing CRC-32 after a deliberate edit (a hostile file with a valid checksum).
+pub fn reseal(bytes: &mut [u8]) {
+    let n = bytes.len();
+    if n >= 4 {
+        let crc = sdfmo_format::crc32(&bytes[..n - 4]);
+        bytes[n - 4..].copy_from_slice(&crc.to_le_bytes());
+    }
+}
+
+/// Offset of a header field by name.
+pub fn field(name: &str) -> usize {
+    sdfmo_format::HEADER_FIELDS
+        .iter()
+        .find(|f| f.name == name)
+        .expect("field")
+        .offset
+}

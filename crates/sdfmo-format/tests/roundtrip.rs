@@ -1,0 +1,205 @@
+//! Round trips, determinism, the zero-copy view and quantisation bounds through the public API.
+
+mod common;
+
+use common::{meta, shell_leaves};
+use proptest::prelude::*;
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use sdfmo_format::{LeafInput, NodeRef, PackedOctree, PackedOctreeView, ValueBits, Voxel};
+
+/// Walks the whole tree from the root through `child`, collecting (coord, voxel range) per leaf.
+fn walk(o: &PackedOctree) -> Vec<([u32; 3], std::ops::Range<u32>)> {
+    let mut out = Vec::new();
+    let Some(root) = o.root() else { return out };
+    let mut stack = vec![(root, [0u32; 3])];
+    while let Some((n, c)) = stack.pop() {
+        if o.is_leaf(n) {
+            out.push((c, o.leaf_voxels(n)));
+            continue;
+        }
+        let mask = o.child_mask(n);
+        assert_ne!(mask, 0);
+        for oct in 0..8u8 {
+            let child = o.child(n, oct);
+            assert_eq!(child.is_some(), mask >> oct & 1 == 1);
+            if let Some(ch) = child {
+                let o = u32::from(oct);
+                stack.push((
+                    ch,
+                    [
+                        2 * c[0] + (o >> 2),
+                        2 * c[1] + (o >> 1 & 1),
+                        2 * c[2] + (o & 1),
+                    ],
+                ));
+            }
+        }
+    }
+    out.sort_by_key(|(_, r)| r.start);
+    out
+}
+
+#[test]
+fn shuffled_inputs_give_identical_bytes() {
+    let leaves = shell_leaves(6);
+    assert!(leaves.len() > 1000);
+    let reference = PackedOctree::from_leaves(meta(6, ValueBits::Eight), leaves.clone())
+        .unwrap()
+        .to_bytes();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    for _ in 0..5 {
+        let mut shuffled = leaves.clone();
+        shuffled.shuffle(&mut rng);
+        let bytes = PackedOctree::from_leaves(meta(6, ValueBits::Eight), shuffled)
+            .unwrap()
+            .to_bytes();
+        assert_eq!(bytes, reference);
+    }
+}
+
+#[test]
+fn traversal_reaches_every_input_leaf_with_its_voxels() {
+    for bits in [ValueBits::Eight, ValueBits::Sixteen] {
+        let depth = 6;
+        let leaves = shell_leaves(depth);
+        let o = PackedOctree::from_leaves(meta(depth, bits), leaves.clone()).unwrap();
+        let bound = o.dmax()
+            / if bits == ValueBits::Eight {
+                254.0
+            } else {
+                65534.0
+            }
+            + 1e-6;
+        let mut by_coord: std::collections::HashMap<[u32; 3], &LeafInput> =
+            leaves.iter().map(|l| (l.coord, l)).collect();
+        let walked = walk(&o);
+        assert_eq!(walked.len(), leaves.len());
+        let mut surface = 0;
+        for (coord, range) in walked {
+            let input = by_coord
+                .remove(&coord)
+                .expect("walked leaf is an input leaf");
+            assert_eq!(range.len(), input.voxels.len());
+            for (v, want) in range.zip(&input.voxels) {
+                assert_eq!(o.voxel_is_surface(v), want.surface);
+                surface += usize::from(want.surface);
+                for (got, want) in o.voxel_corners(v).iter().zip(want.corners) {
+                    let clamped = want.clamp(-o.dmax(), o.dmax());
+                    assert!((got - clamped).abs() <= bound, "{got} vs {clamped}");
+                }
+            }
+        }
+        assert!(by_coord.is_empty());
+        assert_eq!(o.surface_voxel_count(), surface);
+        assert!(
+            surface > 0 && o.voxel_count() > o.leaf_count(),
+            "the test shape has both kinds"
+        );
+    }
+}
+
+#[test]
+fn leaves_iterator_matches_sorted_input() {
+    let leaves = shell_leaves(5);
+    let o = PackedOctree::from_leaves(meta(5, ValueBits::Sixteen), leaves.clone()).unwrap();
+    let mut sorted = leaves;
+    // Morton order: compare the interleaved bits level by level from the top.
+    sorted.sort_by_key(|l| {
+        (0..5)
+            .rev()
+            .map(|b| l.coord.map(|c| c >> b & 1))
+            .map(|[x, y, z]| 4 * x + 2 * y + z)
+            .collect::<Vec<_>>()
+    });
+    let got: Vec<_> = o.leaves().collect();
+    assert_eq!(got.len(), sorted.len());
+    for ((coord, voxels), want) in got.iter().zip(&sorted) {
+        assert_eq!(*coord, want.coord);
+        assert_eq!(voxels.len(), want.voxels.len());
+    }
+}
+
+#[test]
+fn view_agrees_with_owned_octree() {
+    let o = PackedOctree::from_leaves(meta(6, ValueBits::Eight), shell_leaves(6)).unwrap();
+    let bytes = o.to_bytes();
+    let v = PackedOctreeView::new(&bytes).unwrap();
+    assert_eq!(v.meta(), o.meta());
+    assert_eq!(
+        (
+            v.node_count(),
+            v.leaf_count(),
+            v.voxel_count(),
+            v.surface_voxel_count()
+        ),
+        (
+            o.node_count(),
+            o.leaf_count(),
+            o.voxel_count(),
+            o.surface_voxel_count()
+        )
+    );
+    for k in 0..o.node_count() as u32 {
+        let n = NodeRef::from_index(k);
+        assert_eq!(v.is_leaf(n), o.is_leaf(n));
+        assert_eq!(v.child_mask(n), o.child_mask(n));
+        for oct in 0..8 {
+            assert_eq!(v.child(n, oct), o.child(n, oct));
+        }
+        assert_eq!(v.leaf_voxels(n), o.leaf_voxels(n));
+    }
+    for voxel in 0..o.voxel_count() as u32 {
+        assert_eq!(v.voxel_corners(voxel), o.voxel_corners(voxel));
+        assert_eq!(v.voxel_is_surface(voxel), o.voxel_is_surface(voxel));
+    }
+    assert_eq!(v.to_octree(), o);
+}
+
+fn arb_leaves() -> impl Strategy<Value = (u8, Vec<LeafInput>)> {
+    (1u8..=7).prop_flat_map(|depth| {
+        let side = 1u32 << depth;
+        let voxel = (prop::array::uniform8(-1.0f32..1.0), any::<bool>())
+            .prop_map(|(corners, surface)| Voxel { corners, surface });
+        let leaf = (
+            prop::array::uniform3(0..side),
+            prop::collection::vec(voxel, 1..4),
+        )
+            .prop_map(|(coord, voxels)| LeafInput { coord, voxels });
+        (Just(depth), prop::collection::vec(leaf, 0..60))
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    #[test]
+    fn from_leaves_to_bytes_from_bytes_round_trip((depth, leaves) in arb_leaves(), sixteen in any::<bool>()) {
+        let mut leaves = leaves;
+        leaves.sort_by_key(|l| l.coord);
+        leaves.dedup_by_key(|l| l.coord);
+        let bits = if sixteen { ValueBits::Sixteen } else { ValueBits::Eight };
+        let o = PackedOctree::from_leaves(meta(depth, bits), leaves.clone()).unwrap();
+        let bytes = o.to_bytes();
+        prop_assert_eq!(bytes.len(), o.byte_size());
+        let back = PackedOctree::from_bytes(&bytes).unwrap();
+        prop_assert_eq!(&back, &o);
+        prop_assert_eq!(back.to_bytes(), bytes);
+        // Decoded leaves equal the input up to quantisation (values scaled by the leaf diagonal).
+        let q = if sixteen { 32767.0 } else { 127.0 };
+        let bound = o.dmax() / q / 2.0 + o.dmax() * 1e-6;
+        let decoded: Vec<_> = back.leaves().collect();
+        prop_assert_eq!(decoded.len(), leaves.len());
+        for (coord, voxels) in decoded {
+            let want = leaves.iter().find(|l| l.coord == coord).unwrap();
+            prop_assert_eq!(voxels.len(), want.voxels.len());
+            for (g, w) in voxels.iter().zip(&want.voxels) {
+                prop_assert_eq!(g.surface, w.surface);
+                for (a, b) in g.corners.iter().zip(w.corners) {
+                    let b = b.clamp(-o.dmax(), o.dmax());
+                    prop_assert!((a - b).abs() <= bound, "{} vs {} (bound {})", a, b, bound);
+                }
+            }
+        }
+    }
+}
