@@ -1,0 +1,777 @@
+//! Ray vs one trilinear voxel: the first root of a cubic along the ray.
+//!
+//! In its local frame `[0,1]³` a voxel interpolates its 8 corner values (corner `i = 4x + 2y + z`)
+//! trilinearly. Along a ray `p(t) = origin + t·dir` that interpolant is a cubic in `t`. The kernel
+//! re-parametrises it around the start of the segment (`s = t − t0`, so the coefficients are
+//! computed from a point inside the cube and stay well conditioned however far the ray origin
+//! is), splits `[0, t1 − t0]` at the roots of the derivative (Marmitt et al. 2004) into at most
+//! three pieces on which the cubic is monotone, walks them front to back and polishes the first
+//! bracketed root with Newton's method safeguarded by bisection.
+//!
+//! Which root counts:
+//! * **Volume voxel** (negative inside): the hit is `inf { t ∈ [t0, t1] : f(t) < 0 }`, the first
+//!   point where the ray is inside. A ray whose segment *starts* inside (`f(t0) < 0`) hits at
+//!   `t0`: a shadow or occlusion ray that starts inside a solid is blocked, and a primary ray
+//!   that enters a leaf already inside (a neighbour leaf that was not stored, or whose values do
+//!   not match across the shared face) hits that face instead of leaking through it, which is
+//!   what keeps silhouettes free of pinholes. A tangent touch from outside (`f ≥ 0` on both
+//!   sides) is not a hit.
+//! * **Surface voxel** (no inside): the first `t` where `f` reaches zero, from either side,
+//!   including `t0` itself when `f(t0) = 0`. An interpolant that is zero everywhere has no
+//!   crossing and no hit.
+//!
+//! Decisions use only signs, and tolerances are relative to the segment, so the kernel is
+//! scale-invariant: corner values of 1e6 or 1e-6 give the same roots. It never returns NaN.
+
+use glam::Vec3;
+
+/// Newton/bisection steps at most; bisection alone reaches the tolerance (1e-6 of the segment)
+/// in 20.
+const MAX_POLISH_STEPS: u32 = 32;
+
+/// Tolerance of a polished root, as a fraction of the segment length `t1 − t0` (the segment is
+/// at most √3 voxel edges long, so this is below 2e-6 voxel units).
+const REL_TOLERANCE: f32 = 1e-6;
+
+/// A cubic `a s³ + b s² + c s + d` in the segment parameter `s = t − t0`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayCubic {
+    /// Coefficient of `s³`.
+    pub a: f32,
+    /// Coefficient of `s²`.
+    pub b: f32,
+    /// Coefficient of `s`.
+    pub c: f32,
+    /// Constant term: the interpolant at the segment start.
+    pub d: f32,
+}
+
+impl RayCubic {
+    /// The interpolant of `corners` along `p + s·dir`, with `p` the segment start in the voxel's
+    /// local frame (any point works; one inside `[0,1]³` keeps the coefficients accurate).
+    #[inline]
+    pub fn new(corners: &[f32; 8], p: Vec3, dir: Vec3) -> RayCubic {
+        let [c000, c001, c010, c011, c100, c101, c110, c111] = *corners;
+        // Monomial form f = k0 + kx x + ky y + kz z + kxy xy + kxz xz + kyz yz + kxyz xyz.
+        let kx = c100 - c000;
+        let ky = c010 - c000;
+        let kz = c001 - c000;
+        let kxy = (c110 - c100) - (c010 - c000);
+        let kxz = (c101 - c100) - (c001 - c000);
+        let kyz = (c011 - c010) - (c001 - c000);
+        let kxyz = ((c111 - c110) - (c101 - c100)) - ((c011 - c010) - (c001 - c000));
+        // Taylor expansion around p: value, gradient·dir, half the second directional
+        // derivative, and the cubic term.
+        let gx = kx + kxy * p.y + kxz * p.z + kxyz * p.y * p.z;
+        let gy = ky + kxy * p.x + kyz * p.z + kxyz * p.x * p.z;
+        let gz = kz + kxz * p.x + kyz * p.y + kxyz * p.x * p.y;
+        let b = kxy * dir.x * dir.y
+            + kxz * dir.x * dir.z
+            + kyz * dir.y * dir.z
+            + kxyz * (p.x * dir.y * dir.z + p.y * dir.x * dir.z + p.z * dir.x * dir.y);
+        RayCubic {
+            a: kxyz * dir.x * dir.y * dir.z,
+            b,
+            c: gx * dir.x + gy * dir.y + gz * dir.z,
+            d: trilinear(corners, p),
+        }
+    }
+
+    /// The cubic at `s`.
+    #[inline]
+    pub fn eval(&self, s: f32) -> f32 {
+        ((self.a * s + self.b) * s + self.c) * s + self.d
+    }
+
+    /// Its derivative at `s`.
+    #[inline]
+    pub fn derivative(&self, s: f32) -> f32 {
+        (3.0 * self.a * s + 2.0 * self.b) * s + self.c
+    }
+
+    /// Roots of the derivative strictly inside `(0, len)`, ascending, and how many there are.
+    ///
+    /// `3a s² + 2b s + c = 0` solved with the cancellation-free form (`q = −(B + sign(B)√Δ)/2`,
+    /// roots `q/A` and `C/q`); a vanishing `a` (a quadratic or linear cubic, e.g. an
+    /// axis-parallel ray) gives an infinite or NaN root, which the range test drops.
+    #[inline]
+    pub fn critical_points(&self, len: f32) -> ([f32; 2], usize) {
+        let qa = 3.0 * self.a;
+        let qb = 2.0 * self.b;
+        let qc = self.c;
+        let disc = qb * qb - 4.0 * qa * qc;
+        let mut out = [0.0f32; 2];
+        let mut n = 0;
+        if disc >= 0.0 {
+            let q = -0.5 * (qb + disc.sqrt().copysign(qb));
+            let (mut r0, mut r1) = (q / qa, qc / q);
+            if r1 < r0 {
+                core::mem::swap(&mut r0, &mut r1);
+            }
+            // NaN fails both comparisons and is dropped.
+            if r0 > 0.0 && r0 < len {
+                out[n] = r0;
+                n += 1;
+            }
+            if r1 > 0.0 && r1 < len && (n == 0 || r1 > out[0]) {
+                out[n] = r1;
+                n += 1;
+            }
+        }
+        (out, n)
+    }
+}
+
+/// The trilinear interpolant of `corners` at local point `p` (corner `i = 4x + 2y + z`).
+#[inline]
+pub fn trilinear(corners: &[f32; 8], p: Vec3) -> f32 {
+    let [c000, c001, c010, c011, c100, c101, c110, c111] = *corners;
+    let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+    let c00 = lerp(c000, c001, p.z);
+    let c01 = lerp(c010, c011, p.z);
+    let c10 = lerp(c100, c101, p.z);
+    let c11 = lerp(c110, c111, p.z);
+    lerp(lerp(c00, c01, p.y), lerp(c10, c11, p.y), p.x)
+}
+
+/// The parameter span `[t_enter, t_exit]` of the ray `origin + t·dir` inside the unit cube
+/// `[0,1]³`, or `None` when it misses. Zero direction components are handled (the ray is inside
+/// that slab for all `t` or for none). The span is not clipped to `t ≥ 0`.
+#[inline]
+pub fn unit_cube_span(origin: Vec3, dir: Vec3) -> Option<(f32, f32)> {
+    let mut t_enter = f32::NEG_INFINITY;
+    let mut t_exit = f32::INFINITY;
+    for k in 0..3 {
+        let (o, d) = (origin[k], dir[k]);
+        if d == 0.0 {
+            if !(0.0..=1.0).contains(&o) {
+                return None;
+            }
+        } else {
+            let inv = 1.0 / d;
+            let (ta, tb) = (-o * inv, (1.0 - o) * inv);
+            t_enter = t_enter.max(ta.min(tb));
+            t_exit = t_exit.min(ta.max(tb));
+        }
+    }
+    (t_enter <= t_exit).then_some((t_enter, t_exit))
+}
+
+/// The kernel on one voxel, in its local frame `[0,1]³`: the first root in `[t0, t1]`
+/// (volume voxels: the first point inside, `f < 0`, which is `t0` when the segment starts
+/// inside; surface voxels: the first zero from either side). See the module docs.
+///
+/// The segment `[t0, t1]` is expected to lie in the unit cube (the traversal passes a leaf's
+/// span; [`unit_cube_span`] computes it): outside the cube the interpolant is a polynomial
+/// extrapolation, and the early-out for voxels whose corners all share one sign, exact inside the
+/// cube, may skip roots there. `None` for an empty or NaN segment.
+#[inline]
+pub fn intersect_voxel(
+    corners: &[f32; 8],
+    origin: Vec3,
+    dir: Vec3,
+    t0: f32,
+    t1: f32,
+    surface: bool,
+) -> Option<f32> {
+    let len = t1 - t0;
+    // Also rejects NaN and infinite segments.
+    if !(0.0..f32::INFINITY).contains(&len) {
+        return None;
+    }
+    let (lo, hi) = min_max(corners);
+    // Exact early-outs: a trilinear interpolant is a convex combination of its corners inside
+    // the cube, so it can only reach zero if min ≤ 0 ≤ max.
+    if lo > 0.0 {
+        return None;
+    }
+    if hi < 0.0 {
+        // Everything inside: a volume voxel is hit where the segment starts; a surface voxel has
+        // no zero at all.
+        return (!surface).then_some(t0);
+    }
+    // Normalise values by the largest magnitude and the parameter to u = (t − t0)/len ∈ [0, 1]:
+    // the coefficients of a cubic bounded by 1 on [0, 1] are O(1), so nothing overflows or
+    // underflows whatever the corner magnitudes and the ray speed. Corners all below the
+    // smallest normal f32 (or NaN) count as zero: no crossing.
+    let m = hi.max(-lo);
+    if m.is_nan() || m < f32::MIN_POSITIVE {
+        return None;
+    }
+    let inv = 1.0 / m;
+    let scaled = corners.map(|c| c * inv);
+    let cubic = RayCubic::new(&scaled, origin + dir * t0, dir * len);
+    first_root(&cubic, 1.0, surface).map(|u| (t0 + u * len).min(t1))
+}
+
+/// Like [`intersect_voxel`] for a segment `s ∈ [0, len]` whose cubic is already known: the
+/// first root in parameter units of the cubic. Polishes to `1e-6 · len`.
+#[inline]
+pub fn first_root(cubic: &RayCubic, len: f32, surface: bool) -> Option<f32> {
+    let g0 = cubic.d;
+    if g0 < 0.0 && !surface || g0 == 0.0 && surface {
+        return Some(0.0);
+    }
+    if len.is_nan() || len < 0.0 || g0.is_nan() {
+        return None;
+    }
+    let (crit, n) = cubic.critical_points(len);
+    let mut sa = 0.0f32;
+    let mut ga = g0;
+    for sb in crit.into_iter().take(n).chain(core::iter::once(len)) {
+        let gb = cubic.eval(sb);
+        let crosses = if surface {
+            (ga > 0.0 && gb <= 0.0) || (ga < 0.0 && gb >= 0.0)
+        } else {
+            // ga ≥ 0 here: the previous piece ended at or above zero.
+            gb < 0.0
+        };
+        if crosses {
+            return Some(polish(cubic, sa, sb, ga, gb, len * REL_TOLERANCE));
+        }
+        sa = sb;
+        ga = gb;
+    }
+    None
+}
+
+/// The root of `cubic` in `[lo, hi]`, on which it is monotone, `g(lo) = glo` and `g(hi) = ghi`
+/// of opposite signs (either may be zero). Newton steps, replaced by bisection whenever they
+/// leave the bracket; stops when a step or the bracket is below `tol`.
+#[inline]
+fn polish(cubic: &RayCubic, mut lo: f32, mut hi: f32, glo: f32, ghi: f32, tol: f32) -> f32 {
+    if glo == 0.0 {
+        return lo;
+    }
+    if ghi == 0.0 {
+        return hi;
+    }
+    let lo_positive = glo > 0.0;
+    // Regula falsi start.
+    let mut s = lo + (hi - lo) * (glo / (glo - ghi));
+    if !(s > lo && s < hi) {
+        s = 0.5 * (lo + hi);
+    }
+    for _ in 0..MAX_POLISH_STEPS {
+        let gs = cubic.eval(s);
+        if gs == 0.0 {
+            return s;
+        }
+        if (gs > 0.0) == lo_positive {
+            lo = s;
+        } else {
+            hi = s;
+        }
+        let newton = s - gs / cubic.derivative(s);
+        let next = if newton > lo && newton < hi {
+            newton
+        } else {
+            0.5 * (lo + hi)
+        };
+        if (next - s).abs() <= tol || hi - lo <= tol {
+            return next;
+        }
+        s = next;
+    }
+    s
+}
+
+#[inline]
+fn min_max(c: &[f32; 8]) -> (f32, f32) {
+    let lo = c[0]
+        .min(c[1])
+        .min(c[2].min(c[3]))
+        .min(c[4].min(c[5]).min(c[6].min(c[7])));
+    let hi = c[0]
+        .max(c[1])
+        .max(c[2].max(c[3]))
+        .max(c[4].max(c[5]).max(c[6].max(c[7])));
+    (lo, hi)
+}
+
+/// Gradient of the trilinear interpolant of `corners` at local point `p`, in local units
+/// (divide by the cell size for world units).
+#[inline]
+pub fn trilinear_gradient(corners: &[f32; 8], p: Vec3) -> Vec3 {
+    let [c000, c001, c010, c011, c100, c101, c110, c111] = *corners;
+    let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+    let (x, y, z) = (p.x, p.y, p.z);
+    // d/dx: difference of the two x faces, bilinear in (y, z).
+    let dx = lerp(
+        lerp(c100 - c000, c101 - c001, z),
+        lerp(c110 - c010, c111 - c011, z),
+        y,
+    );
+    let dy = lerp(
+        lerp(c010 - c000, c011 - c001, z),
+        lerp(c110 - c100, c111 - c101, z),
+        x,
+    );
+    let dz = lerp(
+        lerp(c001 - c000, c011 - c010, y),
+        lerp(c101 - c100, c111 - c110, y),
+        x,
+    );
+    Vec3::new(dx, dy, dz)
+}
+
+#[cfg(test)]
+mod tests {
+    //! The kernel against an f64 oracle (dense sampling plus bisection), on random voxels and
+    //! rays and on the hard families: tangent and double roots, axis-parallel rays, rays that
+    //! start inside the cube or on a face, all-near-zero and exactly-zero values, degenerate
+    //! cubics, and corner magnitudes from 1e-6 to 1e6.
+
+    use super::*;
+    use proptest::prelude::*;
+    use proptest::test_runner::TestCaseError;
+
+    /// Samples of the oracle along the segment.
+    const SAMPLES: usize = 4000;
+    /// Residual allowed at a reported hit, and the depth beyond which a sample counts as clearly
+    /// on the other side, relative to the largest |corner|.
+    const EPS: f64 = 3e-5;
+    /// Hit position accuracy required at clear crossings, in voxel units.
+    const POS_TOL: f64 = 1e-4;
+    /// Slope (per voxel unit, relative to the largest |corner|) from which a crossing is clear.
+    const CLEAR_SLOPE: f64 = 0.05;
+
+    fn f64_at(c: &[f32; 8], o: Vec3, d: Vec3, t: f64) -> f64 {
+        let p = [0, 1, 2].map(|k| o[k] as f64 + t * d[k] as f64);
+        let c = c.map(|v| v as f64);
+        let l = |a: f64, b: f64, t: f64| a + (b - a) * t;
+        let c00 = l(c[0], c[1], p[2]);
+        let c01 = l(c[2], c[3], p[2]);
+        let c10 = l(c[4], c[5], p[2]);
+        let c11 = l(c[6], c[7], p[2]);
+        l(l(c00, c01, p[1]), l(c10, c11, p[1]), p[0])
+    }
+
+    #[derive(Clone, Debug)]
+    struct Case {
+        corners: [f32; 8],
+        origin: Vec3,
+        dir: Vec3,
+        t0: f32,
+        t1: f32,
+        surface: bool,
+    }
+
+    /// First oracle root (sampling, then 80 bisection steps) and whether the kernel's answer is
+    /// consistent with it. See the constants for the tolerances.
+    fn check(case: &Case) -> Result<Option<f32>, TestCaseError> {
+        let Case {
+            corners: c,
+            origin: o,
+            dir: d,
+            t0,
+            t1,
+            surface,
+        } = *case;
+        let got = intersect_voxel(&c, o, d, t0, t1, surface);
+        let scale = c.iter().fold(0.0f64, |m, v| m.max(v.abs() as f64));
+        let eps = EPS * scale;
+        let dlen = d.length() as f64;
+        let (t0, t1) = (t0 as f64, t1 as f64);
+        let dt_tol = POS_TOL / dlen;
+        if let Some(t) = got {
+            prop_assert!(t.is_finite(), "NaN/inf hit {t}");
+            prop_assert!(
+                t as f64 >= t0 && t as f64 <= t1,
+                "hit {t} outside [{t0}, {t1}]"
+            );
+        }
+        if scale == 0.0 {
+            prop_assert_eq!(got, None, "all-zero voxel");
+            return Ok(got);
+        }
+        let f = |t: f64| f64_at(&c, o, d, t);
+        let ts: Vec<f64> = (0..=SAMPLES)
+            .map(|i| t0 + (t1 - t0) * i as f64 / SAMPLES as f64)
+            .collect();
+        let fs: Vec<f64> = ts.iter().map(|&t| f(t)).collect();
+        // "Clearly on the far side" of the surface.
+        let clear_inside = |v: f64| if surface { false } else { v < -eps };
+        // Reference side for surface voxels: the first clearly non-zero sample.
+        let ref_sign = fs.iter().find(|v| v.abs() > eps).map(|v| v.signum());
+        let clear_other = |v: f64| match (surface, ref_sign) {
+            (true, Some(s)) => v * s < -eps,
+            (true, None) => false,
+            (false, _) => clear_inside(v),
+        };
+        // Oracle: first sign change.
+        let mut oracle: Option<f64> = None;
+        let changed = |a: f64, b: f64| {
+            if surface {
+                (a > 0.0 && b <= 0.0) || (a < 0.0 && b >= 0.0)
+            } else {
+                b < 0.0
+            }
+        };
+        if (!surface && fs[0] < 0.0) || (surface && fs[0] == 0.0) {
+            oracle = Some(t0);
+        } else {
+            for i in 1..fs.len() {
+                if changed(fs[i - 1], fs[i]) {
+                    let (mut a, mut b) = (ts[i - 1], ts[i]);
+                    let fa = fs[i - 1];
+                    for _ in 0..80 {
+                        let m = 0.5 * (a + b);
+                        if changed(fa, f(m)) {
+                            b = m;
+                        } else {
+                            a = m;
+                        }
+                    }
+                    oracle = Some(b);
+                    break;
+                }
+            }
+        }
+        match got {
+            None => {
+                // No missed root: nothing clearly on the far side anywhere.
+                if let Some(i) = fs.iter().position(|&v| clear_other(v)) {
+                    return Err(TestCaseError::fail(format!(
+                        "missed root: f({}) = {} (scale {scale}), oracle root {oracle:?}",
+                        ts[i], fs[i]
+                    )));
+                }
+            }
+            Some(tk) => {
+                let tk = tk as f64;
+                let fk = f(tk);
+                // No false hit: the reported point is on the surface (or inside a volume).
+                let ok = if surface { fk.abs() <= eps } else { fk <= eps };
+                prop_assert!(
+                    ok,
+                    "false hit at {tk}: f = {fk} (scale {scale}), oracle {oracle:?}"
+                );
+                // Nothing clearly beyond the surface was skipped before the hit.
+                for (t, v) in ts.iter().zip(&fs) {
+                    if *t < tk - dt_tol {
+                        prop_assert!(
+                            !clear_other(*v),
+                            "skipped root: f({t}) = {v} before hit {tk}, oracle {oracle:?}"
+                        );
+                    }
+                }
+                // Accuracy at clear crossings.
+                if let Some(to) = oracle {
+                    let h = 1e-6 / dlen;
+                    let slope = ((f(to + h) - f(to - h)) / (2.0 * h)).abs() / dlen;
+                    if to > t0 && slope >= CLEAR_SLOPE * scale && tk >= to - dt_tol {
+                        prop_assert!(
+                            (tk - to).abs() <= dt_tol,
+                            "hit {tk} vs oracle {to}: {} voxel units (slope {slope})",
+                            (tk - to).abs() * dlen
+                        );
+                    }
+                    if to == t0 && fs[0] < -eps && !surface {
+                        prop_assert_eq!(tk, t0, "started inside");
+                    }
+                }
+            }
+        }
+        Ok(got)
+    }
+
+    /// A unit vector from three numbers, or +x when they are all tiny.
+    fn unit(v: [f32; 3]) -> Vec3 {
+        Vec3::from(v).try_normalize().unwrap_or(Vec3::X)
+    }
+
+    /// A case whose ray passes through `target` (inside the cube) from `back` units before it,
+    /// clipped to the cube and to t ≥ 0.
+    fn case_through(
+        corners: [f32; 8],
+        target: Vec3,
+        dir: Vec3,
+        back: f32,
+        surface: bool,
+    ) -> Option<Case> {
+        let origin = target - dir * back;
+        let (a, b) = unit_cube_span(origin, dir)?;
+        let t0 = a.max(0.0);
+        (t0 <= b).then_some(Case {
+            corners,
+            origin,
+            dir,
+            t0,
+            t1: b,
+            surface,
+        })
+    }
+
+    fn scale_strategy() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            3 => Just(1.0f32),
+            1 => Just(1e6f32),
+            1 => Just(1e-6f32),
+            2 => (-6i32..=6).prop_map(|e| 10f32.powi(e)),
+        ]
+    }
+
+    fn corners_strategy() -> impl Strategy<Value = [f32; 8]> {
+        (proptest::array::uniform8(-1.0f32..1.0), scale_strategy())
+            .prop_map(|(c, s)| c.map(|v| v * s))
+    }
+
+    fn dir_strategy() -> impl Strategy<Value = Vec3> {
+        (
+            proptest::array::uniform3(-1.0f32..1.0),
+            prop_oneof![Just(1.0f32), 0.05f32..20.0, Just(512.0f32)],
+        )
+            .prop_map(|(v, len)| unit(v) * len)
+    }
+
+    fn point_strategy() -> impl Strategy<Value = Vec3> {
+        proptest::array::uniform3(0.0f32..=1.0).prop_map(Vec3::from)
+    }
+
+    /// `cases` per suite, or `PROPTEST_CASES` from the environment for a longer run.
+    fn config(cases: u32) -> ProptestConfig {
+        let cases = std::env::var("PROPTEST_CASES")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(cases);
+        ProptestConfig {
+            cases,
+            failure_persistence: None,
+            ..ProptestConfig::default()
+        }
+    }
+
+    proptest! {
+        #![proptest_config(config(3000))]
+
+        /// Random voxels, random rays through the cube, random scales and ray speeds.
+        #[test]
+        fn random_voxels_and_rays(
+            corners in corners_strategy(),
+            target in point_strategy(),
+            dir in dir_strategy(),
+            back in 0.0f32..3.0,
+            surface in any::<bool>(),
+        ) {
+            if let Some(case) = case_through(corners, target, dir, back / dir.length(), surface) {
+                check(&case)?;
+            }
+        }
+
+        /// Tangent (double) roots: the corners are shifted so that the cubic's value at one of
+        /// its critical points inside the segment is zero, then nudged by ±0, 1e-7, 1e-5, 1e-3
+        /// of the scale (just missing, exactly touching, barely dipping).
+        #[test]
+        fn tangent_and_double_roots(
+            corners in corners_strategy(),
+            target in point_strategy(),
+            dir in dir_strategy(),
+            back in 0.0f32..3.0,
+            nudge in prop_oneof![Just(0.0f64), Just(1e-7), Just(-1e-7), Just(1e-5), Just(-1e-5),
+                                  Just(1e-3), Just(-1e-3)],
+            surface in any::<bool>(),
+        ) {
+            let Some(case) = case_through(corners, target, dir, back / dir.length(), surface)
+            else { return Ok(()) };
+            // f64 critical points of the cubic along the segment.
+            let f = |t: f64| f64_at(&corners, case.origin, case.dir, t);
+            let (t0, t1) = (case.t0 as f64, case.t1 as f64);
+            let n = 400;
+            let mut crit = None;
+            let df = |t: f64| { let h = (t1 - t0) * 1e-7; f(t + h) - f(t - h) };
+            for i in 1..n {
+                let a = t0 + (t1 - t0) * (i - 1) as f64 / n as f64;
+                let b = t0 + (t1 - t0) * i as f64 / n as f64;
+                if (df(a) > 0.0) != (df(b) > 0.0) {
+                    let (mut lo, mut hi) = (a, b);
+                    let slo = df(lo) > 0.0;
+                    for _ in 0..60 {
+                        let m = 0.5 * (lo + hi);
+                        if (df(m) > 0.0) == slo { lo = m } else { hi = m }
+                    }
+                    crit = Some(0.5 * (lo + hi));
+                    break;
+                }
+            }
+            let Some(tc) = crit else { return Ok(()) };
+            let scale = corners.iter().fold(0.0f64, |m, v| m.max(v.abs() as f64));
+            let shift = f(tc) - nudge * scale;
+            let shifted = corners.map(|v| (v as f64 - shift) as f32);
+            check(&Case { corners: shifted, ..case })?;
+        }
+
+        /// Rays with one or two zero direction components (a vanishing cubic term).
+        #[test]
+        fn axis_parallel_rays(
+            corners in corners_strategy(),
+            target in point_strategy(),
+            dir in dir_strategy(),
+            zero_mask in 1u8..7,
+            back in 0.0f32..3.0,
+            surface in any::<bool>(),
+        ) {
+            let mut d = dir;
+            for k in 0..3 { if zero_mask & (1 << k) != 0 { d[k] = 0.0; } }
+            if d == Vec3::ZERO { d[(zero_mask.trailing_ones() % 3) as usize] = dir.length(); }
+            if let Some(case) = case_through(corners, target, d, back / d.length(), surface) {
+                check(&case)?;
+            }
+        }
+
+        /// Rays starting inside the cube (t0 = 0) or exactly on one of its faces.
+        #[test]
+        fn rays_starting_inside_or_on_a_face(
+            corners in corners_strategy(),
+            start in point_strategy(),
+            dir in dir_strategy(),
+            face in 0usize..7,
+            surface in any::<bool>(),
+        ) {
+            let mut origin = start;
+            if face < 6 { origin[face / 2] = (face % 2) as f32; }
+            if let Some((_, b)) = unit_cube_span(origin, dir) {
+                if b >= 0.0 {
+                    check(&Case { corners, origin, dir, t0: 0.0, t1: b, surface })?;
+                }
+            }
+        }
+
+        /// Values all near zero (a few ulps of 1e-7 or 1e-30, some exactly zero) and the
+        /// all-zero voxel, which has no crossing.
+        #[test]
+        fn values_all_near_zero(
+            raw in proptest::array::uniform8(-4i32..=4),
+            tiny in prop_oneof![Just(1e-7f32), Just(1e-30f32), Just(0.0f32)],
+            target in point_strategy(),
+            dir in dir_strategy(),
+            back in 0.0f32..3.0,
+            surface in any::<bool>(),
+        ) {
+            let corners = raw.map(|v| v as f32 * tiny);
+            if let Some(case) = case_through(corners, target, dir, back / dir.length(), surface) {
+                let got = check(&case)?;
+                if tiny == 0.0 || raw == [0; 8] {
+                    prop_assert_eq!(got, None);
+                }
+            }
+        }
+
+        /// Degenerate cubics: corners sampled from a plane (linear along any ray) or from a
+        /// bilinear function (no xyz term: quadratic), at random scales.
+        #[test]
+        fn degenerate_cubics(
+            n in proptest::array::uniform3(-1.0f32..1.0),
+            offset in -1.0f32..1.0,
+            bilinear in -1.0f32..1.0,
+            use_bilinear in any::<bool>(),
+            scale in scale_strategy(),
+            target in point_strategy(),
+            dir in dir_strategy(),
+            back in 0.0f32..3.0,
+            surface in any::<bool>(),
+        ) {
+            let corners: [f32; 8] = core::array::from_fn(|i| {
+                let (x, y, z) = ((i >> 2) as f32, ((i >> 1) & 1) as f32, (i & 1) as f32);
+                let k = if use_bilinear { bilinear * x * y } else { 0.0 };
+                (n[0] * x + n[1] * y + n[2] * z + offset + k) * scale
+            });
+            if let Some(case) = case_through(corners, target, dir, back / dir.length(), surface) {
+                check(&case)?;
+            }
+        }
+    }
+
+    #[test]
+    fn plane_hit_is_exact() {
+        // f = 0.25 − x (inside x > 0.25) along +x from x = −1: root at t = 1.25.
+        let c: [f32; 8] = core::array::from_fn(|i| 0.25 - (i >> 2) as f32);
+        let o = Vec3::new(-1.0, 0.5, 0.5);
+        let (a, b) = unit_cube_span(o, Vec3::X).unwrap();
+        assert_eq!((a, b), (1.0, 2.0));
+        let t = intersect_voxel(&c, o, Vec3::X, a, b, false).unwrap();
+        assert!((t - 1.25).abs() < 1e-6, "{t}");
+        // Starting inside (x = 0.5), going either way: hit at t0.
+        let inside = Vec3::new(0.5, 0.5, 0.5);
+        assert_eq!(
+            intersect_voxel(&c, inside, Vec3::X, 0.0, 0.5, false),
+            Some(0.0)
+        );
+        assert_eq!(
+            intersect_voxel(&c, inside, -Vec3::X, 0.0, 0.5, false),
+            Some(0.0)
+        );
+        // A surface voxel from the negative side: the crossing at x = 0.25.
+        let t = intersect_voxel(&c, inside, -Vec3::X, 0.0, 0.5, true).unwrap();
+        assert!((t - 0.25).abs() < 1e-6, "{t}");
+    }
+
+    #[test]
+    fn volume_tangent_touch_from_outside_is_not_a_hit() {
+        // f = (x − 0.5)² is not trilinear; use f = x·(1 − x)-like saddle instead: corners of
+        // f(x, y) = (2x − 1)(2y − 1) + 1 ≥ 0 touch zero only at corners (0,1) and (1,0).
+        let c: [f32; 8] = core::array::from_fn(|i| {
+            let (x, y) = ((i >> 2) as f32, ((i >> 1) & 1) as f32);
+            (2.0 * x - 1.0) * (2.0 * y - 1.0) + 1.0
+        });
+        // Along the diagonal y = 1 − x the value is 1 − (2x − 1)² ≥ 0, zero at both ends only.
+        let o = Vec3::new(0.0, 1.0, 0.5);
+        let d = Vec3::new(1.0, -1.0, 0.0);
+        assert_eq!(intersect_voxel(&c, o, d, 0.0, 1.0, false), None);
+        // A surface voxel touches zero at the start.
+        assert_eq!(intersect_voxel(&c, o, d, 0.0, 1.0, true), Some(0.0));
+    }
+
+    #[test]
+    fn never_nan_on_nan_or_empty_input() {
+        let c = [1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0];
+        let o = Vec3::new(0.5, 0.5, -1.0);
+        assert_eq!(intersect_voxel(&c, o, Vec3::Z, f32::NAN, 2.0, false), None);
+        assert_eq!(intersect_voxel(&c, o, Vec3::Z, 2.0, 1.0, false), None);
+        assert_eq!(
+            intersect_voxel(&c, Vec3::NAN, Vec3::Z, 1.0, 2.0, true),
+            None
+        );
+        assert_eq!(intersect_voxel(&c, o, Vec3::NAN, 1.0, 2.0, true), None);
+        let nan_corners = [f32::NAN; 8];
+        assert_eq!(
+            intersect_voxel(&nan_corners, o, Vec3::Z, 1.0, 2.0, true),
+            None
+        );
+    }
+
+    #[test]
+    fn scale_invariant_roots() {
+        let base = [0.3f32, -0.2, 0.5, 0.1, -0.4, 0.6, 0.2, -0.7];
+        let o = Vec3::new(-0.5, 0.2, 0.3);
+        let d = Vec3::new(1.0, 0.3, 0.2).normalize();
+        let (a, b) = unit_cube_span(o, d).unwrap();
+        let reference = intersect_voxel(&base, o, d, a, b, false).unwrap();
+        for s in [1e-30f32, 1e-6, 1e-3, 1e3, 1e6, 1e12] {
+            let c = base.map(|v| v * s);
+            let t = intersect_voxel(&c, o, d, a, b, false).unwrap();
+            assert!(
+                (t - reference).abs() < 1e-5,
+                "scale {s}: {t} vs {reference}"
+            );
+        }
+    }
+
+    #[test]
+    fn unit_cube_span_handles_zero_components() {
+        assert_eq!(
+            unit_cube_span(Vec3::new(0.5, 0.5, -1.0), Vec3::Z),
+            Some((1.0, 2.0))
+        );
+        assert_eq!(unit_cube_span(Vec3::new(1.5, 0.5, -1.0), Vec3::Z), None);
+        // On a face, parallel to it: inside (closed cube).
+        assert_eq!(
+            unit_cube_span(Vec3::new(1.0, 0.5, -1.0), Vec3::Z),
+            Some((1.0, 2.0))
+        );
+        assert_eq!(
+            unit_cube_span(Vec3::new(2.0, 0.5, 0.5), -Vec3::X),
+            Some((1.0, 2.0))
+        );
+    }
+}
