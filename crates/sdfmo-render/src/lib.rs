@@ -18,6 +18,7 @@
 #![deny(missing_docs)]
 
 pub mod camera;
+pub mod mesh;
 mod output;
 pub mod plan;
 mod render;
@@ -27,6 +28,7 @@ pub mod shading;
 use std::path::PathBuf;
 
 pub use camera::{Camera, CameraFrame};
+pub use mesh::{apply_normalization, mesh_in_octree_frame, octree_normalization, MeshScene};
 pub use output::{save_exr, save_png};
 pub use plan::{Counters, Mode, RenderPlan, RenderSettings};
 pub use render::{render, render_with_plan, Rendered};
