@@ -75,6 +75,35 @@ impl EdgeAdjacency {
         self.edges.len()
     }
 
+    /// Connected components of the `triangle_count` triangles: component id per triangle
+    /// (numbered in order of first triangle) and the count. Triangles are joined through every
+    /// shared edge, or with `manifold_only` only through edges shared by exactly two triangles
+    /// (trimesh's `face_adjacency` definition).
+    pub fn components(&self, triangle_count: usize, manifold_only: bool) -> (Vec<u32>, usize) {
+        let mut uf = UnionFind::new(triangle_count);
+        for e in 0..self.edge_count() {
+            let tris = self.triangles_of(e);
+            if manifold_only && tris.len() != 2 {
+                continue;
+            }
+            for &t in &tris[1..] {
+                uf.union(tris[0], t);
+            }
+        }
+        let mut id_of_root = vec![u32::MAX; triangle_count];
+        let mut ids = Vec::with_capacity(triangle_count);
+        let mut count = 0u32;
+        for t in 0..triangle_count as u32 {
+            let r = uf.find(t) as usize;
+            if id_of_root[r] == u32::MAX {
+                id_of_root[r] = count;
+                count += 1;
+            }
+            ids.push(id_of_root[r]);
+        }
+        (ids, count as usize)
+    }
+
     /// Triangles incident to edge `e`.
     pub fn triangles_of(&self, e: usize) -> &[u32] {
         &self.triangles[self.offsets[e] as usize..self.offsets[e + 1] as usize]
@@ -125,33 +154,18 @@ impl Topology {
 
     /// Computes the topology from a prebuilt adjacency of a mesh with `triangle_count` triangles.
     pub fn from_adjacency(triangle_count: usize, adj: &EdgeAdjacency) -> Topology {
-        let mut uf = UnionFind::new(triangle_count);
         let (mut boundary, mut non_manifold) = (0, 0);
         for e in 0..adj.edge_count() {
-            let tris = adj.triangles_of(e);
-            match tris.len() {
+            match adj.triangles_of(e).len() {
                 1 => boundary += 1,
                 2 => {}
                 _ => non_manifold += 1,
             }
-            for &t in &tris[1..] {
-                uf.union(tris[0], t);
-            }
         }
-        let mut id_of_root = vec![u32::MAX; triangle_count];
-        let mut component_of_triangle = Vec::with_capacity(triangle_count);
-        let mut count = 0u32;
-        for t in 0..triangle_count as u32 {
-            let r = uf.find(t) as usize;
-            if id_of_root[r] == u32::MAX {
-                id_of_root[r] = count;
-                count += 1;
-            }
-            component_of_triangle.push(id_of_root[r]);
-        }
+        let (component_of_triangle, component_count) = adj.components(triangle_count, false);
         Topology {
             component_of_triangle,
-            component_count: count as usize,
+            component_count,
             boundary_edges: boundary,
             non_manifold_edges: non_manifold,
             watertight: boundary == 0 && non_manifold == 0,

@@ -1,18 +1,577 @@
-//! glTF / GLB reader (in progress).
+//! glTF 2.0 reader (JSON `.gltf` and binary `.glb`) on top of the `gltf` crate's validated
+//! document model.
+//!
+//! The GLB container is split here (checked lengths, no trust in the header), the JSON is
+//! parsed and validated by `gltf`, and accessor data is read here with every offset, stride
+//! and count checked against the bytes of its buffer, so a hostile file can neither read out of
+//! bounds nor make us allocate more than its buffers hold. Buffers come from the GLB `BIN`
+//! chunk, `data:` URIs (base64), or, when loading from a path, files relative to it; no other
+//! URI is ever fetched. Images and textures are never decoded.
+//!
+//! Every triangle primitive (modes TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN) of every mesh
+//! instance in the default scene (or the first scene, or, without scenes, every root node)
+//! becomes one part, its positions transformed by the node's world matrix. Points and lines are
+//! skipped.
 
 use std::path::Path;
+
+use glam::{Mat4, Vec3};
+use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::Mode;
 
 use super::{LoadLimits, RawMesh};
 use crate::error::{MeshError, Result};
 
-pub(super) fn read(
-    _bytes: &[u8],
-    file: &str,
-    _base: Option<&Path>,
-    _limits: &LoadLimits,
-) -> Result<RawMesh> {
-    Err(MeshError::Unsupported {
-        file: file.into(),
-        reason: "glTF loading is not available in this build yet".into(),
+struct Ctx<'a> {
+    file: &'a str,
+    base: Option<&'a Path>,
+    limits: &'a LoadLimits,
+}
+
+impl Ctx<'_> {
+    fn parse(&self, reason: impl Into<String>) -> MeshError {
+        MeshError::Parse {
+            file: self.file.into(),
+            line: None,
+            reason: reason.into(),
+        }
+    }
+}
+
+fn le_u32(b: &[u8], at: usize) -> u32 {
+    u32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]])
+}
+
+/// Splits a GLB container into its JSON chunk and optional BIN chunk.
+fn split_glb<'b>(bytes: &'b [u8], ctx: &Ctx) -> Result<(&'b [u8], Option<&'b [u8]>)> {
+    let file = ctx.file;
+    if bytes.len() < 12 {
+        return Err(MeshError::Truncated {
+            file: file.into(),
+            reason: format!(
+                "a GLB needs a 12-byte header, the file has {} bytes",
+                bytes.len()
+            ),
+        });
+    }
+    if &bytes[..4] != b"glTF" {
+        return Err(ctx.parse("missing the GLB magic `glTF`"));
+    }
+    let version = le_u32(bytes, 4);
+    if version != 2 {
+        return Err(MeshError::Unsupported {
+            file: file.into(),
+            reason: format!("GLB version {version} (only 2 is supported)"),
+        });
+    }
+    let length = le_u32(bytes, 8) as usize;
+    if length > bytes.len() {
+        return Err(MeshError::Truncated {
+            file: file.into(),
+            reason: format!(
+                "the GLB header announces {length} bytes, the file has {}",
+                bytes.len()
+            ),
+        });
+    }
+    if length < 20 {
+        return Err(MeshError::HeaderMismatch {
+            file: file.into(),
+            reason: format!("the GLB header announces {length} bytes, too few for a JSON chunk"),
+        });
+    }
+    let data = &bytes[..length];
+    let mut at = 12;
+    let mut json = None;
+    let mut bin = None;
+    while at < data.len() {
+        if data.len() - at < 8 {
+            return Err(MeshError::Truncated {
+                file: file.into(),
+                reason: format!("GLB chunk header at byte {at} is cut off"),
+            });
+        }
+        let len = le_u32(data, at) as usize;
+        let ty = &data[at + 4..at + 8];
+        let start = at + 8;
+        if len > data.len() - start {
+            return Err(MeshError::Truncated {
+                file: file.into(),
+                reason: format!(
+                    "GLB chunk at byte {at} announces {len} bytes, only {} remain",
+                    data.len() - start
+                ),
+            });
+        }
+        let chunk = &data[start..start + len];
+        match (ty, json.is_none()) {
+            (b"JSON", true) => json = Some(chunk),
+            (_, true) => return Err(ctx.parse("the first GLB chunk is not JSON")),
+            (b"BIN\0", false) if bin.is_none() => bin = Some(chunk),
+            _ => {} // unknown chunks are skipped, as the specification asks
+        }
+        at = start + len;
+    }
+    Ok((
+        json.ok_or_else(|| ctx.parse("GLB without a JSON chunk"))?,
+        bin,
+    ))
+}
+
+fn base64_decode(s: &str) -> Option<Vec<u8>> {
+    fn val(c: u8) -> Option<u32> {
+        Some(match c {
+            b'A'..=b'Z' => c - b'A',
+            b'a'..=b'z' => c - b'a' + 26,
+            b'0'..=b'9' => c - b'0' + 52,
+            b'+' | b'-' => 62,
+            b'/' | b'_' => 63,
+            _ => return None,
+        } as u32)
+    }
+    let s = s.trim_end_matches('=');
+    let mut out = Vec::with_capacity(s.len() / 4 * 3 + 3);
+    let (mut acc, mut bits) = (0u32, 0u32);
+    for &c in s.as_bytes() {
+        if c.is_ascii_whitespace() {
+            continue;
+        }
+        acc = (acc << 6) | val(c)?;
+        bits += 6;
+        if bits >= 8 {
+            bits -= 8;
+            out.push((acc >> bits) as u8);
+            acc &= (1 << bits) - 1;
+        }
+    }
+    Some(out)
+}
+
+fn percent_decode(s: &str) -> Option<String> {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%' {
+            let hex = std::str::from_utf8(b.get(i + 1..i + 3)?).ok()?;
+            out.push(u8::from_str_radix(hex, 16).ok()?);
+            i += 3;
+        } else {
+            out.push(b[i]);
+            i += 1;
+        }
+    }
+    String::from_utf8(out).ok()
+}
+
+fn load_buffer(buffer: &gltf::Buffer, bin: Option<&[u8]>, ctx: &Ctx) -> Result<Vec<u8>> {
+    let idx = buffer.index();
+    let data = match buffer.source() {
+        gltf::buffer::Source::Bin => bin
+            .ok_or_else(|| ctx.parse(format!("buffer {idx} refers to a missing GLB BIN chunk")))?
+            .to_vec(),
+        gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
+            let (_, payload) =
+                uri.split_once(";base64,")
+                    .ok_or_else(|| MeshError::Unsupported {
+                        file: ctx.file.into(),
+                        reason: format!("buffer {idx}: data URI without base64 encoding"),
+                    })?;
+            base64_decode(payload)
+                .ok_or_else(|| ctx.parse(format!("buffer {idx}: invalid base64 in data URI")))?
+        }
+        gltf::buffer::Source::Uri(uri) => {
+            let scheme = uri.split_once(':').map(|(s, _)| s);
+            let is_scheme = scheme.is_some_and(|s| {
+                s.len() > 1
+                    && s.chars()
+                        .all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c))
+            });
+            let shown: String = uri.chars().take(80).collect();
+            if is_scheme || uri.starts_with('/') || uri.starts_with('\\') {
+                return Err(MeshError::Unsupported {
+                    file: ctx.file.into(),
+                    reason: format!(
+                        "buffer {idx}: URI `{shown}` (only data: URIs and relative paths)"
+                    ),
+                });
+            }
+            let Some(base) = ctx.base else {
+                return Err(MeshError::Unsupported {
+                    file: ctx.file.into(),
+                    reason: format!(
+                        "buffer {idx}: external file `{shown}` cannot be resolved when loading from bytes"
+                    ),
+                });
+            };
+            let rel = percent_decode(uri)
+                .ok_or_else(|| ctx.parse(format!("buffer {idx}: bad percent-encoding in URI")))?;
+            let path = base.join(rel);
+            std::fs::read(&path).map_err(|source| MeshError::Io { path, source })?
+        }
+    };
+    if data.len() < buffer.length() {
+        return Err(MeshError::Truncated {
+            file: ctx.file.into(),
+            reason: format!(
+                "buffer {idx} declares {} bytes, its data has {}",
+                buffer.length(),
+                data.len()
+            ),
+        });
+    }
+    Ok(data)
+}
+
+/// Lazily loaded buffers, each loaded at most once.
+struct Buffers<'a> {
+    doc: &'a gltf::Document,
+    bin: Option<&'a [u8]>,
+    data: Vec<Option<Vec<u8>>>,
+}
+
+impl Buffers<'_> {
+    fn get(&mut self, index: usize, ctx: &Ctx) -> Result<&[u8]> {
+        if self.data[index].is_none() {
+            let buffer = self
+                .doc
+                .buffers()
+                .nth(index)
+                .ok_or_else(|| ctx.parse(format!("buffer {index} does not exist")))?;
+            self.data[index] = Some(load_buffer(&buffer, self.bin, ctx)?);
+        }
+        Ok(self.data[index].as_deref().unwrap_or(&[]))
+    }
+}
+
+/// The checked byte layout of an accessor: `count` elements of `size` bytes, `stride` apart,
+/// starting at `start` in `bytes`.
+struct Layout<'b> {
+    bytes: &'b [u8],
+    start: usize,
+    stride: usize,
+    count: usize,
+}
+
+impl Layout<'_> {
+    #[inline]
+    fn element(&self, i: usize) -> &[u8] {
+        &self.bytes[self.start + i * self.stride..]
+    }
+}
+
+fn layout<'b>(
+    acc: &gltf::Accessor,
+    what: &str,
+    buffers: &'b mut Buffers,
+    ctx: &Ctx,
+) -> Result<Layout<'b>> {
+    let i = acc.index();
+    if acc.sparse().is_some() {
+        return Err(MeshError::Unsupported {
+            file: ctx.file.into(),
+            reason: format!("{what}: sparse accessor {i}"),
+        });
+    }
+    let view = acc.view().ok_or_else(|| MeshError::Unsupported {
+        file: ctx.file.into(),
+        reason: format!("{what}: accessor {i} has no bufferView"),
+    })?;
+    let size = acc.size();
+    let stride = view.stride().unwrap_or(size);
+    if stride < size {
+        return Err(ctx.parse(format!(
+            "{what}: accessor {i} elements of {size} bytes overlap (stride {stride})"
+        )));
+    }
+    let bytes = buffers.get(view.buffer().index(), ctx)?;
+    let bad = |reason: String| MeshError::Truncated {
+        file: ctx.file.into(),
+        reason: format!("{what}: accessor {i}: {reason}"),
+    };
+    let view_end = view
+        .offset()
+        .checked_add(view.length())
+        .filter(|&e| e <= bytes.len())
+        .ok_or_else(|| {
+            bad(format!(
+                "bufferView {} (offset {}, length {}) exceeds its buffer of {} bytes",
+                view.index(),
+                view.offset(),
+                view.length(),
+                bytes.len()
+            ))
+        })?;
+    let count = acc.count();
+    if count > 0 {
+        let need = (count - 1)
+            .checked_mul(stride)
+            .and_then(|x| x.checked_add(size))
+            .and_then(|x| x.checked_add(acc.offset()));
+        if need.is_none_or(|n| n > view.length()) {
+            return Err(bad(format!(
+                "{count} elements of {size} bytes (stride {stride}, offset {}) exceed bufferView {} of {} bytes",
+                acc.offset(),
+                view.index(),
+                view.length()
+            )));
+        }
+    }
+    Ok(Layout {
+        bytes: &bytes[..view_end],
+        start: view.offset() + acc.offset(),
+        stride,
+        count,
     })
+}
+
+fn read_positions(
+    acc: &gltf::Accessor,
+    what: &str,
+    buffers: &mut Buffers,
+    ctx: &Ctx,
+) -> Result<Vec<Vec3>> {
+    if acc.dimensions() != Dimensions::Vec3 || acc.data_type() != DataType::F32 {
+        return Err(MeshError::Unsupported {
+            file: ctx.file.into(),
+            reason: format!(
+                "{what}: POSITION accessor {} is {:?} of {:?} (only VEC3 of FLOAT)",
+                acc.index(),
+                acc.dimensions(),
+                acc.data_type()
+            ),
+        });
+    }
+    let l = layout(acc, what, buffers, ctx)?;
+    Ok((0..l.count)
+        .map(|i| {
+            let e = l.element(i);
+            let f = |k: usize| f32::from_le_bytes([e[k], e[k + 1], e[k + 2], e[k + 3]]);
+            Vec3::new(f(0), f(4), f(8))
+        })
+        .collect())
+}
+
+fn read_indices(
+    acc: &gltf::Accessor,
+    what: &str,
+    buffers: &mut Buffers,
+    ctx: &Ctx,
+) -> Result<Vec<u32>> {
+    if acc.dimensions() != Dimensions::Scalar {
+        return Err(ctx.parse(format!(
+            "{what}: index accessor {} is not SCALAR",
+            acc.index()
+        )));
+    }
+    let ty = acc.data_type();
+    let l = layout(acc, what, buffers, ctx)?;
+    let read = |i: usize| -> Option<u32> {
+        let e = l.element(i);
+        match ty {
+            DataType::U8 => Some(e[0] as u32),
+            DataType::U16 => Some(u16::from_le_bytes([e[0], e[1]]) as u32),
+            DataType::U32 => Some(le_u32(e, 0)),
+            _ => None,
+        }
+    };
+    (0..l.count)
+        .map(|i| {
+            read(i).ok_or_else(|| {
+                ctx.parse(format!(
+                    "{what}: index accessor {} has component type {ty:?} (only unsigned integers)",
+                    acc.index()
+                ))
+            })
+        })
+        .collect()
+}
+
+/// Turns a primitive's index list into triangles according to its mode.
+fn assemble(mode: Mode, idx: &[u32], what: &str, ctx: &Ctx) -> Result<Vec<[u32; 3]>> {
+    Ok(match mode {
+        Mode::Triangles => {
+            let leftover = idx.len() % 3;
+            if leftover != 0 {
+                return Err(ctx.parse(format!(
+                    "{what}: {} indices is not a multiple of 3",
+                    idx.len()
+                )));
+            }
+            idx.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()
+        }
+        Mode::TriangleStrip => (2..idx.len())
+            .map(|i| {
+                if i % 2 == 0 {
+                    [idx[i - 2], idx[i - 1], idx[i]]
+                } else {
+                    [idx[i - 1], idx[i - 2], idx[i]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (2..idx.len())
+            .map(|i| [idx[0], idx[i - 1], idx[i]])
+            .collect(),
+        _ => Vec::new(),
+    })
+}
+
+pub(super) fn read(
+    bytes: &[u8],
+    file: &str,
+    base: Option<&Path>,
+    limits: &LoadLimits,
+) -> Result<RawMesh> {
+    let ctx = Ctx { file, base, limits };
+    let (json, bin) = if bytes.starts_with(b"glTF") {
+        split_glb(bytes, &ctx)?
+    } else {
+        (bytes, None)
+    };
+    let root = gltf::json::deserialize::from_slice::<gltf::json::Root>(json)
+        .map_err(|e| ctx.parse(format!("glTF JSON: {e}")))?;
+    let doc =
+        gltf::Document::from_json(root).map_err(|e| ctx.parse(format!("invalid glTF: {e}")))?;
+
+    // Roots to walk: the default scene, else the first scene, else every node that is nobody's
+    // child.
+    let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
+        Some(scene) => scene.nodes().collect(),
+        None => {
+            let mut is_child = vec![false; doc.nodes().len()];
+            for n in doc.nodes() {
+                for c in n.children() {
+                    is_child[c.index()] = true;
+                }
+            }
+            doc.nodes().filter(|n| !is_child[n.index()]).collect()
+        }
+    };
+
+    let mut buffers = Buffers {
+        doc: &doc,
+        bin,
+        data: vec![None; doc.buffers().len()],
+    };
+    let node_count = doc.nodes().len();
+    let mut raw = RawMesh::default();
+    let mut stack: Vec<(gltf::Node, Mat4, usize)> = roots
+        .into_iter()
+        .rev()
+        .map(|n| (n, Mat4::IDENTITY, 0))
+        .collect();
+    let mut visits = 0usize;
+    while let Some((node, parent, depth)) = stack.pop() {
+        visits += 1;
+        if visits > ctx.limits.max_node_visits {
+            return Err(MeshError::TooLarge {
+                file: file.into(),
+                what: "scene node visits (instancing)".into(),
+                count: visits as u64,
+                limit: ctx.limits.max_node_visits as u64,
+            });
+        }
+        if depth > node_count {
+            return Err(ctx.parse(format!("node {} is its own ancestor (cycle)", node.index())));
+        }
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        if let Some(mesh) = node.mesh() {
+            for prim in mesh.primitives() {
+                let what = format!(
+                    "node {} mesh {} primitive {}",
+                    node.index(),
+                    mesh.index(),
+                    prim.index()
+                );
+                if !matches!(
+                    prim.mode(),
+                    Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+                ) {
+                    continue;
+                }
+                let pos_acc = prim
+                    .get(&gltf::Semantic::Positions)
+                    .ok_or_else(|| ctx.parse(format!("{what}: no POSITION attribute")))?;
+                let positions = read_positions(&pos_acc, &what, &mut buffers, &ctx)?;
+                let idx: Vec<u32> = match prim.indices() {
+                    Some(acc) => read_indices(&acc, &what, &mut buffers, &ctx)?,
+                    None => (0..positions.len() as u32).collect(),
+                };
+                let tris = assemble(prim.mode(), &idx, &what, &ctx)?;
+                if tris.is_empty() {
+                    continue;
+                }
+                raw.check_room(file, tris.len(), ctx.limits)?;
+                let nv = raw.positions.len().saturating_add(positions.len());
+                if nv > ctx.limits.max_vertices {
+                    return Err(MeshError::TooLarge {
+                        file: file.into(),
+                        what: "vertex count".into(),
+                        count: nv as u64,
+                        limit: ctx.limits.max_vertices as u64,
+                    });
+                }
+                let base = raw.positions.len() as u32;
+                for (i, p) in positions.iter().enumerate() {
+                    let q = world.transform_point3(*p);
+                    if !q.is_finite() {
+                        let bad = if p.is_finite() { q } else { *p };
+                        return Err(MeshError::NonFinite {
+                            file: file.into(),
+                            element: format!("{what} vertex {i}"),
+                            value: bad.to_string(),
+                        });
+                    }
+                    raw.positions.push(q);
+                }
+                let part = raw.part_names.len() as u32;
+                raw.part_names.push(match mesh.name() {
+                    Some(n) => format!("{n}/{}", prim.index()),
+                    None => format!("mesh{}/{}", mesh.index(), prim.index()),
+                });
+                // A negative determinant mirrors the geometry: flip the winding back.
+                let mirror = world.determinant() < 0.0;
+                for (t, tri) in tris.iter().enumerate() {
+                    for &v in tri {
+                        if v as usize >= positions.len() {
+                            return Err(MeshError::IndexOutOfRange {
+                                file: file.into(),
+                                element: format!("{what} triangle {t}"),
+                                index: v as i64,
+                                vertex_count: positions.len(),
+                            });
+                        }
+                    }
+                    let [a, b, c] = tri.map(|v| v + base);
+                    raw.triangles
+                        .push(if mirror { [a, c, b] } else { [a, b, c] });
+                    raw.parts.push(part);
+                }
+            }
+        }
+        for child in node.children() {
+            stack.push((child, world, depth + 1));
+        }
+    }
+    if raw.triangles.is_empty() {
+        return Err(MeshError::NoTriangles {
+            file: file.into(),
+            reason: "the scene has no triangle primitive".into(),
+        });
+    }
+    Ok(raw)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_and_percent() {
+        assert_eq!(base64_decode("aGVsbG8=").unwrap(), b"hello");
+        assert_eq!(base64_decode("AAEC").unwrap(), vec![0, 1, 2]);
+        assert!(base64_decode("a*b").is_none());
+        assert_eq!(percent_decode("a%20b.bin").unwrap(), "a b.bin");
+        assert!(percent_decode("a%2").is_none());
+    }
 }

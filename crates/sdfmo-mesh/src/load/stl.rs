@@ -48,7 +48,8 @@ fn read_binary(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawMesh>
         let reason = format!(
             "the header announces {n} triangles ({expected} bytes), the file has {len} bytes"
         );
-        return Err(if len < expected && body % RECORD != 0 {
+        let partial_record = body % RECORD;
+        return Err(if len < expected && partial_record != 0 {
             MeshError::Truncated {
                 file: file.into(),
                 reason,
