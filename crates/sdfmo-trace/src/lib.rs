@@ -1,8 +1,34 @@
-//! Ray tracing the packed SDF multi-octree: front-to-back traversal of a
-//! [`PackedOctree`](sdfmo_format::PackedOctree) and the ray vs trilinear-voxel kernel.
+//! Ray tracing the packed SDF multi-octree: front-to-back traversal of a [`PackedOctree`]
+//! ([`intersect`], [`occluded`]), the ray vs trilinear-voxel kernel ([`intersect_voxel`]) and
+//! analytic normals ([`hit_normal`]).
+//!
+//! Depends on `sdfmo-format` and glam only, so an engine that loads and renders octrees embeds
+//! these two crates and nothing else. Nothing here allocates: the traversal keeps a fixed-size
+//! stack on the machine stack (sized by [`sdfmo_format::MAX_DEPTH`]) and there is no dynamic
+//! dispatch per ray.
+//!
+//! ```
+//! use glam::Vec3;
+//! use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, ValueBits, Voxel};
+//! use sdfmo_trace::{hit_normal, intersect, Ray};
+//!
+//! // One leaf at depth 1 (cell [0,1]³) holding the plane x = 0.5 (inside x > 0.5).
+//! let corners = core::array::from_fn(|i| 0.5 - (i >> 2) as f32);
+//! let leaf = LeafInput { coord: [1, 1, 1], voxels: vec![Voxel { corners, surface: false }] };
+//! let meta = OctreeMeta { depth: 1, bits: ValueBits::Sixteen, center: Vec3::ZERO, scale: 1.0 };
+//! let octree = PackedOctree::from_leaves(meta, vec![leaf]).unwrap();
+//! let ray = Ray { origin: Vec3::new(-3.0, 0.5, 0.5), dir: Vec3::X };
+//! let hit = intersect(&octree, &ray, 0.0, f32::INFINITY).unwrap();
+//! assert!((hit.t - 3.5).abs() < 1e-4);
+//! assert!((hit_normal(&octree, &ray, &hit) - -Vec3::X).length() < 1e-4);
+//! ```
 
 #![deny(missing_docs)]
 
+pub mod normal;
 pub mod ray_voxel;
+pub mod traversal;
 
+pub use normal::{hit_normal, trilinear_gradient};
 pub use ray_voxel::{intersect_voxel, unit_cube_span};
+pub use traversal::{intersect, occluded, Hit, Ray};

@@ -289,32 +289,6 @@ fn min_max(c: &[f32; 8]) -> (f32, f32) {
     (lo, hi)
 }
 
-/// Gradient of the trilinear interpolant of `corners` at local point `p`, in local units
-/// (divide by the cell size for world units).
-#[inline]
-pub fn trilinear_gradient(corners: &[f32; 8], p: Vec3) -> Vec3 {
-    let [c000, c001, c010, c011, c100, c101, c110, c111] = *corners;
-    let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
-    let (x, y, z) = (p.x, p.y, p.z);
-    // d/dx: difference of the two x faces, bilinear in (y, z).
-    let dx = lerp(
-        lerp(c100 - c000, c101 - c001, z),
-        lerp(c110 - c010, c111 - c011, z),
-        y,
-    );
-    let dy = lerp(
-        lerp(c010 - c000, c011 - c001, z),
-        lerp(c110 - c100, c111 - c101, z),
-        x,
-    );
-    let dz = lerp(
-        lerp(c001 - c000, c011 - c010, y),
-        lerp(c101 - c100, c111 - c110, y),
-        x,
-    );
-    Vec3::new(dx, dy, dz)
-}
-
 #[cfg(test)]
 mod tests {
     //! The kernel against an f64 oracle (dense sampling plus bisection), on random voxels and

@@ -1,0 +1,559 @@
+//! Ray vs packed octree: front-to-back traversal with a fixed stack, stopping at the first leaf
+//! with a hit.
+//!
+//! At an inner node the ray's span `[t_enter, t_exit]` is split at the three mid-planes (the
+//! parametric scheme of Revelles et al. 2000): the child containing the entry point is found by
+//! comparing each mid-plane's crossing time with `t_enter`, and every mid-plane crossed inside
+//! the span flips that axis's bit of the octant, in crossing order. The present children among
+//! those (at most four) are pushed farthest first, so the stack pops cells in ray order and the
+//! first leaf that reports a hit holds the nearest hit. Every cell's span is computed from the
+//! exact plane coordinates with the same formula, so neighbouring cells share their boundary
+//! `t` bit for bit and nothing slips between them.
+//!
+//! Zero direction components are replaced, for the plane crossing times only, by ±1e-30 (the
+//! sign kept), which puts their planes at ±1e30 or exactly at 0: a ray lying in a plane is
+//! consistently on its `+` side (or `−` for a `−0.0` component). The voxel kernel sees the true
+//! direction.
+
+use glam::Vec3;
+use sdfmo_format::{NodeRef, PackedOctree, MAX_DEPTH};
+
+use crate::ray_voxel::intersect_voxel;
+
+/// A ray `origin + t·dir`; `dir` should be unit length (then `t` is a distance).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    /// Start point, normalised octree coordinates (the root cube is `[-1, 1]³`).
+    pub origin: Vec3,
+    /// Direction, unit length.
+    pub dir: Vec3,
+}
+
+/// The first hit of a ray in an octree.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Ray parameter of the hit.
+    pub t: f32,
+    /// Index of the voxel hit (for [`PackedOctree::voxel_corners`]).
+    pub voxel: u32,
+    /// Minimum corner of the leaf cell, normalised coordinates.
+    pub cell_min: Vec3,
+    /// Edge length of the leaf cell.
+    pub cell_size: f32,
+    /// Whether the voxel is a surface (thin) voxel.
+    pub surface: bool,
+}
+
+/// Stack capacity: a node pushes at most four children and pops one, so a descent to depth
+/// `d` holds at most `3d + 1` entries; [`MAX_DEPTH`] bounds `d`.
+const STACK_SIZE: usize = 3 * MAX_DEPTH as usize + 2;
+
+/// Replacement for zero direction components in the plane crossing times.
+const TINY_DIR: f32 = 1e-30;
+
+/// A cell waiting on the stack: node, box and the ray's span in it.
+#[derive(Clone, Copy, Debug)]
+struct Cell {
+    node: NodeRef,
+    min: Vec3,
+    size: f32,
+    t_enter: f32,
+    t_exit: f32,
+}
+
+/// The ray's first hit in `[t_min, t_max]`: in the first leaf along the ray that has one, the
+/// nearest hit among its voxels. `None` for an empty octree, a miss, or NaN input.
+pub fn intersect(octree: &PackedOctree, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+    traverse::<false>(octree, ray, t_min, t_max)
+}
+
+/// Whether anything is hit in `[t_min, t_max]` (stops at the first voxel hit, not the nearest).
+pub fn occluded(octree: &PackedOctree, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    traverse::<true>(octree, ray, t_min, t_max).is_some()
+}
+
+/// `1/d`, with zero (and subnormal) components replaced by ±[`TINY_DIR`].
+#[inline]
+fn safe_inv(d: f32) -> f32 {
+    if d.abs() < TINY_DIR {
+        1.0 / TINY_DIR.copysign(d)
+    } else {
+        1.0 / d
+    }
+}
+
+/// The ray's span in the box `[min, min + size]³`, clipped to `[t_min, t_max]`.
+#[inline]
+fn box_span(min: Vec3, size: f32, origin: Vec3, inv: Vec3, t_min: f32, t_max: f32) -> (f32, f32) {
+    let ta = (min - origin) * inv;
+    let tb = (min + Vec3::splat(size) - origin) * inv;
+    let t_enter = ta.min(tb).max_element().max(t_min);
+    let t_exit = ta.max(tb).min_element().min(t_max);
+    (t_enter, t_exit)
+}
+
+#[inline(always)]
+fn traverse<const ANY: bool>(
+    octree: &PackedOctree,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+) -> Option<Hit> {
+    let root = octree.root()?;
+    // Also rejects a NaN bound (f32::max/min would ignore it).
+    if !(t_min <= t_max) {
+        return None;
+    }
+    let (o, d) = (ray.origin, ray.dir);
+    let inv = Vec3::new(safe_inv(d.x), safe_inv(d.y), safe_inv(d.z));
+    let (t_enter, t_exit) = box_span(Vec3::splat(-1.0), 2.0, o, inv, t_min, t_max);
+    // Also rejects NaN.
+    if !(t_enter <= t_exit) {
+        return None;
+    }
+    // Whether the ray moves towards + along each axis (then a mid-plane crossed at tm ≤ t puts
+    // the ray on the upper side at t).
+    let positive = [inv.x > 0.0, inv.y > 0.0, inv.z > 0.0];
+
+    let mut stack = [Cell {
+        node: root,
+        min: Vec3::splat(-1.0),
+        size: 2.0,
+        t_enter,
+        t_exit,
+    }; STACK_SIZE];
+    let mut sp = 1usize;
+
+    while sp > 0 {
+        sp -= 1;
+        let cell = stack[sp];
+        if octree.is_leaf(cell.node) {
+            if let Some(hit) = leaf_hit::<ANY>(octree, &cell, o, d) {
+                return Some(hit);
+            }
+            continue;
+        }
+        let half = 0.5 * cell.size;
+        let mid = cell.min + Vec3::splat(half);
+        let tm = (mid - o) * inv;
+        let (te, tx) = (cell.t_enter, cell.t_exit);
+
+        // Octant of the entry point, and the mid-planes crossed inside (te, tx).
+        let mut octant = 0u8;
+        let mut planes = [(f32::INFINITY, 0u8); 3];
+        for (k, bit) in [(0usize, 4u8), (1, 2), (2, 1)] {
+            let t = tm[k];
+            let upper = if positive[k] { t <= te } else { t > te };
+            if upper {
+                octant |= bit;
+            }
+            if t > te && t < tx {
+                planes[k] = (t, bit);
+            }
+        }
+        // Sort the three crossings (a three-comparator network).
+        if planes[1].0 < planes[0].0 {
+            planes.swap(0, 1);
+        }
+        if planes[2].0 < planes[1].0 {
+            planes.swap(1, 2);
+        }
+        if planes[1].0 < planes[0].0 {
+            planes.swap(0, 1);
+        }
+
+        // The children in ray order with their spans.
+        let mask = octree.child_mask(cell.node);
+        let mut children = [(0u8, 0.0f32, 0.0f32); 4];
+        let mut n = 0;
+        let mut t_a = te;
+        for &(t_b, bit) in &planes {
+            if bit == 0 {
+                break;
+            }
+            if mask >> octant & 1 != 0 {
+                children[n] = (octant, t_a, t_b);
+                n += 1;
+            }
+            octant ^= bit;
+            t_a = t_b;
+        }
+        if mask >> octant & 1 != 0 {
+            children[n] = (octant, t_a, tx);
+            n += 1;
+        }
+        // Push farthest first.
+        for &(oct, t_a, t_b) in children[..n].iter().rev() {
+            let Some(child) = octree.child(cell.node, oct) else {
+                continue;
+            };
+            let offset = Vec3::new(
+                f32::from(oct >> 2),
+                f32::from((oct >> 1) & 1),
+                f32::from(oct & 1),
+            );
+            if sp < STACK_SIZE {
+                stack[sp] = Cell {
+                    node: child,
+                    min: cell.min + offset * half,
+                    size: half,
+                    t_enter: t_a,
+                    t_exit: t_b,
+                };
+                sp += 1;
+            }
+        }
+    }
+    None
+}
+
+/// The nearest voxel hit inside a leaf's span (any hit when `ANY`).
+#[inline(always)]
+fn leaf_hit<const ANY: bool>(octree: &PackedOctree, cell: &Cell, o: Vec3, d: Vec3) -> Option<Hit> {
+    let inv_size = 1.0 / cell.size;
+    // The kernel works from the entry point, in the cell's local frame [0,1]³, with the same
+    // parameter scale as the world ray (t_local = t − t_enter).
+    let local_o = (o + d * cell.t_enter - cell.min) * inv_size;
+    let local_d = d * inv_size;
+    let mut best_s = cell.t_exit - cell.t_enter;
+    let mut best: Option<(u32, bool)> = None;
+    for voxel in octree.leaf_voxels(cell.node) {
+        let corners = octree.voxel_corners(voxel);
+        let surface = octree.voxel_is_surface(voxel);
+        if let Some(s) = intersect_voxel(&corners, local_o, local_d, 0.0, best_s, surface) {
+            if best.is_none() || s < best_s {
+                best_s = s;
+                best = Some((voxel, surface));
+                if ANY {
+                    break;
+                }
+            }
+        }
+    }
+    best.map(|(voxel, surface)| Hit {
+        t: (cell.t_enter + best_s).min(cell.t_exit),
+        voxel,
+        cell_min: cell.min,
+        cell_size: cell.size,
+        surface,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    //! Traversal against brute force over every voxel of small octrees built from sampled
+    //! analytic SDFs.
+
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+    use sdfmo_format::{LeafInput, OctreeMeta, ValueBits, Voxel};
+
+    fn meta(depth: u8) -> OctreeMeta {
+        OctreeMeta {
+            depth,
+            bits: ValueBits::Sixteen,
+            center: Vec3::ZERO,
+            scale: 1.0,
+        }
+    }
+
+    fn cell_min(coord: [u32; 3], depth: u8) -> (Vec3, f32) {
+        let h = 2.0 / (1u32 << depth) as f32;
+        (
+            Vec3::new(coord[0] as f32, coord[1] as f32, coord[2] as f32) * h - Vec3::ONE,
+            h,
+        )
+    }
+
+    /// Leaves whose corner samples of `sdfs` (one voxel per SDF that changes sign, or comes
+    /// within a cell diagonal of zero) are kept.
+    fn octree_from_sdfs(depth: u8, sdfs: &[(&dyn Fn(Vec3) -> f32, bool)]) -> PackedOctree {
+        let n = 1u32 << depth;
+        let mut leaves = Vec::new();
+        for x in 0..n {
+            for y in 0..n {
+                for z in 0..n {
+                    let (min, h) = cell_min([x, y, z], depth);
+                    let mut voxels = Vec::new();
+                    for &(sdf, surface) in sdfs {
+                        if sdf(min + Vec3::splat(0.5 * h)).abs() > h * 0.87 {
+                            continue;
+                        }
+                        let corners = core::array::from_fn(|i| {
+                            let c =
+                                Vec3::new((i >> 2) as f32, ((i >> 1) & 1) as f32, (i & 1) as f32);
+                            sdf(min + c * h)
+                        });
+                        voxels.push(Voxel { corners, surface });
+                    }
+                    if !voxels.is_empty() {
+                        leaves.push(LeafInput {
+                            coord: [x, y, z],
+                            voxels,
+                        });
+                    }
+                }
+            }
+        }
+        PackedOctree::from_leaves(meta(depth), leaves).unwrap()
+    }
+
+    /// The nearest hit over all voxels of all leaves (the kernel on each leaf's span).
+    fn brute_force(octree: &PackedOctree, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
+        let depth = octree.depth();
+        let inv = Vec3::new(
+            safe_inv(ray.dir.x),
+            safe_inv(ray.dir.y),
+            safe_inv(ray.dir.z),
+        );
+        let mut best: Option<f32> = None;
+        let mut voxel = 0u32;
+        for (coord, voxels) in octree.leaves() {
+            let (min, h) = cell_min(coord, depth);
+            let (te, tx) = box_span(min, h, ray.origin, inv, t_min, t_max);
+            if !(te <= tx) {
+                voxel += voxels.len() as u32;
+                continue;
+            }
+            let lo = (ray.origin + ray.dir * te - min) / h;
+            let ld = ray.dir / h;
+            for v in voxels {
+                let corners = octree.voxel_corners(voxel);
+                voxel += 1;
+                if let Some(s) = intersect_voxel(&corners, lo, ld, 0.0, tx - te, v.surface) {
+                    let t = (te + s).min(tx);
+                    if best.is_none_or(|b| t < b) {
+                        best = Some(t);
+                    }
+                }
+            }
+        }
+        best
+    }
+
+    fn random_ray(rng: &mut ChaCha8Rng) -> Ray {
+        let mut dir = Vec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        );
+        // A third of the rays have one or two zero components.
+        match rng.random_range(0..9) {
+            0 => dir.x = 0.0,
+            1 => dir.y = 0.0,
+            2 => {
+                dir.x = 0.0;
+                dir.z = 0.0;
+            }
+            _ => {}
+        }
+        let dir = dir.try_normalize().unwrap_or(Vec3::Y);
+        // Origins outside the root cube (primary rays) and inside it (secondary rays).
+        let target = Vec3::new(
+            rng.random_range(-0.9..0.9),
+            rng.random_range(-0.9..0.9),
+            rng.random_range(-0.9..0.9),
+        );
+        let back = if rng.random_bool(0.5) {
+            rng.random_range(2.0..4.0)
+        } else {
+            rng.random_range(0.0..0.5)
+        };
+        Ray {
+            origin: target - dir * back,
+            dir,
+        }
+    }
+
+    fn compare_with_brute_force(octree: &PackedOctree, rays: usize, seed: u64) -> usize {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let h = 2.0 / (1u32 << octree.depth()) as f32;
+        let mut hits = 0;
+        for i in 0..rays {
+            let ray = random_ray(&mut rng);
+            let (t_min, t_max) = if i % 4 == 0 {
+                (0.3, 2.5)
+            } else {
+                (0.0, f32::INFINITY)
+            };
+            let got = intersect(octree, &ray, t_min, t_max);
+            let expected = brute_force(octree, &ray, t_min, t_max);
+            match (got, expected) {
+                (Some(g), Some(e)) => {
+                    assert!(
+                        (g.t - e).abs() <= 1e-5 * h,
+                        "ray {i} {ray:?}: {} vs {e}",
+                        g.t
+                    );
+                    assert!(g.t >= t_min && g.t <= t_max);
+                    assert!(occluded(octree, &ray, t_min, t_max));
+                    let n = crate::hit_normal(octree, &ray, &g);
+                    assert!(
+                        n.is_finite() && (n.length() - 1.0).abs() < 1e-4 && n.dot(ray.dir) <= 0.0
+                    );
+                    hits += 1;
+                }
+                (None, None) => assert!(!occluded(octree, &ray, t_min, t_max)),
+                _ => panic!("ray {i} {ray:?}: traversal {got:?}, brute force {expected:?}"),
+            }
+        }
+        hits
+    }
+
+    #[test]
+    fn sphere_matches_brute_force() {
+        let sphere = |p: Vec3| p.length() - 0.7;
+        let octree = octree_from_sdfs(5, &[(&sphere, false)]);
+        let hits = compare_with_brute_force(&octree, 1500, 1);
+        assert!(hits > 300, "{hits} hits");
+    }
+
+    #[test]
+    fn multi_voxel_leaves_keep_the_nearest_hit() {
+        // Two interpenetrating spheres as separate voxels of the same leaves, plus a tilted
+        // surface sheet: every leaf near their crossings holds two or three voxels.
+        let a = |p: Vec3| (p - Vec3::new(-0.15, 0.0, 0.0)).length() - 0.5;
+        let b = |p: Vec3| (p - Vec3::new(0.2, 0.1, 0.0)).length() - 0.45;
+        let sheet = |p: Vec3| p.dot(Vec3::new(0.3, 1.0, 0.2).normalize()) - 0.05;
+        let octree = octree_from_sdfs(4, &[(&a, false), (&b, false), (&sheet, true)]);
+        assert!(octree.voxel_count() > octree.leaf_count() + 50);
+        let hits = compare_with_brute_force(&octree, 1500, 2);
+        assert!(hits > 300, "{hits} hits");
+    }
+
+    #[test]
+    fn axis_aligned_rays_between_and_on_cell_planes() {
+        let sphere = |p: Vec3| p.length() - 0.6;
+        let octree = octree_from_sdfs(4, &[(&sphere, false)]);
+        // Along ±z through a grid of points, including exactly on cell planes (multiples of
+        // 1/8) where the ray runs inside the shared faces of neighbouring cells.
+        for i in -8..=8 {
+            for j in -8..=8 {
+                for sign in [1.0f32, -1.0] {
+                    let (x, y) = (i as f32 / 8.0, j as f32 / 8.0);
+                    let ray = Ray {
+                        origin: Vec3::new(x, y, -3.0 * sign),
+                        dir: Vec3::Z * sign,
+                    };
+                    let got = intersect(&octree, &ray, 0.0, f32::INFINITY);
+                    let expected = brute_force(&octree, &ray, 0.0, f32::INFINITY);
+                    match (got, expected) {
+                        (Some(g), Some(e)) => {
+                            assert!((g.t - e).abs() < 1e-4, "{x} {y}: {} vs {e}", g.t)
+                        }
+                        (None, None) => {}
+                        _ => panic!("{x} {y} {sign}: {got:?} vs {expected:?}"),
+                    }
+                    // The analytic sphere is hit where x² + y² < 0.6² − margin.
+                    if x * x + y * y < 0.5 * 0.5 {
+                        assert!(got.is_some(), "{x} {y}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn rays_starting_inside_a_solid_hit_at_t_min() {
+        let sphere = |p: Vec3| p.length() - 0.7;
+        let octree = octree_from_sdfs(5, &[(&sphere, false)]);
+        // From a point just inside the surface (its leaf is stored), any direction.
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        for _ in 0..200 {
+            let n = Vec3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            )
+            .normalize();
+            let origin = n * 0.69;
+            let dir = Vec3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            )
+            .normalize();
+            let hit = intersect(&octree, &Ray { origin, dir }, 0.0, 10.0).expect("inside");
+            assert_eq!(hit.t, 0.0);
+        }
+    }
+
+    #[test]
+    fn rays_starting_on_a_mid_plane_enter_the_side_they_move_to() {
+        // Origins exactly on the root's mid-planes (t_enter = 0 = the plane's crossing time):
+        // the ray must start in the child it moves into, on every axis and in both directions.
+        for axis in 0..3 {
+            for sign in [1.0f32, -1.0] {
+                let mut centre = Vec3::ZERO;
+                centre[axis] = 0.5 * sign;
+                let sphere = move |p: Vec3| (p - centre).length() - 0.3;
+                let octree = octree_from_sdfs(4, &[(&sphere, false)]);
+                let mut origin = Vec3::new(0.013, -0.021, 0.017);
+                origin[axis] = 0.0;
+                let mut dir = Vec3::ZERO;
+                dir[axis] = sign;
+                let hit = intersect(&octree, &Ray { origin, dir }, 0.0, 5.0).expect("hit");
+                assert!(
+                    (hit.t - 0.2).abs() < 0.01,
+                    "axis {axis} sign {sign}: {}",
+                    hit.t
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn empty_and_nan_inputs() {
+        let sphere = |p: Vec3| p.length() - 0.7;
+        let octree = octree_from_sdfs(3, &[(&sphere, false)]);
+        let ray = Ray {
+            origin: Vec3::new(0.0, 0.0, -3.0),
+            dir: Vec3::Z,
+        };
+        assert!(
+            intersect(&octree, &ray, 0.0, 1.0).is_none(),
+            "t_max before the sphere"
+        );
+        assert!(intersect(&octree, &ray, 2.0, 1.0).is_none(), "empty range");
+        assert!(intersect(&octree, &ray, f32::NAN, 10.0).is_none());
+        let nan = Ray {
+            origin: Vec3::NAN,
+            dir: Vec3::Z,
+        };
+        assert!(intersect(&octree, &nan, 0.0, 10.0).is_none());
+        let zero = Ray {
+            origin: Vec3::new(0.0, 0.0, -3.0),
+            dir: Vec3::ZERO,
+        };
+        assert!(intersect(&octree, &zero, 0.0, 10.0).is_none());
+        let miss = Ray {
+            origin: Vec3::new(0.0, 3.0, -3.0),
+            dir: Vec3::Z,
+        };
+        assert!(intersect(&octree, &miss, 0.0, 10.0).is_none());
+        let hit = intersect(&octree, &ray, 0.0, 10.0).unwrap();
+        assert!((hit.t - 2.3).abs() < 0.05, "{}", hit.t);
+    }
+
+    #[test]
+    fn depth_zero_octree_is_a_single_leaf() {
+        let corners = core::array::from_fn(|i| ((i >> 1) & 1) as f32 * 2.0 - 1.0); // f = y
+        let leaf = LeafInput {
+            coord: [0, 0, 0],
+            voxels: vec![Voxel {
+                corners,
+                surface: true,
+            }],
+        };
+        let octree = PackedOctree::from_leaves(meta(0), vec![leaf]).unwrap();
+        let ray = Ray {
+            origin: Vec3::new(0.2, 2.0, 0.1),
+            dir: -Vec3::Y,
+        };
+        let hit = intersect(&octree, &ray, 0.0, 10.0).unwrap();
+        assert!((hit.t - 2.0).abs() < 1e-5);
+        assert!(hit.surface);
+        assert_eq!(hit.cell_size, 2.0);
+    }
+}
