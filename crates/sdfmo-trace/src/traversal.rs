@@ -72,6 +72,12 @@ pub fn occluded(octree: &PackedOctree, ray: &Ray, t_min: f32, t_max: f32) -> boo
     traverse::<true>(octree, ray, t_min, t_max).is_some()
 }
 
+/// `a ≤ b`, false when either is NaN.
+#[inline]
+pub(crate) fn le(a: f32, b: f32) -> bool {
+    a <= b
+}
+
 /// `1/d`, with zero (and subnormal) components replaced by ±[`TINY_DIR`].
 #[inline]
 fn safe_inv(d: f32) -> f32 {
@@ -101,14 +107,14 @@ fn traverse<const ANY: bool>(
 ) -> Option<Hit> {
     let root = octree.root()?;
     // Also rejects a NaN bound (f32::max/min would ignore it).
-    if !(t_min <= t_max) {
+    if !le(t_min, t_max) {
         return None;
     }
     let (o, d) = (ray.origin, ray.dir);
     let inv = Vec3::new(safe_inv(d.x), safe_inv(d.y), safe_inv(d.z));
     let (t_enter, t_exit) = box_span(Vec3::splat(-1.0), 2.0, o, inv, t_min, t_max);
     // Also rejects NaN.
-    if !(t_enter <= t_exit) {
+    if !le(t_enter, t_exit) {
         return None;
     }
     // Whether the ray moves towards + along each axis (then a mid-plane crossed at tm ≤ t puts
@@ -312,7 +318,7 @@ mod tests {
         for (coord, voxels) in octree.leaves() {
             let (min, h) = cell_min(coord, depth);
             let (te, tx) = box_span(min, h, ray.origin, inv, t_min, t_max);
-            if !(te <= tx) {
+            if !le(te, tx) {
                 voxel += voxels.len() as u32;
                 continue;
             }
