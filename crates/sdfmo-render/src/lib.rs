@@ -19,6 +19,7 @@
 
 pub mod camera;
 pub mod mesh;
+pub mod octree;
 mod output;
 pub mod plan;
 mod render;
@@ -29,6 +30,7 @@ use std::path::PathBuf;
 
 pub use camera::{Camera, CameraFrame};
 pub use mesh::{apply_normalization, mesh_in_octree_frame, octree_normalization, MeshScene};
+pub use octree::OctreeScene;
 pub use output::{save_exr, save_png};
 pub use plan::{Counters, Mode, RenderPlan, RenderSettings};
 pub use render::{render, render_with_plan, Rendered};
