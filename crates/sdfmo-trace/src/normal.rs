@@ -10,7 +10,10 @@ use crate::traversal::{Hit, Ray};
 /// belong to this octree) the normal is `−dir`. Never NaN for a finite ray.
 pub fn hit_normal(octree: &PackedOctree, ray: &Ray, hit: &Hit) -> Vec3 {
     let facing = (-ray.dir).try_normalize().unwrap_or(Vec3::Z);
-    if (hit.voxel as usize) >= octree.voxel_count() || hit.cell_size.is_nan() || hit.cell_size <= 0.0 {
+    if (hit.voxel as usize) >= octree.voxel_count()
+        || hit.cell_size.is_nan()
+        || hit.cell_size <= 0.0
+    {
         return facing;
     }
     let corners = octree.voxel_corners(hit.voxel);
