@@ -1,1 +1,89 @@
-fn main() {}
+//! `sdfmo`: the command-line tool of sdf-multioctree.
+//!
+//! Every command prints a short human summary, or with `--json` exactly one JSON object on
+//! stdout. Errors are one line on stderr (the whole cause chain, `{:#}`) and exit code 2; a
+//! closed stdout (broken pipe, e.g. `sdfmo distance … | head`) counts as success. Long work shows
+//! a progress bar on stderr only when stderr is a terminal.
+//!
+//! The library work lives in the layers (re-exported by the `sdf-multioctree` facade); this
+//! binary parses arguments, reads and writes files and formats the results.
+
+mod args;
+mod commands;
+mod output;
+mod progress;
+
+use std::io::Write;
+use std::process::ExitCode;
+
+use clap::Parser;
+
+use crate::args::{Cli, Command};
+
+/// Exit code of a failed command (bad input, I/O error, …).
+const EXIT_ERROR: u8 = 2;
+/// Exit code of an internal bug (a panic in a layer): `EX_SOFTWARE` of sysexits.h.
+const EXIT_BUG: u8 = 70;
+
+fn main() -> ExitCode {
+    // A panic is a bug in sdfmo, never the user's fault: report it on one line without a
+    // backtrace, and exit with a distinct code.
+    std::panic::set_hook(Box::new(|info| {
+        let payload = info.payload();
+        let msg = payload
+            .downcast_ref::<&str>()
+            .copied()
+            .or_else(|| payload.downcast_ref::<String>().map(String::as_str))
+            .unwrap_or("unknown cause");
+        let at = info
+            .location()
+            .map(|l| format!(" ({}:{})", l.file(), l.line()))
+            .unwrap_or_default();
+        let _ = writeln!(
+            std::io::stderr(),
+            "sdfmo: internal error, please report it: {msg}{at}"
+        );
+    }));
+
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            // --help and --version are not errors; clap prints them itself.
+            let code = if e.use_stderr() { EXIT_ERROR } else { 0 };
+            let _ = e.print();
+            return ExitCode::from(code);
+        }
+    };
+
+    match std::panic::catch_unwind(move || run(cli)) {
+        Ok(Ok(())) => ExitCode::SUCCESS,
+        Ok(Err(err)) if is_broken_pipe(&err) => ExitCode::SUCCESS,
+        Ok(Err(err)) => {
+            let _ = writeln!(std::io::stderr(), "sdfmo: error: {err:#}");
+            ExitCode::from(EXIT_ERROR)
+        }
+        Err(_) => ExitCode::from(EXIT_BUG),
+    }
+}
+
+/// Runs one command.
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Info(a) => commands::info::run(&a),
+        Command::Distance(a) => commands::distance::run(&a),
+        Command::Build(a) => commands::build::run(&a),
+        Command::Render(a) => commands::render::run_octree(&a),
+        Command::RenderMesh(a) => commands::render::run_mesh(&a),
+        Command::Compare(a) => commands::compare::run(&a),
+        Command::Sweep(a) => commands::sweep::run(&a),
+    }
+}
+
+/// True when the error comes from writing to a closed pipe (the reader went away: success).
+fn is_broken_pipe(err: &anyhow::Error) -> bool {
+    err.chain().any(|cause| {
+        cause
+            .downcast_ref::<std::io::Error>()
+            .is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}

@@ -1,0 +1,416 @@
+//! Command-line arguments (clap derive) and the parsers of their values.
+
+use std::ops::RangeInclusive;
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// Triangle meshes to sparse multi-voxel signed-distance octrees, and a ray tracer for them.
+#[derive(Debug, Parser)]
+#[command(name = "sdfmo", version, about, long_about = None)]
+pub struct Cli {
+    /// The command to run.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The commands of `sdfmo`.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Mesh statistics: triangles, vertices, parts, components, open and non-manifold edges.
+    Info(InfoArgs),
+    /// Signed distances of points to a mesh (in the normalised frame of the octree).
+    Distance(DistanceArgs),
+    /// Builds an octree (SVO baseline or multi-octree) from a mesh and saves it as `.smo`.
+    Build(BuildArgs),
+    /// Ray traces a `.smo` octree to PNG (and optionally EXR).
+    Render(RenderArgs),
+    /// Ray traces the source mesh with the same cameras and shading (the reference image).
+    RenderMesh(RenderMeshArgs),
+    /// PSNR and FLIP between a reference and a test image, optionally a FLIP heat map.
+    Compare(CompareArgs),
+    /// Build, render and compare over meshes, methods and depths: tables, plots and a web page.
+    Sweep(SweepArgs),
+}
+
+/// `sdfmo info`.
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    /// Mesh file (OBJ, glTF/GLB, STL); without it, the built-in demo part.
+    pub mesh: Option<PathBuf>,
+    /// Print one JSON object on stdout instead of the human summary.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// How the sign of a distance is decided.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SignArg {
+    /// Pseudo-normals for closed manifolds, winding numbers otherwise (from the topology).
+    Auto,
+    /// Angle-weighted pseudo-normals (closed manifold meshes).
+    Pseudonormal,
+    /// Generalised winding number (open or non-manifold meshes).
+    Winding,
+}
+
+/// `sdfmo distance`.
+#[derive(Debug, Args)]
+pub struct DistanceArgs {
+    /// Mesh file (OBJ, glTF/GLB, STL).
+    pub mesh: PathBuf,
+    /// Text file of points, one `x y z` a line, in the normalised frame (the mesh is normalised
+    /// into the root cube [-1, 1]³ with margin 0.05, as the builder does); blank lines and lines
+    /// starting with `#` are skipped.
+    #[arg(long, value_name = "FILE")]
+    pub points: PathBuf,
+    /// Sign method.
+    #[arg(long, value_enum, default_value_t = SignArg::Auto)]
+    pub sign: SignArg,
+    /// Output file (one signed distance a line); default stdout.
+    #[arg(short, long, value_name = "OUT")]
+    pub output: Option<PathBuf>,
+    /// Worker threads for the queries (default: all cores).
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
+    pub threads: Option<usize>,
+    /// Print one JSON object on stdout (with the distances in it unless `-o` is given).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Octree construction method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MethodArg {
+    /// Classic sparse voxel octree: one voxel per leaf (the paper's baseline).
+    Svo,
+    /// Multi-octree: one voxel per connected component in a leaf, surface voxels.
+    Multi,
+}
+
+impl MethodArg {
+    /// The name used in tables and file names.
+    pub fn name(self) -> &'static str {
+        match self {
+            MethodArg::Svo => "svo",
+            MethodArg::Multi => "multi",
+        }
+    }
+}
+
+/// Quantisation of the corner values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BitsArg {
+    /// 8 bits per corner (default, compact).
+    #[value(name = "8")]
+    Eight,
+    /// 16 bits per corner (high quality).
+    #[value(name = "16")]
+    Sixteen,
+}
+
+/// `sdfmo build`.
+#[derive(Debug, Args)]
+pub struct BuildArgs {
+    /// Mesh file (OBJ, glTF/GLB, STL); without it, the built-in demo part.
+    pub mesh: Option<PathBuf>,
+    /// Octree depth: leaves of edge 2/2^DEPTH in the root cube [-1, 1]³.
+    #[arg(short, long, value_name = "DEPTH")]
+    pub depth: u8,
+    /// Construction method.
+    #[arg(long, value_enum, default_value_t = MethodArg::Multi)]
+    pub method: MethodArg,
+    /// Most voxels per leaf (multi-octree only).
+    #[arg(long, value_name = "N", default_value_t = 8)]
+    pub max_voxels: u8,
+    /// Bits per quantised corner value.
+    #[arg(long, value_enum, default_value_t = BitsArg::Eight)]
+    pub bits: BitsArg,
+    /// Sign method of the distances.
+    #[arg(long, value_enum, default_value_t = SignArg::Auto)]
+    pub sign: SignArg,
+    /// Worker threads (default: all cores); the output is the same for any count.
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
+    pub threads: Option<usize>,
+    /// Output `.smo` file (written atomically).
+    #[arg(short, long, value_name = "OUT.smo")]
+    pub output: PathBuf,
+    /// Print one JSON object on stdout instead of the human summary.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// What a render computes and writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ModeArg {
+    /// White where a ray hits, black elsewhere.
+    Mask,
+    /// Grey levels of the hit distance.
+    Depth,
+    /// Normals mapped to colours.
+    Normal,
+    /// White Lambertian surface, one directional light plus ambient (the paper's shading).
+    Lambert,
+}
+
+/// A list of predefined cameras.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ViewsArg {
+    /// The paper's four views: radius 3 in the y = 0 plane, looking at the origin, fov 60°.
+    Paper,
+}
+
+/// Camera, mode and output options shared by `render` and `render-mesh`.
+#[derive(Debug, Args)]
+pub struct RenderOptions {
+    /// Output PNG; with several views `_0`, `_1`, … are inserted before the extension.
+    #[arg(short, long, value_name = "OUT.png")]
+    pub output: PathBuf,
+    /// What to compute and write.
+    #[arg(long, value_enum, default_value_t = ModeArg::Lambert)]
+    pub mode: ModeArg,
+    /// Shadows from the light (lambert mode).
+    #[arg(long)]
+    pub shadows: bool,
+    /// Ambient-occlusion rays per pixel (0: none).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub ao: u32,
+    /// Camera position (default: the paper's view 0, 0,0,3).
+    #[arg(long, value_name = "x,y,z", value_parser = parse_vec3, allow_hyphen_values = true, conflicts_with = "views")]
+    pub eye: Option<[f32; 3]>,
+    /// Point looked at (default: the origin).
+    #[arg(long, value_name = "x,y,z", value_parser = parse_vec3, allow_hyphen_values = true, conflicts_with = "views")]
+    pub target: Option<[f32; 3]>,
+    /// Vertical field of view in degrees (default 60).
+    #[arg(long, value_name = "DEG", value_parser = parse_fov, conflicts_with = "views")]
+    pub fov: Option<f32>,
+    /// Render a predefined set of views instead of one camera.
+    #[arg(long, value_enum)]
+    pub views: Option<ViewsArg>,
+    /// Image size in pixels, `WxH` or `N` for a square.
+    #[arg(long, value_name = "WxH", value_parser = parse_size, default_value = "1024x1024")]
+    pub size: (u32, u32),
+    /// Worker threads (default: all cores); the image is the same for any count.
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
+    pub threads: Option<usize>,
+    /// Also write depth and normals as f32 EXR (numbered like the PNG with several views).
+    #[arg(long, value_name = "OUT.exr")]
+    pub exr: Option<PathBuf>,
+    /// Print one JSON object on stdout instead of the human summary.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `sdfmo render`.
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    /// Octree file written by `sdfmo build`.
+    pub octree: PathBuf,
+    /// Camera, mode and outputs.
+    #[command(flatten)]
+    pub opts: RenderOptions,
+}
+
+/// `sdfmo render-mesh`.
+#[derive(Debug, Args)]
+pub struct RenderMeshArgs {
+    /// Mesh file (OBJ, glTF/GLB, STL), normalised exactly as the builder does; without it, the
+    /// built-in demo part.
+    pub mesh: Option<PathBuf>,
+    /// Camera, mode and outputs.
+    #[command(flatten)]
+    pub opts: RenderOptions,
+}
+
+/// `sdfmo compare`.
+#[derive(Debug, Args)]
+pub struct CompareArgs {
+    /// Reference image (PNG).
+    pub reference: PathBuf,
+    /// Test image (PNG) of the same size.
+    pub test: PathBuf,
+    /// Write the FLIP error map as a colour heat map (PNG).
+    #[arg(long, value_name = "OUT.png")]
+    pub heatmap: Option<PathBuf>,
+    /// Print one JSON object on stdout; `psnr` is `null` when the images are identical
+    /// (infinite PSNR), with `"identical": true`.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `sdfmo sweep`.
+#[derive(Debug, Args)]
+pub struct SweepArgs {
+    /// Mesh files; without any, the built-in demo part.
+    pub meshes: Vec<PathBuf>,
+    /// Depths, inclusive: `A..B` (or `A..=B`, or one depth `A`).
+    #[arg(long, value_name = "A..B", value_parser = parse_depths, default_value = "6..9")]
+    pub depths: RangeInclusive<u8>,
+    /// Methods, comma separated.
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "svo,multi")]
+    pub methods: Vec<MethodArg>,
+    /// Image size of each (square) view in pixels.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(8..=8192), default_value_t = 1024)]
+    pub size: u32,
+    /// Most voxels per leaf of the multi-octree.
+    #[arg(long, value_name = "N", default_value_t = 8)]
+    pub max_voxels: u8,
+    /// Worker threads for builds and renders (default: all cores).
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
+    pub threads: Option<usize>,
+    /// Output directory (created if missing).
+    #[arg(short, long, value_name = "DIR", default_value = "sweep")]
+    pub output: PathBuf,
+    /// Print one JSON object on stdout (the rows) instead of the human summary.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Largest image edge accepted (a 16384² RGB image is 800 MB).
+const MAX_IMAGE_EDGE: u32 = 16384;
+
+/// Parses `x,y,z` into three finite numbers.
+pub fn parse_vec3(s: &str) -> Result<[f32; 3], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        return Err(format!("expected x,y,z (three numbers), got {s:?}"));
+    }
+    let mut v = [0.0f32; 3];
+    for (slot, p) in v.iter_mut().zip(&parts) {
+        let x: f32 = p.parse().map_err(|_| format!("{p:?} is not a number"))?;
+        if !x.is_finite() {
+            return Err(format!("{p:?} is not finite"));
+        }
+        *slot = x;
+    }
+    Ok(v)
+}
+
+/// Parses a field of view in degrees, in (0, 180).
+pub fn parse_fov(s: &str) -> Result<f32, String> {
+    let f: f32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number"))?;
+    if !(f > 0.0 && f < 180.0) {
+        return Err(format!("field of view {f} must be in (0, 180) degrees"));
+    }
+    Ok(f)
+}
+
+/// Parses `WxH` (or `N` for N×N).
+pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = match s.split_once(['x', 'X']) {
+        Some((w, h)) => (w, h),
+        None => (s, s),
+    };
+    let parse = |t: &str| -> Result<u32, String> {
+        let v: u32 = t
+            .trim()
+            .parse()
+            .map_err(|_| format!("expected WxH (e.g. 1024x768), got {s:?}"))?;
+        if v == 0 || v > MAX_IMAGE_EDGE {
+            return Err(format!("image edge {v} must be in 1..={MAX_IMAGE_EDGE}"));
+        }
+        Ok(v)
+    };
+    Ok((parse(w)?, parse(h)?))
+}
+
+/// Parses a thread count (at least 1).
+pub fn parse_threads(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<usize>() {
+        Ok(n) if (1..=1024).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "thread count must be a number in 1..=1024, got {s:?}"
+        )),
+    }
+}
+
+/// Parses `A..B`, `A..=B` (both inclusive) or `A`.
+pub fn parse_depths(s: &str) -> Result<RangeInclusive<u8>, String> {
+    let num = |t: &str| -> Result<u8, String> {
+        t.trim()
+            .parse::<u8>()
+            .map_err(|_| format!("expected depths A..B (e.g. 6..9), got {s:?}"))
+    };
+    let (a, b) = if let Some((a, b)) = s.split_once("..=") {
+        (num(a)?, num(b)?)
+    } else if let Some((a, b)) = s.split_once("..") {
+        (num(a)?, num(b)?)
+    } else {
+        let a = num(s)?;
+        (a, a)
+    };
+    if a == 0 || a > b {
+        return Err(format!(
+            "depth range {a}..{b} must be non-empty and start at 1 or more"
+        ));
+    }
+    Ok(a..=b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn clap_definition_is_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn vec3_parses_negative_and_rejects_junk() {
+        assert_eq!(parse_vec3("-2,1.5, 3").unwrap(), [-2.0, 1.5, 3.0]);
+        assert!(parse_vec3("1,2").is_err());
+        assert!(parse_vec3("1,2,x").is_err());
+        assert!(parse_vec3("1,2,inf").is_err());
+    }
+
+    #[test]
+    fn size_parses_both_forms_and_bounds() {
+        assert_eq!(parse_size("96x64").unwrap(), (96, 64));
+        assert_eq!(parse_size("32").unwrap(), (32, 32));
+        assert!(parse_size("0x10").is_err());
+        assert!(parse_size("100000x10").is_err());
+        assert!(parse_size("ax b").is_err());
+    }
+
+    #[test]
+    fn depths_are_inclusive() {
+        assert_eq!(parse_depths("5..6").unwrap(), 5..=6);
+        assert_eq!(parse_depths("6..=10").unwrap(), 6..=10);
+        assert_eq!(parse_depths("7").unwrap(), 7..=7);
+        assert!(parse_depths("9..6").is_err());
+        assert!(parse_depths("0..3").is_err());
+        assert!(parse_depths("a..b").is_err());
+    }
+
+    #[test]
+    fn fov_and_threads_are_bounded() {
+        assert!(parse_fov("0").is_err());
+        assert!(parse_fov("180").is_err());
+        assert_eq!(parse_fov("45").unwrap(), 45.0);
+        assert!(parse_threads("0").is_err());
+        assert_eq!(parse_threads("2").unwrap(), 2);
+    }
+
+    #[test]
+    fn eye_conflicts_with_paper_views() {
+        let r = Cli::try_parse_from([
+            "sdfmo", "render", "a.smo", "-o", "x.png", "--views", "paper", "--eye", "1,2,3",
+        ]);
+        assert!(r.is_err());
+        let r = Cli::try_parse_from(["sdfmo", "render", "a.smo", "-o", "x.png", "--eye=-1,2,3"]);
+        assert!(r.is_ok(), "{r:?}");
+    }
+
+    #[test]
+    fn sweep_methods_are_a_comma_list() {
+        let cli = Cli::try_parse_from(["sdfmo", "sweep", "--methods", "multi,svo"]).unwrap();
+        match cli.command {
+            Command::Sweep(a) => assert_eq!(a.methods, vec![MethodArg::Multi, MethodArg::Svo]),
+            other => panic!("parsed as {other:?}"),
+        }
+    }
+}

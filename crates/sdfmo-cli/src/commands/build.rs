@@ -1,0 +1,104 @@
+//! `sdfmo build`: mesh → octree file.
+
+use std::fmt::Write as _;
+
+use anyhow::Context;
+use sdf_multioctree::build::{self, BuildSettings, BuildStats};
+use serde_json::json;
+
+use crate::args::BuildArgs;
+use crate::commands::load_input;
+use crate::output::{ensure_parent, print_json, print_text};
+use crate::progress;
+
+/// Builds the octree with a progress bar, saves it atomically and prints the statistics.
+pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
+    let input = load_input(args.mesh.as_deref())?;
+    let settings = BuildSettings {
+        depth: args.depth,
+        method: args.method.method(args.max_voxels),
+        bits: args.bits.bits(),
+        threads: args.threads,
+        margin: sdf_multioctree::DEFAULT_MARGIN,
+        sign: args.sign.mode(),
+    };
+    let bar = progress::fraction(&format!("building {} depth {}", input.name, args.depth));
+    let on_progress = |f: f32| progress::set_fraction(&bar, f);
+    let built = build::build(&input.mesh, &settings, Some(&on_progress));
+    bar.finish_and_clear();
+    let (octree, stats) =
+        built.with_context(|| format!("cannot build an octree of {}", input.source))?;
+    ensure_parent(&args.output)?;
+    octree
+        .save(&args.output)
+        .with_context(|| format!("cannot save {}", args.output.display()))?;
+
+    if args.json {
+        let mut j = stats_json(&stats);
+        j["mesh"] = json!(input.source);
+        j["method"] = json!(args.method.name());
+        j["depth"] = json!(args.depth);
+        j["bits"] = json!(args.bits.count());
+        if args.method == crate::args::MethodArg::Multi {
+            j["max_voxels"] = json!(args.max_voxels);
+        }
+        j["output"] = json!(args.output.display().to_string());
+        return print_json(&j);
+    }
+    let mut s = format!(
+        "{} → {} ({} depth {}, {}-bit)\n",
+        input.source,
+        args.output.display(),
+        args.method.name(),
+        args.depth,
+        args.bits.count()
+    );
+    let _ = writeln!(
+        s,
+        "  nodes {}, leaves {}, voxels {} ({} surface), {} bytes ({:.3} MB), {:.1} ms",
+        stats.nodes,
+        stats.leaves,
+        stats.voxels,
+        stats.surface_voxels,
+        stats.bytes,
+        stats.bytes as f64 / 1e6,
+        stats.build_ms
+    );
+    let hist: Vec<String> = stats
+        .voxels_per_leaf
+        .iter()
+        .enumerate()
+        .filter(|(_, &n)| n > 0)
+        .map(|(k, n)| format!("{k}:{n}"))
+        .collect();
+    let _ = writeln!(s, "  voxels per leaf (count:leaves) {}", hist.join(" "));
+    if stats.cap_hits > 0 {
+        let _ = writeln!(
+            s,
+            "  warning: {} leaves hit the cap of {} voxels (voxels were merged or dropped)",
+            stats.cap_hits, args.max_voxels
+        );
+    }
+    let phases: Vec<String> = stats
+        .phases
+        .iter()
+        .map(|(name, ms)| format!("{name} {ms:.1} ms"))
+        .collect();
+    let _ = writeln!(s, "  phases: {}", phases.join(", "));
+    print_text(&s)
+}
+
+/// The builder's statistics as a JSON object (phases as an ordered list).
+pub fn stats_json(stats: &BuildStats) -> serde_json::Value {
+    json!({
+        "nodes": stats.nodes,
+        "leaves": stats.leaves,
+        "voxels": stats.voxels,
+        "surface_voxels": stats.surface_voxels,
+        "bytes": stats.bytes,
+        "build_ms": stats.build_ms,
+        "voxels_per_leaf": stats.voxels_per_leaf,
+        "cap_hits": stats.cap_hits,
+        "phases": stats.phases.iter().map(|(name, ms)| json!({"name": name, "ms": ms})).collect::<Vec<_>>(),
+    })
+}

@@ -1,0 +1,135 @@
+//! `sdfmo distance`: signed distances of points to a mesh, in the octree's normalised frame.
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use glam::Vec3;
+use sdf_multioctree::distance::MeshDistance;
+use serde_json::json;
+
+use crate::args::DistanceArgs;
+use crate::commands::{load_input, sign_name, with_threads};
+use crate::output::{print_json, print_text, write_atomic};
+
+/// Loads the mesh, normalises it as the builder does, and prints or writes one signed distance
+/// per point (negative inside).
+pub fn run(args: &DistanceArgs) -> anyhow::Result<()> {
+    let text = std::fs::read_to_string(&args.points)
+        .with_context(|| format!("cannot read points file {}", args.points.display()))?;
+    let points = parse_points(&text, &args.points)?;
+    let input = load_input(Some(&args.mesh))?;
+    let (normalized, _) = input.mesh.normalized(sdf_multioctree::DEFAULT_MARGIN);
+    let dist = MeshDistance::new(&normalized, args.sign.mode())
+        .with_context(|| format!("cannot prepare distance queries on {}", input.source))?;
+
+    let start = Instant::now();
+    let distances = with_threads(args.threads, || dist.signed_distances(&points))?;
+    let query_ms = start.elapsed().as_secs_f64() * 1e3;
+
+    let mut lines = String::with_capacity(distances.len() * 12);
+    for d in &distances {
+        let _ = writeln!(lines, "{d}");
+    }
+    if let Some(out) = &args.output {
+        write_atomic(out, lines.as_bytes())?;
+    }
+    let sign = sign_name(dist.sign_mode());
+    if args.json {
+        let mut j = json!({
+            "mesh": input.source,
+            "points": points.len(),
+            "sign": sign,
+            "query_ms": query_ms,
+        });
+        match &args.output {
+            Some(out) => j["output"] = json!(out.display().to_string()),
+            None => j["distances"] = json!(distances),
+        }
+        return print_json(&j);
+    }
+    match &args.output {
+        Some(out) => print_text(&format!(
+            "{} signed distances ({sign} sign) to {} written to {} in {query_ms:.3} ms of queries\n",
+            points.len(),
+            input.source,
+            out.display()
+        )),
+        None => print_text(&lines),
+    }
+}
+
+/// Parses `x y z` lines (whitespace or commas between the numbers); blank lines and `#`
+/// comments are skipped. A malformed line is an error naming the file and the line.
+pub fn parse_points(text: &str, file: &Path) -> anyhow::Result<Vec<Vec3>> {
+    let mut points = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line
+            .split(|c: char| c.is_whitespace() || c == ',')
+            .filter(|f| !f.is_empty())
+            .collect();
+        let where_ = || format!("{}:{}", file.display(), i + 1);
+        if fields.len() != 3 {
+            bail!(
+                "{}: expected 3 numbers `x y z`, found {} fields in {line:?}",
+                where_(),
+                fields.len()
+            );
+        }
+        let mut p = [0.0f32; 3];
+        for (slot, f) in p.iter_mut().zip(&fields) {
+            let v: f32 = f
+                .parse()
+                .map_err(|_| anyhow::anyhow!("{}: {f:?} is not a number", where_()))?;
+            if !v.is_finite() {
+                bail!("{}: {f:?} is not a finite coordinate", where_());
+            }
+            *slot = v;
+        }
+        points.push(Vec3::from_array(p));
+    }
+    Ok(points)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn points_parse_with_comments_and_commas() {
+        let p = parse_points(
+            "# header\n0 0 0\n\n1,2,3\n -0.5\t0.25 1e-3 \n",
+            Path::new("p.xyz"),
+        )
+        .unwrap();
+        assert_eq!(
+            p,
+            vec![
+                Vec3::ZERO,
+                Vec3::new(1.0, 2.0, 3.0),
+                Vec3::new(-0.5, 0.25, 1e-3)
+            ]
+        );
+    }
+
+    #[test]
+    fn malformed_lines_are_named() {
+        let e = parse_points("0 0 0\n1 2\n", Path::new("p.xyz"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("p.xyz:2"), "{e}");
+        let e = parse_points("0 0 zero\n", Path::new("p.xyz"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("p.xyz:1") && e.contains("zero"), "{e}");
+        let e = parse_points("0 0 0\n0 NaN 0\n", Path::new("p.xyz"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("p.xyz:2"), "{e}");
+    }
+}

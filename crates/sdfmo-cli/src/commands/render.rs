@@ -1,0 +1,186 @@
+//! `sdfmo render` and `sdfmo render-mesh`: the octree, or the source mesh as the reference.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use anyhow::Context;
+use glam::Vec3;
+use sdf_multioctree::distance::{MeshDistance, SignMode};
+use sdf_multioctree::format::PackedOctree;
+use sdf_multioctree::render::{
+    self, Camera, Counters, MeshScene, Mode, OctreeScene, RenderSettings, Rendered, Traceable,
+};
+use serde_json::json;
+
+use crate::args::{ModeArg, RenderArgs, RenderMeshArgs, RenderOptions, ViewsArg};
+use crate::commands::load_input;
+use crate::output::{ensure_parent, indexed_path, print_json, print_text};
+use crate::progress;
+
+/// Renders a `.smo` octree.
+pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
+    let octree = PackedOctree::load(&args.octree)
+        .with_context(|| format!("cannot load octree {}", args.octree.display()))?;
+    render_all(
+        &OctreeScene(&octree),
+        &args.octree.display().to_string(),
+        &args.opts,
+    )
+}
+
+/// Renders the source mesh, normalised exactly as the builder does, so the images line up with
+/// the octree's.
+pub fn run_mesh(args: &RenderMeshArgs) -> anyhow::Result<()> {
+    let input = load_input(args.mesh.as_deref())?;
+    let (normalized, _) = input.mesh.normalized(sdf_multioctree::DEFAULT_MARGIN);
+    let dist = MeshDistance::new(&normalized, SignMode::Auto)
+        .with_context(|| format!("cannot prepare ray queries on {}", input.source))?;
+    render_all(&MeshScene(&dist), &input.source, &args.opts)
+}
+
+impl ModeArg {
+    /// The renderer's mode.
+    pub fn mode(self) -> Mode {
+        match self {
+            ModeArg::Mask => Mode::Mask,
+            ModeArg::Depth => Mode::Depth,
+            ModeArg::Normal => Mode::Normal,
+            ModeArg::Lambert => Mode::Lambert,
+        }
+    }
+
+    /// The flag's spelling.
+    pub fn name(self) -> &'static str {
+        match self {
+            ModeArg::Mask => "mask",
+            ModeArg::Depth => "depth",
+            ModeArg::Normal => "normal",
+            ModeArg::Lambert => "lambert",
+        }
+    }
+}
+
+/// The cameras the options ask for: the paper's four views, or one camera (paper view 0 with
+/// `--eye`, `--target`, `--fov` overriding its parts).
+pub fn cameras(opts: &RenderOptions) -> Vec<Camera> {
+    let (w, h) = opts.size;
+    let mut paper = Camera::paper_views(w, h);
+    if opts.views == Some(ViewsArg::Paper) {
+        return paper;
+    }
+    let mut cam = paper.swap_remove(0);
+    if let Some(eye) = opts.eye {
+        cam.eye = Vec3::from_array(eye);
+    }
+    if let Some(target) = opts.target {
+        cam.target = Vec3::from_array(target);
+    }
+    if let Some(fov) = opts.fov {
+        cam.fov_y_deg = fov;
+    }
+    vec![cam]
+}
+
+/// The render settings the options ask for.
+pub fn settings(opts: &RenderOptions) -> RenderSettings {
+    RenderSettings {
+        mode: opts.mode.mode(),
+        shadows: opts.shadows,
+        ao_samples: opts.ao,
+        threads: opts.threads,
+    }
+}
+
+/// Counters as a JSON object.
+pub fn counters_json(c: &Counters) -> serde_json::Value {
+    json!({
+        "rays": c.rays,
+        "normal_evals": c.normal_evals,
+        "shadow_rays": c.shadow_rays,
+        "ao_rays": c.ao_rays,
+        "hits": c.hits,
+    })
+}
+
+/// Renders every camera, writes the PNGs (and EXRs), prints times and counters.
+fn render_all<T: Traceable>(scene: &T, source: &str, opts: &RenderOptions) -> anyhow::Result<()> {
+    let cams = cameras(opts);
+    let settings = settings(opts);
+    ensure_parent(&opts.output)?;
+    if let Some(exr) = &opts.exr {
+        ensure_parent(exr)?;
+    }
+    let numbered = cams.len() > 1;
+    let name = |p: &PathBuf, k: usize| {
+        if numbered {
+            indexed_path(p, k)
+        } else {
+            p.clone()
+        }
+    };
+
+    let bar = progress::steps(cams.len() as u64, "rendering");
+    let mut views = Vec::new();
+    let mut total = Counters::default();
+    let mut total_ms = 0.0;
+    for (k, cam) in cams.iter().enumerate() {
+        let r: Rendered = render::render(scene, cam, &settings)
+            .with_context(|| format!("cannot render {source}"))?;
+        let png = name(&opts.output, k);
+        render::save_png(&r, &png).with_context(|| format!("cannot write {}", png.display()))?;
+        let exr = match &opts.exr {
+            Some(p) => {
+                let p = name(p, k);
+                render::save_exr(&r, &p)
+                    .with_context(|| format!("cannot write {}", p.display()))?;
+                Some(p)
+            }
+            None => None,
+        };
+        total += r.counters;
+        total_ms += r.render_ms;
+        views.push((png, exr, r.render_ms, r.counters));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+
+    let (w, h) = opts.size;
+    if opts.json {
+        let per_view: Vec<_> = views
+            .iter()
+            .map(|(png, exr, ms, c)| {
+                json!({
+                    "output": png.display().to_string(),
+                    "exr": exr.as_ref().map(|p| p.display().to_string()),
+                    "render_ms": ms,
+                    "counters": counters_json(c),
+                })
+            })
+            .collect();
+        return print_json(&json!({
+            "source": source,
+            "mode": opts.mode.name(),
+            "width": w,
+            "height": h,
+            "views": per_view,
+            "render_ms": total_ms,
+            "counters": counters_json(&total),
+        }));
+    }
+    let mut s = String::new();
+    for (png, exr, ms, c) in &views {
+        let _ = write!(s, "{} ({}x{} {}", png.display(), w, h, opts.mode.name());
+        if let Some(e) = exr {
+            let _ = write!(s, ", {}", e.display());
+        }
+        let _ = writeln!(
+            s,
+            "): {ms:.1} ms, {} rays ({} hits), {} normals, {} shadow rays, {} AO rays",
+            c.rays, c.hits, c.normal_evals, c.shadow_rays, c.ao_rays
+        );
+    }
+    if views.len() > 1 {
+        let _ = writeln!(s, "total {total_ms:.1} ms over {} views", views.len());
+    }
+    print_text(&s)
+}

@@ -1,0 +1,341 @@
+//! `sdfmo sweep`: for each mesh, method and depth, build, render the paper's four views, compare
+//! with the mesh reference; write the results as JSON, CSV, a Markdown table, plots and a page.
+
+mod plots;
+mod report;
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use sdf_multioctree::build::{self, BuildSettings};
+use sdf_multioctree::distance::{MeshDistance, SignMode};
+use sdf_multioctree::metrics;
+use sdf_multioctree::render::{self, Camera, MeshScene, Mode, OctreeScene, RenderSettings};
+use serde::Serialize;
+use serde_json::json;
+
+use crate::args::{MethodArg, SweepArgs};
+use crate::commands::{load_input, InputMesh};
+use crate::output::{print_json, print_text, write_png};
+use crate::progress;
+
+/// One line of the results: a model built with a method at a depth, measured over the views.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Row {
+    /// Model name (file stem, or `demo`).
+    pub model: String,
+    /// `svo` or `multi`.
+    pub method: String,
+    /// Octree depth.
+    pub depth: u8,
+    /// Mean PSNR over the views in dB; `None` (JSON `null`) when infinite (identical images).
+    pub psnr: Option<f64>,
+    /// Mean FLIP over the views.
+    pub flip: f64,
+    /// Bytes of the packed octree as saved.
+    pub bytes: usize,
+    /// Build time (ms).
+    pub build_ms: f64,
+    /// Mean render time of one view (ms).
+    pub render_ms: f64,
+    /// Octree nodes (inner and leaves).
+    pub nodes: usize,
+    /// Leaves.
+    pub leaves: usize,
+    /// Voxels.
+    pub voxels: usize,
+    /// Surface voxels.
+    pub surface_voxels: usize,
+    /// Leaves that hit the voxel cap.
+    pub cap_hits: usize,
+    /// PSNR of each view (`None` = infinite).
+    pub psnr_views: Vec<Option<f64>>,
+    /// FLIP of each view.
+    pub flip_views: Vec<f64>,
+}
+
+/// What the sweep knows of a model besides its rows.
+#[derive(Clone, Debug, Serialize)]
+pub struct Model {
+    /// Name used in the rows and file names.
+    pub model: String,
+    /// Path, or `demo`.
+    pub source: String,
+    /// Triangles after loading.
+    pub triangles: usize,
+    /// Mean render time of one reference view (ms).
+    pub reference_render_ms: f64,
+}
+
+/// Settings recorded next to the results.
+#[derive(Clone, Debug, Serialize)]
+pub struct SweepSettings {
+    /// Depths swept.
+    pub depths: Vec<u8>,
+    /// Methods swept.
+    pub methods: Vec<String>,
+    /// Width and height of each view.
+    pub size: u32,
+    /// Voxel cap of the multi-octree.
+    pub max_voxels: u8,
+    /// Worker threads (`None`: all cores).
+    pub threads: Option<usize>,
+    /// Views per configuration.
+    pub views: usize,
+}
+
+/// Relative path (from the output directory) of an image of the sweep.
+pub fn image_rel(model: &str, file: &str) -> String {
+    format!("images/{model}/{file}")
+}
+
+/// File name of a view of a configuration, and of its FLIP heat map.
+pub fn view_file(method: &str, depth: u8, view: usize) -> String {
+    format!("{method}_d{depth}_{view}.png")
+}
+
+/// File name of the FLIP heat map of a view.
+pub fn heatmap_file(method: &str, depth: u8, view: usize) -> String {
+    format!("{method}_d{depth}_{view}_flip.png")
+}
+
+/// File name of a reference view.
+pub fn reference_file(view: usize) -> String {
+    format!("reference_{view}.png")
+}
+
+/// Runs the sweep.
+pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
+    let depths: Vec<u8> = args.depths.clone().collect();
+    let mut methods: Vec<MethodArg> = Vec::new();
+    for m in &args.methods {
+        if !methods.contains(m) {
+            methods.push(*m);
+        }
+    }
+    let out = &args.output;
+    std::fs::create_dir_all(out.join("images"))
+        .with_context(|| format!("cannot create directory {}", out.display()))?;
+    let settings = SweepSettings {
+        depths: depths.clone(),
+        methods: methods.iter().map(|m| m.name().to_owned()).collect(),
+        size: args.size,
+        max_voxels: args.max_voxels,
+        threads: args.threads,
+        views: Camera::paper_views(args.size, args.size).len(),
+    };
+
+    let paths: Vec<Option<&Path>> = if args.meshes.is_empty() {
+        vec![None]
+    } else {
+        args.meshes.iter().map(|p| Some(p.as_path())).collect()
+    };
+    let steps = paths.len() * (1 + methods.len() * depths.len());
+    let bar = progress::steps(steps as u64, "starting");
+
+    let mut rows: Vec<Row> = Vec::new();
+    let mut models: Vec<Model> = Vec::new();
+    let mut files: Vec<String> = Vec::new();
+    for path in paths {
+        let mut input = load_input(path)?;
+        input.name = unique_name(&sanitize(&input.name), &models);
+        let model = sweep_model(
+            args, &settings, &methods, &depths, &input, &bar, &models, &mut rows,
+        )?;
+        models.push(model);
+        files = report::write_tables(out, &settings, &models, &rows)?;
+    }
+    bar.set_message("plots and page");
+    files.extend(plots::write_plots(out, &rows)?);
+    files.push(report::write_html(out, &settings, &models, &rows, &files)?);
+    bar.finish_and_clear();
+
+    if args.json {
+        return print_json(&json!({
+            "output": out.display().to_string(),
+            "settings": settings,
+            "models": models,
+            "rows": rows,
+            "files": files,
+        }));
+    }
+    let mut s = report::table_md(&settings, &models, &rows);
+    s.push_str(&format!(
+        "\nWrote {} (open {} in a browser).\n",
+        files.join(", "),
+        out.join("index.html").display()
+    ));
+    print_text(&s)
+}
+
+/// Renders the reference of one model, then builds, renders and compares every configuration.
+#[allow(clippy::too_many_arguments)]
+fn sweep_model(
+    args: &SweepArgs,
+    settings: &SweepSettings,
+    methods: &[MethodArg],
+    depths: &[u8],
+    input: &InputMesh,
+    bar: &indicatif::ProgressBar,
+    models: &[Model],
+    rows: &mut Vec<Row>,
+) -> anyhow::Result<Model> {
+    let name = &input.name;
+    let img_dir: PathBuf = args.output.join("images").join(name);
+    std::fs::create_dir_all(&img_dir)
+        .with_context(|| format!("cannot create directory {}", img_dir.display()))?;
+    let cams = Camera::paper_views(args.size, args.size);
+    let render_settings = RenderSettings {
+        mode: Mode::Lambert,
+        shadows: false,
+        ao_samples: 0,
+        threads: args.threads,
+    };
+
+    bar.set_message(format!("{name}: reference"));
+    let (normalized, _) = input.mesh.normalized(sdf_multioctree::DEFAULT_MARGIN);
+    let dist = MeshDistance::new(&normalized, SignMode::Auto)
+        .with_context(|| format!("cannot prepare ray queries on {}", input.source))?;
+    let mut references = Vec::with_capacity(cams.len());
+    let mut reference_ms = 0.0;
+    for (k, cam) in cams.iter().enumerate() {
+        let r = render::render(&MeshScene(&dist), cam, &render_settings)
+            .with_context(|| format!("cannot render the reference of {}", input.source))?;
+        reference_ms += r.render_ms;
+        let img = to_image(r)?;
+        write_png(&img_dir.join(reference_file(k)), &img)?;
+        references.push(img);
+    }
+    drop(dist);
+    bar.inc(1);
+
+    for &method in methods {
+        for &depth in depths {
+            bar.set_message(format!("{name}: {} depth {depth}: build", method.name()));
+            let build_settings = BuildSettings {
+                depth,
+                method: method.method(args.max_voxels),
+                bits: sdf_multioctree::format::ValueBits::Eight,
+                threads: args.threads,
+                margin: sdf_multioctree::DEFAULT_MARGIN,
+                sign: SignMode::Auto,
+            };
+            let (octree, stats) =
+                build::build(&input.mesh, &build_settings, None).with_context(|| {
+                    format!(
+                        "cannot build {} depth {depth} of {}",
+                        method.name(),
+                        input.source
+                    )
+                })?;
+            bar.set_message(format!("{name}: {} depth {depth}: render", method.name()));
+            let mut row = Row {
+                model: name.clone(),
+                method: method.name().to_owned(),
+                depth,
+                bytes: stats.bytes,
+                build_ms: stats.build_ms,
+                nodes: stats.nodes,
+                leaves: stats.leaves,
+                voxels: stats.voxels,
+                surface_voxels: stats.surface_voxels,
+                cap_hits: stats.cap_hits,
+                ..Row::default()
+            };
+            let mut render_ms = 0.0;
+            for (k, (cam, reference)) in cams.iter().zip(&references).enumerate() {
+                let r = render::render(&OctreeScene(&octree), cam, &render_settings)
+                    .with_context(|| format!("cannot render {} depth {depth}", method.name()))?;
+                render_ms += r.render_ms;
+                let img = to_image(r)?;
+                write_png(&img_dir.join(view_file(method.name(), depth, k)), &img)?;
+                let psnr = metrics::psnr(reference, &img).context("cannot compute PSNR")?;
+                let flip = metrics::flip(reference, &img).context("cannot compute FLIP")?;
+                write_png(
+                    &img_dir.join(heatmap_file(method.name(), depth, k)),
+                    &metrics::flip_heatmap(&flip),
+                )?;
+                row.psnr_views.push(psnr.is_finite().then_some(psnr));
+                row.flip_views.push(f64::from(flip.mean));
+            }
+            let n = cams.len().max(1) as f64;
+            row.render_ms = render_ms / n;
+            row.flip = row.flip_views.iter().sum::<f64>() / n;
+            row.psnr = row
+                .psnr_views
+                .iter()
+                .try_fold(0.0, |acc, p| p.map(|p| acc + p))
+                .map(|sum| sum / n);
+            rows.push(row);
+            // Keep the files current after every row: a long sweep that is stopped keeps its
+            // results so far.
+            report::write_tables(&args.output, settings, models, rows)?;
+            bar.inc(1);
+        }
+    }
+    Ok(Model {
+        model: name.clone(),
+        source: input.source.clone(),
+        triangles: input.mesh.triangle_count(),
+        reference_render_ms: reference_ms / cams.len().max(1) as f64,
+    })
+}
+
+/// A rendered image as an `image` RGB buffer.
+fn to_image(r: render::Rendered) -> anyhow::Result<image::RgbImage> {
+    let (w, h) = (r.width, r.height);
+    image::RgbImage::from_raw(w, h, r.rgb)
+        .with_context(|| format!("the renderer returned a buffer that is not {w}x{h} RGB"))
+}
+
+/// A model name safe in file names and HTML: letters, digits, `-`, `_`, `.`; others become `_`.
+pub fn sanitize(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    let s = s.trim_start_matches('.').to_owned();
+    if s.is_empty() {
+        "mesh".to_owned()
+    } else {
+        s
+    }
+}
+
+/// `name`, or `name_2`, `name_3`, … when a model of that name is already there.
+fn unique_name(name: &str, models: &[Model]) -> String {
+    let taken = |n: &str| models.iter().any(|m| m.model == n);
+    if !taken(name) {
+        return name.to_owned();
+    }
+    (2..)
+        .map(|i| format!("{name}_{i}"))
+        .find(|n| !taken(n))
+        .unwrap_or_else(|| name.to_owned())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_safe_and_unique() {
+        assert_eq!(sanitize("abc 1<x>"), "abc_1_x_");
+        assert_eq!(sanitize("..hidden"), "hidden");
+        assert_eq!(sanitize(""), "mesh");
+        let m = |n: &str| Model {
+            model: n.into(),
+            source: n.into(),
+            triangles: 1,
+            reference_render_ms: 0.0,
+        };
+        assert_eq!(unique_name("a", &[m("b")]), "a");
+        assert_eq!(unique_name("a", &[m("a"), m("a_2")]), "a_3");
+    }
+}

@@ -1,0 +1,333 @@
+//! The sweep's PNG plots (plotters, bitmap backend, text with an embedded DejaVu Sans through
+//! plotters' `ab_glyph` feature: no system font library is involved).
+
+use std::path::Path;
+use std::sync::OnceLock;
+
+use anyhow::{anyhow, Context};
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
+use plotters::prelude::*;
+
+use super::Row;
+use crate::output::write_png;
+
+/// Plot size in pixels.
+const WIDTH: u32 = 900;
+const HEIGHT: u32 = 600;
+
+/// Colours of the models' lines (a colour per model, cycled).
+const PALETTE: [RGBColor; 8] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(148, 103, 189),
+    RGBColor(255, 127, 14),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(23, 190, 207),
+];
+
+/// Registers the embedded font under plotters' default family name, once.
+fn register_font() -> anyhow::Result<()> {
+    static REGISTERED: OnceLock<bool> = OnceLock::new();
+    let ok = *REGISTERED.get_or_init(|| {
+        plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
+            .is_ok()
+    });
+    if ok {
+        Ok(())
+    } else {
+        Err(anyhow!("the embedded plot font cannot be parsed"))
+    }
+}
+
+/// One line of a plot.
+struct Series {
+    label: String,
+    color: RGBColor,
+    /// Dashed with triangles (the SVO baseline) or solid with dots (the multi-octree, others).
+    dashed: bool,
+    points: Vec<(f64, f64)>,
+}
+
+/// Axis of a plot: its label and whether it is logarithmic.
+struct Axis<'a> {
+    label: &'a str,
+    log: bool,
+}
+
+/// Which plots the sweep writes: file name, title, axes, and the (x, y) of a row.
+type Extract = fn(&Row) -> Option<(f64, f64)>;
+const PLOTS: [(&str, &str, Axis<'static>, Axis<'static>, Extract); 4] = [
+    (
+        "plot_psnr_vs_size.png",
+        "PSNR vs size",
+        Axis {
+            label: "size (MB)",
+            log: true,
+        },
+        Axis {
+            label: "PSNR (dB)",
+            log: false,
+        },
+        |r| r.psnr.map(|p| (r.bytes as f64 / 1e6, p)),
+    ),
+    (
+        "plot_flip_vs_size.png",
+        "FLIP vs size (lower is better)",
+        Axis {
+            label: "size (MB)",
+            log: true,
+        },
+        Axis {
+            label: "mean FLIP",
+            log: false,
+        },
+        |r| Some((r.bytes as f64 / 1e6, r.flip)),
+    ),
+    (
+        "plot_psnr_vs_render_time.png",
+        "PSNR vs render time per view",
+        Axis {
+            label: "render time (ms)",
+            log: true,
+        },
+        Axis {
+            label: "PSNR (dB)",
+            log: false,
+        },
+        |r| r.psnr.map(|p| (r.render_ms, p)),
+    ),
+    (
+        "plot_build_time_vs_depth.png",
+        "Build time vs depth",
+        Axis {
+            label: "depth",
+            log: false,
+        },
+        Axis {
+            label: "build time (ms)",
+            log: true,
+        },
+        |r| Some((f64::from(r.depth), r.build_ms)),
+    ),
+];
+
+/// Writes every plot into `dir`; returns the file names.
+pub fn write_plots(dir: &Path, rows: &[Row]) -> anyhow::Result<Vec<String>> {
+    register_font()?;
+    let mut models: Vec<&str> = Vec::new();
+    for r in rows {
+        if !models.contains(&r.model.as_str()) {
+            models.push(&r.model);
+        }
+    }
+    let mut files = Vec::new();
+    for (file, title, x, y, extract) in &PLOTS {
+        let mut series: Vec<Series> = Vec::new();
+        for r in rows {
+            let Some((px, py)) = extract(r) else { continue };
+            if !(px.is_finite() && py.is_finite()) || (x.log && px <= 0.0) || (y.log && py <= 0.0) {
+                continue;
+            }
+            let label = format!("{} {}", r.model, r.method);
+            match series.iter_mut().find(|s| s.label == label) {
+                Some(s) => s.points.push((px, py)),
+                None => {
+                    let m = models.iter().position(|m| *m == r.model).unwrap_or(0);
+                    series.push(Series {
+                        label,
+                        color: PALETTE[m % PALETTE.len()],
+                        dashed: r.method == "svo",
+                        points: vec![(px, py)],
+                    });
+                }
+            }
+        }
+        for s in &mut series {
+            s.points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        }
+        let img = plot(title, x, y, &series).with_context(|| format!("cannot draw {file}"))?;
+        write_png(&dir.join(file), &img)?;
+        files.push((*file).to_owned());
+    }
+    Ok(files)
+}
+
+/// The data range of one axis, padded (multiplicatively on a log axis).
+fn range(values: impl Iterator<Item = f64>, log: bool) -> std::ops::Range<f64> {
+    let (mut lo, mut hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+        (lo.min(v), hi.max(v))
+    });
+    if !lo.is_finite() || !hi.is_finite() {
+        return if log { 1.0..10.0 } else { 0.0..1.0 };
+    }
+    if log {
+        lo /= 1.25;
+        hi *= 1.25;
+    } else {
+        let pad = ((hi - lo) * 0.08).max(hi.abs() * 0.02).max(1e-3);
+        lo -= pad;
+        hi += pad;
+    }
+    lo..hi
+}
+
+/// Draws one plot into an RGB image.
+fn plot(title: &str, x: &Axis, y: &Axis, series: &[Series]) -> anyhow::Result<image::RgbImage> {
+    let xr = range(
+        series.iter().flat_map(|s| s.points.iter().map(|p| p.0)),
+        x.log,
+    );
+    let yr = range(
+        series.iter().flat_map(|s| s.points.iter().map(|p| p.1)),
+        y.log,
+    );
+    let mut buf = vec![0u8; (WIDTH * HEIGHT * 3) as usize];
+    match (x.log, y.log) {
+        (false, false) => draw(&mut buf, title, x, y, xr, yr, series),
+        (true, false) => draw(&mut buf, title, x, y, xr.log_scale(), yr, series),
+        (false, true) => draw(&mut buf, title, x, y, xr, yr.log_scale(), series),
+        (true, true) => draw(
+            &mut buf,
+            title,
+            x,
+            y,
+            xr.log_scale(),
+            yr.log_scale(),
+            series,
+        ),
+    }?;
+    image::RgbImage::from_raw(WIDTH, HEIGHT, buf).ok_or_else(|| anyhow!("plot buffer size"))
+}
+
+fn draw<X, Y>(
+    buf: &mut [u8],
+    title: &str,
+    x: &Axis,
+    y: &Axis,
+    xr: X,
+    yr: Y,
+    series: &[Series],
+) -> anyhow::Result<()>
+where
+    X: AsRangedCoord<Value = f64>,
+    Y: AsRangedCoord<Value = f64>,
+    X::CoordDescType: ValueFormatter<f64>,
+    Y::CoordDescType: ValueFormatter<f64>,
+{
+    let err = |e: &dyn std::fmt::Display| anyhow!("{e}");
+    let root = BitMapBackend::with_buffer(buf, (WIDTH, HEIGHT)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 26))
+        .margin(16)
+        .x_label_area_size(48)
+        .y_label_area_size(70)
+        .build_cartesian_2d(xr, yr)
+        .map_err(|e| err(&e))?;
+    chart
+        .configure_mesh()
+        .x_desc(x.label)
+        .y_desc(y.label)
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 17))
+        .draw()
+        .map_err(|e| err(&e))?;
+    for s in series {
+        let color = s.color;
+        let style = color.stroke_width(2);
+        if s.dashed {
+            chart
+                .draw_series(DashedLineSeries::new(s.points.iter().copied(), 8, 5, style))
+                .map_err(|e| err(&e))?
+                .label(&s.label)
+                .legend(move |(lx, ly)| {
+                    PathElement::new(vec![(lx, ly), (lx + 8, ly)], color.stroke_width(2))
+                });
+            chart
+                .draw_series(
+                    s.points
+                        .iter()
+                        .map(|&p| TriangleMarker::new(p, 5, color.filled())),
+                )
+                .map_err(|e| err(&e))?;
+        } else {
+            chart
+                .draw_series(LineSeries::new(s.points.iter().copied(), style))
+                .map_err(|e| err(&e))?
+                .label(&s.label)
+                .legend(move |(lx, ly)| {
+                    PathElement::new(vec![(lx, ly), (lx + 20, ly)], color.stroke_width(2))
+                });
+            chart
+                .draw_series(s.points.iter().map(|&p| Circle::new(p, 4, color.filled())))
+                .map_err(|e| err(&e))?;
+        }
+    }
+    if !series.is_empty() {
+        chart
+            .configure_series_labels()
+            .label_font(("sans-serif", 15))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::LowerRight)
+            .draw()
+            .map_err(|e| err(&e))?;
+    }
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(model: &str, method: &str, depth: u8, psnr: Option<f64>) -> Row {
+        Row {
+            model: model.into(),
+            method: method.into(),
+            depth,
+            psnr,
+            flip: 0.1 / f64::from(depth),
+            bytes: 1000 << depth,
+            build_ms: 3.0 * f64::from(depth),
+            render_ms: 10.0 + f64::from(depth),
+            ..Row::default()
+        }
+    }
+
+    #[test]
+    fn plots_have_text_and_lines() {
+        let dir = std::env::temp_dir().join(format!("sdfmo-cli-plots-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let rows = vec![
+            row("a", "svo", 4, Some(20.0)),
+            row("a", "svo", 5, Some(24.0)),
+            row("a", "multi", 4, Some(22.0)),
+            row("a", "multi", 5, None), // identical images: no point, no failure
+        ];
+        let files = write_plots(&dir, &rows).unwrap();
+        assert_eq!(files.len(), 4);
+        for f in &files {
+            let img = image::open(dir.join(f)).unwrap().to_rgb8();
+            assert_eq!(img.dimensions(), (WIDTH, HEIGHT));
+            // Text and lines leave dark and coloured pixels on the white background.
+            let dark = img.pixels().filter(|p| p.0.iter().all(|&c| c < 80)).count();
+            assert!(dark > 500, "{f}: {dark} dark pixels");
+            let blue = img.pixels().filter(|p| p.0 == [31, 119, 180]).count();
+            assert!(blue > 50, "{f}: model line missing ({blue} pixels)");
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn log_ranges_are_padded_and_empty_ranges_valid() {
+        let r = range([1.0, 100.0].into_iter(), true);
+        assert!(r.start < 1.0 && r.end > 100.0);
+        let r = range(std::iter::empty(), false);
+        assert!(r.start < r.end);
+        let r = range([5.0].into_iter(), false);
+        assert!(r.start < 5.0 && r.end > 5.0);
+    }
+}

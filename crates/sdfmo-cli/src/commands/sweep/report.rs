@@ -1,0 +1,603 @@
+//! The sweep's text outputs: results.json, results.csv, table.md (the paper's Tables 1–2
+//! layout) and index.html. Every file is written atomically.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use serde_json::json;
+
+use super::{heatmap_file, image_rel, reference_file, view_file, Model, Row, SweepSettings};
+use crate::output::write_atomic;
+
+/// Writes results.json, results.csv and table.md; returns their names.
+pub fn write_tables(
+    out: &Path,
+    settings: &SweepSettings,
+    models: &[Model],
+    rows: &[Row],
+) -> anyhow::Result<Vec<String>> {
+    let results = json!({ "settings": settings, "models": models, "rows": rows });
+    let mut text = serde_json::to_string_pretty(&results)?;
+    text.push('\n');
+    write_atomic(&out.join("results.json"), text.as_bytes())?;
+    write_atomic(&out.join("results.csv"), csv(rows).as_bytes())?;
+    write_atomic(
+        &out.join("table.md"),
+        table_md(settings, models, rows).as_bytes(),
+    )?;
+    Ok(vec![
+        "results.json".into(),
+        "results.csv".into(),
+        "table.md".into(),
+    ])
+}
+
+/// The rows as CSV (PSNR `inf` when the images were identical).
+pub fn csv(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "model,method,depth,psnr,flip,bytes,build_ms,render_ms,nodes,leaves,voxels,surface_voxels,cap_hits\n",
+    );
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{:.6},{},{:.3},{:.3},{},{},{},{},{}",
+            r.model,
+            r.method,
+            r.depth,
+            r.psnr.map_or("inf".to_owned(), |p| format!("{p:.4}")),
+            r.flip,
+            r.bytes,
+            r.build_ms,
+            r.render_ms,
+            r.nodes,
+            r.leaves,
+            r.voxels,
+            r.surface_voxels,
+            r.cap_hits
+        );
+    }
+    s
+}
+
+/// A table of text cells, rendered as Markdown or HTML.
+struct Table {
+    header: Vec<String>,
+    rows: Vec<Vec<String>>,
+}
+
+impl Table {
+    fn markdown(&self) -> String {
+        let mut s = format!("| {} |\n", self.header.join(" | "));
+        let _ = writeln!(s, "|{}", "---:|".repeat(self.header.len()));
+        for r in &self.rows {
+            let _ = writeln!(s, "| {} |", r.join(" | "));
+        }
+        s
+    }
+
+    fn html(&self) -> String {
+        let mut s = String::from("<table>\n<tr>");
+        for h in &self.header {
+            let _ = write!(s, "<th>{}</th>", esc(h));
+        }
+        s.push_str("</tr>\n");
+        for r in &self.rows {
+            s.push_str("<tr>");
+            for c in r {
+                let _ = write!(s, "<td>{}</td>", esc(c));
+            }
+            s.push_str("</tr>\n");
+        }
+        s.push_str("</table>\n");
+        s
+    }
+}
+
+fn find<'a>(rows: &'a [Row], model: &str, method: &str, depth: u8) -> Option<&'a Row> {
+    rows.iter()
+        .find(|r| r.model == model && r.method == method && r.depth == depth)
+}
+
+fn fmt_psnr(p: Option<f64>) -> String {
+    p.map_or("∞".to_owned(), |p| format!("{p:.2}"))
+}
+
+fn opt<T>(v: Option<T>, f: impl Fn(T) -> String) -> String {
+    v.map_or("–".to_owned(), f)
+}
+
+fn label(method: &str) -> &str {
+    match method {
+        "svo" => "SVO",
+        "multi" => "multi",
+        other => other,
+    }
+}
+
+/// Gain of the multi-octree over the SVO in PSNR (None when either is missing or infinite).
+fn psnr_gain(multi: &Row, svo: &Row) -> Option<f64> {
+    Some(multi.psnr? - svo.psnr?)
+}
+
+/// The per-model table: a row per depth; PSNR, FLIP, size, build and render time per method,
+/// with the multi-octree's gain and ratios against the SVO when both were swept.
+fn model_table(settings: &SweepSettings, model: &str, rows: &[Row]) -> Table {
+    let methods = &settings.methods;
+    let both = methods.iter().any(|m| m == "svo") && methods.iter().any(|m| m == "multi");
+    let mut header = vec!["depth".to_owned()];
+    let metric_cols = |name: &str, header: &mut Vec<String>| {
+        for m in methods {
+            header.push(format!("{name} {}", label(m)));
+        }
+    };
+    metric_cols("PSNR dB", &mut header);
+    if both {
+        header.push("ΔPSNR".into());
+    }
+    metric_cols("FLIP", &mut header);
+    metric_cols("MB", &mut header);
+    if both {
+        header.push("size ×".into());
+    }
+    metric_cols("build ms", &mut header);
+    metric_cols("render ms", &mut header);
+    if both {
+        header.push("render ×".into());
+    }
+    let mut out = Vec::new();
+    for &d in &settings.depths {
+        let get = |m: &str| find(rows, model, m, d);
+        if methods.iter().all(|m| get(m).is_none()) {
+            continue;
+        }
+        let pair = match (get("multi"), get("svo")) {
+            (Some(a), Some(b)) if both => Some((a, b)),
+            _ => None,
+        };
+        let mut cells = vec![d.to_string()];
+        for m in methods {
+            cells.push(opt(get(m), |r| fmt_psnr(r.psnr)));
+        }
+        if both {
+            cells.push(opt(pair.and_then(|(a, b)| psnr_gain(a, b)), |g| {
+                format!("{g:+.2}")
+            }));
+        }
+        for m in methods {
+            cells.push(opt(get(m), |r| format!("{:.4}", r.flip)));
+        }
+        for m in methods {
+            cells.push(opt(get(m), |r| format!("{:.3}", r.bytes as f64 / 1e6)));
+        }
+        if both {
+            cells.push(opt(pair, |(a, b)| ratio(a.bytes as f64, b.bytes as f64)));
+        }
+        for m in methods {
+            cells.push(opt(get(m), |r| format!("{:.0}", r.build_ms)));
+        }
+        for m in methods {
+            cells.push(opt(get(m), |r| format!("{:.1}", r.render_ms)));
+        }
+        if both {
+            cells.push(opt(pair, |(a, b)| ratio(a.render_ms, b.render_ms)));
+        }
+        out.push(cells);
+    }
+    Table { header, rows: out }
+}
+
+fn ratio(a: f64, b: f64) -> String {
+    if b > 0.0 {
+        format!("{:.2}", a / b)
+    } else {
+        "–".into()
+    }
+}
+
+/// The multi-octree at depth d against the SVO one level deeper (the paper's second claim).
+fn shallower_table(settings: &SweepSettings, model: &str, rows: &[Row]) -> Option<Table> {
+    let header = [
+        "multi depth",
+        "PSNR multi",
+        "PSNR SVO d+1",
+        "ΔPSNR",
+        "FLIP multi",
+        "FLIP SVO d+1",
+        "MB multi",
+        "MB SVO d+1",
+        "size ×",
+    ];
+    let mut out = Vec::new();
+    for &d in &settings.depths {
+        let (Some(a), Some(b)) = (
+            find(rows, model, "multi", d),
+            find(rows, model, "svo", d + 1),
+        ) else {
+            continue;
+        };
+        out.push(vec![
+            d.to_string(),
+            fmt_psnr(a.psnr),
+            fmt_psnr(b.psnr),
+            opt(psnr_gain(a, b), |g| format!("{g:+.2}")),
+            format!("{:.4}", a.flip),
+            format!("{:.4}", b.flip),
+            format!("{:.3}", a.bytes as f64 / 1e6),
+            format!("{:.3}", b.bytes as f64 / 1e6),
+            ratio(a.bytes as f64, b.bytes as f64),
+        ]);
+    }
+    (!out.is_empty()).then(|| Table {
+        header: header.iter().map(|h| (*h).to_owned()).collect(),
+        rows: out,
+    })
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    })
+}
+
+/// Across models, per depth: median and worst PSNR gain, median FLIP change, size and render
+/// time ratios of the multi-octree against the SVO.
+fn summary_table(settings: &SweepSettings, models: &[String], rows: &[Row]) -> Option<Table> {
+    let mut out = Vec::new();
+    for &d in &settings.depths {
+        let pairs: Vec<(&Row, &Row)> = models
+            .iter()
+            .filter_map(|m| Some((find(rows, m, "multi", d)?, find(rows, m, "svo", d)?)))
+            .collect();
+        if pairs.is_empty() {
+            continue;
+        }
+        let gains: Vec<f64> = pairs.iter().filter_map(|(a, b)| psnr_gain(a, b)).collect();
+        let worst = gains.iter().copied().fold(f64::INFINITY, f64::min);
+        out.push(vec![
+            d.to_string(),
+            pairs.len().to_string(),
+            opt(median(gains.clone()), |g| format!("{g:+.2}")),
+            if worst.is_finite() {
+                format!("{worst:+.2}")
+            } else {
+                "–".into()
+            },
+            opt(
+                median(pairs.iter().map(|(a, b)| a.flip - b.flip).collect()),
+                |g| format!("{g:+.4}"),
+            ),
+            opt(
+                median(
+                    pairs
+                        .iter()
+                        .map(|(a, b)| a.bytes as f64 / b.bytes.max(1) as f64)
+                        .collect(),
+                ),
+                |r| format!("{r:.2}"),
+            ),
+            opt(
+                median(
+                    pairs
+                        .iter()
+                        .filter(|(_, b)| b.render_ms > 0.0)
+                        .map(|(a, b)| a.render_ms / b.render_ms)
+                        .collect(),
+                ),
+                |r| format!("{r:.2}"),
+            ),
+        ]);
+    }
+    let header = [
+        "depth",
+        "models",
+        "median ΔPSNR",
+        "worst ΔPSNR",
+        "median ΔFLIP",
+        "median size ×",
+        "median render ×",
+    ];
+    (!out.is_empty()).then(|| Table {
+        header: header.iter().map(|h| (*h).to_owned()).collect(),
+        rows: out,
+    })
+}
+
+fn protocol(settings: &SweepSettings) -> String {
+    format!(
+        "Paper protocol: {} views of {}×{} pixels (radius 3 around the origin in the y = 0 plane, \
+         fov 60°), lambert shading, compared with the source mesh rendered by the same renderer. \
+         PSNR (dB, higher is better) and FLIP (lower is better) are means over the views; MB = \
+         10^6 bytes of the packed 8-bit octree file; build ms = whole build; render ms = mean per \
+         view. Multi-octree voxel cap {}; threads {}. ΔPSNR = multi − SVO; × = multi / SVO. \
+         ∞ = identical images.",
+        settings.views,
+        settings.size,
+        settings.size,
+        settings.max_voxels,
+        settings
+            .threads
+            .map_or("all cores".to_owned(), |t| t.to_string())
+    )
+}
+
+fn model_names(rows: &[Row], models: &[Model]) -> Vec<String> {
+    let mut names: Vec<String> = models.iter().map(|m| m.model.clone()).collect();
+    for r in rows {
+        if !names.contains(&r.model) {
+            names.push(r.model.clone());
+        }
+    }
+    names
+}
+
+fn model_heading(name: &str, models: &[Model]) -> String {
+    match models.iter().find(|m| m.model == name) {
+        Some(m) => format!(
+            "{name} ({} triangles; reference render {:.1} ms per view)",
+            m.triangles, m.reference_render_ms
+        ),
+        None => format!("{name} (in progress)"),
+    }
+}
+
+/// table.md: a table per model laid out like the paper's Tables 1–2, the multi-octree against the
+/// SVO one level deeper, and a summary across models.
+pub fn table_md(settings: &SweepSettings, models: &[Model], rows: &[Row]) -> String {
+    let mut s = format!("# sdfmo sweep\n\n{}\n", protocol(settings));
+    let names = model_names(rows, models);
+    for name in &names {
+        let _ = write!(
+            s,
+            "\n## {}\n\n{}",
+            model_heading(name, models),
+            model_table(settings, name, rows).markdown()
+        );
+        if let Some(t) = shallower_table(settings, name, rows) {
+            let _ = write!(
+                s,
+                "\nMulti-octree at depth d against the SVO at depth d + 1:\n\n{}",
+                t.markdown()
+            );
+        }
+    }
+    if let Some(t) = summary_table(settings, &names, rows) {
+        let _ = write!(
+            s,
+            "\n## Summary over the models (multi-octree against SVO)\n\n{}",
+            t.markdown()
+        );
+    }
+    s
+}
+
+/// HTML escaping of text.
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// index.html: tables, plots, and per model and view the reference, each method's image and
+/// FLIP heat map side by side; every link relative to the output directory.
+pub fn write_html(
+    out: &Path,
+    settings: &SweepSettings,
+    models: &[Model],
+    rows: &[Row],
+    files: &[String],
+) -> anyhow::Result<String> {
+    let mut s = String::from(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
+         <title>sdfmo sweep</title>\n<style>\n\
+         body{font-family:sans-serif;margin:1.5em;max-width:1600px}\n\
+         table{border-collapse:collapse;margin:0.5em 0 1em}\n\
+         th,td{border:1px solid #bbb;padding:3px 7px;text-align:right}\n\
+         th{background:#eee}\n\
+         .plots img{width:48%;min-width:420px;margin:0.5%}\n\
+         .grid td{text-align:center;vertical-align:top;font-size:small}\n\
+         .grid img{width:100%;max-width:256px;image-rendering:pixelated}\n\
+         </style>\n</head>\n<body>\n<h1>sdfmo sweep</h1>\n",
+    );
+    let _ = writeln!(s, "<p>{}</p>", esc(&protocol(settings)));
+    let links: Vec<String> = files
+        .iter()
+        .filter(|f| !f.starts_with("plot"))
+        .map(|f| format!("<a href=\"{0}\">{0}</a>", esc(f)))
+        .collect();
+    let _ = writeln!(s, "<p>Data: {}</p>", links.join(" · "));
+
+    let names = model_names(rows, models);
+    if let Some(t) = summary_table(settings, &names, rows) {
+        let _ = write!(
+            s,
+            "<h2>Summary over the models (multi-octree against SVO)</h2>\n{}",
+            t.html()
+        );
+    }
+    let plots: Vec<&String> = files.iter().filter(|f| f.starts_with("plot")).collect();
+    if !plots.is_empty() {
+        s.push_str("<h2>Plots</h2>\n<div class=\"plots\">\n");
+        for p in plots {
+            let _ = writeln!(
+                s,
+                "<a href=\"{0}\"><img src=\"{0}\" alt=\"{0}\"></a>",
+                esc(p)
+            );
+        }
+        s.push_str("</div>\n");
+    }
+    for name in &names {
+        let _ = write!(
+            s,
+            "<h2 id=\"{0}\">{1}</h2>\n{2}",
+            esc(name),
+            esc(&model_heading(name, models)),
+            model_table(settings, name, rows).html()
+        );
+        if let Some(t) = shallower_table(settings, name, rows) {
+            let _ = write!(
+                s,
+                "<p>Multi-octree at depth d against the SVO at depth d + 1:</p>\n{}",
+                t.html()
+            );
+        }
+        for view in 0..settings.views {
+            let _ = writeln!(
+                s,
+                "<details{}><summary>View {view}: reference, each method, FLIP heat maps</summary>\n<table class=\"grid\">",
+                if view == 0 { " open" } else { "" }
+            );
+            s.push_str("<tr><th>depth</th><th>reference</th>");
+            for m in &settings.methods {
+                let _ = write!(s, "<th>{}</th>", esc(label(m)));
+            }
+            for m in &settings.methods {
+                let _ = write!(s, "<th>FLIP {}</th>", esc(label(m)));
+            }
+            s.push_str("</tr>\n");
+            let reference = image_rel(name, &reference_file(view));
+            for &d in &settings.depths {
+                if settings
+                    .methods
+                    .iter()
+                    .all(|m| find(rows, name, m, d).is_none())
+                {
+                    continue;
+                }
+                let _ = write!(s, "<tr><td>{d}</td>{}", img_cell(&reference, "mesh"));
+                for m in &settings.methods {
+                    match find(rows, name, m, d) {
+                        Some(r) => {
+                            let psnr = r.psnr_views.get(view).copied().flatten();
+                            let cap = format!("{} d{d}: {} dB", label(m), fmt_psnr(psnr));
+                            s.push_str(&img_cell(&image_rel(name, &view_file(m, d, view)), &cap));
+                        }
+                        None => s.push_str("<td>–</td>"),
+                    }
+                }
+                for m in &settings.methods {
+                    match find(rows, name, m, d) {
+                        Some(r) => {
+                            let flip = r.flip_views.get(view).copied().unwrap_or(f64::NAN);
+                            let cap = format!("FLIP {flip:.4}");
+                            s.push_str(&img_cell(
+                                &image_rel(name, &heatmap_file(m, d, view)),
+                                &cap,
+                            ));
+                        }
+                        None => s.push_str("<td>–</td>"),
+                    }
+                }
+                s.push_str("</tr>\n");
+            }
+            s.push_str("</table>\n</details>\n");
+        }
+    }
+    s.push_str("</body>\n</html>\n");
+    write_atomic(&out.join("index.html"), s.as_bytes())?;
+    Ok("index.html".to_owned())
+}
+
+fn img_cell(src: &str, caption: &str) -> String {
+    format!(
+        "<td><a href=\"{0}\"><img src=\"{0}\" alt=\"{1}\" loading=\"lazy\"></a><br>{1}</td>",
+        esc(src),
+        esc(caption)
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn settings() -> SweepSettings {
+        SweepSettings {
+            depths: vec![4, 5],
+            methods: vec!["svo".into(), "multi".into()],
+            size: 32,
+            max_voxels: 8,
+            threads: Some(1),
+            views: 4,
+        }
+    }
+
+    fn row(method: &str, depth: u8, psnr: Option<f64>, bytes: usize) -> Row {
+        Row {
+            model: "m".into(),
+            method: method.into(),
+            depth,
+            psnr,
+            flip: 0.05,
+            bytes,
+            build_ms: 10.0,
+            render_ms: 4.0,
+            psnr_views: vec![psnr; 4],
+            flip_views: vec![0.05; 4],
+            ..Row::default()
+        }
+    }
+
+    fn rows() -> Vec<Row> {
+        vec![
+            row("svo", 4, Some(20.0), 1000),
+            row("svo", 5, Some(23.0), 4000),
+            row("multi", 4, Some(22.5), 1200),
+            row("multi", 5, None, 4400),
+        ]
+    }
+
+    #[test]
+    fn table_has_gains_ratios_and_the_deeper_svo() {
+        let md = table_md(&settings(), &[], &rows());
+        // depth 4: +2.50 dB, size 1.20×; depth 5: multi identical to the reference (∞).
+        assert!(md.contains("| 4 | 20.00 | 22.50 | +2.50 |"), "{md}");
+        assert!(md.contains("| 1.20 |"), "{md}");
+        assert!(md.contains("| 5 | 23.00 | ∞ | – |"), "{md}");
+        // multi at depth 4 against SVO at depth 5: 22.5 − 23.0.
+        assert!(md.contains("| 4 | 22.50 | 23.00 | -0.50 |"), "{md}");
+        assert!(md.contains("median ΔPSNR"), "{md}");
+    }
+
+    #[test]
+    fn csv_has_a_line_per_row_and_inf() {
+        let c = csv(&rows());
+        assert_eq!(c.lines().count(), 5);
+        assert!(
+            c.lines().nth(4).unwrap().starts_with("m,multi,5,inf,"),
+            "{c}"
+        );
+    }
+
+    #[test]
+    fn html_links_every_image_relatively_and_escapes() {
+        let dir = std::env::temp_dir().join(format!("sdfmo-cli-html-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let files = vec!["results.json".to_owned(), "plot_a.png".to_owned()];
+        write_html(&dir, &settings(), &[], &rows(), &files).unwrap();
+        let html = std::fs::read_to_string(dir.join("index.html")).unwrap();
+        for v in 0..4 {
+            assert!(html.contains(&format!("images/m/reference_{v}.png")));
+            assert!(html.contains(&format!("images/m/multi_d5_{v}_flip.png")));
+            assert!(html.contains(&format!("images/m/svo_d4_{v}.png")));
+        }
+        assert!(html.contains("src=\"plot_a.png\""));
+        assert!(!html.contains("src=\"/"), "links must be relative");
+        assert_eq!(esc("<a&\">"), "&lt;a&amp;&quot;&gt;");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn median_of_even_and_odd() {
+        assert_eq!(median(vec![3.0, 1.0, 2.0]), Some(2.0));
+        assert_eq!(median(vec![4.0, 1.0]), Some(2.5));
+        assert_eq!(median(vec![]), None);
+    }
+}

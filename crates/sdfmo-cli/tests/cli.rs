@@ -1,0 +1,525 @@
+//! Runs the real `sdfmo` binary on generated files and on `../shared/data`: JSON shapes, exit
+//! codes and messages of failures, file naming, and a tiny sweep writing every output.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+use serde_json::Value;
+
+const SDFMO: &str = env!("CARGO_BIN_EXE_sdfmo");
+
+/// A fresh directory for one test.
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("sdfmo-cli-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn sdfmo<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
+    Command::new(SDFMO)
+        .args(args)
+        .output()
+        .expect("cannot run sdfmo")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Succeeds and prints exactly one JSON object on stdout.
+fn json_ok<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Value {
+    let o = sdfmo(args);
+    assert!(
+        o.status.success(),
+        "exit {:?}: {}",
+        o.status.code(),
+        stderr(&o)
+    );
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert_eq!(
+        text.trim_end().lines().count(),
+        1,
+        "one JSON line expected: {text}"
+    );
+    let v: Value = serde_json::from_str(&text).unwrap_or_else(|e| panic!("{e}: {text}"));
+    assert!(v.is_object(), "{v}");
+    v
+}
+
+/// Fails cleanly: exit code 2, one line on stderr naming `needle`, no panic, nothing on stdout.
+fn fails_cleanly<S: AsRef<std::ffi::OsStr>>(args: &[S], needle: &str) {
+    let o = sdfmo(args);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
+    assert!(
+        !err.contains("panicked") && !err.contains("RUST_BACKTRACE"),
+        "{err}"
+    );
+    assert_eq!(
+        err.trim_end().lines().count(),
+        1,
+        "one line expected: {err}"
+    );
+    assert!(err.contains(needle), "{needle:?} not in {err:?}");
+    assert!(o.stdout.is_empty());
+}
+
+fn keys(v: &Value, names: &[&str]) {
+    for k in names {
+        assert!(v.get(k).is_some(), "missing key {k} in {v}");
+    }
+}
+
+/// A closed unit cube as OBJ (12 triangles, 8 vertices, outward faces).
+fn cube_obj(dir: &Path) -> PathBuf {
+    let p = dir.join("cube.obj");
+    let obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+               f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\n\
+               f 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n";
+    std::fs::write(&p, obj).unwrap();
+    p
+}
+
+fn data_dir() -> Option<PathBuf> {
+    let dir = std::env::var_os("SDFMO_TEST_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data"))
+        });
+    if dir.join("abc5_parts.glb").exists() {
+        return Some(dir);
+    }
+    assert!(
+        std::env::var("SDFMO_REQUIRE_TEST_DATA").as_deref() != Ok("1"),
+        "test data missing at {}",
+        dir.display()
+    );
+    eprintln!("note: {} missing, test skipped", dir.display());
+    None
+}
+
+#[test]
+fn info_of_a_generated_cube_and_the_demo_part() {
+    let dir = tmp("info");
+    let cube = cube_obj(&dir);
+    let j = json_ok(&["info".as_ref(), cube.as_os_str(), "--json".as_ref()]);
+    keys(
+        &j,
+        &[
+            "triangles",
+            "vertices",
+            "parts",
+            "components",
+            "boundary_edges",
+            "non_manifold_edges",
+            "watertight",
+            "bounds",
+        ],
+    );
+    assert_eq!(j["triangles"], 12);
+    assert_eq!(j["vertices"], 8);
+    assert_eq!(j["components"], 1);
+    assert_eq!(j["boundary_edges"], 0);
+    assert_eq!(j["watertight"], true);
+    assert_eq!(j["bounds"]["min"], serde_json::json!([0.0, 0.0, 0.0]));
+    assert_eq!(j["bounds"]["max"], serde_json::json!([1.0, 1.0, 1.0]));
+
+    let demo = json_ok(&["info", "--json"]);
+    assert!(demo["triangles"].as_u64().unwrap() > 12);
+    assert!(demo["parts"].as_u64().unwrap() >= 1);
+
+    let human = sdfmo(&["info".as_ref(), cube.as_os_str()]);
+    assert!(human.status.success());
+    assert!(String::from_utf8_lossy(&human.stdout).contains("triangles"));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn missing_and_malformed_inputs_fail_cleanly() {
+    let dir = tmp("errors");
+    let missing = dir.join("no_such_file.obj");
+    fails_cleanly(&["info".as_ref(), missing.as_os_str()], "no_such_file.obj");
+    let bad = dir.join("bad.stl");
+    std::fs::write(
+        &bad,
+        b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 nan\n",
+    )
+    .unwrap();
+    fails_cleanly(&["info".as_ref(), bad.as_os_str()], "bad.stl");
+    fails_cleanly(
+        &[
+            "build".as_ref(),
+            missing.as_os_str(),
+            "-d".as_ref(),
+            "4".as_ref(),
+            "-o".as_ref(),
+            dir.join("x.smo").as_os_str(),
+        ],
+        "no_such_file.obj",
+    );
+    let not_smo = dir.join("not.smo");
+    std::fs::write(&not_smo, b"this is not an octree").unwrap();
+    fails_cleanly(
+        &[
+            "render".as_ref(),
+            not_smo.as_os_str(),
+            "-o".as_ref(),
+            dir.join("x.png").as_os_str(),
+        ],
+        "not.smo",
+    );
+    fails_cleanly(
+        &["compare".as_ref(), not_smo.as_os_str(), not_smo.as_os_str()],
+        "not.smo",
+    );
+    // Usage errors are clap's: exit 2 too, no panic.
+    let o = sdfmo(&["render", "--size", "0x5", "a.smo", "-o", "x.png"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(!stderr(&o).contains("panicked"));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn distance_signs_output_file_and_malformed_lines() {
+    let dir = tmp("distance");
+    let cube = cube_obj(&dir);
+    let pts = dir.join("p.xyz");
+    // Normalised frame: the cube spans [-0.95, 0.95]³.
+    std::fs::write(
+        &pts,
+        "# centre, outside, near a face\n0 0 0\n0.5 1.5 0\n0.9 0 0\n",
+    )
+    .unwrap();
+    let out = dir.join("d.txt");
+    let j = json_ok(&[
+        "distance".as_ref(),
+        cube.as_os_str(),
+        "--points".as_ref(),
+        pts.as_os_str(),
+        "-o".as_ref(),
+        out.as_os_str(),
+        "--json".as_ref(),
+    ]);
+    keys(&j, &["points", "query_ms"]);
+    assert_eq!(j["points"], 3);
+    let d: Vec<f32> = std::fs::read_to_string(&out)
+        .unwrap()
+        .split_whitespace()
+        .map(|x| x.parse().unwrap())
+        .collect();
+    assert_eq!(d.len(), 3);
+    assert!((d[0] + 0.95).abs() < 1e-4, "centre: {}", d[0]);
+    assert!((d[1] - 0.55).abs() < 1e-4, "outside: {}", d[1]);
+    assert!((d[2] + 0.05).abs() < 1e-4, "near a face: {}", d[2]);
+    // Without -o, --json carries the distances.
+    let j = json_ok(&[
+        "distance".as_ref(),
+        cube.as_os_str(),
+        "--points".as_ref(),
+        pts.as_os_str(),
+        "--sign".as_ref(),
+        "winding".as_ref(),
+        "--json".as_ref(),
+    ]);
+    assert_eq!(j["distances"].as_array().unwrap().len(), 3);
+    assert_eq!(j["sign"], "winding");
+
+    std::fs::write(&pts, "0 0 0\n0 0\n").unwrap();
+    fails_cleanly(
+        &[
+            "distance".as_ref(),
+            cube.as_os_str(),
+            "--points".as_ref(),
+            pts.as_os_str(),
+        ],
+        "p.xyz:2",
+    );
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn a_closed_stdout_is_not_an_error() {
+    let dir = tmp("pipe");
+    let cube = cube_obj(&dir);
+    let pts = dir.join("many.xyz");
+    let text: String = (0..40_000)
+        .map(|i| format!("{} 0.1 0.2\n", (i % 200) as f32 / 100.0 - 1.0))
+        .collect();
+    std::fs::write(&pts, text).unwrap();
+    let mut child = Command::new(SDFMO)
+        .args([
+            "distance".as_ref(),
+            cube.as_os_str(),
+            "--points".as_ref(),
+            pts.as_os_str(),
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Read one byte and close the pipe, as `| head -c1` would.
+    let mut stdout = child.stdout.take().unwrap();
+    let mut one = [0u8; 1];
+    stdout.read_exact(&mut one).unwrap();
+    drop(stdout);
+    let mut err = String::new();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    let status = child.wait().unwrap();
+    assert!(status.success(), "exit {status:?}: {err}");
+    assert!(err.is_empty(), "{err}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn build_render_and_compare_the_demo_part() {
+    let dir = tmp("pipeline");
+    let mut smo = PathBuf::new();
+    for method in ["svo", "multi"] {
+        smo = dir.join(format!("demo.{method}.smo"));
+        let j = json_ok(&[
+            "build".as_ref(),
+            "-d".as_ref(),
+            "5".as_ref(),
+            "--method".as_ref(),
+            method.as_ref(),
+            "--threads".as_ref(),
+            "2".as_ref(),
+            "-o".as_ref(),
+            smo.as_os_str(),
+            "--json".as_ref(),
+        ]);
+        keys(
+            &j,
+            &[
+                "nodes",
+                "leaves",
+                "voxels",
+                "surface_voxels",
+                "bytes",
+                "build_ms",
+                "voxels_per_leaf",
+                "cap_hits",
+                "phases",
+            ],
+        );
+        assert_eq!(
+            std::fs::metadata(&smo).unwrap().len(),
+            j["bytes"].as_u64().unwrap()
+        );
+        assert!(j["voxels"].as_u64().unwrap() >= j["leaves"].as_u64().unwrap());
+    }
+
+    // --views paper numbers the files before the extension.
+    let views = dir.join("v.png");
+    let j = json_ok(&[
+        "render".as_ref(),
+        smo.as_os_str(),
+        "--views".as_ref(),
+        "paper".as_ref(),
+        "--size".as_ref(),
+        "32x24".as_ref(),
+        "-o".as_ref(),
+        views.as_os_str(),
+        "--json".as_ref(),
+    ]);
+    assert_eq!(j["views"].as_array().unwrap().len(), 4);
+    assert!(!views.exists());
+    for k in 0..4 {
+        let img = image::open(dir.join(format!("v_{k}.png"))).unwrap();
+        assert_eq!((img.width(), img.height()), (32, 24));
+    }
+    assert_eq!(j["counters"]["rays"].as_u64().unwrap(), 4 * 32 * 24);
+
+    // One camera; a mask needs no normals, lambert does; shadows cast shadow rays.
+    let mask = json_ok(&[
+        "render".as_ref(),
+        smo.as_os_str(),
+        "--mode".as_ref(),
+        "mask".as_ref(),
+        "--eye=2,1.5,2.5".as_ref(),
+        "--target=0,0,0".as_ref(),
+        "--fov=45".as_ref(),
+        "--size=40x30".as_ref(),
+        "-o".as_ref(),
+        dir.join("mask.png").as_os_str(),
+        "--json".as_ref(),
+    ]);
+    keys(&mask, &["render_ms", "counters"]);
+    assert_eq!(mask["counters"]["normal_evals"], 0);
+    assert_eq!(mask["counters"]["shadow_rays"], 0);
+    let lit = json_ok(&[
+        "render".as_ref(),
+        smo.as_os_str(),
+        "--shadows".as_ref(),
+        "--eye=2,1.5,2.5".as_ref(),
+        "--size=40x30".as_ref(),
+        "-o".as_ref(),
+        dir.join("lit.png").as_os_str(),
+        "--json".as_ref(),
+    ]);
+    assert!(lit["counters"]["normal_evals"].as_u64().unwrap() > 0);
+    assert!(lit["counters"]["shadow_rays"].as_u64().unwrap() > 0);
+
+    // The mesh reference with the same camera lines up: compare them.
+    let reference = dir.join("ref.png");
+    let j = json_ok(&[
+        "render-mesh".as_ref(),
+        "--eye=2,1.5,2.5".as_ref(),
+        "--size=40x30".as_ref(),
+        "-o".as_ref(),
+        reference.as_os_str(),
+        "--json".as_ref(),
+    ]);
+    keys(&j, &["render_ms", "counters"]);
+    let heat = dir.join("heat.png");
+    let c = json_ok(&[
+        "compare".as_ref(),
+        reference.as_os_str(),
+        dir.join("lit.png").as_os_str(),
+        "--heatmap".as_ref(),
+        heat.as_os_str(),
+        "--json".as_ref(),
+    ]);
+    assert!(c["psnr"].as_f64().unwrap() > 5.0, "{c}");
+    let flip = c["flip"].as_f64().unwrap();
+    assert!((0.0..1.0).contains(&flip), "{c}");
+    assert_eq!(image::open(&heat).unwrap().width(), 40);
+    // Identical images: infinite PSNR is written as null with a flag (JSON has no infinity).
+    let same = json_ok(&[
+        "compare".as_ref(),
+        reference.as_os_str(),
+        reference.as_os_str(),
+        "--json".as_ref(),
+    ]);
+    assert_eq!(same["psnr"], Value::Null);
+    assert_eq!(same["identical"], true);
+    assert_eq!(same["flip"], 0.0);
+    // Different sizes are an error, not a panic.
+    fails_cleanly(
+        &[
+            "compare".as_ref(),
+            reference.as_os_str(),
+            dir.join("v_0.png").as_os_str(),
+        ],
+        "",
+    );
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn a_tiny_sweep_writes_every_output() {
+    let dir = tmp("sweep");
+    let out = dir.join("out");
+    let j = json_ok(&[
+        "sweep".as_ref(),
+        "--depths".as_ref(),
+        "4..5".as_ref(),
+        "--size".as_ref(),
+        "32".as_ref(),
+        "--threads".as_ref(),
+        "2".as_ref(),
+        "-o".as_ref(),
+        out.as_os_str(),
+        "--json".as_ref(),
+    ]);
+    assert_eq!(j["rows"].as_array().unwrap().len(), 4);
+    let results: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    let rows = results["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 4);
+    for r in rows {
+        keys(
+            r,
+            &[
+                "model",
+                "method",
+                "depth",
+                "psnr",
+                "flip",
+                "bytes",
+                "build_ms",
+                "render_ms",
+            ],
+        );
+        assert_eq!(r["model"], "demo");
+        assert!(r["bytes"].as_u64().unwrap() > 0);
+        let (m, d) = (r["method"].as_str().unwrap(), r["depth"].as_u64().unwrap());
+        for k in 0..4 {
+            for f in [
+                format!("{m}_d{d}_{k}.png"),
+                format!("{m}_d{d}_{k}_flip.png"),
+            ] {
+                assert!(out.join("images/demo").join(&f).exists(), "{f}");
+            }
+        }
+    }
+    for k in 0..4 {
+        assert!(out.join(format!("images/demo/reference_{k}.png")).exists());
+    }
+    let csv = std::fs::read_to_string(out.join("results.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 5);
+    let table = std::fs::read_to_string(out.join("table.md")).unwrap();
+    assert!(
+        table.contains("## demo") && table.contains("ΔPSNR"),
+        "{table}"
+    );
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    let plots: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|f| f.starts_with("plot") && f.ends_with(".png"))
+        .collect();
+    assert_eq!(plots.len(), 4, "{plots:?}");
+    for p in &plots {
+        assert!(
+            html.contains(&format!("src=\"{p}\"")),
+            "{p} not on the page"
+        );
+    }
+    assert!(html.contains("images/demo/multi_d5_0_flip.png"));
+    // No temporary file is left behind.
+    let leftovers: Vec<_> = walk(&out)
+        .into_iter()
+        .filter(|p| p.to_string_lossy().contains(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+fn walk(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            out.extend(walk(&p));
+        } else {
+            out.push(p);
+        }
+    }
+    out
+}
+
+#[test]
+fn shared_data_parts_and_sign() {
+    let Some(data) = data_dir() else { return };
+    let j = json_ok(&[
+        "info".as_ref(),
+        data.join("abc5_parts.glb").as_os_str(),
+        "--json".as_ref(),
+    ]);
+    assert_eq!(j["parts"], 10);
+    let j = json_ok(&[
+        "info".as_ref(),
+        data.join("teapot.obj").as_os_str(),
+        "--json".as_ref(),
+    ]);
+    assert_eq!(j["watertight"], false);
+    assert!(j["boundary_edges"].as_u64().unwrap() > 0);
+}
