@@ -207,7 +207,13 @@ fn load_buffer(buffer: &gltf::Buffer, bin: Option<&[u8]>, ctx: &Ctx) -> Result<V
             let rel = percent_decode(uri)
                 .ok_or_else(|| ctx.parse(format!("buffer {idx}: bad percent-encoding in URI")))?;
             let path = base.join(rel);
-            std::fs::read(&path).map_err(|source| MeshError::Io { path, source })?
+            std::fs::read(&path).map_err(|e| MeshError::Io {
+                path,
+                source: std::io::Error::new(
+                    e.kind(),
+                    format!("external buffer {idx} of {}: {e}", ctx.file),
+                ),
+            })?
         }
     };
     if data.len() < buffer.length() {

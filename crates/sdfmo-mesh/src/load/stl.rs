@@ -24,7 +24,19 @@ pub(super) fn read(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawM
     let trimmed = text.trim_ascii_start();
     let solid = trimmed.len() >= 5 && trimmed[..5].eq_ignore_ascii_case(b"solid");
     if solid && !is_binary_length(bytes) {
-        read_ascii(trimmed, file, limits)
+        let last_line = trimmed.split(|&b| b == b'\n').count();
+        read_ascii(trimmed, file, limits).map_err(|e| match e {
+            // A bad last line without a final newline: the file was cut short.
+            MeshError::Parse {
+                line: Some(l),
+                reason,
+                ..
+            } if l == last_line && !trimmed.ends_with(b"\n") => MeshError::Truncated {
+                file: file.into(),
+                reason: format!("the ASCII STL ends in the middle of line {l} ({reason})"),
+            },
+            e => e,
+        })
     } else {
         read_binary(bytes, file, limits)
     }
