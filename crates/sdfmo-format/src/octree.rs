@@ -240,7 +240,7 @@ impl PackedOctree {
                 group = LeafGroup::default();
             }
         }
-        if leaves.len() % 8 != 0 {
+        if leaves.len() & 7 != 0 {
             leaf_groups.push(group);
         }
 

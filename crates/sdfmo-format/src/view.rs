@@ -224,7 +224,7 @@ impl<'a> PackedOctreeView<'a> {
         // All offsets are ≤ file_size == len here, so these casts and slices are in bounds.
         let section = |(off, size): (u64, u64)| &bytes[off as usize..(off + size) as usize];
         let gaps = [
-            (HEADER_SIZE as u64, layout.nodes.0),
+            (header_size, layout.nodes.0),
             (layout.nodes.0 + layout.nodes.1, layout.leaves.0),
             (layout.leaves.0 + layout.leaves.1, layout.surface.0),
             (layout.surface.0 + layout.surface.1, layout.corners.0),

@@ -126,10 +126,11 @@ fn resealed_random_edits_never_panic_and_accepted_ones_are_canonical() {
     assert!(refused > 1000, "{refused}");
 }
 
-/// One hostile edit (with a valid checksum) and the field the error must name.
-fn expect_corrupt(name: &str, edit: impl Fn(&mut Vec<u8>)) {
-    let mut b = real_file(ValueBits::Eight);
+/// One hostile edit (with a valid checksum) of `base` and a description for the message.
+fn expect_corrupt_in(base: &[u8], name: &str, edit: impl Fn(&mut Vec<u8>)) {
+    let mut b = base.to_vec();
     edit(&mut b);
+    assert_ne!(b, base, "{name}: the edit changed nothing");
     reseal(&mut b);
     let Err(err) = PackedOctree::from_bytes(&b) else {
         panic!("{name}: hostile file accepted");
@@ -140,6 +141,10 @@ fn expect_corrupt(name: &str, edit: impl Fn(&mut Vec<u8>)) {
     );
     assert!(PackedOctreeView::new(&b).is_err());
     println!("{name}: {err}");
+}
+
+fn expect_corrupt(name: &str, edit: impl Fn(&mut Vec<u8>)) {
+    expect_corrupt_in(&real_file(ValueBits::Eight), name, edit);
 }
 
 #[test]
@@ -279,14 +284,6 @@ fn lying_sections_are_refused() {
         b[at] = m | !m & (!m).wrapping_neg();
     });
     expect_corrupt("inner node emptied", |b| b[nodes + 5] = 0);
-    expect_corrupt("last inner mask padding", |b| {
-        let inner = o.inner_node_count();
-        if inner % 8 != 0 {
-            b[nodes + (inner / 8) * 12 + 4 + inner % 8] = 1;
-        } else {
-            b[nodes + 4] = 0;
-        }
-    });
     // Swapping bits between two masks keeps every popcount and base but breaks levels or order;
     // moving a child from a last-level node's mask to another keeps the tree shape valid, so
     // instead swap the root's mask with a deeper node's: the level sizes no longer match.
@@ -297,24 +294,11 @@ fn lying_sections_are_refused() {
     expect_corrupt("leaf count zero", |b| b[leaves + 4] = 0);
     expect_corrupt("leaf count raised", |b| b[leaves + 4] += 1);
     expect_corrupt("leaf base", |b| u32_le(b, leaves + 12, 1));
-    expect_corrupt("leaf padding", |b| {
-        let n = o.leaf_count();
-        if n % 8 != 0 {
-            b[leaves + (n / 8) * 12 + 4 + n % 8] = 1;
-        } else {
-            b[leaves + 4] = 0;
-        }
-    });
     // Surface bitmap: an extra bit (popcount), a padding bit.
     expect_corrupt("surface bit", |b| {
         let word = (0..).find(|&w| b[surface + w] != 0xff).unwrap();
         let byte = b[surface + word];
         b[surface + word] = byte | !byte & (!byte).wrapping_neg();
-    });
-    expect_corrupt("surface padding", |b| {
-        let v = o.voxel_count();
-        assert!(v % 64 != 0);
-        b[surface + (v / 64) * 8 + 7] |= 0x80;
     });
     // Corner code −128 is outside the symmetric range.
     expect_corrupt("corner -128", |b| b[corners + 17] = 0x80);
@@ -323,6 +307,38 @@ fn lying_sections_are_refused() {
         let end = nodes + o.inner_node_count().div_ceil(8) * 12;
         assert!(end < leaves, "the node section needs padding in this file");
         b[end] = 1;
+    });
+}
+
+#[test]
+fn non_zero_padding_slots_are_refused() {
+    // A file whose last node group, leaf group and bitmap word are partly padding.
+    let mut leaves = shell_leaves(5);
+    leaves.truncate(8 * 37 + 3);
+    let o = PackedOctree::from_leaves(meta(5, ValueBits::Eight), leaves).unwrap();
+    let (inner, n, v) = (o.inner_node_count(), o.leaf_count(), o.voxel_count());
+    assert!(
+        inner & 7 != 0 && n & 7 != 0 && v & 63 != 0,
+        "{inner} {n} {v}"
+    );
+    let base = o.to_bytes();
+    let offset = |name: &str| {
+        let f = field(name);
+        u64::from_le_bytes(base[f..f + 8].try_into().unwrap()) as usize
+    };
+    let (nodes, leaf_groups, surface) = (
+        offset("nodes_offset"),
+        offset("leaves_offset"),
+        offset("surface_offset"),
+    );
+    expect_corrupt_in(&base, "node mask padding", |b| {
+        b[nodes + (inner / 8) * 12 + 4 + inner % 8] = 1
+    });
+    expect_corrupt_in(&base, "leaf count padding", |b| {
+        b[leaf_groups + (n / 8) * 12 + 4 + n % 8] = 1
+    });
+    expect_corrupt_in(&base, "surface padding bit", |b| {
+        b[surface + (v / 64) * 8 + 7] |= 0x80
     });
 }
 

@@ -1,0 +1,181 @@
+//! Builds packed octrees from generated leaves and prints the size of every `.smo` section.
+//!
+//! The leaves are what a builder would emit for analytic shapes: the cells within a leaf
+//! diagonal of the surface, corners = exact signed distance. "svo" is a sphere of radius 0.6
+//! (one volume voxel per leaf); "multi" adds a thin plate (surface voxels) crossing it, so
+//! leaves near both hold two voxels.
+//!
+//! ```text
+//! cargo run -p sdfmo-format --example smo_sizes -- [--max-depth 8] [--write DIR]
+//! ```
+//! `--write DIR` also saves each octree as `DIR/<shape>_d<depth>_<bits>.smo`.
+
+use std::path::PathBuf;
+
+use glam::Vec3;
+use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, ValueBits, Voxel};
+
+fn corners(depth: u8, c: [u32; 3], sd: &dyn Fn(Vec3) -> f32) -> [f32; 8] {
+    let h = 2.0 / (1u32 << depth) as f32;
+    let lo = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) * h - 1.0;
+    std::array::from_fn(|i| {
+        sd(lo + Vec3::new((i >> 2) as f32, (i >> 1 & 1) as f32, (i & 1) as f32) * h)
+    })
+}
+
+fn leaves(depth: u8, with_plate: bool) -> Vec<LeafInput> {
+    let sphere = |p: Vec3| p.length() - 0.6;
+    let plate = |p: Vec3| p.y - 0.05;
+    let mut out = Vec::new();
+    let mut stack = vec![(0u8, [0u32; 3])];
+    while let Some((level, c)) = stack.pop() {
+        let h = 2.0 / (1u32 << level) as f32;
+        let mid = (Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) + 0.5) * h - 1.0;
+        let reach = h * 0.87; // half the cell diagonal
+        let near_sphere = sphere(mid).abs() <= reach;
+        let near_plate =
+            with_plate && plate(mid).abs() <= reach && mid.x.abs() < 0.8 && mid.z.abs() < 0.8;
+        if !near_sphere && !near_plate {
+            continue;
+        }
+        if level < depth {
+            for o in 0..8u32 {
+                let child = [
+                    2 * c[0] + (o >> 2),
+                    2 * c[1] + (o >> 1 & 1),
+                    2 * c[2] + (o & 1),
+                ];
+                stack.push((level + 1, child));
+            }
+            continue;
+        }
+        let mut voxels = Vec::new();
+        if near_sphere {
+            voxels.push(Voxel {
+                corners: corners(depth, c, &sphere),
+                surface: false,
+            });
+        }
+        if near_plate {
+            voxels.push(Voxel {
+                corners: corners(depth, c, &plate),
+                surface: true,
+            });
+        }
+        out.push(LeafInput { coord: c, voxels });
+    }
+    out
+}
+
+/// Small files (fuzzing seeds): empty, a lone root leaf, a few leaves at depth 2 and 3.
+fn write_tiny(dir: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
+    std::fs::create_dir_all(dir)?;
+    let v = |d: f32, surface: bool| Voxel {
+        corners: [d, -d, d, -d, 0.5 * d, 0.0, -0.25 * d, d],
+        surface,
+    };
+    let cases: [(&str, u8, ValueBits, Vec<LeafInput>); 4] = [
+        ("tiny_empty", 3, ValueBits::Eight, vec![]),
+        (
+            "tiny_root_leaf",
+            0,
+            ValueBits::Sixteen,
+            vec![LeafInput {
+                coord: [0, 0, 0],
+                voxels: vec![v(1.0, false), v(0.5, true)],
+            }],
+        ),
+        (
+            "tiny_d2",
+            2,
+            ValueBits::Eight,
+            (0..3)
+                .map(|i| LeafInput {
+                    coord: [i, 3 - i, 1],
+                    voxels: vec![v(0.3, i == 1)],
+                })
+                .collect(),
+        ),
+        (
+            "tiny_d3_multi",
+            3,
+            ValueBits::Sixteen,
+            (0..11)
+                .map(|i| LeafInput {
+                    coord: [i % 8, i / 2, 7 - i % 8],
+                    voxels: (0..1 + i as usize % 3)
+                        .map(|k| v(0.1 * k as f32, k == 1))
+                        .collect(),
+                })
+                .collect(),
+        ),
+    ];
+    for (name, depth, bits, leaves) in cases {
+        let meta = OctreeMeta {
+            depth,
+            bits,
+            center: Vec3::new(1.0, 2.0, 3.0),
+            scale: 0.5,
+        };
+        PackedOctree::from_leaves(meta, leaves)?.save(&dir.join(format!("{name}.smo")))?;
+    }
+    Ok(())
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let mut args = std::env::args().skip(1);
+    let mut max_depth = 8u8;
+    let mut write: Option<PathBuf> = None;
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--max-depth" => max_depth = args.next().ok_or("--max-depth N")?.parse()?,
+            "--write" => write = Some(args.next().ok_or("--write DIR")?.into()),
+            other => return Err(format!("unknown argument {other}").into()),
+        }
+    }
+    if let Some(dir) = &write {
+        write_tiny(dir)?;
+    }
+    println!("| shape | depth | bits | inner | leaves | voxels | surface | header | nodes | leaves B | surface B | corners | padding+crc | total B | B/voxel | B/leaf |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for depth in 4..=max_depth {
+        for (shape, plate) in [("svo", false), ("multi", true)] {
+            let input = leaves(depth, plate);
+            for bits in [ValueBits::Eight, ValueBits::Sixteen] {
+                let meta = OctreeMeta {
+                    depth,
+                    bits,
+                    center: Vec3::ZERO,
+                    scale: 1.0,
+                };
+                let o = PackedOctree::from_leaves(meta, input.clone())?;
+                let s = o.section_sizes();
+                let bytes = o.to_bytes();
+                assert_eq!(bytes.len(), s.total);
+                assert_eq!(PackedOctree::from_bytes(&bytes)?, o);
+                println!(
+                    "| {shape} | {depth} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.3} | {:.3} |",
+                    bits.bits(),
+                    o.inner_node_count(),
+                    o.leaf_count(),
+                    o.voxel_count(),
+                    o.surface_voxel_count(),
+                    s.header,
+                    s.nodes,
+                    s.leaves,
+                    s.surface,
+                    s.corners,
+                    s.padding + s.checksum,
+                    s.total,
+                    s.bytes_per_voxel(o.voxel_count()),
+                    s.total as f64 / o.leaf_count() as f64,
+                );
+                if let Some(dir) = &write {
+                    std::fs::create_dir_all(dir)?;
+                    o.save(&dir.join(format!("{shape}_d{depth}_{}.smo", bits.bits())))?;
+                }
+            }
+        }
+    }
+    Ok(())
+}

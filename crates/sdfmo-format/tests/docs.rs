@@ -1,0 +1,103 @@
+//! `docs/format.md` against the code: the header table and the worked example's bytes.
+
+use glam::Vec3;
+use sdfmo_format::{
+    LeafInput, OctreeMeta, PackedOctree, ValueBits, Voxel, HEADER_FIELDS, HEADER_SIZE,
+};
+
+fn format_md() -> String {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/format.md");
+    std::fs::read_to_string(path).expect("docs/format.md")
+}
+
+/// The rows `| offset | size | type | `name` | … |` of the section headed `## Header`.
+fn documented_header(md: &str) -> Vec<(String, usize, usize)> {
+    let start = md.find("\n## Header").expect("a ## Header section");
+    let body = &md[start + 1..];
+    let end = body[3..].find("\n## ").map_or(body.len(), |e| e + 3);
+    body[..end]
+        .lines()
+        .filter_map(|line| {
+            let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+            // ["", offset, size, type, `name`, meaning, ""]
+            let offset = cells.get(1)?.parse().ok()?;
+            let size = cells.get(2)?.parse().ok()?;
+            let name = cells.get(4)?.trim_matches('`').to_string();
+            Some((name, offset, size))
+        })
+        .collect()
+}
+
+#[test]
+fn docs_header_table_matches_code() {
+    let documented = documented_header(&format_md());
+    let code: Vec<_> = HEADER_FIELDS
+        .iter()
+        .map(|f| (f.name.to_string(), f.offset, f.size))
+        .collect();
+    assert_eq!(documented, code);
+    let last = HEADER_FIELDS.last().unwrap();
+    assert_eq!(last.offset + last.size, HEADER_SIZE);
+}
+
+/// Bytes of the hex dump between the worked-example markers.
+fn documented_example(md: &str) -> Vec<u8> {
+    let begin = md
+        .find("<!-- worked-example-hex: begin -->")
+        .expect("begin marker");
+    let end = md
+        .find("<!-- worked-example-hex: end -->")
+        .expect("end marker");
+    let mut bytes = Vec::new();
+    for line in md[begin..end].lines() {
+        // Dump lines: a 4-digit hex address, two spaces, then hex bytes.
+        let Some((addr, rest)) = line.split_once("  ") else {
+            continue;
+        };
+        let Ok(addr) = usize::from_str_radix(addr, 16) else {
+            continue;
+        };
+        assert_eq!(addr, bytes.len(), "address column of {line:?}");
+        bytes.extend(
+            rest.split_whitespace()
+                .map(|w| u8::from_str_radix(w, 16).expect("hex byte")),
+        );
+    }
+    bytes
+}
+
+#[test]
+fn docs_worked_example_matches_writer() {
+    let v = |corners: [f32; 8], surface: bool| Voxel { corners, surface };
+    let leaves = vec![
+        LeafInput {
+            coord: [1, 0, 0],
+            voxels: vec![v([-3.0, -1.0, 1.0, 3.0, -0.5, 0.5, 1.5, 2.0], false)],
+        },
+        LeafInput {
+            coord: [0, 1, 1],
+            voxels: vec![
+                v([0.9, 0.4, 0.3, -0.2, 0.5, 0.0, -0.1, -0.6], false),
+                v([0.2, 0.2, -0.2, -0.2, 0.2, 0.2, -0.2, -0.2], true),
+            ],
+        },
+    ];
+    let meta = OctreeMeta {
+        depth: 1,
+        bits: ValueBits::Eight,
+        center: Vec3::new(1.0, 0.0, -2.0),
+        scale: 0.5,
+    };
+    let o = PackedOctree::from_leaves(meta, leaves).unwrap();
+    let bytes = o.to_bytes();
+    assert_eq!(bytes, documented_example(&format_md()));
+    assert_eq!(bytes.len(), 196);
+    // The traversal walked through in the text.
+    let root = o.root().unwrap();
+    assert_eq!(o.child_mask(root), 0x18);
+    let leaf = o.child(root, 4).unwrap();
+    assert_eq!(leaf.index(), 2);
+    assert_eq!(o.leaf_voxels(leaf), 2..3);
+    assert_eq!(o.voxel_codes(2), [-127, -73, 73, 127, -37, 37, 110, 127]);
+    assert!(o.voxel_is_surface(1));
+}

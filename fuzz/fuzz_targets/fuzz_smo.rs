@@ -1,0 +1,68 @@
+//! Fuzzes the `.smo` loader: any bytes must give an error or a valid octree, never a panic,
+//! an out-of-bounds read or a huge allocation.
+//!
+//! Random bytes almost never carry a valid CRC-32, so each input is also tried *resealed* (its
+//! last four bytes replaced by the CRC of the rest): that lets the fuzzer reach the structural
+//! validation behind the checksum, where a hostile file would attack.
+//!
+//! Properties checked on every accepted input: the zero-copy view accepts it too and decodes to
+//! the same octree; a full walk through the traversal accessors touches exactly `leaf_count`
+//! leaves and every voxel once; writing it back and reading again round-trips.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use sdfmo_format::{crc32, PackedOctree, PackedOctreeView};
+
+fn check(bytes: &[u8]) {
+    let owned = PackedOctree::from_bytes(bytes);
+    let view = PackedOctreeView::new(bytes);
+    assert_eq!(owned.is_ok(), view.is_ok(), "owned and view readers disagree");
+    let (Ok(o), Ok(v)) = (owned, view) else { return };
+    assert!(v.to_octree() == o);
+
+    let mut leaves = 0usize;
+    let mut next_voxel = 0u32;
+    let mut stack: Vec<_> = o.root().into_iter().collect();
+    let mut visited = 0usize;
+    while let Some(n) = stack.pop() {
+        visited += 1;
+        assert!(visited <= o.node_count(), "walk visits more nodes than exist");
+        if o.is_leaf(n) {
+            leaves += 1;
+            let r = o.leaf_voxels(n);
+            assert!(!r.is_empty() && r.end as usize <= o.voxel_count());
+            assert_eq!(r, v.leaf_voxels(n));
+            for vx in r {
+                let c = o.voxel_corners(vx);
+                assert!(c.iter().all(|x| x.is_finite() && x.abs() <= o.dmax() * 1.0001));
+                assert_eq!(o.voxel_is_surface(vx), v.voxel_is_surface(vx));
+                next_voxel += 1;
+            }
+        } else {
+            let mask = o.child_mask(n);
+            assert_ne!(mask, 0);
+            // Push in reverse so leaves are met in Morton (storage) order.
+            for oct in (0..8u8).rev() {
+                assert_eq!(o.child(n, oct), v.child(n, oct));
+                if let Some(c) = o.child(n, oct) {
+                    stack.push(c);
+                }
+            }
+        }
+    }
+    assert_eq!(leaves, o.leaf_count());
+    assert_eq!(next_voxel as usize, o.voxel_count());
+    let again = PackedOctree::from_bytes(&o.to_bytes()).expect("re-encoded octree must load");
+    assert!(again == o);
+}
+
+fuzz_target!(|data: &[u8]| {
+    check(data);
+    if data.len() >= 4 {
+        let mut sealed = data.to_vec();
+        let n = sealed.len();
+        let crc = crc32(&sealed[..n - 4]);
+        sealed[n - 4..].copy_from_slice(&crc.to_le_bytes());
+        check(&sealed);
+    }
+});
