@@ -6,6 +6,7 @@ use std::sync::OnceLock;
 
 use anyhow::{anyhow, Context};
 use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
+use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
 use super::Row;
@@ -54,6 +55,8 @@ struct Series {
 struct Axis<'a> {
     label: &'a str,
     log: bool,
+    /// Integer values (depths): padded by half a step, labelled at integers only.
+    integer: bool,
 }
 
 /// Which plots the sweep writes: file name, title, axes, and the (x, y) of a row.
@@ -65,10 +68,12 @@ const PLOTS: [(&str, &str, Axis<'static>, Axis<'static>, Extract); 4] = [
         Axis {
             label: "size (MB)",
             log: true,
+            integer: false,
         },
         Axis {
             label: "PSNR (dB)",
             log: false,
+            integer: false,
         },
         |r| r.psnr.map(|p| (r.bytes as f64 / 1e6, p)),
     ),
@@ -78,10 +83,12 @@ const PLOTS: [(&str, &str, Axis<'static>, Axis<'static>, Extract); 4] = [
         Axis {
             label: "size (MB)",
             log: true,
+            integer: false,
         },
         Axis {
             label: "mean FLIP",
             log: false,
+            integer: false,
         },
         |r| Some((r.bytes as f64 / 1e6, r.flip)),
     ),
@@ -91,10 +98,12 @@ const PLOTS: [(&str, &str, Axis<'static>, Axis<'static>, Extract); 4] = [
         Axis {
             label: "render time (ms)",
             log: true,
+            integer: false,
         },
         Axis {
             label: "PSNR (dB)",
             log: false,
+            integer: false,
         },
         |r| r.psnr.map(|p| (r.render_ms, p)),
     ),
@@ -104,10 +113,12 @@ const PLOTS: [(&str, &str, Axis<'static>, Axis<'static>, Extract); 4] = [
         Axis {
             label: "depth",
             log: false,
+            integer: true,
         },
         Axis {
             label: "build time (ms)",
             log: true,
+            integer: false,
         },
         |r| Some((f64::from(r.depth), r.build_ms)),
     ),
@@ -155,14 +166,17 @@ pub fn write_plots(dir: &Path, rows: &[Row]) -> anyhow::Result<Vec<String>> {
 }
 
 /// The data range of one axis, padded (multiplicatively on a log axis).
-fn range(values: impl Iterator<Item = f64>, log: bool) -> std::ops::Range<f64> {
+fn range(values: impl Iterator<Item = f64>, log: bool, integer: bool) -> std::ops::Range<f64> {
     let (mut lo, mut hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
         (lo.min(v), hi.max(v))
     });
     if !lo.is_finite() || !hi.is_finite() {
         return if log { 1.0..10.0 } else { 0.0..1.0 };
     }
-    if log {
+    if integer {
+        lo -= 0.5;
+        hi += 0.5;
+    } else if log {
         lo /= 1.25;
         hi *= 1.25;
     } else {
@@ -173,15 +187,41 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> std::ops::Range<f64> {
     lo..hi
 }
 
+/// A tick label: integers only on an integer axis, else about three significant digits without
+/// trailing zeros (0.3, 25, 1200, 0.045).
+fn axis_label(v: f64, integer: bool) -> String {
+    if integer {
+        return if (v - v.round()).abs() < 1e-6 {
+            format!("{}", v.round())
+        } else {
+            String::new()
+        };
+    }
+    let a = v.abs();
+    let decimals = if a == 0.0 || a >= 100.0 {
+        0
+    } else {
+        (2 - a.log10().floor() as i32).clamp(0, 8) as usize
+    };
+    let s = format!("{v:.decimals$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_owned()
+    } else {
+        s
+    }
+}
+
 /// Draws one plot into an RGB image.
 fn plot(title: &str, x: &Axis, y: &Axis, series: &[Series]) -> anyhow::Result<image::RgbImage> {
     let xr = range(
         series.iter().flat_map(|s| s.points.iter().map(|p| p.0)),
         x.log,
+        x.integer,
     );
     let yr = range(
         series.iter().flat_map(|s| s.points.iter().map(|p| p.1)),
         y.log,
+        y.integer,
     );
     let mut buf = vec![0u8; (WIDTH * HEIGHT * 3) as usize];
     match (x.log, y.log) {
@@ -217,6 +257,8 @@ where
     Y::CoordDescType: ValueFormatter<f64>,
 {
     let err = |e: &dyn std::fmt::Display| anyhow!("{e}");
+    let x_fmt = |v: &f64| axis_label(*v, x.integer);
+    let y_fmt = |v: &f64| axis_label(*v, y.integer);
     let root = BitMapBackend::with_buffer(buf, (WIDTH, HEIGHT)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let mut chart = ChartBuilder::on(&root)
@@ -230,6 +272,11 @@ where
         .configure_mesh()
         .x_desc(x.label)
         .y_desc(y.label)
+        .x_labels(10)
+        .y_labels(10)
+        .x_label_formatter(&x_fmt)
+        .y_label_formatter(&y_fmt)
+        .light_line_style(RGBColor(235, 235, 235))
         .label_style(("sans-serif", 15))
         .axis_desc_style(("sans-serif", 17))
         .draw()
@@ -243,7 +290,12 @@ where
                 .map_err(|e| err(&e))?
                 .label(&s.label)
                 .legend(move |(lx, ly)| {
-                    PathElement::new(vec![(lx, ly), (lx + 8, ly)], color.stroke_width(2))
+                    DashedPathElement::new(
+                        vec![(lx, ly), (lx + 20, ly)],
+                        6,
+                        4,
+                        color.stroke_width(2),
+                    )
                 });
             chart
                 .draw_series(
@@ -323,11 +375,22 @@ mod tests {
 
     #[test]
     fn log_ranges_are_padded_and_empty_ranges_valid() {
-        let r = range([1.0, 100.0].into_iter(), true);
+        let r = range([1.0, 100.0].into_iter(), true, false);
         assert!(r.start < 1.0 && r.end > 100.0);
-        let r = range(std::iter::empty(), false);
+        let r = range(std::iter::empty(), false, false);
         assert!(r.start < r.end);
-        let r = range([5.0].into_iter(), false);
+        let r = range([5.0].into_iter(), false, false);
         assert!(r.start < 5.0 && r.end > 5.0);
+        assert_eq!(range([6.0, 9.0].into_iter(), false, true), 5.5..9.5);
+    }
+
+    #[test]
+    fn tick_labels_are_short() {
+        assert_eq!(axis_label(0.30000000000000004, false), "0.3");
+        assert_eq!(axis_label(0.045, false), "0.045");
+        assert_eq!(axis_label(25.0, false), "25");
+        assert_eq!(axis_label(1234.5, false), "1235");
+        assert_eq!(axis_label(7.0, true), "7");
+        assert_eq!(axis_label(6.5, true), "");
     }
 }
