@@ -39,7 +39,10 @@ pub fn set_fraction(bar: &ProgressBar, f: f32) {
 
 fn new_bar(len: u64) -> ProgressBar {
     if std::io::stderr().is_terminal() {
-        ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr())
+        let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
+        // Redraw on a timer so the elapsed time moves during long single steps (a deep build).
+        bar.enable_steady_tick(std::time::Duration::from_millis(200));
+        bar
     } else {
         ProgressBar::hidden()
     }

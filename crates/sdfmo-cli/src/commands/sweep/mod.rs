@@ -220,8 +220,10 @@ fn sweep_model(
                 margin: sdf_multioctree::DEFAULT_MARGIN,
                 sign: SignMode::Auto,
             };
-            let (octree, stats) =
-                build::build(&input.mesh, &build_settings, None).with_context(|| {
+            let stage = format!("{name}: {} depth {depth}: build", method.name());
+            let on_progress = |f: f32| bar.set_message(format!("{stage} {:.0}%", f * 100.0));
+            let (octree, stats) = build::build(&input.mesh, &build_settings, Some(&on_progress))
+                .with_context(|| {
                     format!(
                         "cannot build {} depth {depth} of {}",
                         method.name(),
