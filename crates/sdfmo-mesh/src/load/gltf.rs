@@ -436,6 +436,24 @@ pub(super) fn read(
     };
     let root = gltf::json::deserialize::from_slice::<gltf::json::Root>(json)
         .map_err(|e| ctx.parse(format!("glTF JSON: {e}")))?;
+    // gltf-json 1.4.1's POSITION validation hook indexes `root.accessors` before the index
+    // itself is validated (a panic on `"POSITION": 0` without accessors): check it first.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let pos = prim.attributes.get(&gltf::json::validation::Checked::Valid(
+                gltf::Semantic::Positions,
+            ));
+            if let Some(i) = pos
+                .map(|i| i.value())
+                .filter(|&i| i >= root.accessors.len())
+            {
+                return Err(ctx.parse(format!(
+                    "mesh {m} primitive {p}: POSITION refers to accessor {i}, there are {}",
+                    root.accessors.len()
+                )));
+            }
+        }
+    }
     let doc =
         gltf::Document::from_json(root).map_err(|e| ctx.parse(format!("invalid glTF: {e}")))?;
 
