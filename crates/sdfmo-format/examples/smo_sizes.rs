@@ -8,12 +8,16 @@
 //! ```text
 //! cargo run -p sdfmo-format --example smo_sizes -- [--max-depth 8] [--write DIR]
 //! ```
-//! `--write DIR` also saves each octree as `DIR/<shape>_d<depth>_<bits>.smo`.
+//! `--write DIR` also saves each octree as `DIR/<shape>_d<depth>_<bits>.smo`; `--time` also
+//! prints the best of 5 timings of `from_leaves`, `to_bytes`, `from_bytes` (validate + copy)
+//! and `PackedOctreeView::new` (validate only) — run it with `--release` for that.
+//! `--load FILE…` instead reports the sections and the load time of existing `.smo` files.
 
 use std::path::PathBuf;
+use std::time::Instant;
 
 use glam::Vec3;
-use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, ValueBits, Voxel};
+use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, Voxel};
 
 fn corners(depth: u8, c: [u32; 3], sd: &dyn Fn(Vec3) -> f32) -> [f32; 8] {
     let h = 2.0 / (1u32 << depth) as f32;
@@ -65,6 +69,46 @@ fn leaves(depth: u8, with_plate: bool) -> Vec<LeafInput> {
         out.push(LeafInput { coord: c, voxels });
     }
     out
+}
+
+/// Best of 5 wall-clock timings of `f`, in milliseconds.
+fn best_ms(f: &mut dyn FnMut()) -> f64 {
+    (0..5)
+        .map(|_| {
+            let t = Instant::now();
+            f();
+            t.elapsed().as_secs_f64() * 1e3
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Sections and load times of existing files.
+fn load_files(paths: Vec<String>) -> Result<(), Box<dyn std::error::Error>> {
+    println!("| file | voxels | total B | B/voxel | read+from_bytes ms | from_bytes ms | MB/s | view ms |");
+    println!("|---|---|---|---|---|---|---|---|");
+    for p in paths {
+        let path = std::path::Path::new(&p);
+        let bytes = std::fs::read(path)?;
+        let o = PackedOctree::from_bytes(&bytes)?;
+        let load = best_ms(&mut || {
+            std::hint::black_box(PackedOctree::load(path).ok());
+        });
+        let decode = best_ms(&mut || {
+            std::hint::black_box(PackedOctree::from_bytes(&bytes).ok());
+        });
+        let view = best_ms(&mut || {
+            std::hint::black_box(PackedOctreeView::new(&bytes).ok());
+        });
+        println!(
+            "| {} | {} | {} | {:.3} | {load:.2} | {decode:.2} | {:.0} | {view:.2} |",
+            path.file_name().unwrap_or_default().to_string_lossy(),
+            o.voxel_count(),
+            bytes.len(),
+            o.section_sizes().bytes_per_voxel(o.voxel_count()),
+            bytes.len() as f64 / 1e3 / decode,
+        );
+    }
+    Ok(())
 }
 
 /// Small files (fuzzing seeds): empty, a lone root leaf, a few leaves at depth 2 and 3.
@@ -126,10 +170,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let mut max_depth = 8u8;
     let mut write: Option<PathBuf> = None;
+    let mut time = false;
     while let Some(a) = args.next() {
         match a.as_str() {
             "--max-depth" => max_depth = args.next().ok_or("--max-depth N")?.parse()?,
             "--write" => write = Some(args.next().ok_or("--write DIR")?.into()),
+            "--time" => time = true,
+            "--load" => return load_files(args.collect()),
             other => return Err(format!("unknown argument {other}").into()),
         }
     }
@@ -170,6 +217,27 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     s.bytes_per_voxel(o.voxel_count()),
                     s.total as f64 / o.leaf_count() as f64,
                 );
+                if time {
+                    let best = best_ms;
+                    let build = best(&mut || {
+                        std::hint::black_box(PackedOctree::from_leaves(meta, input.clone()).ok());
+                    });
+                    let encode = best(&mut || {
+                        std::hint::black_box(o.to_bytes());
+                    });
+                    let decode = best(&mut || {
+                        std::hint::black_box(PackedOctree::from_bytes(&bytes).ok());
+                    });
+                    let view = best(&mut || {
+                        std::hint::black_box(PackedOctreeView::new(&bytes).ok());
+                    });
+                    let mb = bytes.len() as f64 / 1e6;
+                    println!(
+                        "  timing: from_leaves {build:.2} ms (incl. clone of the input), to_bytes {encode:.2} ms, from_bytes {decode:.2} ms ({:.0} MB/s), view {view:.2} ms ({:.0} MB/s)",
+                        mb / decode * 1e3,
+                        mb / view * 1e3
+                    );
+                }
                 if let Some(dir) = &write {
                     std::fs::create_dir_all(dir)?;
                     o.save(&dir.join(format!("{shape}_d{depth}_{}.smo", bits.bits())))?;
