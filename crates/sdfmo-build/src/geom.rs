@@ -64,7 +64,7 @@ pub fn closest_point_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> (Vec3, Feat
     }
     // Face region.
     let sum = va + vb + vc;
-    if !(sum > 0.0) || !sum.is_finite() {
+    if sum.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !sum.is_finite() {
         // Degenerate (collinear) triangle that slipped through: nearest of the three edges.
         let mut best = (a, Feature::Vertex(0));
         let mut bd = f32::INFINITY;
@@ -120,11 +120,9 @@ pub fn clip_triangle(tri: [Vec3; 3], lo: Vec3, hi: Vec3, out: &mut [Vec3; MAX_CL
                 let q = src[(i + 1) % n];
                 let dp = s * (p[axis] - bound);
                 let dq = s * (q[axis] - bound);
-                if dp <= 0.0 {
-                    if m < MAX_CLIP + 1 {
-                        dst[m] = p;
-                        m += 1;
-                    }
+                if dp <= 0.0 && m < MAX_CLIP + 1 {
+                    dst[m] = p;
+                    m += 1;
                 }
                 if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
                     let t = dp / (dp - dq);

@@ -173,7 +173,15 @@ pub fn multi_leaf(
     let rich = tris.len() <= 16;
     let mut poly = [Vec3::ZERO; MAX_CLIP + 1];
     for (li, &t) in tris.iter().enumerate() {
-        let n = clip_triangle(mesh.tris[t as usize], lo, hi, &mut poly);
+        let (blo, bhi) = mesh.bbox[t as usize];
+        let n = if blo.cmpge(lo).all() && bhi.cmple(hi).all() {
+            poly[..3].copy_from_slice(&mesh.tris[t as usize]);
+            3
+        } else if blo.cmpgt(hi).any() || bhi.cmplt(lo).any() {
+            0
+        } else {
+            clip_triangle(mesh.tris[t as usize], lo, hi, &mut poly)
+        };
         if n == 0 {
             continue;
         }
@@ -208,7 +216,8 @@ pub fn multi_leaf(
         svo_max = svo_max.max(e);
         svo_sum += e;
     }
-    if svo_max <= p.accept {
+    let open_near = tris.iter().any(|&t| mesh.boundary[t as usize] != 0);
+    if svo_max <= p.accept && !open_near {
         return svo_leaf(p, g);
     }
     let svo_mean = svo_sum / s.samples.len() as f32;
@@ -263,8 +272,8 @@ pub fn multi_leaf(
     for c in s.comp_tris.iter_mut().take(k) {
         c.clear();
     }
-    for li in 0..n {
-        s.comp_tris[s.comp_of[li] as usize].push(tris[li]);
+    for (li, &t) in tris.iter().enumerate() {
+        s.comp_tris[s.comp_of[li] as usize].push(t);
     }
 
     // One (or two) voxels per component.
@@ -280,13 +289,15 @@ pub fn multi_leaf(
         {
             continue;
         }
-        let c: [f32; 8] = if k == 1 {
+        // An open component signs by its own pseudo-normals (a boundary edge's is its face's):
+        // the global sign (winding number near borders) jumps there.
+        let open = ctris.iter().any(|&t| mesh.boundary[t as usize] != 0);
+        let c: [f32; 8] = if k == 1 && !open {
             *g
         } else {
             corner_pos.map(|x| mesh.signed_distance_subset(ctris, x))
         };
         let q = p.q8(&c);
-        let open = ctris.iter().any(|&t| mesh.boundary[t as usize] != 0);
         let mut err = 0.0f32;
         for (l, &li) in s.samples.iter().zip(&s.sample_tri) {
             if s.comp_of[li as usize] == ci as u32 {

@@ -85,7 +85,10 @@ pub struct BuildSettings {
     pub threads: Option<usize>,
     /// Normalisation margin (0.05): the longest extent is scaled to `2·(1 − margin)`.
     pub margin: f32,
-    /// How the global signed distance is signed.
+    /// How the global signed distance is signed. `Auto`: pseudo-normals on watertight meshes; on
+    /// others, pseudo-normals where the closest feature is a clean manifold feature and the
+    /// generalised winding number elsewhere (see [`build`]). `Winding` / `PseudoNormal` force
+    /// one method everywhere.
     pub sign: SignMode,
 }
 
@@ -151,7 +154,7 @@ fn validate(mesh: &TriMesh, settings: &BuildSettings) -> Result<()> {
     if settings.threads == Some(0) {
         return Err(BuildError::InvalidThreads);
     }
-    if !(settings.margin >= 0.0 && settings.margin < 0.5) {
+    if !(0.0..0.5).contains(&settings.margin) {
         return Err(BuildError::InvalidMargin(settings.margin));
     }
     if mesh.triangles.is_empty() {
@@ -180,7 +183,7 @@ fn validate(mesh: &TriMesh, settings: &BuildSettings) -> Result<()> {
     }
     let b = mesh.bounds();
     let ext = (b.max - b.min).max_element();
-    if !(ext > 0.0) || !ext.is_finite() {
+    if ext.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !ext.is_finite() {
         return Err(BuildError::DegenerateMesh(format!(
             "the bounding box has extent {ext}"
         )));
@@ -221,6 +224,42 @@ fn ms(t: Instant) -> f64 {
 #[inline]
 fn corner_key(c: [u32; 3]) -> u64 {
     ((c[0] as u64) << 42) | ((c[1] as u64) << 21) | c[2] as u64
+}
+
+/// The global signed distance at a corner. With `hybrid` (sign mode `Auto` on a mesh that is
+/// not watertight), the sign comes from the pseudo-normal of the closest feature when that
+/// feature is clean (face interior, manifold consistently oriented edge, vertex with only such
+/// edges) and from the generalised winding number otherwise: the same answer as the winding
+/// number wherever the surface is locally a closed manifold, but ~5× cheaper on abc1 and
+/// correct on both sides of open sheets away from their borders (where the winding number,
+/// about ±0.5 on either side, reports *outside* twice and the sheet would vanish).
+#[inline]
+fn global_signed_distance(
+    dist: &MeshDistance,
+    local: &LocalMesh,
+    hybrid: bool,
+    p: Vec3,
+    hint: u32,
+) -> f32 {
+    let c = if hint != u32::MAX {
+        dist.closest_point_with_hint(p, hint)
+    } else {
+        dist.closest_point(p)
+    };
+    if hybrid && (c.triangle as usize) < local.len() {
+        let t = c.triangle as usize;
+        let [a, b, cc] = local.tris[t];
+        let (q, f) = closest_point_triangle(p, a, b, cc);
+        if local.feature_is_clean(t, f) {
+            let n = local.pseudo_normal(t, f);
+            return if (p - q).dot(n) < 0.0 {
+                -c.distance
+            } else {
+                c.distance
+            };
+        }
+    }
+    dist.sign_closest(p, &c)
 }
 
 fn build_in_pool(
@@ -274,6 +313,7 @@ fn build_in_pool(
     }
     slots.par_sort_unstable();
     let mut points: Vec<Vec3> = Vec::with_capacity(n * 2);
+    let mut hints: Vec<u32> = Vec::with_capacity(n * 2);
     let mut point_of_slot = vec![0u32; n * 8];
     let h = 2.0 / (1u64 << depth) as f32;
     let mask = (1u64 << 21) - 1;
@@ -282,12 +322,24 @@ fn build_in_pool(
         if key != last {
             let g = [(key >> 42) & mask, (key >> 21) & mask, key & mask];
             points.push(Vec3::new(g[0] as f32, g[1] as f32, g[2] as f32) * h - Vec3::ONE);
+            let cell = &sub.cells[(slot / 8) as usize];
+            hints.push(if cell.len > 0 {
+                sub.tris[cell.start as usize]
+            } else {
+                u32::MAX
+            });
             last = key;
         }
         point_of_slot[slot as usize] = (points.len() - 1) as u32;
     }
     drop(slots);
-    let values = dist.signed_distances(&points);
+    let hybrid = settings.sign == SignMode::Auto && dist.sign_mode() == SignMode::Winding;
+    let values: Vec<f32> = points
+        .par_iter()
+        .zip(hints.par_iter())
+        .with_min_len(256)
+        .map(|(&p, &hint)| global_signed_distance(&dist, &local, hybrid, p, hint))
+        .collect();
     let corners: Vec<[f32; 8]> = (0..n)
         .map(|i| std::array::from_fn(|k| values[point_of_slot[i * 8 + k] as usize]))
         .collect();

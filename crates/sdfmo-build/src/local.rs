@@ -28,6 +28,11 @@ pub struct LocalMesh {
     pub edge_normal: Vec<[Vec3; 3]>,
     /// Bit `i` set: edge `i` is a boundary edge of the whole mesh (one incident triangle).
     pub boundary: Vec<u8>,
+    /// Bit `i` set: edge `i` is a *clean* manifold edge (exactly two incident triangles that
+    /// traverse it in opposite directions), so its pseudo-normal signs reliably.
+    pub edge_clean: Vec<u8>,
+    /// Per welded vertex: every incident edge is clean.
+    pub vertex_clean: Vec<bool>,
     /// Angle-weighted pseudo-normal per welded vertex.
     pub vertex_normal: Vec<Vec3>,
     /// Triangle bounding boxes (min, max).
@@ -105,6 +110,8 @@ impl LocalMesh {
         edges.sort_unstable();
         let mut edge_normal = vec![[Vec3::ZERO; 3]; n];
         let mut boundary = vec![0u8; n];
+        let mut edge_clean = vec![0u8; n];
+        let mut vertex_clean = vec![true; welded_pos.len()];
         let mut i = 0;
         while i < edges.len() {
             let mut j = i;
@@ -113,11 +120,21 @@ impl LocalMesh {
                 sum += face_normal[edges[j].1 as usize];
                 j += 1;
             }
+            // Clean: two triangles traversing the edge in opposite directions.
+            let dir = |e: &(u64, u32, u8)| vids[e.1 as usize][e.2 as usize];
+            let clean = j - i == 2 && dir(&edges[i]) != dir(&edges[i + 1]);
             for e in &edges[i..j] {
                 edge_normal[e.1 as usize][e.2 as usize] = sum;
                 if j - i == 1 {
                     boundary[e.1 as usize] |= 1 << e.2;
                 }
+                if clean {
+                    edge_clean[e.1 as usize] |= 1 << e.2;
+                }
+            }
+            if !clean {
+                vertex_clean[(edges[i].0 >> 32) as usize] = false;
+                vertex_clean[(edges[i].0 & 0xffff_ffff) as usize] = false;
             }
             i = j;
         }
@@ -128,6 +145,8 @@ impl LocalMesh {
             face_normal,
             edge_normal,
             boundary,
+            edge_clean,
+            vertex_clean,
             vertex_normal,
             bbox,
             area2,
@@ -137,6 +156,11 @@ impl LocalMesh {
     /// Number of triangles.
     pub fn len(&self) -> usize {
         self.tris.len()
+    }
+
+    /// No triangles.
+    pub fn is_empty(&self) -> bool {
+        self.tris.is_empty()
     }
 
     /// Signed distance from `p` to the triangles `subset` (indices into this mesh), signed by the
@@ -194,6 +218,17 @@ impl LocalMesh {
         best.sqrt()
     }
 
+    /// Whether feature `f` of triangle `t` has a reliable pseudo-normal: the face interior, a
+    /// clean manifold edge, or a vertex all of whose edges are clean.
+    #[inline]
+    pub fn feature_is_clean(&self, t: usize, f: Feature) -> bool {
+        match f {
+            Feature::Face => self.face_normal[t] != Vec3::ZERO,
+            Feature::Edge(k) => self.edge_clean[t] & (1 << k) != 0,
+            Feature::Vertex(k) => self.vertex_clean[self.vids[t][k as usize] as usize],
+        }
+    }
+
     /// The pseudo-normal of feature `f` of triangle `t`.
     #[inline]
     pub fn pseudo_normal(&self, t: usize, f: Feature) -> Vec3 {
@@ -242,6 +277,8 @@ mod tests {
         let m = cube();
         let l = LocalMesh::new(&m);
         assert!(l.boundary.iter().all(|&b| b == 0));
+        assert!(l.edge_clean.iter().all(|&b| b == 7));
+        assert!(l.vertex_clean.iter().all(|&b| b));
         let all: Vec<u32> = (0..l.len() as u32).collect();
         // Inside, outside near faces, edges and corners.
         assert!((l.signed_distance_subset(&all, Vec3::ZERO) + 0.5).abs() < 1e-6);
@@ -268,5 +305,13 @@ mod tests {
         let m = TriMesh::new(p, vec![[0, 2, 1], [0, 3, 2]], vec![0, 0]).unwrap();
         let l = LocalMesh::new(&m);
         assert_eq!(l.boundary[0].count_ones() + l.boundary[1].count_ones(), 4);
+        // The diagonal is the only clean edge; every vertex touches a boundary edge.
+        assert_eq!(
+            l.edge_clean[0].count_ones() + l.edge_clean[1].count_ones(),
+            2
+        );
+        assert!(l.vertex_clean.iter().all(|&b| !b));
+        assert!(l.feature_is_clean(0, Feature::Face));
+        assert!(!l.feature_is_clean(0, Feature::Vertex(0)));
     }
 }

@@ -79,47 +79,79 @@ impl Ctx<'_> {
         tri_box_overlap(center, Vec3::splat(half), a, b, c)
     }
 
-    /// Filters `scratch[start..end]` into the children of `(level, coord)` and recurses.
+    /// Distributes `tris` (the triangles of node `(level, coord)`) over its eight children in
+    /// one pass and recurses into them in octant order. `bufs[l]` holds the eight child lists
+    /// of level `l` (reused: no allocation once warm).
     fn recurse(
         &self,
         level: u8,
         coord: [u32; 3],
-        scratch: &mut Vec<u32>,
-        start: usize,
-        end: usize,
+        tris: &[u32],
+        bufs: &mut [[Vec<u32>; 8]],
         out: &mut Subdivision,
     ) {
         if level == self.depth {
             let (center, half) = self.cell(level, coord);
-            let touches =
-                (start..end).any(|i| self.overlaps(scratch[i], center, half + self.candidate));
+            let touches = tris
+                .iter()
+                .any(|&t| self.overlaps(t, center, half + self.candidate));
             if touches {
                 let s = out.tris.len() as u32;
-                out.tris.extend_from_slice(&scratch[start..end]);
+                out.tris.extend_from_slice(tris);
                 out.cells.push(Candidate {
                     coord,
                     start: s,
-                    len: (end - start) as u32,
+                    len: tris.len() as u32,
                 });
             }
             return;
         }
         out.inner_nodes += 1;
-        for octant in 0..8u32 {
-            let cc = child(coord, octant);
-            let (center, half) = self.cell(level + 1, cc);
-            let cs = scratch.len();
-            for i in start..end {
-                let t = scratch[i];
-                if self.overlaps(t, center, half + self.gather) {
-                    scratch.push(t);
+        let (center, half) = self.cell(level, coord);
+        let ch = 0.5 * half; // child half size
+        let g = self.gather;
+        let (mine, rest) = bufs.split_first_mut().expect("one buffer set per level");
+        for b in mine.iter_mut() {
+            b.clear();
+        }
+        for &t in tris {
+            let (lo, hi) = self.mesh.bbox[t as usize];
+            // Which halves of each axis the (inflated) children may share with the bbox.
+            let lo_side = lo.cmple(center + Vec3::splat(g)).bitmask(); // touches the low child
+            let hi_side = hi.cmpge(center - Vec3::splat(g)).bitmask(); // touches the high child
+            for (octant, list) in mine.iter_mut().enumerate() {
+                // octant bits: x = 4, y = 2, z = 1; bitmask bits: x = 1, y = 2, z = 4.
+                let bx = (octant >> 2) & 1;
+                let by = (octant >> 1) & 1;
+                let bz = octant & 1;
+                let ok = |bit: usize, high: usize| {
+                    if high == 1 {
+                        hi_side & (1 << bit) != 0
+                    } else {
+                        lo_side & (1 << bit) != 0
+                    }
+                };
+                if !(ok(0, bx) && ok(1, by) && ok(2, bz)) {
+                    continue;
+                }
+                let cc = center
+                    + Vec3::new(
+                        bx as f32 * 2.0 - 1.0,
+                        by as f32 * 2.0 - 1.0,
+                        bz as f32 * 2.0 - 1.0,
+                    ) * ch;
+                if self.overlaps(t, cc, ch + g) {
+                    list.push(t);
                 }
             }
-            let ce = scratch.len();
-            if ce > cs {
-                self.recurse(level + 1, cc, scratch, cs, ce, out);
+        }
+        for octant in 0..8u32 {
+            if mine[octant as usize].is_empty() {
+                continue;
             }
-            scratch.truncate(cs);
+            let list = std::mem::take(&mut mine[octant as usize]);
+            self.recurse(level + 1, child(coord, octant), &list, rest, out);
+            mine[octant as usize] = list;
         }
     }
 }
@@ -175,9 +207,8 @@ pub fn subdivide(mesh: &LocalMesh, depth: u8, gather: f32, candidate: f32) -> Su
         .into_par_iter()
         .map(|(coord, tris)| {
             let mut out = Subdivision::default();
-            let n = tris.len();
-            let mut scratch = tris;
-            ctx.recurse(split, coord, &mut scratch, 0, n, &mut out);
+            let mut bufs: Vec<[Vec<u32>; 8]> = (split..depth).map(|_| Default::default()).collect();
+            ctx.recurse(split, coord, &tris, &mut bufs, &mut out);
             out
         })
         .collect();

@@ -1,0 +1,102 @@
+//! Builds a mesh as SVO and multi-octree at some depths, renders the paper's four views of each
+//! and of the mesh reference (lambert), and prints mean PSNR and FLIP, sizes and the gain.
+//!
+//! `cargo run --release -p sdfmo-build --example psnr -- MESH SIZE DEPTH... [--save DIR]`
+
+use std::path::Path;
+
+use sdfmo_build::{build, BuildSettings, Method};
+use sdfmo_distance::{MeshDistance, SignMode};
+use sdfmo_render::{
+    mesh_in_octree_frame, render, Camera, MeshScene, Mode, OctreeScene, RenderSettings,
+};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let path = args
+        .first()
+        .ok_or("usage: psnr MESH SIZE DEPTH... [--save DIR]")?;
+    let size: u32 = args.get(1).ok_or("SIZE")?.parse()?;
+    let save = args
+        .iter()
+        .position(|a| a == "--save")
+        .map(|i| args[i + 1].clone());
+    let depths: Vec<u8> = args[2..]
+        .iter()
+        .take_while(|a| *a != "--save")
+        .map(|a| a.parse())
+        .collect::<Result<_, _>>()?;
+    let mesh = sdfmo_mesh::load_mesh(Path::new(path))?.mesh;
+    let name = Path::new(path)
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("mesh")
+        .to_string();
+    let views = Camera::paper_views(size, size);
+    let rs = RenderSettings::new(Mode::Lambert);
+    let mut refs = Vec::new();
+    for depth in depths {
+        let mut row = Vec::new();
+        for method in [Method::Svo, Method::Multi { max_voxels: 8 }] {
+            let s = BuildSettings {
+                depth,
+                method,
+                ..Default::default()
+            };
+            let (oct, st) = build(&mesh, &s, None)?;
+            if refs.is_empty() {
+                let m = mesh_in_octree_frame(&mesh, oct.meta());
+                let d = MeshDistance::new(&m, SignMode::Auto)?;
+                for v in &views {
+                    refs.push(render(&MeshScene(&d), v, &rs)?.to_image());
+                }
+                if let Some(dir) = &save {
+                    std::fs::create_dir_all(dir)?;
+                    for (i, r) in refs.iter().enumerate() {
+                        r.save(format!("{dir}/{name}_ref_{i}.png"))?;
+                    }
+                }
+            }
+            let mut p = 0.0;
+            let mut f = 0.0;
+            for (i, v) in views.iter().enumerate() {
+                let img = render(&OctreeScene(&oct), v, &rs)?.to_image();
+                p += sdfmo_metrics::psnr(&refs[i], &img)?;
+                f += sdfmo_metrics::flip(&refs[i], &img)?.mean as f64;
+                if let Some(dir) = &save {
+                    let m = if method == Method::Svo {
+                        "svo"
+                    } else {
+                        "multi"
+                    };
+                    img.save(format!("{dir}/{name}_d{depth}_{m}_{i}.png"))?;
+                    let mut d = img.clone();
+                    for (o, r) in d.pixels_mut().zip(refs[i].pixels()) {
+                        for c in 0..3 {
+                            o[c] = (o[c] as i32 - r[c] as i32)
+                                .unsigned_abs()
+                                .saturating_mul(4)
+                                .min(255) as u8;
+                        }
+                    }
+                    d.save(format!("{dir}/{name}_d{depth}_{m}_{i}_diff.png"))?;
+                }
+            }
+            let n = views.len() as f64;
+            row.push((
+                p / n,
+                f / n,
+                st.bytes,
+                st.voxels,
+                st.surface_voxels,
+                st.build_ms,
+            ));
+        }
+        let (s, m) = (row[0], row[1]);
+        println!(
+            "{name} d{depth}: svo {:.2} dB flip {:.4} {:.3} MB | multi {:.2} dB flip {:.4} {:.3} MB ({} vox, {} surf) | gain {:+.2} dB, size x{:.2}",
+            s.0, s.1, s.2 as f64 / 1e6, m.0, m.1, m.2 as f64 / 1e6, m.3, m.4, m.0 - s.0, m.2 as f64 / s.2 as f64
+        );
+    }
+    Ok(())
+}

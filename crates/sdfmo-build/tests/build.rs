@@ -1,0 +1,461 @@
+//! Cross-crate tests of the builder: determinism, file round trip, the component split, thin
+//! and open elements, and typed errors.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+use glam::Vec3;
+use sdfmo_build::{build, trilinear, BuildError, BuildSettings, BuildStats, Method};
+use sdfmo_format::{PackedOctree, Voxel};
+use sdfmo_mesh::{procedural, TriMesh};
+
+const MULTI: Method = Method::Multi { max_voxels: 8 };
+
+fn settings(depth: u8, method: Method) -> BuildSettings {
+    BuildSettings {
+        depth,
+        method,
+        ..Default::default()
+    }
+}
+
+fn run(mesh: &TriMesh, depth: u8, method: Method) -> (PackedOctree, BuildStats) {
+    build(mesh, &settings(depth, method), None).expect("build")
+}
+
+fn data_dir() -> Option<PathBuf> {
+    let dir = std::env::var("SDFMO_TEST_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|_| {
+            PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data"))
+        });
+    if dir.is_dir() {
+        Some(dir)
+    } else if std::env::var("SDFMO_REQUIRE_TEST_DATA").as_deref() == Ok("1") {
+        panic!("test data not found at {}", dir.display());
+    } else {
+        eprintln!("note: test data not found at {}; skipping", dir.display());
+        None
+    }
+}
+
+fn load(name: &str) -> Option<TriMesh> {
+    let dir = data_dir()?;
+    Some(
+        sdfmo_mesh::load_mesh(&dir.join(name))
+            .expect("load test mesh")
+            .mesh,
+    )
+}
+
+fn leaf_map(o: &PackedOctree) -> HashMap<[u32; 3], Vec<Voxel>> {
+    o.leaves().collect()
+}
+
+/// The leaf holding normalised point `p` and `p`'s local coordinates in it.
+fn locate(depth: u8, p: Vec3) -> ([u32; 3], Vec3) {
+    let h = 2.0 / (1u32 << depth) as f32;
+    let c = ((p + Vec3::ONE) / h).floor();
+    (
+        [c.x as u32, c.y as u32, c.z as u32],
+        (p + Vec3::ONE) / h - c,
+    )
+}
+
+#[test]
+fn identical_bytes_for_1_2_and_4_threads() {
+    let mesh = procedural::demo_part();
+    for method in [Method::Svo, MULTI] {
+        let bytes: Vec<Vec<u8>> = [1, 2, 4]
+            .iter()
+            .map(|&t| {
+                let s = BuildSettings {
+                    threads: Some(t),
+                    ..settings(6, method)
+                };
+                build(&mesh, &s, None).expect("build").0.to_bytes()
+            })
+            .collect();
+        assert!(bytes[0].len() > 1000);
+        assert_eq!(bytes[0], bytes[1], "{method:?}: 1 vs 2 threads");
+        assert_eq!(bytes[0], bytes[2], "{method:?}: 1 vs 4 threads");
+    }
+    if let Some(abc5) = load("abc5.stl") {
+        let a = build(
+            &abc5,
+            &BuildSettings {
+                threads: Some(1),
+                ..settings(6, MULTI)
+            },
+            None,
+        )
+        .unwrap()
+        .0;
+        let b = build(
+            &abc5,
+            &BuildSettings {
+                threads: Some(4),
+                ..settings(6, MULTI)
+            },
+            None,
+        )
+        .unwrap()
+        .0;
+        assert_eq!(a.to_bytes(), b.to_bytes());
+    }
+}
+
+#[test]
+fn build_save_load_round_trip() {
+    let mesh = procedural::demo_part();
+    let (oct, stats) = run(&mesh, 5, MULTI);
+    let dir = std::env::temp_dir().join(format!("sdfmo-build-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("demo.smo");
+    oct.save(&path).unwrap();
+    let back = PackedOctree::load(&path).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    assert_eq!(back.to_bytes(), oct.to_bytes());
+    assert_eq!(stats.bytes, oct.byte_size());
+    assert_eq!(stats.voxels, back.voxel_count());
+    assert_eq!(stats.leaves, back.leaf_count());
+    let a: Vec<_> = oct.leaves().collect();
+    let b: Vec<_> = back.leaves().collect();
+    assert_eq!(a, b);
+    // The stored transform maps the normalised frame back to model units.
+    let m = back.meta();
+    let bounds = mesh.bounds();
+    let c = (bounds.min + bounds.max) * 0.5;
+    assert!((m.center - c).length() < 1e-5);
+}
+
+#[test]
+fn stats_are_consistent() {
+    let mesh = procedural::demo_part();
+    let progress = std::sync::Mutex::new(Vec::new());
+    let cb = |f: f32| progress.lock().unwrap().push(f);
+    let (oct, st) = build(&mesh, &settings(6, MULTI), Some(&cb)).unwrap();
+    assert_eq!(st.leaves, oct.leaf_count());
+    assert_eq!(st.voxels, oct.voxel_count());
+    assert_eq!(st.surface_voxels, oct.surface_voxel_count());
+    assert_eq!(st.nodes, oct.node_count());
+    assert_eq!(st.voxels_per_leaf.iter().sum::<usize>(), st.leaves);
+    let weighted: usize = st
+        .voxels_per_leaf
+        .iter()
+        .enumerate()
+        .map(|(n, c)| n * c)
+        .sum();
+    assert_eq!(weighted, st.voxels);
+    let names: Vec<&str> = st.phases.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "normalize",
+            "distance",
+            "subdivide",
+            "corners",
+            "leaves",
+            "pack"
+        ]
+    );
+    assert!(st.build_ms >= st.phases.iter().map(|p| p.1).sum::<f64>() * 0.99);
+    let p = progress.into_inner().unwrap();
+    assert_eq!(p.first(), Some(&0.0));
+    assert_eq!(p.last(), Some(&1.0));
+    assert!(
+        p.windows(2).all(|w| w[0] <= w[1]),
+        "progress must increase: {p:?}"
+    );
+}
+
+#[test]
+fn svo_has_one_volume_voxel_per_leaf_with_a_sign_change() {
+    let mesh = procedural::sphere(Vec3::ZERO, 1.0, 3);
+    let (oct, st) = run(&mesh, 5, Method::Svo);
+    assert_eq!(st.voxels, st.leaves);
+    assert_eq!(st.surface_voxels, 0);
+    for (_, vs) in oct.leaves() {
+        assert_eq!(vs.len(), 1);
+        let c = vs[0].corners;
+        assert!(c.iter().any(|&v| v <= 0.0) && c.iter().any(|&v| v >= 0.0));
+    }
+    // A closed sphere: the multi-octree has nothing to split and equals the SVO.
+    let (multi, _) = run(&mesh, 5, MULTI);
+    assert_eq!(multi.to_bytes(), oct.to_bytes());
+}
+
+/// Two boxes with a horizontal slot of a third of a voxel, placed (by a small extra box that
+/// shifts the bounding-box centre) so that the slot lies inside a row of cells rather than on a
+/// grid plane: every SVO corner there is inside a box and the slot closes; the multi-octree
+/// keeps one voxel per box and the slot stays open.
+#[test]
+fn gap_pair_with_sub_voxel_gap_is_split() {
+    let depth = 5;
+    let gap = 0.03;
+    let extra = procedural::box_mesh(Vec3::new(-0.1, -1.6, -0.1), Vec3::new(0.1, -1.5, 0.1));
+    let mesh = TriMesh::merge(&[procedural::gap_pair(1.0, gap), extra]);
+    let (_, norm) = mesh.normalized(0.05);
+    let h = 2.0 / (1u32 << depth) as f32;
+    let gap_y = norm.to_normalized(Vec3::ZERO).y;
+    let half_gap = 0.5 * gap * norm.scale;
+    assert!(2.0 * half_gap < 0.5 * h, "the gap must be sub-voxel");
+    let frac = ((gap_y + 1.0) / h).fract();
+    assert!(
+        frac > 0.2 && frac < 0.8,
+        "the gap must not sit on a grid plane ({frac})"
+    );
+
+    let open_fraction = |oct: &PackedOctree| {
+        let map = leaf_map(oct);
+        let mut open = 0;
+        let mut n = 0;
+        for i in 0..20 {
+            for j in 0..20 {
+                let x = -0.4 + 0.8 * i as f32 / 19.0;
+                let z = -0.4 + 0.8 * j as f32 / 19.0;
+                let p = Vec3::new(
+                    norm.to_normalized(Vec3::new(x, 0.0, z)).x,
+                    gap_y,
+                    norm.to_normalized(Vec3::new(x, 0.0, z)).z,
+                );
+                let (key, l) = locate(depth, p);
+                n += 1;
+                // Open: the leaf exists and no volume voxel claims the slot's middle as inside,
+                // while just above and below the slot (inside the boxes) some voxel does.
+                if let Some(vs) = map.get(&key) {
+                    let inside = |q: Vec3| {
+                        vs.iter()
+                            .any(|v| !v.surface && trilinear(&v.corners, q) < 0.0)
+                    };
+                    let dy = Vec3::new(0.0, 2.0 * half_gap / h, 0.0);
+                    let (lo_ok, hi_ok) = (l.y - dy.y >= 0.0, l.y + dy.y <= 1.0);
+                    let below = !lo_ok || inside(l - dy);
+                    let above = !hi_ok || inside(l + dy);
+                    if !inside(l) && below && above {
+                        open += 1;
+                    }
+                }
+            }
+        }
+        open as f32 / n as f32
+    };
+    let (svo, _) = run(&mesh, depth, Method::Svo);
+    let (multi, st) = run(&mesh, depth, MULTI);
+    let (o_svo, o_multi) = (open_fraction(&svo), open_fraction(&multi));
+    assert!(o_multi > 0.95, "multi-octree slot open at {o_multi}");
+    assert!(o_svo < 0.05, "SVO slot open at {o_svo}");
+    assert!(
+        st.voxels_per_leaf[2..].iter().sum::<usize>() > 50,
+        "{:?}",
+        st.voxels_per_leaf
+    );
+}
+
+/// A plate 0.3 voxel thick, lying inside a row of cells: all SVO corners come out positive
+/// and the plate is lost; the multi-octree represents it with surface voxels.
+#[test]
+fn thin_plate_survives_as_surface_voxels() {
+    let depth = 5;
+    let t = 0.01;
+    let plate = procedural::thin_plate(Vec3::new(1.0, t, 0.8));
+    let extra = procedural::box_mesh(Vec3::new(-0.02, -0.35, -0.02), Vec3::new(0.02, -0.32, 0.02));
+    let mesh = TriMesh::merge(&[plate, extra]);
+    let (_, norm) = mesh.normalized(0.05);
+    let h = 2.0 / (1u32 << depth) as f32;
+    let plate_y = norm.to_normalized(Vec3::ZERO).y;
+    assert!(t * norm.scale < 0.35 * h);
+    let frac = ((plate_y + 1.0) / h).fract();
+    assert!(frac > 0.2 && frac < 0.8, "plate on a grid plane ({frac})");
+
+    let represented = |oct: &PackedOctree| {
+        let map = leaf_map(oct);
+        let mut good = 0;
+        let mut n = 0;
+        for i in 0..20 {
+            for j in 0..20 {
+                let q = norm.to_normalized(Vec3::new(
+                    -0.45 + 0.9 * i as f32 / 19.0,
+                    0.0,
+                    -0.35 + 0.7 * j as f32 / 19.0,
+                ));
+                let (key, l) = locate(depth, q);
+                n += 1;
+                if let Some(vs) = map.get(&key) {
+                    let e = vs
+                        .iter()
+                        .map(|v| trilinear(&v.corners, l).abs())
+                        .fold(f32::INFINITY, f32::min);
+                    let crosses = vs.iter().any(|v| {
+                        v.corners.iter().any(|&c| c <= 0.0) && v.corners.iter().any(|&c| c >= 0.0)
+                    });
+                    if crosses && e < 0.3 * h {
+                        good += 1;
+                    }
+                }
+            }
+        }
+        good as f32 / n as f32
+    };
+    let (svo, _) = run(&mesh, depth, Method::Svo);
+    let (multi, st) = run(&mesh, depth, MULTI);
+    assert!(st.surface_voxels > 0);
+    let (r_svo, r_multi) = (represented(&svo), represented(&multi));
+    assert!(
+        r_multi > 0.95,
+        "multi-octree represents the plate at {r_multi}"
+    );
+    assert!(r_svo < 0.05, "SVO represents the plate at {r_svo}");
+}
+
+#[test]
+fn open_sheet_yields_surface_voxels() {
+    // A single open sheet, tilted so it crosses cells obliquely.
+    let sheet =
+        procedural::open_sheet(1.0, 0.8, 4).transformed(|p| glam::Mat3::from_rotation_z(0.3) * p);
+    let (_, st) = run(&sheet, 5, MULTI);
+    assert!(st.surface_voxels > 0, "{st:?}");
+}
+
+#[test]
+fn teapot_yields_surface_voxels() {
+    let Some(teapot) = load("teapot.obj") else {
+        return;
+    };
+    let (_, st) = run(&teapot, 6, MULTI);
+    assert!(st.surface_voxels > 0, "{st:?}");
+    let (_, svo) = run(&teapot, 6, Method::Svo);
+    assert_eq!(svo.surface_voxels, 0);
+}
+
+#[test]
+fn abc5_parts_side_by_side_get_several_voxels() {
+    let Some(abc5) = load("abc5.stl") else { return };
+    let depth = 7;
+    let (oct, st) = run(&abc5, depth, MULTI);
+    let multi_leaves: usize = st.voxels_per_leaf[2..].iter().sum();
+    assert!(multi_leaves > 200, "{:?}", st.voxels_per_leaf);
+    // Those leaves lie between parts: their voxels are distances to different parts, so at
+    // some corner they disagree by more than a quantisation step.
+    let h = 2.0 / (1u32 << depth) as f32;
+    let differing = oct
+        .leaves()
+        .filter(|(_, vs)| vs.len() >= 2)
+        .filter(|(_, vs)| {
+            vs[0]
+                .corners
+                .iter()
+                .zip(&vs[1].corners)
+                .any(|(a, b)| (a - b).abs() > 0.1 * h)
+        })
+        .count();
+    assert!(
+        differing * 10 >= multi_leaves * 9,
+        "{differing} of {multi_leaves}"
+    );
+    let (_, svo) = run(&abc5, depth, Method::Svo);
+    assert_eq!(svo.voxels, svo.leaves);
+    // The multi-octree reproduces the surface better (sampled on the triangles' centroids).
+    let (norm, _) = abc5.normalized(0.05);
+    let err = |oct: &PackedOctree| {
+        let map = leaf_map(oct);
+        let mut sum = 0.0;
+        for i in 0..norm.triangle_count() {
+            let [a, b, c] = norm.triangle(i);
+            let (key, l) = locate(depth, (a + b + c) / 3.0);
+            sum += map
+                .get(&key)
+                .map(|vs| {
+                    vs.iter()
+                        .map(|v| trilinear(&v.corners, l).abs() / h)
+                        .fold(1.0f32, f32::min)
+                })
+                .unwrap_or(1.0);
+        }
+        sum / norm.triangle_count() as f32
+    };
+    let (svo_oct, _) = run(&abc5, depth, Method::Svo);
+    let (e_svo, e_multi) = (err(&svo_oct), err(&oct));
+    assert!(
+        e_multi < 0.7 * e_svo,
+        "surface error multi {e_multi} vs SVO {e_svo}"
+    );
+}
+
+#[test]
+fn bad_input_is_a_typed_error() {
+    let empty = TriMesh {
+        positions: vec![],
+        triangles: vec![],
+        parts: vec![],
+    };
+    assert!(matches!(
+        build(&empty, &BuildSettings::default(), None),
+        Err(BuildError::EmptyMesh)
+    ));
+    let line = TriMesh {
+        positions: vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0],
+        triangles: vec![[0, 1, 2]],
+        parts: vec![0],
+    };
+    assert!(matches!(
+        build(&line, &BuildSettings::default(), None),
+        Err(BuildError::DegenerateMesh(_))
+    ));
+    let point = TriMesh {
+        positions: vec![Vec3::ONE; 3],
+        triangles: vec![[0, 1, 2]],
+        parts: vec![0],
+    };
+    assert!(matches!(
+        build(&point, &BuildSettings::default(), None),
+        Err(BuildError::DegenerateMesh(_))
+    ));
+    let bad_index = TriMesh {
+        positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+        triangles: vec![[0, 1, 7]],
+        parts: vec![0],
+    };
+    assert!(matches!(
+        build(&bad_index, &BuildSettings::default(), None),
+        Err(BuildError::InvalidMesh(_))
+    ));
+    let nan = TriMesh {
+        positions: vec![Vec3::ZERO, Vec3::X, Vec3::NAN],
+        triangles: vec![[0, 1, 2]],
+        parts: vec![0],
+    };
+    assert!(matches!(
+        build(&nan, &BuildSettings::default(), None),
+        Err(BuildError::InvalidMesh(_))
+    ));
+    let cube = procedural::box_mesh(Vec3::ZERO, Vec3::ONE);
+    let s = |f: fn(&mut BuildSettings)| {
+        let mut s = BuildSettings::default();
+        f(&mut s);
+        build(&cube, &s, None)
+    };
+    assert!(matches!(
+        s(|s| s.depth = 17),
+        Err(BuildError::InvalidDepth { depth: 17, .. })
+    ));
+    assert!(matches!(
+        s(|s| s.method = Method::Multi { max_voxels: 0 }),
+        Err(BuildError::InvalidMaxVoxels(0))
+    ));
+    assert!(matches!(
+        s(|s| s.threads = Some(0)),
+        Err(BuildError::InvalidThreads)
+    ));
+    assert!(matches!(
+        s(|s| s.margin = 0.5),
+        Err(BuildError::InvalidMargin(_))
+    ));
+    assert!(matches!(
+        s(|s| s.margin = f32::NAN),
+        Err(BuildError::InvalidMargin(_))
+    ));
+    // And the smallest valid builds work.
+    assert!(s(|s| s.depth = 0).is_ok());
+    assert!(s(|s| s.depth = 1).is_ok());
+}
