@@ -175,40 +175,37 @@ pub fn gap_pair(size: f32, gap: f32) -> TriMesh {
 
 /// The built-in demo: a sphere, a box, a thin plate, an open sheet and two boxes with a
 /// sub-voxel gap, laid out so the multi-octree's advantage over an SVO shows in the paper's
-/// four views (cameras on a circle in the y = 0 plane looking at the origin).
+/// four views (cameras on a circle in the y = 0 plane looking at the origin, along ±x and ±z).
 ///
-/// Units are chosen so that normalisation with the default margin 0.05 is the identity (up to
-/// rounding): the bounding box is x, z ∈ [−0.95, 0.95], y ∈ [−0.703, 0.703], centred at the
-/// origin. Parts (ids):
-/// 0. sphere, radius 0.3 at the origin (1,280 triangles);
-/// 1. box, edge 0.7, centred at (−0.6, 0, −0.6): a plain closed volume;
-/// 2. thin plate 0.9 × 0.8 × [`DEMO_THIN`] (0.4 of a depth-7 voxel), standing upright at
-///    (0.6, 0, −0.6), its normal horizontal at 45° so every view sees a face: an SVO loses it;
-/// 3. open sheet 0.9 × 0.8 (8 × 8 quads), upright at (−0.6, 0, 0.6), same orientation: no
-///    inside, so an SVO cannot represent it;
-/// 4. and 5. two cubes of edge 0.7 stacked at (0.6, 0, 0.6) with a horizontal slot of
-///    [`DEMO_THIN`] at y = 0, which every view looks straight into: an SVO closes it.
+/// Three levels, vertically apart so no level hides another: the gap pair at eye height in the
+/// middle, two parts above and two below, each pair on opposite diagonals of the xz plane so
+/// neither hides the other from any of the four views. Units are chosen so that normalisation
+/// with the default margin 0.05 is the identity (up to rounding): the bounding box is
+/// y ∈ [−0.95, 0.95], x, z ∈ [−0.75, 0.75], centred at the origin. Parts (ids):
+/// 0. sphere, radius 0.25, centred at (−0.5, 0.7, −0.5) (1,280 triangles);
+/// 1. box, edge 0.5, centred at (0.5, 0.7, 0.5): a plain closed volume;
+/// 2. thin plate 0.6 wide × 0.5 tall × [`DEMO_THIN`] thick (0.4 of a depth-7 voxel), upright
+///    at (0.5, −0.7, −0.5), its normal horizontal at 45° so every view sees a face obliquely:
+///    an SVO loses it or shows holes;
+/// 3. open sheet 0.6 × 0.5 (8 × 8 quads), upright at (−0.5, −0.7, 0.5), same orientation: it
+///    has no inside, so an SVO cannot represent it;
+/// 4. and 5. two cubes of edge 0.35 stacked at the origin with a horizontal slot of
+///    [`DEMO_THIN`] at y = 0, the eye height, so every view looks straight through it: an SVO
+///    closes it.
 pub fn demo_part() -> TriMesh {
     let upright = Mat3::from_rotation_y(std::f32::consts::FRAC_PI_4)
         * Mat3::from_rotation_x(std::f32::consts::FRAC_PI_2);
     let place = |m: TriMesh, rot: Mat3, at: Vec3| m.transformed(|p| rot * p + at);
     TriMesh::merge(&[
-        sphere(Vec3::ZERO, 0.3, 3),
-        box_mesh(
-            Vec3::new(-0.95, -0.35, -0.95),
-            Vec3::new(-0.25, 0.35, -0.25),
-        ),
+        sphere(Vec3::new(-0.5, 0.7, -0.5), 0.25, 3),
+        box_mesh(Vec3::new(0.25, 0.45, 0.25), Vec3::new(0.75, 0.95, 0.75)),
         place(
-            thin_plate(Vec3::new(0.9, DEMO_THIN, 0.8)),
+            thin_plate(Vec3::new(0.6, DEMO_THIN, 0.5)),
             upright,
-            Vec3::new(0.6, 0.0, -0.6),
+            Vec3::new(0.5, -0.7, -0.5),
         ),
-        place(open_sheet(0.9, 0.8, 8), upright, Vec3::new(-0.6, 0.0, 0.6)),
-        place(
-            gap_pair(0.7, DEMO_THIN),
-            Mat3::IDENTITY,
-            Vec3::new(0.6, 0.0, 0.6),
-        ),
+        place(open_sheet(0.6, 0.5, 8), upright, Vec3::new(-0.5, -0.7, 0.5)),
+        gap_pair(0.35, DEMO_THIN),
     ])
 }
 
@@ -308,9 +305,29 @@ mod tests {
         assert_eq!(t.component_count, 6);
         assert_eq!(t.boundary_edges, 32, "only the sheet is open");
         let b = m.bounds();
-        assert!((b.min - Vec3::new(-0.95, b.min.y, -0.95)).length() < 1e-6);
-        assert!((b.max - Vec3::new(0.95, b.max.y, 0.95)).length() < 1e-6);
+        assert!(
+            (b.min - Vec3::new(-0.75, -0.95, -0.75)).length() < 1e-6,
+            "{b:?}"
+        );
+        assert!(
+            (b.max - Vec3::new(0.75, 0.95, 0.75)).length() < 1e-6,
+            "{b:?}"
+        );
         assert!(b.center().length() < 1e-6);
+        // The three levels do not overlap in height: gap pair in the middle, the rest above or
+        // below it (so no level hides another from a camera at y = 0).
+        for i in 0..m.triangle_count() {
+            let ys = m.triangle(i).map(|p| p.y);
+            let (lo, hi) = (
+                ys.iter().cloned().fold(f32::MAX, f32::min),
+                ys.iter().cloned().fold(f32::MIN, f32::max),
+            );
+            match m.parts[i] {
+                0 | 1 => assert!(lo >= 0.45 - 1e-6),
+                2 | 3 => assert!(hi <= -0.45 + 1e-6),
+                _ => assert!(lo >= -0.36 && hi <= 0.36),
+            }
+        }
         let (n, tr) = m.normalized(0.05);
         assert!((tr.scale - 1.0).abs() < 1e-6);
         // The plate and the gap stay thinner than a depth-7 voxel after normalisation.
