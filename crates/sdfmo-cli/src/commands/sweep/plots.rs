@@ -52,6 +52,7 @@ struct Series {
 }
 
 /// Axis of a plot: its label and whether it is logarithmic.
+#[derive(Clone, Copy)]
 struct Axis<'a> {
     label: &'a str,
     log: bool,
@@ -187,6 +188,15 @@ fn range(values: impl Iterator<Item = f64>, log: bool, integer: bool) -> std::op
     lo..hi
 }
 
+/// Whether positive values span enough (a factor of 8 or more) for a logarithmic axis to have
+/// labelled ticks; narrower data is drawn on a linear axis.
+fn spans_a_decade(values: impl Iterator<Item = f64>) -> bool {
+    let (lo, hi) = values.fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
+        (lo.min(v), hi.max(v))
+    });
+    lo > 0.0 && hi / lo >= 8.0
+}
+
 /// A tick label: integers only on an integer axis, else about three significant digits without
 /// trailing zeros (0.3, 25, 1200, 0.045).
 fn axis_label(v: f64, integer: bool) -> String {
@@ -213,16 +223,18 @@ fn axis_label(v: f64, integer: bool) -> String {
 
 /// Draws one plot into an RGB image.
 fn plot(title: &str, x: &Axis, y: &Axis, series: &[Series]) -> anyhow::Result<image::RgbImage> {
-    let xr = range(
-        series.iter().flat_map(|s| s.points.iter().map(|p| p.0)),
-        x.log,
-        x.integer,
-    );
-    let yr = range(
-        series.iter().flat_map(|s| s.points.iter().map(|p| p.1)),
-        y.log,
-        y.integer,
-    );
+    let xs = || series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
+    let ys = || series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
+    let x = &Axis {
+        log: x.log && spans_a_decade(xs()),
+        ..*x
+    };
+    let y = &Axis {
+        log: y.log && spans_a_decade(ys()),
+        ..*y
+    };
+    let xr = range(xs(), x.log, x.integer);
+    let yr = range(ys(), y.log, y.integer);
     let mut buf = vec![0u8; (WIDTH * HEIGHT * 3) as usize];
     match (x.log, y.log) {
         (false, false) => draw(&mut buf, title, x, y, xr, yr, series),
@@ -382,6 +394,9 @@ mod tests {
         let r = range([5.0].into_iter(), false, false);
         assert!(r.start < 5.0 && r.end > 5.0);
         assert_eq!(range([6.0, 9.0].into_iter(), false, true), 5.5..9.5);
+        assert!(spans_a_decade([0.5, 4.0].into_iter()));
+        assert!(!spans_a_decade([3.3, 3.8].into_iter()));
+        assert!(!spans_a_decade(std::iter::empty()));
     }
 
     #[test]
@@ -389,7 +404,7 @@ mod tests {
         assert_eq!(axis_label(0.30000000000000004, false), "0.3");
         assert_eq!(axis_label(0.045, false), "0.045");
         assert_eq!(axis_label(25.0, false), "25");
-        assert_eq!(axis_label(1234.5, false), "1235");
+        assert_eq!(axis_label(1234.6, false), "1235");
         assert_eq!(axis_label(7.0, true), "7");
         assert_eq!(axis_label(6.5, true), "");
     }
