@@ -177,15 +177,37 @@ pub struct CameraFrame {
 }
 
 impl CameraFrame {
-    /// The primary ray through the centre of pixel (`px`, `py`): (origin, unit direction).
+    /// The primary ray through the centre of pixel (`px`, `py`): (origin, unit direction),
+    /// `normalize(column(px) + row(py))` rounded to f32.
     #[inline]
     pub fn ray(&self, px: u32, py: u32) -> (Vec3, Vec3) {
+        (
+            self.eye.as_vec3(),
+            Self::direction(self.column(px), self.row(py)),
+        )
+    }
+
+    /// `fwd + u·right` for pixel column `px` (the renderer caches it per tile).
+    #[inline]
+    pub fn column(&self, px: u32) -> DVec3 {
         let w = f64::from(self.width);
         let h = f64::from(self.height);
         let u = (2.0 * (f64::from(px) + 0.5) / w - 1.0) * self.tan_half * w / h;
+        self.fwd + u * self.right
+    }
+
+    /// `v·up'` for pixel row `py` (the renderer caches it per tile).
+    #[inline]
+    pub fn row(&self, py: u32) -> DVec3 {
+        let h = f64::from(self.height);
         let v = (1.0 - 2.0 * (f64::from(py) + 0.5) / h) * self.tan_half;
-        let dir = (self.fwd + u * self.right + v * self.up).normalize();
-        (self.eye.as_vec3(), dir.as_vec3())
+        v * self.up
+    }
+
+    /// The unit direction from a cached [`column`](Self::column) and [`row`](Self::row).
+    #[inline]
+    pub fn direction(column: DVec3, row: DVec3) -> Vec3 {
+        (column + row).normalize().as_vec3()
     }
 }
 

@@ -2,7 +2,7 @@
 
 use std::time::Instant;
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::camera::{Camera, CameraFrame};
@@ -188,18 +188,23 @@ impl<T: Traceable> Ctx<'_, T> {
             },
             counters: Counters::default(),
         };
+        // Camera terms cached per tile: the same f64 sums as `CameraFrame::ray`, bit for bit.
+        let columns: Vec<DVec3> = (x0..x0 + tw).map(|px| self.frame.column(px)).collect();
+        let eye = self.frame.eye.as_vec3();
         for row in 0..th {
-            for col in 0..tw {
+            let row_term = self.frame.row(y0 + row);
+            for (col, &column) in columns.iter().enumerate() {
+                let col = col as u32;
                 let i = (row * tw + col) as usize;
-                self.pixel(x0 + col, y0 + row, i, &mut tile);
+                let dir = CameraFrame::direction(column, row_term);
+                self.pixel(eye, dir, x0 + col, y0 + row, i, &mut tile);
             }
         }
         tile
     }
 
     #[inline]
-    fn pixel(&self, px: u32, py: u32, i: usize, tile: &mut Tile) {
-        let (o, d) = self.frame.ray(px, py);
+    fn pixel(&self, o: Vec3, d: Vec3, px: u32, py: u32, i: usize, tile: &mut Tile) {
         let c = &mut tile.counters;
         c.rays += 1;
         let Some(hit) = self.scene.first_hit(o, d, 0.0, f32::INFINITY) else {
@@ -256,5 +261,53 @@ impl<T: Traceable> Ctx<'_, T> {
             ambient = open as f32 / self.plan.ao_samples as f32;
         }
         lambert_value(n, shadow, ambient)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Hits every ray at a distance that encodes its direction, so the depth buffer shows
+    /// exactly which ray each pixel cast.
+    struct DirectionProbe;
+
+    impl Traceable for DirectionProbe {
+        type Hit = f32;
+        fn first_hit(&self, o: Vec3, d: Vec3, _t0: f32, _t1: f32) -> Option<f32> {
+            Some(10.0 + d.x + 3.0 * d.y + 7.0 * d.z + o.x)
+        }
+        fn hit_t(&self, hit: &f32) -> f32 {
+            *hit
+        }
+        fn normal(&self, _o: Vec3, d: Vec3, _hit: &f32) -> Vec3 {
+            -d
+        }
+    }
+
+    #[test]
+    fn tiles_cast_exactly_the_cameras_primary_rays() {
+        let camera = Camera::new(
+            Vec3::new(0.7, -1.3, 2.9),
+            Vec3::new(0.1, 0.2, 0.0),
+            52.0,
+            45,
+            37,
+        );
+        let mut plan = RenderPlan::new(&RenderSettings::new(Mode::Depth).with_threads(2)).unwrap();
+        plan.tile_size = 16;
+        let r = render_with_plan(&DirectionProbe, &camera, &plan).unwrap();
+        let depth = r.depth.unwrap();
+        for py in 0..camera.height {
+            for px in 0..camera.width {
+                let (o, d) = camera.primary_ray(px, py);
+                let expect = 10.0 + d.x + 3.0 * d.y + 7.0 * d.z + o.x;
+                assert_eq!(
+                    depth[(py * camera.width + px) as usize],
+                    expect,
+                    "pixel ({px},{py})"
+                );
+            }
+        }
     }
 }

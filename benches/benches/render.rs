@@ -1,0 +1,154 @@
+//! Rendering throughput: primary rays per second per mode and method, paper view 0 at 1024²,
+//! octree depths 7–10 on abc1 and abc5, on 1 and 2 threads; the source mesh through our BVH
+//! (`MeshScene`) alongside. The Embree peer casting the same rays is
+//! `benches/peers/embree_primary.py`.
+//!
+//! Octrees are built once, outside the timing; every configuration is rendered once and its
+//! image checked non-empty before it is measured.
+//!
+//! Knobs (environment): `SDFMO_TEST_DATA` (mesh directory), `SDFMO_BENCH_MESHES` (default
+//! `abc1,abc5`), `SDFMO_BENCH_DEPTHS` (default `7,8,9,10`), `SDFMO_BENCH_SIZE` (default 1024).
+//! Narrow a run with criterion's filter, e.g.
+//! `cargo bench -p sdfmo-benches --bench render -- 'render/abc1/d9/multi/lambert'`.
+
+use std::hint::black_box;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use sdfmo_build::{build, BuildSettings, Method};
+use sdfmo_distance::{MeshDistance, SignMode};
+use sdfmo_mesh::{load_mesh, TriMesh};
+use sdfmo_render::{
+    mesh_in_octree_frame, render, Camera, MeshScene, Mode, OctreeScene, RenderSettings, Traceable,
+};
+
+fn data_dir() -> PathBuf {
+    std::env::var_os("SDFMO_TEST_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data")))
+}
+
+fn env_list(name: &str, default: &str) -> Vec<String> {
+    std::env::var(name)
+        .unwrap_or_else(|_| default.to_string())
+        .split(',')
+        .map(|s| s.trim().to_string())
+        .filter(|s| !s.is_empty())
+        .collect()
+}
+
+/// (label, settings) of the measured render configurations.
+fn configs() -> Vec<(String, RenderSettings)> {
+    let mut out = Vec::new();
+    for threads in [1, 2] {
+        for mode in Mode::ALL {
+            out.push((
+                format!("{mode}/t{threads}"),
+                RenderSettings::new(mode).with_threads(threads),
+            ));
+        }
+        let shadows = RenderSettings {
+            shadows: true,
+            ..RenderSettings::new(Mode::Lambert).with_threads(threads)
+        };
+        out.push((format!("lambert+shadows/t{threads}"), shadows));
+    }
+    out
+}
+
+fn bench_scene<T: Traceable>(
+    c: &mut Criterion,
+    group: &str,
+    method: &str,
+    scene: &T,
+    cam: &Camera,
+) {
+    let mut g = c.benchmark_group(group);
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2))
+        .throughput(Throughput::Elements(
+            u64::from(cam.width) * u64::from(cam.height),
+        ));
+    for (label, settings) in configs() {
+        let probe = render(scene, cam, &settings).expect("render");
+        assert!(
+            probe.counters.hits > 0,
+            "{group}/{method}/{label}: empty image"
+        );
+        eprintln!(
+            "{group}/{method}/{label}: {} hits, single render {:.1} ms",
+            probe.counters.hits, probe.render_ms
+        );
+        g.bench_function(format!("{method}/{label}"), |b| {
+            b.iter(|| {
+                render(black_box(scene), black_box(cam), black_box(&settings)).expect("render")
+            })
+        });
+    }
+    g.finish();
+}
+
+fn render_benches(c: &mut Criterion) {
+    let size: u32 = std::env::var("SDFMO_BENCH_SIZE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1024);
+    let depths: Vec<u8> = env_list("SDFMO_BENCH_DEPTHS", "7,8,9,10")
+        .iter()
+        .filter_map(|d| d.parse().ok())
+        .collect();
+    let cam = Camera::paper_view(0, size, size);
+    for name in env_list("SDFMO_BENCH_MESHES", "abc1,abc5") {
+        let path = data_dir().join(format!("{name}.stl"));
+        if !path.exists() {
+            eprintln!(
+                "skipping {name}: {} not found (set SDFMO_TEST_DATA)",
+                path.display()
+            );
+            continue;
+        }
+        let mesh: TriMesh = load_mesh(&path).expect("load mesh").mesh;
+        let mut reference_done = false;
+        for &depth in &depths {
+            for (method_name, method) in [
+                ("svo", Method::Svo),
+                ("multi", Method::Multi { max_voxels: 8 }),
+            ] {
+                let settings = BuildSettings {
+                    depth,
+                    method,
+                    ..BuildSettings::default()
+                };
+                let (octree, stats) = build(&mesh, &settings, None).expect("build");
+                eprintln!(
+                    "{name} d{depth} {method_name}: {} leaves, {} voxels, {} bytes, built in {:.0} ms",
+                    stats.leaves, stats.voxels, stats.bytes, stats.build_ms
+                );
+                if !reference_done {
+                    let normalised = mesh_in_octree_frame(&mesh, octree.meta());
+                    let dist = MeshDistance::new(&normalised, SignMode::Auto).expect("mesh BVH");
+                    bench_scene(
+                        c,
+                        &format!("render/{name}/mesh"),
+                        "bvh",
+                        &MeshScene(&dist),
+                        &cam,
+                    );
+                    reference_done = true;
+                }
+                bench_scene(
+                    c,
+                    &format!("render/{name}/d{depth}"),
+                    method_name,
+                    &OctreeScene(&octree),
+                    &cam,
+                );
+            }
+        }
+    }
+}
+
+criterion_group!(benches, render_benches);
+criterion_main!(benches);
