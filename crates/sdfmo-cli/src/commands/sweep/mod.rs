@@ -7,6 +7,7 @@ mod report;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use rayon::prelude::*;
 use sdf_multioctree::build::{self, BuildSettings};
 use sdf_multioctree::distance::{MeshDistance, SignMode};
 use sdf_multioctree::metrics;
@@ -15,7 +16,7 @@ use serde::Serialize;
 use serde_json::json;
 
 use crate::args::{MethodArg, SweepArgs};
-use crate::commands::{load_input, InputMesh};
+use crate::commands::{load_input, with_threads, InputMesh};
 use crate::output::{print_json, print_text, write_png};
 use crate::progress;
 
@@ -244,21 +245,37 @@ fn sweep_model(
                 cap_hits: stats.cap_hits,
                 ..Row::default()
             };
+            // Render the views one after the other (each render uses every worker), then
+            // compare and encode them in parallel (FLIP and PNG encoding are single-threaded).
             let mut render_ms = 0.0;
-            for (k, (cam, reference)) in cams.iter().zip(&references).enumerate() {
+            let mut images = Vec::with_capacity(cams.len());
+            for cam in &cams {
                 let r = render::render(&OctreeScene(&octree), cam, &render_settings)
                     .with_context(|| format!("cannot render {} depth {depth}", method.name()))?;
                 render_ms += r.render_ms;
-                let img = to_image(r)?;
-                write_png(&img_dir.join(view_file(method.name(), depth, k)), &img)?;
-                let psnr = metrics::psnr(reference, &img).context("cannot compute PSNR")?;
-                let flip = metrics::flip(reference, &img).context("cannot compute FLIP")?;
-                write_png(
-                    &img_dir.join(heatmap_file(method.name(), depth, k)),
-                    &metrics::flip_heatmap(&flip),
-                )?;
+                images.push(to_image(r)?);
+            }
+            bar.set_message(format!("{name}: {} depth {depth}: compare", method.name()));
+            let scores = with_threads(args.threads, || {
+                images
+                    .par_iter()
+                    .zip(references.par_iter())
+                    .enumerate()
+                    .map(|(k, (img, reference))| {
+                        write_png(&img_dir.join(view_file(method.name(), depth, k)), img)?;
+                        let psnr = metrics::psnr(reference, img).context("cannot compute PSNR")?;
+                        let flip = metrics::flip(reference, img).context("cannot compute FLIP")?;
+                        write_png(
+                            &img_dir.join(heatmap_file(method.name(), depth, k)),
+                            &metrics::flip_heatmap(&flip),
+                        )?;
+                        Ok((psnr, f64::from(flip.mean)))
+                    })
+                    .collect::<anyhow::Result<Vec<(f64, f64)>>>()
+            })??;
+            for (psnr, flip) in scores {
                 row.psnr_views.push(psnr.is_finite().then_some(psnr));
-                row.flip_views.push(f64::from(flip.mean));
+                row.flip_views.push(flip);
             }
             let n = cams.len().max(1) as f64;
             row.render_ms = render_ms / n;
