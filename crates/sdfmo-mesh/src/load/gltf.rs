@@ -589,6 +589,7 @@ pub(super) fn read(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::{load_mesh_from_bytes, MeshFormat};
 
     #[test]
     fn base64_and_percent() {
@@ -597,5 +598,110 @@ mod tests {
         assert!(base64_decode("a*b").is_none());
         assert_eq!(percent_decode("a%20b.bin").unwrap(), "a b.bin");
         assert!(percent_decode("a%2").is_none());
+    }
+
+    /// A GLB around `json` with a BIN chunk of four positions (a unit square in z = 0:
+    /// (0,0,0), (1,0,0), (1,1,0), (0,1,0)) followed by u16 indices [0, 1, 2, 3].
+    fn glb(json: &str) -> Vec<u8> {
+        let mut bin = Vec::new();
+        for p in [[0f32, 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]] {
+            for c in p {
+                bin.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        for i in [0u16, 1, 2, 3] {
+            bin.extend_from_slice(&i.to_le_bytes());
+        }
+        let mut j = json.as_bytes().to_vec();
+        while !j.len().is_multiple_of(4) {
+            j.push(b' ');
+        }
+        let total = 12 + 8 + j.len() + 8 + bin.len();
+        let mut out = b"glTF".to_vec();
+        for n in [2, total as u32, j.len() as u32] {
+            out.extend_from_slice(&n.to_le_bytes());
+        }
+        out.extend_from_slice(b"JSON");
+        out.extend_from_slice(&j);
+        out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"BIN\0");
+        out.extend_from_slice(&bin);
+        out
+    }
+
+    fn doc(scene: &str, nodes: &str, primitives: &str) -> String {
+        format!(
+            r#"{{"asset":{{"version":"2.0"}},{scene}"nodes":{nodes},
+"meshes":[{{"primitives":{primitives}}}],"buffers":[{{"byteLength":56}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":48}},{{"buffer":0,"byteOffset":48,"byteLength":8}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+{{"bufferView":1,"componentType":5123,"count":4,"type":"SCALAR"}},
+{{"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}}]}}"#
+        )
+    }
+
+    fn load(json: &str) -> crate::LoadedMesh {
+        load_mesh_from_bytes(&glb(json), "t.glb", Some(MeshFormat::Glb)).unwrap()
+    }
+
+    const TRI: &str = r#"[{"attributes":{"POSITION":0},"indices":2}]"#;
+
+    #[test]
+    fn node_transforms_apply_and_mirrors_keep_the_winding() {
+        // Node 0 translates its child (node 1) by (10, 0, 0); node 2 mirrors x.
+        let l = load(&doc(
+            r#""scene":0,"scenes":[{"nodes":[0,2]}],"#,
+            r#"[{"translation":[10,0,0],"children":[1]},{"mesh":0,"scale":[2,2,2]},{"mesh":0,"scale":[-1,1,1]}]"#,
+            TRI,
+        ));
+        let m = &l.mesh;
+        assert_eq!((m.triangle_count(), m.part_count()), (2, 2));
+        assert_eq!(
+            m.triangle(0),
+            [
+                Vec3::new(10.0, 0.0, 0.0),
+                Vec3::new(12.0, 0.0, 0.0),
+                Vec3::new(12.0, 2.0, 0.0)
+            ]
+        );
+        // Both instances face +z: the mirrored one had its winding flipped back.
+        for i in 0..2 {
+            assert!(m.triangle_normal_f64(i)[2] > 0.0, "triangle {i}");
+        }
+        assert_eq!(m.triangle(1)[0], Vec3::ZERO);
+        assert_eq!(l.part_names, vec!["mesh0/0", "mesh0/0"]);
+    }
+
+    #[test]
+    fn default_scene_is_used_and_other_scenes_are_not() {
+        let l = load(&doc(
+            r#""scene":1,"scenes":[{"nodes":[0]},{"nodes":[1]}],"#,
+            r#"[{"mesh":0,"translation":[5,0,0]},{"mesh":0,"translation":[0,7,0]}]"#,
+            TRI,
+        ));
+        assert_eq!(l.mesh.triangle_count(), 1);
+        assert_eq!(l.mesh.bounds().min, Vec3::new(0.0, 7.0, 0.0));
+        // Without scenes, every root node is walked.
+        let l = load(&doc(
+            "",
+            r#"[{"mesh":0},{"mesh":0,"translation":[0,0,1]}]"#,
+            TRI,
+        ));
+        assert_eq!(l.mesh.triangle_count(), 2);
+    }
+
+    #[test]
+    fn strips_fans_and_primitives_as_parts() {
+        // Primitive 0: a strip over 4 vertices (2 triangles); primitive 1: a fan (2 triangles,
+        // coinciding with the strip's, so they are duplicates); primitive 2: points (skipped).
+        let prims = r#"[{"attributes":{"POSITION":0},"indices":1,"mode":5},
+{"attributes":{"POSITION":0},"indices":1,"mode":6},{"attributes":{"POSITION":0},"mode":0}]"#;
+        let l = load(&doc("", r#"[{"mesh":0}]"#, prims));
+        // Strip 0-1-2-3: (0,1,2) then, odd, (1,3,2) (the specification's order, written here
+        // as its rotation (2,1,3)). Fan 0-1-2-3: (0,1,2) duplicates the strip's first; (0,2,3).
+        assert_eq!(l.report.input_triangles, 4);
+        assert_eq!(l.mesh.triangles, vec![[0, 1, 2], [2, 1, 3], [0, 2, 3]]);
+        assert_eq!(l.report.duplicate_triangles, 1);
+        assert_eq!(l.mesh.parts, vec![0, 0, 1]);
     }
 }

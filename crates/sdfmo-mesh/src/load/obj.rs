@@ -232,3 +232,39 @@ pub(super) fn read(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawM
     }
     Ok(raw)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{load_mesh_from_bytes, MeshFormat};
+
+    #[test]
+    fn groups_polygons_relative_indices_and_w() {
+        let text =
+            b"# features\nmtllib missing.mtl\no first\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 2 0 2.0\n\
+vt 0 0\nvn 0 0 1\nf 1/1/1 2/1/1 3/1/1 4/1/1\ng second\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0.5 1.5 1\n\
+v 0 1 1\nusemtl m\nf -5 -4 -3 -2 -1\no first\nf 1//1 3//1 5//1\ns off\nl 1 2\nf 1 2\n";
+        let l = load_mesh_from_bytes(text, "f.obj", None).unwrap();
+        assert_eq!(l.format, MeshFormat::Obj);
+        // A quad (2 triangles), a pentagon (3), one more triangle back in `first`.
+        assert_eq!(l.mesh.triangle_count(), 6);
+        assert_eq!(l.part_names, vec!["first", "second"]);
+        assert_eq!(l.mesh.part_count(), 2);
+        let first: usize = l.mesh.parts.iter().filter(|&&p| p == 0).count();
+        assert_eq!(first, 3);
+        // `v 0 2 0 2.0` is divided by w.
+        assert!(l.mesh.positions.contains(&Vec3::new(0.0, 1.0, 0.0)));
+        assert!(l.mesh.positions.iter().all(|p| p.y <= 1.5));
+        // Fan triangulation of the pentagon keeps the +z winding.
+        for i in 0..l.mesh.triangle_count() {
+            assert!(l.mesh.triangle_normal_f64(i)[2] > 0.0 || l.mesh.parts[i] == 0);
+        }
+    }
+
+    #[test]
+    fn content_sniffing() {
+        assert!(looks_like_obj(b"# c\nv 1 2 3\nf 1 1 1\n"));
+        assert!(!looks_like_obj(b"hello world\nv 1 2 3\n"));
+        assert!(!looks_like_obj(b"# only comments\n"));
+    }
+}
