@@ -2,7 +2,7 @@
 //! reference), saves both PNGs and prints render times and counters.
 //!
 //! ```text
-//! cargo run --release -p sdfmo-render --example paper_view -- MESH [DEPTH] [svo|multi] [MODE] [THREADS] [REPEAT] [OUT_DIR]
+//! cargo run --release -p sdfmo-render --example render_timing -- MESH [DEPTH] [svo|multi] [MODE] [THREADS] [REPEAT] [OUT_DIR]
 //! ```
 //! Without arguments it renders the procedural demo part at depth 7 into the system temp dir.
 
