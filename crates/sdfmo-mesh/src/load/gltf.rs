@@ -13,6 +13,8 @@
 //! becomes one part, its positions transformed by the node's world matrix. Points and lines are
 //! skipped.
 
+use std::collections::hash_map::Entry;
+use std::collections::HashMap;
 use std::path::Path;
 
 use glam::{Mat4, Vec3};
@@ -21,6 +23,9 @@ use gltf::mesh::Mode;
 
 use super::{LoadLimits, RawMesh};
 use crate::error::{MeshError, Result};
+
+/// A primitive's positions (model space, before node transforms) and checked triangles.
+type Decoded = (Vec<Vec3>, Vec<[u32; 3]>);
 
 struct Ctx<'a> {
     file: &'a str,
@@ -485,6 +490,7 @@ pub(super) fn read(
         .map(|n| (n, Mat4::IDENTITY, 0))
         .collect();
     let mut visits = 0usize;
+    let mut decoded: HashMap<(usize, usize), Decoded> = HashMap::new();
     while let Some((node, parent, depth)) = stack.pop() {
         visits += 1;
         if visits > ctx.limits.max_node_visits {
@@ -513,15 +519,35 @@ pub(super) fn read(
                 ) {
                     continue;
                 }
-                let pos_acc = prim
-                    .get(&gltf::Semantic::Positions)
-                    .ok_or_else(|| ctx.parse(format!("{what}: no POSITION attribute")))?;
-                let positions = read_positions(&pos_acc, &what, &mut buffers, &ctx)?;
-                let idx: Vec<u32> = match prim.indices() {
-                    Some(acc) => read_indices(&acc, &what, &mut buffers, &ctx)?,
-                    None => (0..positions.len() as u32).collect(),
+                // Decoded once per primitive, however often its mesh is instanced.
+                let key = (mesh.index(), prim.index());
+                let (positions, tris) = match decoded.entry(key) {
+                    Entry::Occupied(e) => e.into_mut(),
+                    Entry::Vacant(slot) => {
+                        let pos_acc = prim
+                            .get(&gltf::Semantic::Positions)
+                            .ok_or_else(|| ctx.parse(format!("{what}: no POSITION attribute")))?;
+                        let positions = read_positions(&pos_acc, &what, &mut buffers, &ctx)?;
+                        let idx: Vec<u32> = match prim.indices() {
+                            Some(acc) => read_indices(&acc, &what, &mut buffers, &ctx)?,
+                            None => (0..positions.len() as u32).collect(),
+                        };
+                        let tris = assemble(prim.mode(), &idx, &what, &ctx)?;
+                        for (t, tri) in tris.iter().enumerate() {
+                            for &v in tri {
+                                if v as usize >= positions.len() {
+                                    return Err(MeshError::IndexOutOfRange {
+                                        file: file.into(),
+                                        element: format!("{what} triangle {t}"),
+                                        index: v as i64,
+                                        vertex_count: positions.len(),
+                                    });
+                                }
+                            }
+                        }
+                        slot.insert((positions, tris))
+                    }
                 };
-                let tris = assemble(prim.mode(), &idx, &what, &ctx)?;
                 if tris.is_empty() {
                     continue;
                 }
@@ -555,17 +581,7 @@ pub(super) fn read(
                 });
                 // A negative determinant mirrors the geometry: flip the winding back.
                 let mirror = world.determinant() < 0.0;
-                for (t, tri) in tris.iter().enumerate() {
-                    for &v in tri {
-                        if v as usize >= positions.len() {
-                            return Err(MeshError::IndexOutOfRange {
-                                file: file.into(),
-                                element: format!("{what} triangle {t}"),
-                                index: v as i64,
-                                vertex_count: positions.len(),
-                            });
-                        }
-                    }
+                for tri in tris {
                     let [a, b, c] = tri.map(|v| v + base);
                     raw.triangles
                         .push(if mirror { [a, c, b] } else { [a, b, c] });

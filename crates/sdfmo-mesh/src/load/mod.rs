@@ -62,11 +62,12 @@ pub struct LoadLimits {
 }
 
 impl Default for LoadLimits {
-    /// 2^27 triangles and vertices (a few GB of mesh), 2^20 node visits.
+    /// 2^26 triangles and vertices (about 1.6 GB of mesh, far beyond what the octree builder
+    /// needs), 2^20 node visits.
     fn default() -> Self {
         LoadLimits {
-            max_triangles: 1 << 27,
-            max_vertices: 1 << 27,
+            max_triangles: 1 << 26,
+            max_vertices: 1 << 26,
             max_node_visits: 1 << 20,
         }
     }
