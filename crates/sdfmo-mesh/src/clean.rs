@@ -153,6 +153,79 @@ impl TriMesh {
     }
 }
 
+/// Merges vertices closer than `tolerance` (Euclidean, transitively: chains of close vertices
+/// become one vertex, at the position of the chain's lowest-index vertex), then cleans as
+/// [`clean`]. For CAD seams whose two sides were written with slightly different coordinates;
+/// `tolerance <= 0` is the exact (bit-identical) weld. The report's `welded_vertices` counts
+/// both kinds of merge.
+///
+/// # Errors
+/// As [`clean`].
+pub fn weld_within(mesh: &TriMesh, tolerance: f32) -> Result<(TriMesh, CleanReport)> {
+    if tolerance.is_nan() || tolerance <= 0.0 || tolerance.is_infinite() {
+        return mesh.cleaned();
+    }
+    validate(crate::mesh::MEMORY, &mesh.positions, &mesh.triangles)?;
+    let n = mesh.positions.len();
+    let cell = |p: Vec3| (p / tolerance).floor().as_i64vec3().to_array();
+    let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::with_capacity(n.min(1 << 22));
+    for (i, &p) in mesh.positions.iter().enumerate() {
+        grid.entry(cell(p)).or_default().push(i as u32);
+    }
+    // Union–find over vertices; the root is always the lowest index of its set.
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    fn find(parent: &mut [u32], mut x: u32) -> u32 {
+        while parent[x as usize] != x {
+            let gp = parent[parent[x as usize] as usize];
+            parent[x as usize] = gp;
+            x = gp;
+        }
+        x
+    }
+    let tol2 = tolerance * tolerance;
+    for (i, &p) in mesh.positions.iter().enumerate() {
+        let c = cell(p);
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    let Some(others) = grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) else {
+                        continue;
+                    };
+                    for &j in others {
+                        if (j as usize) < i
+                            && p.distance_squared(mesh.positions[j as usize]) <= tol2
+                        {
+                            let (a, b) = (find(&mut parent, i as u32), find(&mut parent, j));
+                            let (lo, hi) = (a.min(b), a.max(b));
+                            parent[hi as usize] = lo;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let positions: Vec<Vec3> = (0..n as u32)
+        .map(|i| mesh.positions[find(&mut parent, i) as usize])
+        .collect();
+    clean(
+        crate::mesh::MEMORY,
+        &positions,
+        &mesh.triangles,
+        &mesh.parts,
+    )
+}
+
+impl TriMesh {
+    /// This mesh with vertices closer than `tolerance` merged, then cleaned (see
+    /// [`weld_within`]).
+    ///
+    /// # Errors
+    /// [`MeshError::NoTriangles`] if every triangle collapses.
+    pub fn welded_within(&self, tolerance: f32) -> Result<(TriMesh, CleanReport)> {
+        weld_within(self, tolerance)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -196,5 +269,37 @@ mod tests {
         let e = clean("f.stl", &p, &[[0, 1, 2]], &[0]).unwrap_err();
         assert!(matches!(e, MeshError::NoTriangles { .. }));
         assert!(e.to_string().starts_with("f.stl: "));
+    }
+
+    #[test]
+    fn tolerance_weld_closes_jittered_seams() {
+        // A box as a triangle soup whose copies of each corner differ by up to 2e-6.
+        let b = crate::procedural::box_mesh(Vec3::ZERO, Vec3::ONE);
+        let mut positions = Vec::new();
+        let mut triangles = Vec::new();
+        for (t, tri) in b.triangles.iter().enumerate() {
+            let base = positions.len() as u32;
+            for (k, &v) in tri.iter().enumerate() {
+                let jitter = ((t * 3 + k) % 5) as f32 * 5e-7;
+                positions.push(b.positions[v as usize] + Vec3::splat(jitter));
+            }
+            triangles.push([base, base + 1, base + 2]);
+        }
+        let soup = TriMesh {
+            positions,
+            triangles,
+            parts: vec![0; 12],
+        };
+        let (exact, _) = soup.cleaned().unwrap();
+        assert!(!exact.topology().watertight);
+        let (welded, r) = soup.welded_within(1e-5).unwrap();
+        assert_eq!((welded.vertex_count(), welded.triangle_count()), (8, 12));
+        assert_eq!(r.welded_vertices, 28);
+        assert!(welded.topology().watertight);
+        // A tolerance below the jitter leaves the seams open.
+        let (tight, _) = soup.welded_within(1e-7).unwrap();
+        assert!(tight.vertex_count() > 8);
+        // Zero tolerance is the exact weld.
+        assert_eq!(soup.welded_within(0.0).unwrap().0, exact);
     }
 }

@@ -26,7 +26,7 @@ pub mod procedural;
 mod topology;
 pub mod write;
 
-pub use clean::{clean, CleanReport};
+pub use clean::{clean, weld_within, CleanReport};
 pub use error::{MeshError, Result};
 pub use load::{
     detect_format, load_mesh, load_mesh_from_bytes, load_mesh_from_bytes_with_limits,
