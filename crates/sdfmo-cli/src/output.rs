@@ -27,6 +27,12 @@ pub fn json_f64(x: f64) -> serde_json::Value {
     serde_json::Number::from_f64(x).map_or(serde_json::Value::Null, serde_json::Value::Number)
 }
 
+/// An f32 as JSON with its shortest decimal (`0.1`, not the widened `0.10000000149011612`);
+/// `null` when not finite.
+pub fn json_f32(x: f32) -> serde_json::Value {
+    json_f64(x.to_string().parse().unwrap_or(f64::NAN))
+}
+
 /// Writes `bytes` to `path` atomically: a temporary file in the same directory, flushed, then
 /// renamed over the target, so a reader never sees half a file.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
@@ -110,6 +116,8 @@ mod tests {
     fn infinite_numbers_become_null() {
         assert_eq!(json_f64(f64::INFINITY), serde_json::Value::Null);
         assert_eq!(json_f64(1.5), serde_json::json!(1.5));
+        assert_eq!(json_f32(0.1).to_string(), "0.1");
+        assert_eq!(json_f32(f32::NAN), serde_json::Value::Null);
     }
 
     #[test]

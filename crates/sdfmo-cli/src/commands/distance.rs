@@ -11,7 +11,7 @@ use serde_json::json;
 
 use crate::args::DistanceArgs;
 use crate::commands::{load_input, sign_name, with_threads};
-use crate::output::{print_json, print_text, write_atomic};
+use crate::output::{json_f32, print_json, print_text, write_atomic};
 
 /// Loads the mesh, normalises it as the builder does, and prints or writes one signed distance
 /// per point (negative inside).
@@ -24,9 +24,14 @@ pub fn run(args: &DistanceArgs) -> anyhow::Result<()> {
     let dist = MeshDistance::new(&normalized, args.sign.mode())
         .with_context(|| format!("cannot prepare distance queries on {}", input.source))?;
 
-    let start = Instant::now();
-    let distances = with_threads(args.threads, || dist.signed_distances(&points))?;
-    let query_ms = start.elapsed().as_secs_f64() * 1e3;
+    // The worker threads are started (and woken) before the clock starts: `query_ms` is the
+    // queries alone.
+    let (distances, query_ms) = with_threads(args.threads, || {
+        rayon::broadcast(|_| ());
+        let start = Instant::now();
+        let d = dist.signed_distances(&points);
+        (d, start.elapsed().as_secs_f64() * 1e3)
+    })?;
 
     let mut lines = String::with_capacity(distances.len() * 12);
     for d in &distances {
@@ -45,7 +50,9 @@ pub fn run(args: &DistanceArgs) -> anyhow::Result<()> {
         });
         match &args.output {
             Some(out) => j["output"] = json!(out.display().to_string()),
-            None => j["distances"] = json!(distances),
+            // Each f32 as its shortest decimal (what the text output prints), not widened to
+            // f64 digits.
+            None => j["distances"] = distances.iter().map(|&d| json_f32(d)).collect(),
         }
         return print_json(&j);
     }

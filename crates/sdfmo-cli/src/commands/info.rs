@@ -4,7 +4,7 @@ use serde_json::json;
 
 use crate::args::InfoArgs;
 use crate::commands::load_input;
-use crate::output::{print_json, print_text};
+use crate::output::{json_f32, print_json, print_text};
 
 /// Prints the triangle, vertex, part and component counts, the open and non-manifold edges, the
 /// watertight flag, the bounds and what loading cleaned up.
@@ -36,7 +36,10 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
             "boundary_edges": topo.boundary_edges,
             "non_manifold_edges": topo.non_manifold_edges,
             "watertight": topo.watertight,
-            "bounds": { "min": b.min.to_array(), "max": b.max.to_array() },
+            "bounds": {
+                "min": b.min.to_array().map(json_f32),
+                "max": b.max.to_array().map(json_f32),
+            },
             "clean": clean,
         }));
     }
