@@ -255,3 +255,46 @@ fn load_impl(
         part_names: raw.part_names,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::procedural::box_mesh;
+    use crate::write;
+
+    #[test]
+    fn extension_chooses_and_content_confirms() {
+        let m = box_mesh(Vec3::ZERO, Vec3::ONE);
+        let glb = write::to_glb(&m);
+        let stl = write::to_stl_binary(&m);
+        let ascii = write::to_stl_ascii(&m);
+        let obj = write::to_obj(&m);
+        let gltf = write::to_gltf_embedded(&m);
+        // Strong content evidence wins over a wrong extension.
+        assert_eq!(
+            detect_format(&glb, Some(MeshFormat::Stl)),
+            Some(MeshFormat::Glb)
+        );
+        assert_eq!(
+            detect_format(&stl, Some(MeshFormat::Obj)),
+            Some(MeshFormat::Stl)
+        );
+        assert_eq!(
+            detect_format(gltf.as_bytes(), Some(MeshFormat::Obj)),
+            Some(MeshFormat::Gltf)
+        );
+        // Weak evidence yields to the extension, and decides without one.
+        assert_eq!(
+            detect_format(ascii.as_bytes(), Some(MeshFormat::Obj)),
+            Some(MeshFormat::Obj)
+        );
+        assert_eq!(detect_format(ascii.as_bytes(), None), Some(MeshFormat::Stl));
+        assert_eq!(detect_format(obj.as_bytes(), None), Some(MeshFormat::Obj));
+        assert_eq!(detect_format(b"\x00\x01garbage", None), None);
+        assert_eq!(MeshFormat::from_extension("GLB"), Some(MeshFormat::Glb));
+        assert_eq!(MeshFormat::from_extension("ply"), None);
+        // A misnamed file loads as what it is.
+        let l = load_mesh_from_bytes(&glb, "really_a.stl", Some(MeshFormat::Stl)).unwrap();
+        assert_eq!((l.format, l.mesh.triangle_count()), (MeshFormat::Glb, 12));
+    }
+}
