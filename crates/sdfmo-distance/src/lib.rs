@@ -40,6 +40,7 @@
 mod point_triangle;
 mod pseudo_normals;
 mod ray_triangle;
+pub mod sample;
 mod winding;
 
 use std::time::Duration;
@@ -323,14 +324,16 @@ impl MeshDistance {
     }
 
     /// Best-first traversal. `best_d2` is the squared bound; `best.distance` holds a squared
-    /// distance during the search and is converted on return.
+    /// distance during the search and is converted on return. (Tightening the bound with the
+    /// children's MINMAXDIST, Roussopoulos et al. 1995, was measured: it saved no node visits on
+    /// abc1 or the bunny, since the nearer-first descent finds a close leaf at once.)
     fn closest_bounded(&self, p: Vec3, mut best_d2: f32, mut best: ClosestPoint) -> ClosestPoint {
         let pa = Vec3A::from(p);
         let nodes = &self.nodes[..];
         let mut stack = [(0u32, 0.0f32); MAX_BVH_DEPTH];
         let mut sp = 0usize;
         let mut ni = 0usize;
-        if box_dist2(&nodes[0], pa) < best_d2 || best_d2.is_infinite() {
+        if box_dist2(&nodes[0], pa) < best_d2 {
             loop {
                 let node = &nodes[ni];
                 if node.prim_count > 0 {
@@ -352,8 +355,9 @@ impl MeshDistance {
                     }
                 } else {
                     let l = node.first_index as usize;
-                    let dl = box_dist2(&nodes[l], pa);
-                    let dr = box_dist2(&nodes[l + 1], pa);
+                    let (nl, nr) = (&nodes[l], &nodes[l + 1]);
+                    let dl = box_dist2(nl, pa);
+                    let dr = box_dist2(nr, pa);
                     let (near, dn, far, df) = if dl <= dr {
                         (l, dl, l + 1, dr)
                     } else {
@@ -453,23 +457,19 @@ impl MeshDistance {
         let mut sum = 0.0f32;
         while sp > 0 {
             sp -= 1;
-            let ni = stack[sp] as usize;
-            let w = &self.winding[ni];
+            let w = &self.winding[stack[sp] as usize];
             let d = w.center - p;
             let d2 = d.length_squared();
             if d2 > w.far2 {
-                sum += d.dot(w.normal) / (d2 * d2.sqrt());
-                continue;
-            }
-            let node = &self.nodes[ni];
-            if node.prim_count > 0 {
-                let start = node.first_index as usize;
-                for t in &self.leaf_tris[start..start + node.prim_count as usize] {
+                sum += w.far_field(d, d2);
+            } else if w.count > 0 {
+                let start = w.first as usize;
+                for t in &self.leaf_tris[start..start + w.count as usize] {
                     sum += solid_angle(p, t[0], t[1], t[2]);
                 }
             } else {
-                stack[sp] = node.first_index;
-                stack[sp + 1] = node.first_index + 1;
+                stack[sp] = w.first;
+                stack[sp + 1] = w.first + 1;
                 sp += 2;
             }
         }

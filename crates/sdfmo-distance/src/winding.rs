@@ -6,31 +6,66 @@
 //! "inside-ness" in between for open or non-manifold meshes; the sign of a signed distance is
 //! negative where it exceeds ½.
 //!
-//! Every BVH node stores a first-order ("dipole") expansion of its triangles: the area-weighted
-//! normal N = Σ ½ (b − a) × (c − a), the area-weighted centre p̃ and a radius r bounding every
-//! vertex from p̃. When |q − p̃| > β·r the node contributes N·(p̃ − q) / |p̃ − q|³ (its solid
-//! angle as one dipole) instead of descending; otherwise the traversal descends, and leaves are
-//! summed exactly (Van Oosterom & Strackee 1983). β = [`WINDING_BETA`] = 2 as Barill et al.
-//! recommend; the far-field error of a node falls like (r / |q − p̃|)², so β = 2 keeps it to a few
-//! percent of that node's (already small) contribution. The tests measure the total error
-//! against the exact sum.
+//! Every BVH node stores a Taylor expansion of its triangles' solid angle about the area-weighted
+//! centre p̃ (Barill et al. §3, up to their second order): the area-weighted normal
+//! N = Σ ½ (b − a) × (c − a) (the dipole), the first moment M = Σ N_t ⊗ (c_t − p̃) (c_t the
+//! centroid of triangle t; exact, since a triangle's first moment is its centroid's), and a radius
+//! r bounding every vertex from p̃. With r⃗ = p̃ − q, when |r⃗| > β·r the node contributes
+//!
+//! Ω ≈ N·r⃗ / |r⃗|³ + tr(M) / |r⃗|³ − 3 r⃗ᵀ M r⃗ / |r⃗|⁵
+//!
+//! instead of descending; otherwise the traversal descends, and leaves are summed exactly (Van
+//! Oosterom & Strackee 1983). β = [`WINDING_BETA`] = 2 as Barill et al. recommend; the far-field
+//! error of a node falls like (r / |r⃗|)³ asymptotically (libigl's `fast_winding_number` uses the
+//! same order and β by default). Measured against the exact sum (tests): max |error| 0.009 on an
+//! open sheet, 0.034 on the teapot and 0.043 inside a sphere (where every node's error has the
+//! same sign), far from the ½ threshold that decides the sign except right at the rim of an open
+//! surface.
 
-use glam::Vec3;
+use glam::{Mat3, Vec3};
 use obvhs::bvh2::node::Bvh2Node;
 
 /// Accuracy parameter β of the hierarchical winding number: a node is approximated by its dipole
 /// when the query is farther than β times its radius from its centre.
 pub const WINDING_BETA: f32 = 2.0;
 
-/// Per-node dipole data, parallel to the BVH node array.
+/// One node of the winding-number tree: the BVH's topology with the expansion data, packed in
+/// one 64-byte cache line so a traversal step touches one line.
 #[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(64))]
 pub(crate) struct WindingNode {
     /// Area-weighted centre p̃.
     pub center: Vec3,
-    /// (β · r)²: the squared distance beyond which the dipole is used.
+    /// (β · r)²: the squared distance beyond which the expansion is used.
     pub far2: f32,
-    /// Area-weighted normal Σ ½ (b − a) × (c − a).
+    /// Area-weighted normal N = Σ ½ (b − a) × (c − a).
     pub normal: Vec3,
+    /// tr(M).
+    pub trace: f32,
+    /// Symmetric part of the first moment M = Σ N_t ⊗ (c_t − p̃) (only it enters r⃗ᵀ M r⃗):
+    /// xx, yy, zz, xy, xz, yz.
+    pub sym: [f32; 6],
+    /// Inner node: index of the first child (the second follows). Leaf: first leaf slot.
+    pub first: u32,
+    /// 0 for an inner node, else the number of triangles of the leaf.
+    pub count: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<WindingNode>() == 64);
+
+impl WindingNode {
+    /// Far-field solid angle of the node seen from `q`, given r⃗ = p̃ − q and |r⃗|².
+    #[inline(always)]
+    pub fn far_field(&self, r: Vec3, r2: f32) -> f32 {
+        let inv3 = 1.0 / (r2 * r2.sqrt());
+        let [xx, yy, zz, xy, xz, yz] = self.sym;
+        let rr = r * r;
+        let rmr = xx * rr.x
+            + yy * rr.y
+            + zz * rr.z
+            + 2.0 * (xy * r.x * r.y + xz * r.x * r.z + yz * r.y * r.z);
+        (self.normal.dot(r) + self.trace - 3.0 * rmr / r2) * inv3
+    }
 }
 
 /// Signed solid angle of triangle `(a, b, c)` seen from `q` (Van Oosterom & Strackee 1983).
@@ -55,9 +90,22 @@ pub(crate) fn build_winding_nodes(
     leaf_tris: &[[Vec3; 3]],
     order: &[u32],
 ) -> Vec<WindingNode> {
-    let mut out = vec![WindingNode::default(); nodes.len()];
+    /// Full expansion data during the bottom-up pass.
+    #[derive(Clone, Copy)]
+    struct Full {
+        center: Vec3,
+        normal: Vec3,
+        moment: Mat3,
+    }
+    let empty = Full {
+        center: Vec3::ZERO,
+        normal: Vec3::ZERO,
+        moment: Mat3::ZERO,
+    };
+    let mut out = vec![empty; nodes.len()];
     let mut area = vec![0.0f32; nodes.len()];
     let mut radius = vec![0.0f32; nodes.len()];
+    let outer = |n: Vec3, d: Vec3| Mat3::from_cols(n * d.x, n * d.y, n * d.z);
     for &ni in order.iter().rev() {
         let ni = ni as usize;
         let node = &nodes[ni];
@@ -82,15 +130,21 @@ pub(crate) fn build_winding_nodes(
             } else {
                 mean / tris.len().max(1) as f32
             };
+            let mut moment = Mat3::ZERO;
+            for t in tris {
+                let cr = (t[1] - t[0]).cross(t[2] - t[0]) * 0.5;
+                let centroid = (t[0] + t[1] + t[2]) / 3.0;
+                moment += outer(cr, centroid - center);
+            }
             let r = tris
                 .iter()
                 .flat_map(|t| t.iter())
                 .map(|v| (*v - center).length())
                 .fold(0.0f32, f32::max);
-            out[ni] = WindingNode {
+            out[ni] = Full {
                 center,
-                far2: 0.0,
                 normal: n,
+                moment,
             };
             area[ni] = a_sum;
             radius[ni] = r;
@@ -105,21 +159,45 @@ pub(crate) fn build_winding_nodes(
             };
             let rad = ((out[l].center - center).length() + radius[l])
                 .max((out[r].center - center).length() + radius[r]);
-            out[ni] = WindingNode {
+            let moment = out[l].moment
+                + outer(out[l].normal, out[l].center - center)
+                + out[r].moment
+                + outer(out[r].normal, out[r].center - center);
+            out[ni] = Full {
                 center,
-                far2: 0.0,
                 normal: out[l].normal + out[r].normal,
+                moment,
             };
             area[ni] = a_sum;
             radius[ni] = rad;
         }
     }
-    for (w, r) in out.iter_mut().zip(&radius) {
-        // Slightly inflated so rounding never admits a point inside the bounding sphere.
-        let far = WINDING_BETA * r * 1.0001;
-        w.far2 = far * far;
-    }
-    out
+    out.iter()
+        .zip(&radius)
+        .zip(nodes)
+        .map(|((f, r), node)| {
+            // Slightly inflated so rounding never admits a point inside the bounding sphere.
+            let far = WINDING_BETA * r * 1.0001;
+            let m = f.moment;
+            let sym = [
+                m.x_axis.x,
+                m.y_axis.y,
+                m.z_axis.z,
+                0.5 * (m.y_axis.x + m.x_axis.y),
+                0.5 * (m.z_axis.x + m.x_axis.z),
+                0.5 * (m.z_axis.y + m.y_axis.z),
+            ];
+            WindingNode {
+                center: f.center,
+                far2: far * far,
+                normal: f.normal,
+                trace: m.x_axis.x + m.y_axis.y + m.z_axis.z,
+                sym,
+                first: node.first_index,
+                count: node.prim_count,
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -141,5 +219,99 @@ mod tests {
         let s = solid_angle(Vec3::new(0.3, 0.1, -1.0), Vec3::X, Vec3::X, Vec3::Y);
         assert!(s.abs() < 1e-6, "{s}");
         assert!(solid_angle(Vec3::X, Vec3::X, Vec3::Y, Vec3::Z).is_finite());
+    }
+
+    #[test]
+    fn far_field_error_falls_with_the_cube_of_the_distance() {
+        // A curved patch of 4 triangles, one leaf.
+        let v = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(0.2, 0.0, 0.03),
+            Vec3::new(0.2, 0.2, 0.0),
+            Vec3::new(0.0, 0.2, 0.04),
+            Vec3::new(0.1, 0.1, 0.08),
+        ];
+        let tris = vec![
+            [v[0], v[1], v[4]],
+            [v[1], v[2], v[4]],
+            [v[2], v[3], v[4]],
+            [v[3], v[0], v[4]],
+        ];
+        let node = Bvh2Node {
+            prim_count: 4,
+            first_index: 0,
+            ..Default::default()
+        };
+        let w = build_winding_nodes(&[node], &tris, &[0])[0];
+        let dir = Vec3::new(0.3, -0.5, 0.8).normalize();
+        let mut errs = Vec::new();
+        for dist in [1.0f32, 2.0, 4.0] {
+            let q = w.center + dir * dist;
+            let exact: f32 = tris.iter().map(|t| solid_angle(q, t[0], t[1], t[2])).sum();
+            let r = w.center - q;
+            let approx = w.far_field(r, r.length_squared());
+            errs.push(((approx - exact) / exact).abs());
+        }
+        // Second order: relative error shrinks ≈ 4× per doubling of the distance (order 1: 2×).
+        assert!(
+            errs[1] < errs[0] / 3.0 && errs[2] < errs[1] / 3.0,
+            "{errs:?}"
+        );
+    }
+
+    #[test]
+    fn merged_moments_equal_the_moments_of_the_union() {
+        let tris = vec![
+            [
+                Vec3::new(0.0, 0.0, 0.0),
+                Vec3::new(0.3, 0.0, 0.1),
+                Vec3::new(0.0, 0.2, 0.05),
+            ],
+            [
+                Vec3::new(0.5, 0.1, 0.0),
+                Vec3::new(0.6, 0.4, 0.2),
+                Vec3::new(0.4, 0.3, -0.1),
+            ],
+            [
+                Vec3::new(0.1, 0.5, 0.3),
+                Vec3::new(0.2, 0.7, 0.1),
+                Vec3::new(-0.1, 0.6, 0.0),
+            ],
+        ];
+        let union = Bvh2Node {
+            prim_count: 3,
+            first_index: 0,
+            ..Default::default()
+        };
+        let whole = build_winding_nodes(&[union], &tris, &[0])[0];
+        let nodes = [
+            Bvh2Node {
+                prim_count: 0,
+                first_index: 1,
+                ..Default::default()
+            },
+            Bvh2Node {
+                prim_count: 1,
+                first_index: 0,
+                ..Default::default()
+            },
+            Bvh2Node {
+                prim_count: 2,
+                first_index: 1,
+                ..Default::default()
+            },
+        ];
+        let tree = build_winding_nodes(&nodes, &tris, &[0, 1, 2])[0];
+        assert!((tree.center - whole.center).length() < 1e-6);
+        assert!((tree.normal - whole.normal).length() < 1e-6);
+        assert!((tree.trace - whole.trace).abs() < 1e-6);
+        for k in 0..6 {
+            assert!(
+                (tree.sym[k] - whole.sym[k]).abs() < 1e-6,
+                "{:?} vs {:?}",
+                tree.sym,
+                whole.sym
+            );
+        }
     }
 }
