@@ -37,6 +37,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut refs = Vec::new();
     for depth in depths {
         let mut row = Vec::new();
+        let mut svo_imgs: Vec<image::RgbImage> = Vec::new();
         for method in [Method::Svo, Method::Multi { max_voxels: 8 }] {
             let s = BuildSettings {
                 depth,
@@ -57,11 +58,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     }
                 }
             }
+            let mut imgs = Vec::new();
             let mut p = 0.0;
             let mut f = 0.0;
             for (i, v) in views.iter().enumerate() {
                 let img = render(&OctreeScene(&oct), v, &rs)?.to_image();
-                p += sdfmo_metrics::psnr(&refs[i], &img)?;
+                let pv = sdfmo_metrics::psnr(&refs[i], &img)?;
+                if std::env::var("VERBOSE").is_ok() {
+                    eprintln!("  view {i} {:?}: {pv:.2} dB", method);
+                }
+                p += pv;
+                imgs.push(img.clone());
                 f += sdfmo_metrics::flip(&refs[i], &img)?.mean as f64;
                 if let Some(dir) = &save {
                     let m = if method == Method::Svo {
@@ -80,7 +87,32 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         }
                     }
                     d.save(format!("{dir}/{name}_d{depth}_{m}_{i}_diff.png"))?;
+                    if let Some(prev) = svo_imgs.get(i) {
+                        let mut d = img.clone();
+                        let mut count = 0;
+                        for (o, r) in d.pixels_mut().zip(prev.pixels()) {
+                            let mut any = false;
+                            for c in 0..3 {
+                                let (a, b) = (o[c] as i32, r[c] as i32);
+                                any |= a != b;
+                                // red: multi brighter, green: SVO brighter
+                                o[c] = 0;
+                                if c == 0 && a > b {
+                                    o[0] = 255;
+                                }
+                                if c == 1 && b > a {
+                                    o[1] = 255;
+                                }
+                            }
+                            count += any as usize;
+                        }
+                        eprintln!("  view {i}: {count} pixels differ between SVO and multi");
+                        d.save(format!("{dir}/{name}_d{depth}_{i}_svo_vs_multi.png"))?;
+                    }
                 }
+            }
+            if method == Method::Svo {
+                svo_imgs = imgs;
             }
             let n = views.len() as f64;
             row.push((

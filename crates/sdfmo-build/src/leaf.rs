@@ -30,6 +30,7 @@
 use glam::Vec3;
 use sdfmo_format::{quant, ValueBits, Voxel};
 
+use crate::components::Components;
 use crate::geom::{clip_triangle, corner_offset, trilinear, MAX_CLIP};
 use crate::local::LocalMesh;
 
@@ -157,6 +158,7 @@ fn find(parent: &mut [u32], mut i: u32) -> u32 {
 pub fn multi_leaf(
     p: &Params,
     mesh: &LocalMesh,
+    global: &Components,
     coord: [u32; 3],
     tris: &[u32],
     g: &[f32; 8],
@@ -254,6 +256,29 @@ pub fn multi_leaf(
             }
         }
     }
+    // Pieces of one global component are merged back: a piece of a closed surface cut out by
+    // the leaf (one face of a plate thinner than the cell, the two arms of a bend) is not a
+    // closed surface, and its own signed distance is a half-space that swallows its sibling
+    // piece (measured on abc5 at depth 8: false hits along the panel's silhouette, −1.6 dB).
+    // Thin elements are split again below, by opposing normals, into surface voxels.
+    s.edges.clear();
+    for (li, &t) in tris.iter().enumerate() {
+        s.edges
+            .push((global.of_triangle[t as usize] as u64, li as u32));
+    }
+    s.edges.sort_unstable();
+    for w in 0..s.edges.len().saturating_sub(1) {
+        let (ga, ta) = s.edges[w];
+        let (gb, tb) = s.edges[w + 1];
+        if ga == gb {
+            let ra = find(&mut s.parent, ta);
+            let rb = find(&mut s.parent, tb);
+            if ra != rb {
+                let (r, o) = if ra < rb { (ra, rb) } else { (rb, ra) };
+                s.parent[o as usize] = r;
+            }
+        }
+    }
     // Component ids in order of first triangle.
     s.comp_of.clear();
     s.comp_of.resize(n, u32::MAX);
@@ -295,7 +320,9 @@ pub fn multi_leaf(
         let c: [f32; 8] = if k == 1 && !open {
             *g
         } else {
-            corner_pos.map(|x| mesh.signed_distance_subset(ctris, x))
+            // Exact distance to the whole global component.
+            let gid = global.of_triangle[ctris[0] as usize];
+            corner_pos.map(|x| global.signed_distance(mesh, gid, x, ctris[0]))
         };
         let q = p.q8(&c);
         let mut err = 0.0f32;
@@ -322,7 +349,16 @@ pub fn multi_leaf(
                     s.group_b.push(t);
                 }
             }
-            if !s.group_a.is_empty() && !s.group_b.is_empty() {
+            // Only a genuinely thin element: the two faces must be nearly opposite (a sharp
+            // edge has its faces at an angle and must never be split: fins).
+            let mean = |g: &[u32]| {
+                g.iter()
+                    .map(|&t| mesh.face_normal[t as usize] * mesh.area2[t as usize])
+                    .sum::<Vec3>()
+                    .normalize_or_zero()
+            };
+            let opposite = mean(&s.group_a).dot(mean(&s.group_b)) < -0.8;
+            if opposite && !s.group_a.is_empty() && !s.group_b.is_empty() {
                 let ca = corner_pos.map(|x| mesh.signed_distance_subset(&s.group_a, x));
                 let cb = corner_pos.map(|x| mesh.signed_distance_subset(&s.group_b, x));
                 let qa = p.q8(&ca);

@@ -34,6 +34,7 @@
 
 #![deny(missing_docs)]
 
+mod components;
 mod error;
 mod geom;
 pub mod leaf;
@@ -354,6 +355,10 @@ fn build_in_pool(
         Method::Multi { max_voxels } => max_voxels as usize,
     };
     let params = leaf::Params::new(depth, settings.bits, max_voxels);
+    let global = match settings.method {
+        Method::Svo => None,
+        Method::Multi { .. } => Some(components::Components::new(&local)?),
+    };
     let mut leaves: Vec<LeafInput> = Vec::with_capacity(n);
     let mut cap_hits = 0usize;
     let mut histogram = vec![0usize; max_voxels + 1];
@@ -370,7 +375,16 @@ fn build_in_pool(
                 .into_par_iter()
                 .map_init(leaf::Scratch::default, |s, i| {
                     let c = &sub.cells[i];
-                    leaf::multi_leaf(&params, &local, c.coord, sub.tris_of(c), &corners[i], s)
+                    let global = global.as_ref().expect("components of a multi build");
+                    leaf::multi_leaf(
+                        &params,
+                        &local,
+                        global,
+                        c.coord,
+                        sub.tris_of(c),
+                        &corners[i],
+                        s,
+                    )
                 })
                 .collect(),
         };

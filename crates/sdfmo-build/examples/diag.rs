@@ -1,0 +1,103 @@
+//! Diagnostic: pixels of one paper view where the multi-octree hits and the SVO does not (or
+//! the reverse), with the hit leaf's voxels and the true distance at the hit.
+//!
+//! `cargo run --release -p sdfmo-build --example diag -- MESH DEPTH VIEW SIZE`
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use sdfmo_build::{build, BuildSettings, Method};
+use sdfmo_distance::{MeshDistance, SignMode};
+use sdfmo_render::{mesh_in_octree_frame, Camera};
+use sdfmo_trace::{intersect, Ray};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let a: Vec<String> = std::env::args().skip(1).collect();
+    let mesh = sdfmo_mesh::load_mesh(Path::new(&a[0]))?.mesh;
+    let depth: u8 = a[1].parse()?;
+    let view: usize = a[2].parse()?;
+    let size: u32 = a[3].parse()?;
+    let (svo, _) = build(
+        &mesh,
+        &BuildSettings {
+            depth,
+            method: Method::Svo,
+            ..Default::default()
+        },
+        None,
+    )?;
+    let (multi, _) = build(
+        &mesh,
+        &BuildSettings {
+            depth,
+            ..Default::default()
+        },
+        None,
+    )?;
+    let m = mesh_in_octree_frame(&mesh, multi.meta());
+    let d = MeshDistance::new(&m, SignMode::Auto)?;
+    let leaves: HashMap<[u32; 3], Vec<sdfmo_format::Voxel>> = multi.leaves().collect();
+    let svo_leaves: HashMap<[u32; 3], Vec<sdfmo_format::Voxel>> = svo.leaves().collect();
+    let cam = &Camera::paper_views(size, size)[view];
+    let h = 2.0 / (1u32 << depth) as f32;
+    let mut shown = 0;
+    let mut count = [0usize; 4];
+    for py in 0..size {
+        for px in 0..size {
+            let (o, dir) = cam.primary_ray(px, py);
+            let ray = Ray { origin: o, dir };
+            let hs = intersect(&svo, &ray, 0.0, f32::INFINITY);
+            let hm = intersect(&multi, &ray, 0.0, f32::INFINITY);
+            let hr = d.ray_hit(o, dir, 0.0, f32::INFINITY);
+            let k = (hs.is_some() as usize) * 2 + hm.is_some() as usize;
+            count[k] += 1;
+            if let (None, Some(hm)) = (hs, hm) {
+                if shown < 6 {
+                    shown += 1;
+                    let p = o + dir * hm.t;
+                    let c = ((hm.cell_min + glam::Vec3::ONE) / h).round();
+                    let key = [c.x as u32, c.y as u32, c.z as u32];
+                    println!(
+                        "px ({px},{py}) multi hit t {:.4} voxel {} surface {} true dist {:.3} h, ref hit {:?}",
+                        hm.t,
+                        hm.voxel,
+                        hm.surface,
+                        d.unsigned_distance(p) / h,
+                        hr.map(|r| r.t)
+                    );
+                    for v in svo_leaves.get(&key).into_iter().flatten() {
+                        println!(
+                            "   svo {:?}",
+                            v.corners.map(|x| (x / h * 100.0).round() / 100.0)
+                        );
+                    }
+                    let lo = hm.cell_min;
+                    let exact: Vec<f32> = (0..8)
+                        .map(|i| {
+                            let q = lo
+                                + glam::Vec3::new(
+                                    ((i >> 2) & 1) as f32,
+                                    ((i >> 1) & 1) as f32,
+                                    (i & 1) as f32,
+                                ) * h;
+                            (d.signed_distance(q) / h * 100.0).round() / 100.0
+                        })
+                        .collect();
+                    println!("   exact global {exact:?} cell {key:?}");
+                    for v in leaves.get(&key).into_iter().flatten() {
+                        println!(
+                            "   {:?} surf {}",
+                            v.corners.map(|x| (x / h * 100.0).round() / 100.0),
+                            v.surface
+                        );
+                    }
+                }
+            }
+        }
+    }
+    println!(
+        "neither {} multi-only {} svo-only {} both {}",
+        count[0], count[1], count[2], count[3]
+    );
+    Ok(())
+}
