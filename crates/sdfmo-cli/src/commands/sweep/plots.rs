@@ -134,10 +134,14 @@ pub fn write_plots(dir: &Path, rows: &[Row]) -> anyhow::Result<Vec<String>> {
             models.push(&r.model);
         }
     }
+    // A line follows a method from shallow to deep, whichever way its x values go (render time
+    // need not grow with depth).
+    let mut by_depth: Vec<&Row> = rows.iter().collect();
+    by_depth.sort_by_key(|r| r.depth);
     let mut files = Vec::new();
     for (file, title, x, y, extract) in &PLOTS {
         let mut series: Vec<Series> = Vec::new();
-        for r in rows {
+        for &r in &by_depth {
             let Some((px, py)) = extract(r) else { continue };
             if !(px.is_finite() && py.is_finite()) || (x.log && px <= 0.0) || (y.log && py <= 0.0) {
                 continue;
@@ -155,9 +159,6 @@ pub fn write_plots(dir: &Path, rows: &[Row]) -> anyhow::Result<Vec<String>> {
                     });
                 }
             }
-        }
-        for s in &mut series {
-            s.points.sort_by(|a, b| a.0.total_cmp(&b.0));
         }
         let img = plot(title, x, y, &series).with_context(|| format!("cannot draw {file}"))?;
         write_png(&dir.join(file), &img)?;
