@@ -524,6 +524,13 @@ mod tests {
             .map(|e| e.unwrap().file_name())
             .collect();
         assert_eq!(names, vec![std::ffi::OsString::from("sphere.smo")]);
+        // A failed save reports the path and leaves the old file untouched.
+        let bad = PackedOctree::from_leaves(meta(3, ValueBits::Eight), sphere_leaves(3)).unwrap();
+        let e = bad
+            .save(&dir.join("no-such-dir").join("x.smo"))
+            .unwrap_err();
+        assert!(matches!(e, FormatError::Io { .. }));
+        assert_eq!(PackedOctree::load(&path).unwrap(), o);
         let missing = PackedOctree::load(&dir.join("missing.smo")).unwrap_err();
         assert!(matches!(missing, FormatError::Io { .. }));
         std::fs::remove_dir_all(&dir).unwrap();

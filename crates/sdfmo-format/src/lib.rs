@@ -36,10 +36,12 @@
 //! The tracer walks the octree with [`PackedOctree::root`], [`PackedOctree::child_mask`],
 //! [`PackedOctree::child`], [`PackedOctree::is_leaf`], [`PackedOctree::leaf_voxels`],
 //! [`PackedOctree::voxel_corners`] and [`PackedOctree::voxel_is_surface`]: `#[inline]`,
-//! allocation-free, a couple of loads each. A [`NodeRef`] is a `Copy` node index.
+//! allocation-free, a couple of loads each. A [`NodeRef`] is a `Copy` node index. The same
+//! accessors exist on [`PackedOctreeView`], and the [`OctreeAccess`] trait covers both.
 
 #![deny(missing_docs)]
 
+mod access;
 mod crc32;
 mod error;
 mod file;
@@ -50,6 +52,7 @@ mod view;
 
 use glam::Vec3;
 
+pub use access::OctreeAccess;
 pub use crc32::crc32;
 pub use error::{FormatError, Result};
 pub use file::{
