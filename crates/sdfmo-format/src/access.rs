@@ -20,6 +20,8 @@ pub trait OctreeAccess {
     fn child_mask(&self, node: NodeRef) -> u8;
     /// The child in `octant`, if any.
     fn child(&self, node: NodeRef, octant: u8) -> Option<NodeRef>;
+    /// Index of an inner node's first child (see [`PackedOctree::first_child_index`]).
+    fn first_child_index(&self, node: NodeRef) -> u32;
     /// Whether `node` is a leaf (level == depth).
     fn is_leaf(&self, node: NodeRef) -> bool;
     /// The voxel indices of a leaf (empty for an inner node).
@@ -56,6 +58,10 @@ macro_rules! forward {
             #[inline]
             fn child(&self, node: NodeRef, octant: u8) -> Option<NodeRef> {
                 <$t>::child(self, node, octant)
+            }
+            #[inline]
+            fn first_child_index(&self, node: NodeRef) -> u32 {
+                <$t>::first_child_index(self, node)
             }
             #[inline]
             fn is_leaf(&self, node: NodeRef) -> bool {

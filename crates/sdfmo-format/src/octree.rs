@@ -344,6 +344,20 @@ impl PackedOctree {
         ))
     }
 
+    /// Index of the first child of an inner node: its children (in octant order) are
+    /// `first_child_index + 0 .. popcount(mask)`, and the one in octant `o` is
+    /// `first_child_index + popcount(mask & ((1 << o) − 1))` — so a traversal that visits several
+    /// children of one node can read the group once.
+    ///
+    /// Panics if `node` is not an inner node of this octree.
+    #[inline]
+    pub fn first_child_index(&self, node: NodeRef) -> u32 {
+        assert!(node.0 < self.inner_count, "not an inner node");
+        let group = &self.nodes[(node.0 >> 3) as usize];
+        let masks = u64::from_le_bytes(group.masks);
+        group.first_child + low_bits(masks, (node.0 & 7) * 8).count_ones()
+    }
+
     /// Whether `node` is a leaf (leaves sit at level == depth).
     #[inline]
     pub fn is_leaf(&self, node: NodeRef) -> bool {
@@ -570,6 +584,25 @@ mod tests {
         sorted.sort_by_key(|l| morton::encode(l.coord));
         let coords: Vec<_> = o.leaves().map(|(c, _)| c).collect();
         assert_eq!(coords, sorted.iter().map(|l| l.coord).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn first_child_index_agrees_with_child() {
+        let leaves: Vec<_> = (0..64u32)
+            .filter(|i| i % 3 != 1)
+            .map(|i| leaf([i % 4, i / 16, (i / 4) % 4], 1))
+            .collect();
+        let o = PackedOctree::from_leaves(meta(2), leaves).unwrap();
+        for k in 0..o.inner_node_count() as u32 {
+            let n = NodeRef(k);
+            let mask = o.child_mask(n);
+            let first = o.first_child_index(n);
+            for oct in 0..8u8 {
+                let expected = (mask >> oct & 1 == 1)
+                    .then(|| NodeRef(first + (u32::from(mask) & ((1 << oct) - 1)).count_ones()));
+                assert_eq!(o.child(n, oct), expected);
+            }
+        }
     }
 
     #[test]

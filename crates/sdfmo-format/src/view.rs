@@ -523,6 +523,16 @@ impl<'a> PackedOctreeView<'a> {
         ))
     }
 
+    /// Index of the first child of an inner node (see [`PackedOctree::first_child_index`]).
+    /// Panics if `node` is not an inner node.
+    #[inline]
+    pub fn first_child_index(&self, node: NodeRef) -> u32 {
+        assert!(node.0 < self.inner_count, "not an inner node");
+        let at = (node.0 as usize >> 3) * 12;
+        let masks = u64_at(self.nodes, at + 4);
+        u32_at(self.nodes, at) + low_bits(masks, (node.0 & 7) * 8).count_ones()
+    }
+
     /// Whether `node` is a leaf.
     #[inline]
     pub fn is_leaf(&self, node: NodeRef) -> bool {

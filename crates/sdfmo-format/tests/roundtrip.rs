@@ -147,6 +147,9 @@ fn view_agrees_with_owned_octree() {
         for oct in 0..8 {
             assert_eq!(v.child(n, oct), o.child(n, oct));
         }
+        if !o.is_leaf(n) {
+            assert_eq!(v.first_child_index(n), o.first_child_index(n));
+        }
         assert_eq!(v.leaf_voxels(n), o.leaf_voxels(n));
     }
     for voxel in 0..o.voxel_count() as u32 {
