@@ -657,6 +657,28 @@ mod tests {
     }
 
     #[test]
+    fn tiny_corner_values_do_not_underflow_the_derivative() {
+        // Found by `values_all_near_zero`: with corners of order 1e-30 the derivative's
+        // discriminant (≈ b²) underflowed to 0, the critical points came out wrong and the root
+        // at t ≈ 0.3798 was missed. Fixed by normalising values and parameter before solving.
+        let raw = [0.0f32, 3.0, 0.0, 0.0, -3.0, 1.0, 0.0, 2.0];
+        let corners = raw.map(|v| v * 1e-30);
+        let target = Vec3::new(0.6637985, 0.39154395, 0.34931996);
+        let dir = Vec3::new(0.5053114, 0.8124989, -0.29069895);
+        let case = case_through(corners, target, dir, 0.6379345, false).unwrap();
+        let got = check(&case).unwrap();
+        assert!(got.is_some_and(|t| (t - 0.37976).abs() < 1e-3), "{got:?}");
+    }
+
+    #[test]
+    fn all_zero_surface_voxel_has_no_hit() {
+        // Found by `values_all_near_zero`: a surface voxel with all corners 0 reported a hit at
+        // t0 (f(t0) = 0 counted as a crossing); an interpolant that is zero everywhere has none.
+        let case = case_through([0.0; 8], Vec3::ZERO, Vec3::X, 0.0, true).unwrap();
+        assert_eq!(check(&case).unwrap(), None);
+    }
+
+    #[test]
     fn plane_hit_is_exact() {
         // f = 0.25 − x (inside x > 0.25) along +x from x = −1: root at t = 1.25.
         let c: [f32; 8] = core::array::from_fn(|i| 0.25 - (i >> 2) as f32);
