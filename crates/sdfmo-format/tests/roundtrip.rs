@@ -185,6 +185,15 @@ proptest! {
         let o = PackedOctree::from_leaves(meta(depth, bits), leaves.clone()).unwrap();
         let bytes = o.to_bytes();
         prop_assert_eq!(bytes.len(), o.byte_size());
+        // Any input order gives the same bytes (here: reversed, and rotated by one).
+        let mut reversed = leaves.clone();
+        reversed.reverse();
+        prop_assert_eq!(&PackedOctree::from_leaves(meta(depth, bits), reversed).unwrap().to_bytes(), &bytes);
+        let mut rotated = leaves.clone();
+        if !rotated.is_empty() {
+            rotated.rotate_left(1);
+        }
+        prop_assert_eq!(&PackedOctree::from_leaves(meta(depth, bits), rotated).unwrap().to_bytes(), &bytes);
         let back = PackedOctree::from_bytes(&bytes).unwrap();
         prop_assert_eq!(&back, &o);
         prop_assert_eq!(back.to_bytes(), bytes);
