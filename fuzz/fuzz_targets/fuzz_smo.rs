@@ -8,6 +8,9 @@
 //! Properties checked on every accepted input: the zero-copy view accepts it too and decodes to
 //! the same octree; a full walk through the traversal accessors touches exactly `leaf_count`
 //! leaves and every voxel once; writing it back and reading again round-trips.
+//!
+//! Seeds (small valid files, regenerated deterministically; `*.smo` is git-ignored):
+//! `cargo run -p sdfmo-format --example smo_sizes -- --max-depth 4 --write fuzz/corpus/fuzz_smo`.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
