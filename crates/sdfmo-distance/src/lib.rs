@@ -45,7 +45,7 @@ mod winding;
 
 use std::time::Duration;
 
-use glam::{Vec3, Vec3A};
+use glam::{Vec3, Vec3A, Vec4};
 use obvhs::bvh2::node::Bvh2Node;
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
@@ -161,6 +161,9 @@ pub struct MeshDistance {
     nodes: Vec<Bvh2Node>,
     /// Triangle corners in BVH leaf order.
     leaf_tris: Vec<[Vec3; 3]>,
+    /// Bounding sphere (centre, radius) per leaf slot: skips the closest-point test of triangles
+    /// that cannot beat the best distance so far.
+    leaf_spheres: Vec<Vec4>,
     /// Original triangle index per leaf slot.
     leaf_ids: Vec<u32>,
     /// Triangle corners in the mesh's order (subset queries).
@@ -220,6 +223,15 @@ impl MeshDistance {
         let nodes = bvh.nodes;
         let leaf_ids = bvh.primitive_indices;
         let leaf_tris: Vec<[Vec3; 3]> = leaf_ids.iter().map(|&i| tris[i as usize]).collect();
+        let leaf_spheres = leaf_tris
+            .iter()
+            .map(|t| {
+                let c = (t[0].min(t[1]).min(t[2]) + t[0].max(t[1]).max(t[2])) * 0.5;
+                let r = t.iter().map(|v| (*v - c).length()).fold(0.0f32, f32::max);
+                // Inflated a little so rounding never skips the triangle that attains the minimum.
+                c.extend(r * (1.0 + 1e-5) + 1e-7)
+            })
+            .collect();
 
         // Pre-order list of the nodes (parents before children) and the depth.
         let mut order = Vec::with_capacity(nodes.len());
@@ -257,6 +269,7 @@ impl MeshDistance {
             sign,
             nodes,
             leaf_tris,
+            leaf_spheres,
             leaf_ids,
             tris,
             normals,
@@ -333,6 +346,7 @@ impl MeshDistance {
         let mut stack = [(0u32, 0.0f32); MAX_BVH_DEPTH];
         let mut sp = 0usize;
         let mut ni = 0usize;
+        let mut best_d = best_d2.sqrt();
         if box_dist2(&nodes[0], pa) < best_d2 {
             loop {
                 let node = &nodes[ni];
@@ -340,11 +354,17 @@ impl MeshDistance {
                     let start = node.first_index as usize;
                     let end = start + node.prim_count as usize;
                     for slot in start..end {
+                        let sphere = self.leaf_spheres[slot];
+                        let lim = best_d + sphere.w;
+                        if (p - sphere.truncate()).length_squared() > lim * lim {
+                            continue;
+                        }
                         let t = &self.leaf_tris[slot];
                         let (q, f) = closest_point_on_triangle(p, t[0], t[1], t[2]);
                         let d2 = (p - q).length_squared();
                         if d2 < best_d2 {
                             best_d2 = d2;
+                            best_d = d2.sqrt();
                             best = ClosestPoint {
                                 point: q,
                                 distance: d2,

@@ -80,7 +80,44 @@ pub(crate) fn solid_angle(q: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
     let lc = c.length();
     let det = a.dot(b.cross(c));
     let den = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
-    2.0 * det.atan2(den)
+    2.0 * fast_atan2(det, den)
+}
+
+/// atan2 by octant reduction and a degree-13 odd polynomial for atan on [0, 1] (coefficients
+/// fitted for minimax error; 3.4e-7 rad in f32); absolute error below 1e-6 rad over all angles
+/// (tested against `f32::atan2`), cheaper than the libm call. One triangle's solid angle then errs
+/// by < 2e-6 sr, i.e. < 2e-7 in the winding number. `atan2(0, 0)` is 0.
+#[inline(always)]
+pub(crate) fn fast_atan2(y: f32, x: f32) -> f32 {
+    use std::f32::consts::{FRAC_PI_2, PI};
+    if x.is_nan() || y.is_nan() {
+        return f32::NAN;
+    }
+    let ax = x.abs();
+    let ay = y.abs();
+    let hi = ax.max(ay);
+    if hi == 0.0 {
+        return 0.0;
+    }
+    let t = ax.min(ay) / hi;
+    let t2 = t * t;
+    let mut r = t
+        * (0.999_996_1
+            + t2 * (-0.333_173_84
+                + t2 * (0.198_079_66
+                    + t2 * (-0.132_339_19
+                        + t2 * (0.079_634_32 + t2 * (-0.033_613_537 + t2 * 0.006_814_898))))));
+    if ay > ax {
+        r = FRAC_PI_2 - r;
+    }
+    if x < 0.0 {
+        r = PI - r;
+    }
+    if y < 0.0 {
+        -r
+    } else {
+        r
+    }
 }
 
 /// Builds the dipole data for every node, bottom-up. `leaf_tris` are the triangles in BVH leaf
@@ -313,5 +350,21 @@ mod tests {
                 whole.sym
             );
         }
+    }
+
+    #[test]
+    fn fast_atan2_matches_libm() {
+        let mut max_err = 0.0f32;
+        for i in 0..200_000u32 {
+            let a = i as f32 / 200_000.0 * std::f32::consts::TAU;
+            for r in [1e-6f32, 0.3, 1.0, 7.0e3] {
+                let (y, x) = (a.sin() * r, a.cos() * r);
+                max_err = max_err.max((fast_atan2(y, x) - y.atan2(x)).abs());
+            }
+        }
+        assert!(max_err < 1e-6, "{max_err}");
+        assert_eq!(fast_atan2(0.0, 0.0), 0.0);
+        assert!((fast_atan2(0.0, -1.0) - std::f32::consts::PI).abs() < 1e-6);
+        assert!(fast_atan2(f32::NAN, 1.0).is_nan());
     }
 }
