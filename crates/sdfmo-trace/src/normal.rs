@@ -1,14 +1,14 @@
 //! The normal at a hit: the analytic gradient of the voxel's trilinear interpolant.
 
 use glam::Vec3;
-use sdfmo_format::PackedOctree;
+use sdfmo_format::OctreeAccess;
 
 use crate::traversal::{Hit, Ray};
 
 /// Unit gradient of the voxel's interpolant at the hit, flipped so `dot(n, ray.dir) ≤ 0`
 /// (two-sided, facing the viewer). Where the gradient vanishes (a saddle, or a hit that does not
 /// belong to this octree) the normal is `−dir`. Never NaN for a finite ray.
-pub fn hit_normal(octree: &PackedOctree, ray: &Ray, hit: &Hit) -> Vec3 {
+pub fn hit_normal<O: OctreeAccess + ?Sized>(octree: &O, ray: &Ray, hit: &Hit) -> Vec3 {
     let facing = (-ray.dir).try_normalize().unwrap_or(Vec3::Z);
     if (hit.voxel as usize) >= octree.voxel_count()
         || hit.cell_size.is_nan()

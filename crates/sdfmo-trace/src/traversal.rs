@@ -18,7 +18,7 @@
 use core::mem::MaybeUninit;
 
 use glam::Vec3;
-use sdfmo_format::{NodeRef, PackedOctree, MAX_DEPTH};
+use sdfmo_format::{NodeRef, OctreeAccess, MAX_DEPTH};
 
 use crate::ray_voxel::intersect_voxel;
 
@@ -36,7 +36,7 @@ pub struct Ray {
 pub struct Hit {
     /// Ray parameter of the hit.
     pub t: f32,
-    /// Index of the voxel hit (for [`PackedOctree::voxel_corners`]).
+    /// Index of the voxel hit (for [`OctreeAccess::voxel_corners`]).
     pub voxel: u32,
     /// Minimum corner of the leaf cell, normalised coordinates.
     pub cell_min: Vec3,
@@ -65,13 +65,21 @@ struct Cell {
 
 /// The ray's first hit in `[t_min, t_max]`: in the first leaf along the ray that has one, the
 /// nearest hit among its voxels. `None` for an empty octree, a miss, or NaN input.
-pub fn intersect(octree: &PackedOctree, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-    traverse::<false>(octree, ray, t_min, t_max)
+///
+/// Generic over [`OctreeAccess`], so it traces a [`PackedOctree`](sdfmo_format::PackedOctree)
+/// or a zero-copy [`PackedOctreeView`](sdfmo_format::PackedOctreeView) alike (static dispatch).
+pub fn intersect<O: OctreeAccess + ?Sized>(
+    octree: &O,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+) -> Option<Hit> {
+    traverse::<O, false>(octree, ray, t_min, t_max)
 }
 
 /// Whether anything is hit in `[t_min, t_max]` (stops at the first voxel hit, not the nearest).
-pub fn occluded(octree: &PackedOctree, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-    traverse::<true>(octree, ray, t_min, t_max).is_some()
+pub fn occluded<O: OctreeAccess + ?Sized>(octree: &O, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    traverse::<O, true>(octree, ray, t_min, t_max).is_some()
 }
 
 /// `a ≤ b`, false when either is NaN.
@@ -101,8 +109,8 @@ fn box_span(min: Vec3, size: f32, origin: Vec3, inv: Vec3, t_min: f32, t_max: f3
 }
 
 #[inline(always)]
-fn traverse<const ANY: bool>(
-    octree: &PackedOctree,
+fn traverse<O: OctreeAccess + ?Sized, const ANY: bool>(
+    octree: &O,
     ray: &Ray,
     t_min: f32,
     t_max: f32,
@@ -140,7 +148,7 @@ fn traverse<const ANY: bool>(
         // trip through the stack), the others are pushed farthest first.
         let mut next = None;
         if octree.is_leaf(cell.node) {
-            if let Some(hit) = leaf_hit::<ANY>(octree, &cell, o, d) {
+            if let Some(hit) = leaf_hit::<O, ANY>(octree, &cell, o, d) {
                 return Some(hit);
             }
         } else {
@@ -193,10 +201,15 @@ fn traverse<const ANY: bool>(
                 children[n] = (octant, t_a, tx);
                 n += 1;
             }
+            // Children are stored contiguously in octant order: one read of the node's group.
+            let first = if n > 0 {
+                octree.first_child_index(cell.node)
+            } else {
+                0
+            };
             for (i, &(oct, t_a, t_b)) in children[..n].iter().enumerate().rev() {
-                let Some(child) = octree.child(cell.node, oct) else {
-                    continue;
-                };
+                let below = u32::from(mask) & ((1u32 << oct) - 1);
+                let child = NodeRef::from_index(first + below.count_ones());
                 let offset = Vec3::new(
                     f32::from(oct >> 2),
                     f32::from((oct >> 1) & 1),
@@ -232,7 +245,12 @@ fn traverse<const ANY: bool>(
 
 /// The nearest voxel hit inside a leaf's span (any hit when `ANY`).
 #[inline(always)]
-fn leaf_hit<const ANY: bool>(octree: &PackedOctree, cell: &Cell, o: Vec3, d: Vec3) -> Option<Hit> {
+fn leaf_hit<O: OctreeAccess + ?Sized, const ANY: bool>(
+    octree: &O,
+    cell: &Cell,
+    o: Vec3,
+    d: Vec3,
+) -> Option<Hit> {
     let inv_size = 1.0 / cell.size;
     // The kernel works from the entry point, in the cell's local frame [0,1]³, with the same
     // parameter scale as the world ray (t_local = t − t_enter).
@@ -270,7 +288,7 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
-    use sdfmo_format::{LeafInput, OctreeMeta, ValueBits, Voxel};
+    use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, Voxel};
 
     fn meta(depth: u8) -> OctreeMeta {
         OctreeMeta {
@@ -430,6 +448,31 @@ mod tests {
         let octree = octree_from_sdfs(5, &[(&sphere, false)]);
         let hits = compare_with_brute_force(&octree, 1500, 1);
         assert!(hits > 300, "{hits} hits");
+    }
+
+    #[test]
+    fn zero_copy_view_traces_like_the_owned_octree() {
+        let a = |p: Vec3| (p - Vec3::new(-0.15, 0.0, 0.0)).length() - 0.5;
+        let sheet = |p: Vec3| p.dot(Vec3::new(0.3, 1.0, 0.2).normalize()) - 0.05;
+        let octree = octree_from_sdfs(4, &[(&a, false), (&sheet, true)]);
+        let bytes = octree.to_bytes();
+        let view = PackedOctreeView::new(&bytes).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let mut hits = 0;
+        for _ in 0..500 {
+            let ray = random_ray(&mut rng);
+            let owned = intersect(&octree, &ray, 0.0, f32::INFINITY);
+            assert_eq!(owned, intersect(&view, &ray, 0.0, f32::INFINITY));
+            assert_eq!(owned.is_some(), occluded(&view, &ray, 0.0, f32::INFINITY));
+            if let Some(h) = owned {
+                assert_eq!(
+                    crate::hit_normal(&octree, &ray, &h),
+                    crate::hit_normal(&view, &ray, &h)
+                );
+                hits += 1;
+            }
+        }
+        assert!(hits > 100, "{hits}");
     }
 
     #[test]
