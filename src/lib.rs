@@ -8,14 +8,14 @@
 //! the crate without its `sdfmo-` prefix (module [`mesh`] is crate `sdfmo-mesh`, [`distance`] is
 //! `sdfmo-distance`, and so on, as bevy's `app` is `bevy_app`). Depend on one layer alone when
 //! that is all you need: an engine that only loads and ray traces octrees needs
-//! [`format`] and [`trace`].
+//! [`format`](mod@format) and [`trace`].
 //!
 //! | module | crate | what it does |
 //! |---|---|---|
 //! | [`mesh`] | `sdfmo-mesh` | load OBJ / glTF / STL, clean, normalise, topology, procedural parts |
 //! | [`distance`] | `sdfmo-distance` | exact signed distance, closest points, ray hits on a mesh |
 //! | [`build`] | `sdfmo-build` | the SVO baseline and the multi-octree builder |
-//! | [`format`] | `sdfmo-format` | the packed octree and its `.smo` file |
+//! | [`format`](mod@format) | `sdfmo-format` | the packed octree and its `.smo` file |
 //! | [`trace`] | `sdfmo-trace` | ray vs packed octree |
 //! | [`render`] | `sdfmo-render` | cameras, render modes, PNG/EXR, mesh reference images |
 //! | [`metrics`] | `sdfmo-metrics` | PSNR and FLIP |
