@@ -47,11 +47,18 @@ fn check(md: &MeshDistance, points: &[Vec3]) {
     let all: Vec<u32> = (0..md.mesh().triangle_count() as u32).collect();
     for (i, &p) in points.iter().enumerate() {
         let single = md.signed_distance(p);
-        assert_eq!(single.to_bits(), batch[i].to_bits(), "batch and single agree");
+        assert_eq!(
+            single.to_bits(),
+            batch[i].to_bits(),
+            "batch and single agree"
+        );
         assert!(single.is_finite());
         if i % 97 == 0 {
             let brute = md.closest_point_in_subset(&all, p).distance;
-            assert!((single.abs() - brute).abs() <= 1e-6, "p {p:?}: {single} vs brute force {brute}");
+            assert!(
+                (single.abs() - brute).abs() <= 1e-6,
+                "p {p:?}: {single} vs brute force {brute}"
+            );
         }
     }
 }
@@ -65,13 +72,19 @@ fn bench_distance(c: &mut Criterion) {
         let Some(mesh) = load(file) else { continue };
         let md = MeshDistance::new(&mesh, SignMode::Auto).expect("distance structure");
         let mut group = c.benchmark_group(format!("distance/{name}"));
-        group.sample_size(10).measurement_time(Duration::from_secs(4)).warm_up_time(Duration::from_secs(1));
+        group
+            .sample_size(10)
+            .measurement_time(Duration::from_secs(4))
+            .warm_up_time(Duration::from_secs(1));
         group.throughput(Throughput::Elements(1));
         group.bench_function("build", |b| {
             b.iter(|| MeshDistance::new(black_box(&mesh), SignMode::Auto).expect("build"))
         });
         // The same seeds as the peer-data example.
-        let sets = [("near", near_surface_points(&mesh, n, 0.02, 1)), ("uniform", uniform_points(n, 2))];
+        let sets = [
+            ("near", near_surface_points(&mesh, n, 0.02, 1)),
+            ("uniform", uniform_points(n, 2)),
+        ];
         for (set, points) in &sets {
             check(&md, points);
             group.throughput(Throughput::Elements(points.len() as u64));
@@ -84,7 +97,9 @@ fn bench_distance(c: &mut Criterion) {
                     acc
                 })
             });
-            group.bench_function(format!("{set}/batch"), |b| b.iter(|| md.signed_distances(black_box(points))));
+            group.bench_function(format!("{set}/batch"), |b| {
+                b.iter(|| md.signed_distances(black_box(points)))
+            });
         }
         group.finish();
     }
