@@ -2,9 +2,12 @@
 //! reference), saves both PNGs and prints render times and counters.
 //!
 //! ```text
-//! cargo run --release -p sdfmo-render --example render_timing -- MESH [DEPTH] [svo|multi] [MODE] [THREADS] [REPEAT] [OUT_DIR]
+//! cargo run --release -p sdfmo-render --example render_timing -- MESH [DEPTHS] [METHODS] [MODES] [THREADS] [REPEAT] [OUT_DIR]
 //! ```
-//! Without arguments it renders the procedural demo part at depth 7 into the system temp dir.
+//! Lists are comma-separated (`7,8,9,10`, `svo,multi`, `mask,lambert`, `1,2`). Prints a
+//! markdown table: best wall time, CPU time per frame (robust when other processes share the
+//! cores), rays per second per core from the CPU time. Without arguments it renders the
+//! procedural demo part at depth 7 into the system temp dir.
 
 use std::path::PathBuf;
 
@@ -60,51 +63,87 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ),
         None => (procedural::demo_part(), "demo".to_string()),
     };
-    let depth: u8 = arg(1).unwrap_or("7").parse()?;
-    let method = match arg(2).unwrap_or("multi") {
-        "svo" => Method::Svo,
-        _ => Method::Multi { max_voxels: 8 },
-    };
-    let mode: Mode = arg(3).unwrap_or("lambert").parse()?;
-    let threads: usize = arg(4).unwrap_or("2").parse()?;
+    let depths: Vec<u8> = arg(1)
+        .unwrap_or("7")
+        .split(',')
+        .map(str::parse)
+        .collect::<Result<_, _>>()?;
+    let methods: Vec<(&str, Method)> = arg(2)
+        .unwrap_or("multi")
+        .split(',')
+        .map(|m| match m {
+            "svo" => ("svo", Method::Svo),
+            _ => ("multi", Method::Multi { max_voxels: 8 }),
+        })
+        .collect();
+    let modes: Vec<Mode> = arg(3)
+        .unwrap_or("lambert")
+        .split(',')
+        .map(str::parse)
+        .collect::<Result<_, _>>()?;
+    let threads: Vec<usize> = arg(4)
+        .unwrap_or("2")
+        .split(',')
+        .map(str::parse)
+        .collect::<Result<_, _>>()?;
     let repeat: usize = arg(5).unwrap_or("5").parse()?;
     let out = arg(6).map_or_else(std::env::temp_dir, PathBuf::from);
-
-    let settings = BuildSettings {
-        depth,
-        method,
-        ..BuildSettings::default()
-    };
-    let (octree, stats) = build(&mesh, &settings, None)?;
-    println!(
-        "{name} depth {depth} {method:?}: {} voxels, {} bytes, build {:.0} ms",
-        stats.voxels, stats.bytes, stats.build_ms
-    );
-    let dist = MeshDistance::new(&mesh_in_octree_frame(&mesh, octree.meta()), SignMode::Auto)?;
     let camera = Camera::paper_view(0, 1024, 1024);
-    let s = RenderSettings::new(mode).with_threads(threads);
 
-    let (empty, cpu) = best_of(&Spheres::default(), &camera, &s, repeat);
-    println!(
-        "empty scene (renderer overhead) t{threads}: wall {:.1} ms, cpu {cpu:.1} ms",
-        empty.render_ms
-    );
-    let (o, cpu) = best_of(&OctreeScene(&octree), &camera, &s, repeat);
-    println!(
-        "octree {mode} t{threads}: wall {:.1} ms ({:.2} Mrays/s), cpu {cpu:.1} ms, {:?}",
-        o.render_ms,
-        o.rays_per_second() / 1e6,
-        o.counters
-    );
-    let (m, cpu) = best_of(&MeshScene(&dist), &camera, &s, repeat);
-    println!(
-        "mesh   {mode} t{threads}: wall {:.1} ms ({:.2} Mrays/s), cpu {cpu:.1} ms, {:?}",
-        m.render_ms,
-        m.rays_per_second() / 1e6,
-        m.counters
-    );
-    save_png(&o, &out.join(format!("{name}_d{depth}_{mode}.png")))?;
-    save_png(&m, &out.join(format!("{name}_mesh_{mode}.png")))?;
-    println!("images in {}", out.display());
+    println!("| scene | mode | threads | best wall ms | CPU ms / frame | Mrays/s per core (CPU) | hits |");
+    println!("|---|---|---|---|---|---|---|");
+    let row = |label: &str, mode: Mode, t: usize, r: &Rendered, cpu: f64| {
+        println!(
+            "| {label} | {mode} | {t} | {:.1} | {cpu:.0} | {:.1} | {} |",
+            r.render_ms,
+            r.counters.rays as f64 / (cpu * 1e-3) / 1e6,
+            r.counters.hits
+        );
+    };
+    for &t in &threads {
+        let s = RenderSettings::new(Mode::Mask).with_threads(t);
+        let (r, cpu) = best_of(&Spheres::default(), &camera, &s, repeat);
+        row("empty (renderer overhead)", Mode::Mask, t, &r, cpu);
+    }
+    let mut reference_done = false;
+    for &depth in &depths {
+        for &(method_name, method) in &methods {
+            let settings = BuildSettings {
+                depth,
+                method,
+                ..BuildSettings::default()
+            };
+            let (octree, stats) = build(&mesh, &settings, None)?;
+            eprintln!(
+                "{name} depth {depth} {method_name}: {} voxels, {} bytes, build {:.0} ms",
+                stats.voxels, stats.bytes, stats.build_ms
+            );
+            if !reference_done {
+                let dist =
+                    MeshDistance::new(&mesh_in_octree_frame(&mesh, octree.meta()), SignMode::Auto)?;
+                for &mode in &modes {
+                    for &t in &threads {
+                        let s = RenderSettings::new(mode).with_threads(t);
+                        let (m, cpu) = best_of(&MeshScene(&dist), &camera, &s, repeat);
+                        row(&format!("{name} mesh (BVH)"), mode, t, &m, cpu);
+                        save_png(&m, &out.join(format!("{name}_mesh_{mode}.png")))?;
+                    }
+                }
+                reference_done = true;
+            }
+            for &mode in &modes {
+                for &t in &threads {
+                    let s = RenderSettings::new(mode).with_threads(t);
+                    let (o, cpu) = best_of(&OctreeScene(&octree), &camera, &s, repeat);
+                    row(&format!("{name} d{depth} {method_name}"), mode, t, &o, cpu);
+                    save_png(
+                        &o,
+                        &out.join(format!("{name}_d{depth}_{method_name}_{mode}.png")),
+                    )?;
+                }
+            }
+        }
+    }
+    eprintln!("images in {}", out.display());
     Ok(())
 }
