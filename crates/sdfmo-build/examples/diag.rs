@@ -42,6 +42,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let h = 2.0 / (1u32 << depth) as f32;
     let mut shown = 0;
     let mut count = [0usize; 4];
+    let mut mism = [[0usize; 2]; 2];
     for py in 0..size {
         for px in 0..size {
             let (o, dir) = cam.primary_ray(px, py);
@@ -51,8 +52,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let hr = d.ray_hit(o, dir, 0.0, f32::INFINITY);
             let k = (hs.is_some() as usize) * 2 + hm.is_some() as usize;
             count[k] += 1;
+            if k == 1 || k == 2 {
+                mism[k - 1][hr.is_some() as usize] += 1;
+            }
             if let (None, Some(hm)) = (hs, hm) {
-                if shown < 6 {
+                if shown < 3 && hr.is_none() {
                     shown += 1;
                     let p = o + dir * hm.t;
                     let c = ((hm.cell_min + glam::Vec3::ONE) / h).round();
@@ -98,6 +102,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!(
         "neither {} multi-only {} svo-only {} both {}",
         count[0], count[1], count[2], count[3]
+    );
+    println!(
+        "multi-only: ref miss {} ref hit {}; svo-only: ref miss {} ref hit {}",
+        mism[0][0], mism[0][1], mism[1][0], mism[1][1]
     );
     Ok(())
 }

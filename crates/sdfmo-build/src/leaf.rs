@@ -12,11 +12,14 @@
 //!    SVO (most leaves: smooth surfaces, sharp edges of one component).
 //! 3. *Components.* The gathered triangles split into connected components through shared edges
 //!    of vertices welded by position (never at a sharp edge: a sharp edge shares its vertices;
-//!    part ids pre-split). One voxel per component, corners = signed distance to that component
-//!    alone (pseudo-normal sign over the whole mesh). A component with boundary edges (open) gets
-//!    a *surface* voxel. A component its own voxel does not reproduce (error above
+//!    part ids pre-split). Pieces of the same *global* component are merged back (a piece cut
+//!    out of a closed surface by the leaf is not closed: its own signed distance is a
+//!    half-space, see the `components` module). One voxel per component, corners = exact
+//!    signed distance to that whole component alone. A component with boundary edges (open)
+//!    gets a *surface* voxel. A component its own voxel does not reproduce (error above
 //!    [`Params::thin`] at its samples: a plate thinner than a voxel whose corners all come out
-//!    positive) is split by opposing face normals into two surface voxels, one per face.
+//!    positive) whose triangles form two nearly opposite groups of normals (the plate's two
+//!    faces, never the two faces of a sharp edge) is split into two surface voxels, one per face.
 //! 4. *Reduction.* Voxels whose quantised corners do not change sign cannot be hit and go;
 //!    voxels whose surface samples all lie inside another volume voxel are hidden and go; above
 //!    the cap, the most similar volume voxels merge (min = union), then the most nearly coplanar

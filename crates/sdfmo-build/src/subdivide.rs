@@ -2,7 +2,7 @@
 //! triangles near it.
 //!
 //! A node keeps the triangles that overlap its box inflated by the *gathering margin* (exact SAT
-//! test, [`crate::tribox`]); its children filter that list. Since the margin is an absolute
+//! test, the `tribox` module); its children filter that list. Since the margin is an absolute
 //! distance, a child's inflated box lies inside its parent's, so filtering level by level is
 //! exact. A leaf is a *candidate* when some triangle overlaps it inflated by the (smaller)
 //! *candidate margin*: one quantisation step, so that every leaf whose quantised interpolant may
