@@ -37,7 +37,9 @@ pub struct Rendered {
 }
 
 impl Rendered {
-    /// The image as an `image::RgbImage` (for metrics and saving).
+    /// The image as an `image::RgbImage` (for metrics and saving); a black image of the same
+    /// size if `rgb` does not hold `width · height · 3` bytes (only possible for a hand-made
+    /// `Rendered`).
     pub fn to_image(&self) -> image::RgbImage {
         image::RgbImage::from_raw(self.width, self.height, self.rgb.clone())
             .unwrap_or_else(|| image::RgbImage::new(self.width, self.height))
