@@ -357,7 +357,7 @@ fn build_in_pool(
     let params = leaf::Params::new(depth, settings.bits, max_voxels);
     let global = match settings.method {
         Method::Svo => None,
-        Method::Multi { .. } => Some(components::Components::new(&local)?),
+        Method::Multi { .. } => Some(components::Components::new(&local)),
     };
     let mut leaves: Vec<LeafInput> = Vec::with_capacity(n);
     let mut cap_hits = 0usize;
