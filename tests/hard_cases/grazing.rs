@@ -3,6 +3,8 @@
 //! pinholes inside the (eroded) reference silhouette.
 
 use glam::Vec3;
+use sdf_multioctree::build::BuildSettings;
+use sdf_multioctree::distance::SignMode;
 use sdf_multioctree::format::PackedOctree;
 use sdf_multioctree::mesh::{procedural, TriMesh};
 use sdf_multioctree::render::{Camera, Mode};
@@ -177,4 +179,75 @@ fn axis_cameras_on_the_demo_part_have_no_nan() {
             }
         }
     }
+}
+
+/// The L prism as two overlapping closed boxes (the lower box's top face runs on inside the
+/// upper box: an internal face, as CAD assemblies have), cleaned. Outside it is the same solid
+/// as the L prism, so it must render without pinholes like it.
+fn overlapping_boxes() -> TriMesh {
+    TriMesh::merge(&[
+        procedural::box_mesh(Vec3::new(-0.5, -0.5, -0.5), Vec3::new(0.5, 0.0, 0.5)),
+        procedural::box_mesh(Vec3::new(-0.5, 0.0, -0.5), Vec3::new(0.0, 0.5, 0.5)),
+    ])
+    .cleaned()
+    .expect("clean")
+    .0
+}
+
+fn overlapping_boxes_pinholes(sign: SignMode, margin: f32) -> Vec<(String, usize)> {
+    let mesh = overlapping_boxes();
+    let cams = axis_cameras(33);
+    let mut out = Vec::new();
+    for depth in [4u8, 5] {
+        for (mname, method) in METHODS {
+            let settings = BuildSettings {
+                depth,
+                method,
+                margin,
+                sign,
+                ..BuildSettings::default()
+            };
+            let o = sdf_multioctree::build::build(&mesh, &settings, None)
+                .expect("build")
+                .0;
+            let name = format!("overlapping boxes {sign:?} margin {margin} {mname} depth {depth}");
+            let (mut holes, mut px) = (0, 0);
+            for (cname, cam) in &cams {
+                let depth_img = render_octree(&o, cam, Mode::Depth);
+                assert_depth_sane(&depth_img, &format!("{name} {cname}"));
+                let r = mask(&render_mesh_margin(&mesh, cam, Mode::Mask, margin));
+                let inner = erode(&r, cam.width, cam.height, 1);
+                holes += missing(&inner, &mask(&depth_img));
+                px += count(&inner);
+            }
+            eprintln!(
+                "{name}: {} cameras, {px} eroded reference px, {holes} pinholes",
+                cams.len()
+            );
+            out.push((name, holes));
+        }
+    }
+    out
+}
+
+/// Overlapping shells: the distance to the mesh is zero on the internal face, inside the solid,
+/// whatever the sign method; rays meet voxels whose corners are zero on a plane through the
+/// solid. Measured with the internal face on a grid plane (margin 1/16) and off it (0.05).
+#[test]
+#[ignore = "limitation: overlapping boxes (L prism with an internal face y = 0), axis cameras 33 px, \
+            SVO and multi alike, sign Auto or Winding: pinholes inside the 1-px-eroded silhouette, margin \
+            1/16 (internal face on a grid plane): 32 of 2508 px at depth 4, 42 (Auto) / 40 (Winding) at \
+            depth 5; margin 0.05: 38 of 2998 at depth 4, 46 at depth 5; the watertight L prism: 0"]
+fn overlapping_boxes_have_no_pinholes() {
+    let mut failures = Vec::new();
+    for sign in [SignMode::Auto, SignMode::Winding] {
+        for margin in [GRID_MARGIN, sdf_multioctree::DEFAULT_MARGIN] {
+            failures.extend(
+                overlapping_boxes_pinholes(sign, margin)
+                    .into_iter()
+                    .filter(|(_, h)| *h > 0),
+            );
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
 }
