@@ -57,7 +57,7 @@ pub use ray_triangle::WatertightRay;
 pub use winding::WINDING_BETA;
 
 use pseudo_normals::PseudoNormals;
-use winding::{solid_angle, WindingNode};
+use winding::{solid_angle, TriangleDipole, WindingNode};
 
 /// Deepest BVH the fixed traversal stacks support. obvhs' PLOC trees over real meshes are far
 /// shallower (≈ 2 log₂ n; 30–40 for 10⁵ triangles); [`MeshDistance::new`] checks the bound.
@@ -170,6 +170,9 @@ pub struct MeshDistance {
     tris: Vec<[Vec3; 3]>,
     normals: PseudoNormals,
     winding: Vec<WindingNode>,
+    /// Per leaf slot: the triangle's own far-field data (centroid, (β·r)², area normal), so a
+    /// triangle of a near leaf that is itself far enough is taken as one dipole.
+    leaf_dipoles: Vec<TriangleDipole>,
     depth: usize,
 }
 
@@ -253,6 +256,7 @@ impl MeshDistance {
             });
         }
         let winding = winding::build_winding_nodes(&nodes, &leaf_tris, &order);
+        let leaf_dipoles = leaf_tris.iter().map(TriangleDipole::new).collect();
         let normals = PseudoNormals::new(&mesh.positions, &mesh.triangles);
         let sign = match sign {
             SignMode::Auto => {
@@ -274,6 +278,7 @@ impl MeshDistance {
             tris,
             normals,
             winding,
+            leaf_dipoles,
             depth,
         })
     }
@@ -484,8 +489,18 @@ impl MeshDistance {
                 sum += w.far_field(d, d2);
             } else if w.count > 0 {
                 let start = w.first as usize;
-                for t in &self.leaf_tris[start..start + w.count as usize] {
-                    sum += solid_angle(p, t[0], t[1], t[2]);
+                let end = start + w.count as usize;
+                for (t, dp) in self.leaf_tris[start..end]
+                    .iter()
+                    .zip(&self.leaf_dipoles[start..end])
+                {
+                    let d = dp.center - p;
+                    let d2 = d.length_squared();
+                    if d2 > dp.far2 {
+                        sum += dp.normal.dot(d) / (d2 * d2.sqrt());
+                    } else {
+                        sum += solid_angle(p, t[0], t[1], t[2]);
+                    }
                 }
             } else {
                 stack[sp] = w.first;

@@ -122,6 +122,28 @@ fn closest_point_ordered(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> (Vec3, Feature) 
         let v = vb / den;
         let w = vc / den;
         if v >= 0.0 && w >= 0.0 && v + w <= 1.0 {
+            // The point itself is the projection onto the plane computed in f64: in f32 the
+            // barycentric point a + v·ab + w·ac (differences of products) errs like 1/sin² of the
+            // apex angle and an f32 projection like 1/sin (measured: 1.1e-5 off on a 178.5°
+            // sliver, 5e-6 at 0.4 from a needle; regression tests
+            // `flat_sliver_face_point_is_projected`, `needle_face_region_keeps_f32_precision`).
+            // The f32 classification of a needle can also be wrong: the f64 foot point is
+            // checked to lie on the triangle, else the edges decide.
+            let (pd, ad) = (p.as_dvec3(), a.as_dvec3());
+            let (e0, e1) = (b.as_dvec3() - ad, c.as_dvec3() - ad);
+            let n = e0.cross(e1);
+            let nn = n.length_squared();
+            if nn > 0.0 {
+                let q = pd - n * (n.dot(pd - ad) / nn);
+                let w = q - ad;
+                // Barycentrics from signed sub-areas: u·nn = (e0 × w)·n etc.
+                let bv = w.cross(e1).dot(n);
+                let bw = e0.cross(w).dot(n);
+                if bv >= 0.0 && bw >= 0.0 && bv + bw <= nn {
+                    return (q.as_vec3(), Feature::Face);
+                }
+                return closest_on_edges(p, a, b, c);
+            }
             return (a + ab * v + ac * w, Feature::Face);
         }
     }
@@ -348,6 +370,18 @@ pub(crate) mod tests {
             Vec3::new(-0.6217413, 1.1077604, 0.6922712),
             Vec3::new(-1.723847, -1.4224526, -0.7338386),
             Vec3::new(-1.6230986, -1.1545392, -0.61948675),
+        );
+    }
+
+    #[test]
+    fn flat_sliver_face_point_is_projected() {
+        // Regression: the barycentric face point was 1.1e-5 away for a point 7e-9 from this
+        // 178.5° sliver.
+        check(
+            Vec3::new(0.008201271, -0.08656171, 0.9215697),
+            Vec3::new(-0.38535422, -0.40696666, 0.8023747),
+            Vec3::new(-1.2528561, -1.1258153, 0.5678931),
+            Vec3::new(0.71122503, 0.4865333, 1.132825),
         );
     }
 }

@@ -68,6 +68,37 @@ impl WindingNode {
     }
 }
 
+/// One triangle's far field: seen from farther than β times its radius from its centroid, its
+/// solid angle is N·r⃗ / |r⃗|³ (for a single flat triangle the second-order term about the
+/// centroid vanishes, so the error is third order, as for the nodes).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub(crate) struct TriangleDipole {
+    /// Centroid.
+    pub center: Vec3,
+    /// (β · r)², r the largest distance from the centroid to a vertex.
+    pub far2: f32,
+    /// Area normal ½ (b − a) × (c − a).
+    pub normal: Vec3,
+}
+
+impl TriangleDipole {
+    /// The far-field data of triangle `t`.
+    pub fn new(t: &[Vec3; 3]) -> TriangleDipole {
+        let center = (t[0] + t[1] + t[2]) / 3.0;
+        let r = t
+            .iter()
+            .map(|v| (*v - center).length())
+            .fold(0.0f32, f32::max);
+        let far = WINDING_BETA * r * 1.0001;
+        TriangleDipole {
+            center,
+            far2: far * far,
+            normal: (t[1] - t[0]).cross(t[2] - t[0]) * 0.5,
+        }
+    }
+}
+
 /// Signed solid angle of triangle `(a, b, c)` seen from `q` (Van Oosterom & Strackee 1983).
 /// Positive when q is behind the triangle (on the side opposite to `(b − a) × (c − a)`).
 #[inline]
@@ -194,8 +225,15 @@ pub(crate) fn build_winding_nodes(
             } else {
                 0.5 * (out[l].center + out[r].center)
             };
-            let rad = ((out[l].center - center).length() + radius[l])
+            // Two upper bounds on the distance from p̃ to any vertex below: the children's
+            // spheres (loose high up the tree, it grows with every level) and the farthest corner
+            // of the node's box; the smaller one keeps more nodes in the far field.
+            let spheres = ((out[l].center - center).length() + radius[l])
                 .max((out[r].center - center).length() + radius[r]);
+            let b = node.aabb();
+            let (lo, hi) = (Vec3::from(b.min), Vec3::from(b.max));
+            let corner = (center - lo).abs().max((hi - center).abs()).length();
+            let rad = spheres.min(corner);
             let moment = out[l].moment
                 + outer(out[l].normal, out[l].center - center)
                 + out[r].moment
