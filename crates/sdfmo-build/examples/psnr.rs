@@ -62,7 +62,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let mut p = 0.0;
             let mut f = 0.0;
             for (i, v) in views.iter().enumerate() {
-                let img = render(&OctreeScene(&oct), v, &rs)?.to_image();
+                let r = render(&OctreeScene(&oct), v, &rs)?;
+                if std::env::var("VERBOSE").is_ok() {
+                    eprintln!("  view {i} {:?}: render {:.1} ms", method, r.render_ms);
+                }
+                let img = r.to_image();
                 let pv = sdfmo_metrics::psnr(&refs[i], &img)?;
                 if std::env::var("VERBOSE").is_ok() {
                     eprintln!("  view {i} {:?}: {pv:.2} dB", method);
