@@ -56,6 +56,9 @@ pub struct Params {
     pub earn: f32,
     /// Score cost of every voxel beyond the first.
     pub voxel_cost: f32,
+    /// A multi set whose visible zero set reaches farther from the true surface than the SVO
+    /// voxel's by more than this is never chosen.
+    pub reach_tol: f32,
 }
 
 impl Params {
@@ -70,6 +73,7 @@ impl Params {
             thin: 0.2,
             earn: 0.03,
             voxel_cost: 0.01,
+            reach_tol: 0.05,
         }
     }
 
@@ -130,6 +134,9 @@ pub struct Scratch {
     group_a: Vec<u32>,
     group_b: Vec<u32>,
     cands: Vec<Cand>,
+    qs: Vec<[f32; 8]>,
+    surf: Vec<bool>,
+    zeros: Vec<Vec3>,
 }
 
 /// The SVO leaf: the global-distance voxel if its quantised corners change sign.
@@ -477,7 +484,29 @@ pub fn multi_leaf(
     false_s /= 27.0;
     let svo_score = if svo_crosses { svo_mean + false_s } else { 1.0 };
     let multi_score = multi_mean + false_m + p.voxel_cost * (s.cands.len() as f32 - 1.0);
-    if multi_score + p.earn < svo_score {
+    // The zero sets themselves: how far from the true surface does each set's visible zero set
+    // reach inside the cell? A multi set reaching farther than the SVO voxel (the plane of a
+    // plate's face voxel running past the plate's rim) renders false hits the SVO does not.
+    let keep = multi_score + p.earn < svo_score && {
+        let reach_s = if svo_crosses {
+            zero_reach(mesh, tris, lo, h, std::slice::from_ref(&gq), &[false], s)
+        } else {
+            0.0
+        };
+        s.qs.clear();
+        s.surf.clear();
+        for c in &s.cands {
+            s.qs.push(c.q);
+            s.surf.push(c.surface);
+        }
+        let qs = std::mem::take(&mut s.qs);
+        let surf = std::mem::take(&mut s.surf);
+        let reach_m = zero_reach(mesh, tris, lo, h, &qs, &surf, s);
+        s.qs = qs;
+        s.surf = surf;
+        reach_m <= reach_s + p.reach_tol * h
+    };
+    if keep {
         LeafResult {
             voxels: s
                 .cands
@@ -494,6 +523,62 @@ pub fn multi_leaf(
         r.cap_hit = cap_hit;
         r
     }
+}
+
+/// Lines per axis (per direction of the cell face) on which [`zero_reach`] finds the zero sets.
+const REACH_LINES: usize = 4;
+
+/// The largest true unsigned distance (world units, capped at `h`) from the visible zero set
+/// of the voxels `qs` (quantised corners; `surf` = surface flags) to the gathered triangles
+/// `tris`, over the zero crossings on `REACH_LINES`² axis-parallel lines per axis through the
+/// cell at `lo`. Along such a line the trilinear interpolant is linear, so each voxel crosses
+/// zero at most once there, exactly where the file's interpolant does. A crossing buried inside
+/// another volume voxel (negative there) is hidden and does not count.
+fn zero_reach(
+    mesh: &LocalMesh,
+    tris: &[u32],
+    lo: Vec3,
+    h: f32,
+    qs: &[[f32; 8]],
+    surf: &[bool],
+    s: &mut Scratch,
+) -> f32 {
+    s.zeros.clear();
+    let step = 1.0 / REACH_LINES as f32;
+    for axis in 0..3 {
+        for i in 0..REACH_LINES {
+            for j in 0..REACH_LINES {
+                let u = (i as f32 + 0.5) * step;
+                let v = (j as f32 + 0.5) * step;
+                let at = |t: f32| match axis {
+                    0 => Vec3::new(t, u, v),
+                    1 => Vec3::new(u, t, v),
+                    _ => Vec3::new(u, v, t),
+                };
+                for (vi, q) in qs.iter().enumerate() {
+                    let a = trilinear(q, at(0.0));
+                    let b = trilinear(q, at(1.0));
+                    if (a > 0.0 && b > 0.0) || (a < 0.0 && b < 0.0) || a == b {
+                        continue;
+                    }
+                    let l = at((a / (a - b)).clamp(0.0, 1.0));
+                    let hidden = qs
+                        .iter()
+                        .zip(surf)
+                        .enumerate()
+                        .any(|(wi, (o, &os))| wi != vi && !os && trilinear(o, l) < -0.02 * h);
+                    if !hidden {
+                        s.zeros.push(l);
+                    }
+                }
+            }
+        }
+    }
+    let mut reach = 0.0f32;
+    for &l in &s.zeros {
+        reach = reach.max(mesh.unsigned_distance_subset(tris, lo + l * h, h));
+    }
+    reach
 }
 
 /// Reduces `cands` to `p.max_voxels`: merge the most similar volume voxels (min = union), then
