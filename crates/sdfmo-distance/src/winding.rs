@@ -17,10 +17,12 @@
 //! instead of descending; otherwise the traversal descends, and leaves are summed exactly (Van
 //! Oosterom & Strackee 1983). β = [`WINDING_BETA`] = 2 as Barill et al. recommend; the far-field
 //! error of a node falls like (r / |r⃗|)³ asymptotically (libigl's `fast_winding_number` uses the
-//! same order and β by default). Measured against the exact sum (tests): max |error| 0.009 on an
-//! open sheet, 0.034 on the teapot and 0.043 inside a sphere (where every node's error has the
-//! same sign), far from the ½ threshold that decides the sign except right at the rim of an open
-//! surface.
+//! same order and β by default). Node radii are bounded by the smaller of the children's spheres
+//! and the farthest box corner; inside a leaf that is not far, each triangle is still taken as a
+//! dipole when the query is farther than β times its own radius ([`TriangleDipole`]). Measured
+//! against the exact sum (tests): max |error| 0.009 on an open sheet, 0.047 on the teapot and
+//! 0.054 inside a sphere (where every node's error has the same sign), far from the ½ threshold
+//! that decides the sign except right at the rim of an open surface.
 
 use glam::{Mat3, Vec3};
 use obvhs::bvh2::node::Bvh2Node;
