@@ -96,9 +96,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             &out.join(format!("{name}.ours.f32")),
             result.iter().copied(),
         )?;
+        // Sign checks (winding mode): the two-stage sign against the full hierarchical winding
+        // number (β = 2) on every point, and against the exact winding number on every 100th.
+        let (mut vs_full, mut vs_exact, mut exact_n) = (0usize, 0usize, 0usize);
+        if md.sign_mode() == SignMode::Winding {
+            for (i, (&p, &d)) in pts.iter().zip(&result).enumerate() {
+                let inside = d < 0.0;
+                vs_full += usize::from((md.winding_number(p) > 0.5) != inside);
+                if i % 100 == 0 {
+                    exact_n += 1;
+                    vs_exact += usize::from((md.winding_number_exact(p) > 0.5) != inside);
+                }
+            }
+        }
         let (b, s) = (median(batch), median(single));
         json += &format!(
-            ", \"{name}\": {{\"points\": {}, \"batch_s\": {b:.6}, \"single_s\": {s:.6}, \"batch_pts_per_s\": {:.0}, \"single_pts_per_s\": {:.0}}}",
+            ", \"{name}\": {{\"points\": {}, \"batch_s\": {b:.6}, \"single_s\": {s:.6}, \"batch_pts_per_s\": {:.0}, \"single_pts_per_s\": {:.0}, \"sign_vs_full_winding\": {vs_full}, \"sign_vs_exact_winding\": {vs_exact}, \"exact_checked\": {exact_n}}}",
             pts.len(),
             pts.len() as f64 / b,
             pts.len() as f64 / s

@@ -63,6 +63,15 @@ use winding::{solid_angle, TriangleDipole, WindingNode};
 /// shallower (≈ 2 log₂ n; 30–40 for 10⁵ triangles); [`MeshDistance::new`] checks the bound.
 pub const MAX_BVH_DEPTH: usize = 128;
 
+/// β of the coarse first pass of the winding-number sign (see [`SignMode::Winding`]).
+pub const COARSE_WINDING_BETA: f32 = 1.25;
+
+/// A coarse winding number farther than this from ½ decides the sign without the full pass.
+pub const COARSE_WINDING_MARGIN: f32 = 0.3;
+
+const COARSE_FAR_SCALE: f32 =
+    (COARSE_WINDING_BETA / WINDING_BETA) * (COARSE_WINDING_BETA / WINDING_BETA);
+
 /// Errors of [`MeshDistance::new`].
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -174,6 +183,45 @@ pub struct MeshDistance {
     /// triangle of a near leaf that is itself far enough is taken as one dipole.
     leaf_dipoles: Vec<TriangleDipole>,
     depth: usize,
+}
+
+/// Spreads the low 10 bits of `v` to every third bit.
+fn spread_bits(v: u32) -> u32 {
+    let mut x = v & 0x3ff;
+    x = (x | (x << 16)) & 0x0300_00ff;
+    x = (x | (x << 8)) & 0x0300_f00f;
+    x = (x | (x << 4)) & 0x030c_30c3;
+    x = (x | (x << 2)) & 0x0924_9249;
+    x
+}
+
+/// Indices of `points` sorted by their 30-bit Morton code in the points' bounding box
+/// (non-finite points last, in their original order).
+fn morton_order(points: &[Vec3]) -> Vec<usize> {
+    let (lo, hi) = points
+        .iter()
+        .filter(|p| p.is_finite())
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        });
+    let ext = (hi - lo).max(Vec3::splat(f32::MIN_POSITIVE));
+    let scale = Vec3::splat(1023.0) / ext;
+    let mut keyed: Vec<(u32, usize)> = points
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| {
+            if !p.is_finite() {
+                return (u32::MAX, i);
+            }
+            let q = ((p - lo) * scale).clamp(Vec3::ZERO, Vec3::splat(1023.0));
+            let code = spread_bits(q.x as u32)
+                | (spread_bits(q.y as u32) << 1)
+                | (spread_bits(q.z as u32) << 2);
+            (code, i)
+        })
+        .collect();
+    keyed.par_sort_unstable();
+    keyed.into_iter().map(|(_, i)| i).collect()
 }
 
 /// Squared distance from `p` to the box of `node` (0 inside).
@@ -441,13 +489,28 @@ impl MeshDistance {
     fn apply_sign(&self, p: Vec3, c: &ClosestPoint) -> f32 {
         match self.sign {
             SignMode::Winding => {
-                if self.winding_number(p) > 0.5 {
+                if self.winding_inside(p) {
                     -c.distance
                 } else {
                     c.distance
                 }
             }
             _ => self.pseudo_normal_sign(p, c),
+        }
+    }
+
+    /// Whether `winding_number(p) > ½`, decided in two stages: a coarse pass with
+    /// β = [`COARSE_WINDING_BETA`] (far fewer exact solid angles near the surface) settles every
+    /// point whose coarse w lies farther than [`COARSE_WINDING_MARGIN`] from ½ (away from the
+    /// rims and seams of an open or non-manifold mesh w is close to 0 or 1); only the others are
+    /// recomputed with the full [`WINDING_BETA`].
+    #[inline]
+    fn winding_inside(&self, p: Vec3) -> bool {
+        let coarse = self.winding_number_scaled(p, COARSE_FAR_SCALE);
+        if (coarse - 0.5).abs() > COARSE_WINDING_MARGIN {
+            coarse > 0.5
+        } else {
+            self.winding_number(p) > 0.5
         }
     }
 
@@ -464,19 +527,53 @@ impl MeshDistance {
         }
     }
 
-    /// Signed distances of many points, in parallel (rayon), in the same order.
+    /// Signed distances of many points, in parallel (rayon), in the same order; each value is
+    /// bit-identical to [`signed_distance`](Self::signed_distance) of that point. The points are
+    /// visited in Morton (Z-curve) order so that consecutive queries of a thread touch the same
+    /// BVH and winding-tree nodes; the results are returned in the caller's order.
     pub fn signed_distances(&self, points: &[Vec3]) -> Vec<f32> {
-        points
+        if points.len() < 256 {
+            return points.iter().map(|&p| self.signed_distance(p)).collect();
+        }
+        let order = morton_order(points);
+        let sorted: Vec<f32> = order
             .par_iter()
             .with_min_len(64)
-            .map(|&p| self.signed_distance(p))
-            .collect()
+            .map(|&i| self.signed_distance(points[i]))
+            .collect();
+        let mut out = vec![0.0f32; points.len()];
+        for (&i, d) in order.iter().zip(sorted) {
+            out[i] = d;
+        }
+        out
     }
 
     /// Generalised winding number of the mesh at `p` (Jacobson et al. 2013), with the
     /// hierarchical approximation of Barill et al. 2018 (accuracy parameter
     /// [`WINDING_BETA`]): ≈ 1 inside a closed outward-oriented surface, ≈ 0 outside.
     pub fn winding_number(&self, p: Vec3) -> f32 {
+        self.winding_number_scaled(p, 1.0)
+    }
+
+    /// Hierarchical winding number at `p` with accuracy parameter `beta` instead of
+    /// [`WINDING_BETA`]: a node (or a triangle of a near leaf) is taken as its expansion when `p`
+    /// is farther than `beta` times its radius from its centre. Smaller is faster and coarser;
+    /// `beta` is clamped to at least 1 (the expansion diverges inside the bounding sphere), and a
+    /// NaN `beta` means [`WINDING_BETA`].
+    pub fn winding_number_with_beta(&self, p: Vec3, beta: f32) -> f32 {
+        let beta = if beta.is_nan() {
+            WINDING_BETA
+        } else {
+            beta.max(1.0)
+        };
+        let k = beta / WINDING_BETA;
+        self.winding_number_scaled(p, k * k)
+    }
+
+    /// The hierarchical winding number with every far-field threshold (β·r)² multiplied by
+    /// `scale`.
+    #[inline]
+    fn winding_number_scaled(&self, p: Vec3, scale: f32) -> f32 {
         let mut stack = [0u32; MAX_BVH_DEPTH + 1];
         let mut sp = 1usize;
         let mut sum = 0.0f32;
@@ -485,7 +582,7 @@ impl MeshDistance {
             let w = &self.winding[stack[sp] as usize];
             let d = w.center - p;
             let d2 = d.length_squared();
-            if d2 > w.far2 {
+            if d2 > w.far2 * scale {
                 sum += w.far_field(d, d2);
             } else if w.count > 0 {
                 let start = w.first as usize;
@@ -496,7 +593,7 @@ impl MeshDistance {
                 {
                     let d = dp.center - p;
                     let d2 = d.length_squared();
-                    if d2 > dp.far2 {
+                    if d2 > dp.far2 * scale {
                         sum += dp.normal.dot(d) / (d2 * d2.sqrt());
                     } else {
                         sum += solid_angle(p, t[0], t[1], t[2]);
@@ -690,5 +787,61 @@ impl MeshDistance {
             }
         }
         (best_slot != usize::MAX).then_some((best_t, best_slot))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn morton_order_is_a_permutation_that_groups_nearby_points() {
+        // Two clusters interleaved in the input; non-finite points go last.
+        let mut pts = Vec::new();
+        for i in 0..300 {
+            let f = i as f32 * 1e-3;
+            pts.push(Vec3::new(f, f, f));
+            pts.push(Vec3::new(10.0 + f, 10.0, 10.0 - f));
+        }
+        pts.push(Vec3::NAN);
+        let order = morton_order(&pts);
+        let mut seen = order.clone();
+        seen.sort_unstable();
+        assert_eq!(seen, (0..pts.len()).collect::<Vec<_>>());
+        assert_eq!(*order.last().unwrap(), pts.len() - 1);
+        // The first half of the order is one cluster, the second half the other.
+        let first_cluster = order[..300].iter().all(|&i| i % 2 == order[0] % 2);
+        assert!(first_cluster, "{:?}", &order[..20]);
+        assert_eq!(spread_bits(0x3ff), 0x0924_9249);
+    }
+
+    #[test]
+    fn two_stage_winding_sign_matches_the_full_winding_number() {
+        // An open sheet (w ≈ ±½ near its rim) and a closed sphere: wherever the full hierarchical
+        // winding number is not within 0.02 of ½, the two-stage sign agrees with it.
+        for mesh in [
+            sdfmo_mesh::procedural::open_sheet(1.0, 0.8, 24),
+            sdfmo_mesh::procedural::sphere(Vec3::ZERO, 0.5, 3),
+        ] {
+            let md = MeshDistance::new(&mesh, SignMode::Winding).unwrap();
+            let mut state = 7u64;
+            let mut next = || {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                (state >> 40) as f32 / (1u64 << 24) as f32 * 1.6 - 0.8
+            };
+            let mut near_half = 0;
+            for _ in 0..3000 {
+                let p = Vec3::new(next(), next() * 0.2, next());
+                let full = md.winding_number(p);
+                if (full - 0.5).abs() < 0.02 {
+                    near_half += 1;
+                    continue;
+                }
+                assert_eq!(md.winding_inside(p), full > 0.5, "p {p:?}, w {full}");
+            }
+            assert!(near_half < 300);
+        }
     }
 }
