@@ -41,6 +41,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let cam = &Camera::paper_views(size, size)[view];
     let h = 2.0 / (1u32 << depth) as f32;
     let mut shown = 0;
+    let (mut worse, mut better, mut worse_shown) = (0usize, 0usize, 0usize);
+    let (mut nworse, mut nbetter) = (0usize, 0usize);
     let mut count = [0usize; 4];
     let mut mism = [[0usize; 2]; 2];
     for py in 0..size {
@@ -54,6 +56,71 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             count[k] += 1;
             if k == 1 || k == 2 {
                 mism[k - 1][hr.is_some() as usize] += 1;
+            }
+            if let (Some(hs), Some(hm), Some(hr)) = (hs, hm, hr) {
+                let nr = if hr.normal.dot(dir) > 0.0 {
+                    -hr.normal
+                } else {
+                    hr.normal
+                };
+                let ns = sdfmo_trace::hit_normal(&svo, &ray, &hs);
+                let nm = sdfmo_trace::hit_normal(&multi, &ray, &hm);
+                let (as_, am) = (
+                    ns.dot(nr).clamp(-1.0, 1.0).acos(),
+                    nm.dot(nr).clamp(-1.0, 1.0).acos(),
+                );
+                if am > as_ + 0.2 {
+                    nworse += 1;
+                    if nworse <= 4 {
+                        let c = ((hm.cell_min + glam::Vec3::ONE) / h).round();
+                        let key = [c.x as u32, c.y as u32, c.z as u32];
+                        println!("px ({px},{py}) normal error svo {as_:.2} multi {am:.2} rad, surface {} cell {key:?}", hm.surface);
+                        for v in leaves.get(&key).into_iter().flatten() {
+                            println!(
+                                "   {:?} surf {}",
+                                v.corners.map(|x| (x / h * 100.0).round() / 100.0),
+                                v.surface
+                            );
+                        }
+                        for v in svo_leaves.get(&key).into_iter().flatten() {
+                            println!(
+                                "   svo {:?}",
+                                v.corners.map(|x| (x / h * 100.0).round() / 100.0)
+                            );
+                        }
+                    }
+                } else if as_ > am + 0.2 {
+                    nbetter += 1;
+                }
+                let es = (hs.t - hr.t).abs() / h;
+                let em = (hm.t - hr.t).abs() / h;
+                if em > es + 0.1 {
+                    worse += 1;
+                    if worse_shown < 4 {
+                        worse_shown += 1;
+                        let c = ((hm.cell_min + glam::Vec3::ONE) / h).round();
+                        let key = [c.x as u32, c.y as u32, c.z as u32];
+                        println!(
+                            "px ({px},{py}) depth error svo {es:.3} h multi {em:.3} h, multi voxel {} surface {} cell {key:?}",
+                            hm.voxel, hm.surface
+                        );
+                        for v in leaves.get(&key).into_iter().flatten() {
+                            println!(
+                                "   {:?} surf {}",
+                                v.corners.map(|x| (x / h * 100.0).round() / 100.0),
+                                v.surface
+                            );
+                        }
+                        for v in svo_leaves.get(&key).into_iter().flatten() {
+                            println!(
+                                "   svo {:?}",
+                                v.corners.map(|x| (x / h * 100.0).round() / 100.0)
+                            );
+                        }
+                    }
+                } else if es > em + 0.1 {
+                    better += 1;
+                }
             }
             if let (None, Some(hm)) = (hs, hm) {
                 if shown < 3 && hr.is_none() {
@@ -99,6 +166,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
     }
+    println!("both hit: multi normal worse by > 0.2 rad at {nworse} px, better at {nbetter} px");
+    println!("both hit: multi depth worse by > 0.1 h at {worse} px, better at {better} px");
     println!(
         "neither {} multi-only {} svo-only {} both {}",
         count[0], count[1], count[2], count[3]

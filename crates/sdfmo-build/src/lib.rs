@@ -324,11 +324,7 @@ fn build_in_pool(
             let g = [(key >> 42) & mask, (key >> 21) & mask, key & mask];
             points.push(Vec3::new(g[0] as f32, g[1] as f32, g[2] as f32) * h - Vec3::ONE);
             let cell = &sub.cells[(slot / 8) as usize];
-            hints.push(if cell.len > 0 {
-                sub.tris[cell.start as usize]
-            } else {
-                u32::MAX
-            });
+            hints.push(cell.hint);
             last = key;
         }
         point_of_slot[slot as usize] = (points.len() - 1) as u32;
