@@ -104,6 +104,12 @@ impl Params {
     }
 }
 
+/// A fixed direction in no symmetry plane of a grid: orients the thin split's reference normal.
+const CANONICAL: Vec3 = Vec3::new(0.534_522_5, 0.617_213_4, 0.577_350_3);
+
+/// Faces whose normal makes `|cos| <` this with the thin split's reference normal are side faces.
+const RIM_DOT: f32 = 0.3;
+
 /// The outcome of one leaf.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct LeafResult {
@@ -349,13 +355,23 @@ pub fn multi_leaf(
                     best = t;
                 }
             }
+            // Oriented canonically (towards a fixed generic direction), so that which face is
+            // group A does not depend on which of equally large triangles came first.
             let nref = mesh.face_normal[best as usize];
+            let nref = if nref.dot(CANONICAL) < 0.0 {
+                -nref
+            } else {
+                nref
+            };
             s.group_a.clear();
             s.group_b.clear();
             for &t in ctris.iter() {
-                if mesh.face_normal[t as usize].dot(nref) >= 0.0 {
+                let d = mesh.face_normal[t as usize].dot(nref);
+                // Side faces (the rim, normal about perpendicular) belong to neither face: their
+                // side would flip with a rounding of the normal.
+                if d >= RIM_DOT {
                     s.group_a.push(t);
-                } else {
+                } else if d <= -RIM_DOT {
                     s.group_b.push(t);
                 }
             }
