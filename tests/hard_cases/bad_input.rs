@@ -221,11 +221,11 @@ fn corrupt_octree_files_are_typed_errors() {
     std::fs::remove_dir_all(path.parent().unwrap()).ok();
 }
 
-/// The facade's `render_mesh` normalises the mesh (`TriMesh::normalized` → `bounds`) before
-/// anything validates it, so a `TriMesh` built without `TriMesh::new` (its fields are public)
-/// with an out-of-range index panics instead of returning an error.
+/// Regression: the facade's `render_mesh` used to normalise the mesh (`TriMesh::normalized` →
+/// `bounds`) before anything validated it, so a `TriMesh` built without `TriMesh::new` (its fields
+/// are public) with triangles [[0,1,2],[0,3,1]] over 3 vertices panicked with "index out of
+/// bounds: the len is 3 but the index is 3" instead of returning an error.
 #[test]
-#[ignore = "bug: render_mesh panics 'index out of bounds: the len is 3 but the index is 3' in TriMesh::bounds (crates/sdfmo-mesh/src/mesh.rs:176) for triangles [[0,1,2],[0,3,1]] over 3 vertices"]
 fn render_mesh_with_out_of_range_index_is_a_typed_error() {
     for idx in [3u32, 1000, u32::MAX] {
         let m = raw(tri(), vec![[0, 1, 2], [0, idx, 1]]);
