@@ -20,6 +20,8 @@
 //!    [`Params::thin`] at its samples: a plate thinner than a voxel whose corners all come out
 //!    positive) whose triangles form two nearly opposite groups of normals (the plate's two
 //!    faces, never the two faces of a sharp edge) is split into two surface voxels, one per face.
+//!    The groups are canonical (reference normal oriented towards a fixed direction, side faces
+//!    in neither group), so a one-ulp change of the input does not regroup the faces.
 //! 4. *Reduction.* Voxels whose quantised corners do not change sign cannot be hit and go;
 //!    voxels whose surface samples all lie inside another volume voxel are hidden and go; above
 //!    the cap, the most similar volume voxels merge (min = union), then the most nearly coplanar
@@ -28,7 +30,11 @@
 //!    mean error `max(min_v |f_v(p)|, buried depth inside a volume voxel)` plus a false-surface
 //!    term (on a 3×3×3 grid in the cell, how much closer some voxel's zero set is than the
 //!    true surface) plus a small cost per extra voxel. The multi set is kept only when it
-//!    scores better by [`Params::earn`]; otherwise the leaf gets the SVO voxel.
+//!    scores better by [`Params::earn`] *and* its visible zero set reaches no farther from the
+//!    mesh than the SVO voxel's (plus [`Params::reach_tol`]): the zero crossings of every voxel
+//!    on 4×4 axis-parallel lines per axis (exact, the interpolant is linear along them), minus
+//!    those buried in another volume voxel, are measured against the true unsigned distance.
+//!    Otherwise the leaf gets the SVO voxel.
 
 use glam::Vec3;
 use sdfmo_format::{quant, ValueBits, Voxel};
