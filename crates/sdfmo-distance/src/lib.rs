@@ -393,39 +393,52 @@ impl MeshDistance {
             }
         }
         let leaves: Vec<&Bvh2Node> = self.nodes.iter().filter(|n| n.prim_count > 0).collect();
-        let clean: Vec<(usize, usize, Option<Vec3>)> = leaves
+        let per_leaf: Vec<Vec<(u32, f32)>> = leaves
             .par_iter()
             .map(|node| {
                 let range =
                     node.first_index as usize..(node.first_index + node.prim_count) as usize;
-                let clean = self.leaf_is_clean(&self.leaf_tris[range.clone()]);
-                (range.start, range.end, clean)
+                let Some(n) = self.leaf_is_clean(&self.leaf_tris[range.clone()]) else {
+                    return Vec::new();
+                };
+                range
+                    .filter_map(|slot| {
+                        let t = &self.leaf_tris[slot];
+                        // Only triangles facing roughly the probed way share its two levels.
+                        if (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero().dot(n) <= -0.25 {
+                            return None;
+                        }
+                        let c = (t[0] + t[1] + t[2]) / 3.0;
+                        let rad = t.iter().map(|v| (*v - c).length()).fold(0.0f32, f32::max);
+                        let to_chain = chain
+                            .iter()
+                            .map(|&(a, b)| {
+                                let ab = b - a;
+                                let s = ((c - a).dot(ab)
+                                    / ab.length_squared().max(f32::MIN_POSITIVE))
+                                .clamp(0.0, 1.0);
+                                (c - (a + ab * s)).length()
+                            })
+                            .fold(f32::INFINITY, f32::min);
+                        Some((self.leaf_ids[slot], (to_chain - rad).max(0.0)))
+                    })
+                    .collect()
             })
             .collect();
         let mut out = vec![0.0f32; tris.len()];
-        for (start, end, clean) in clean {
-            let Some(n) = clean else { continue };
-            for slot in start..end {
-                let t = &self.leaf_tris[slot];
-                // Only triangles facing roughly the probed way share its two levels.
-                if (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero().dot(n) <= -0.25 {
-                    continue;
-                }
-                let c = (t[0] + t[1] + t[2]) / 3.0;
-                let rad = t.iter().map(|v| (*v - c).length()).fold(0.0f32, f32::max);
-                let to_chain = chain
-                    .iter()
-                    .map(|&(a, b)| {
-                        let ab = b - a;
-                        let s = ((c - a).dot(ab) / ab.length_squared().max(f32::MIN_POSITIVE))
-                            .clamp(0.0, 1.0);
-                        (c - (a + ab * s)).length()
-                    })
-                    .fold(f32::INFINITY, f32::min);
-                out[self.leaf_ids[slot] as usize] = (to_chain - rad).max(0.0);
-            }
+        for (id, r) in per_leaf.into_iter().flatten() {
+            out[id as usize] = r;
         }
         out
+    }
+
+    /// Computes the one-time data of the sign now (in winding mode, the per-triangle radii of
+    /// the face-normal shortcut, in parallel) instead of in the first signed query that needs
+    /// it; for timing a build, or before handing the structure to many threads. Idempotent.
+    pub fn prepare_sign(&self) {
+        if self.sign == SignMode::Winding {
+            self.clean_radius.get_or_init(|| self.clean_winding_radii());
+        }
     }
 
     /// The unit normal of the largest triangle of a leaf if that triangle has winding number
@@ -676,11 +689,9 @@ impl MeshDistance {
         if points.len() < 256 {
             return points.iter().map(|&p| self.signed_distance(p)).collect();
         }
-        if self.sign == SignMode::Winding {
-            // Initialised here, before the workers start, rather than by whichever worker
-            // comes first while the others wait.
-            self.clean_radius.get_or_init(|| self.clean_winding_radii());
-        }
+        // Initialised here, before the workers start, rather than by whichever worker comes
+        // first while the others wait.
+        self.prepare_sign();
         let order = morton_order(points);
         let sorted: Vec<f32> = order
             .par_iter()
