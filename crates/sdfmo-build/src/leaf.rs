@@ -402,7 +402,11 @@ pub fn multi_leaf(
                         err2 = err2.max(e);
                     }
                 }
-                if err2 < 0.5 * err {
+                // Faces that coincide to within the file's rounding (the two voxels are exact
+                // negatives: a zero-thickness fin or double wall) are one surface: the split adds
+                // nothing but the fin's normal where it meets a wall (abc1: −0.13 dB at depth 8).
+                let coincident = (0..8).all(|i| qa[i] == -qb[i]);
+                if err2 < 0.5 * err && !coincident {
                     s.cands.push(Cand {
                         c: ca,
                         q: qa,

@@ -484,3 +484,24 @@ fn multi_octree_is_stable_under_a_one_ulp_vertex_move() {
     assert_eq!(ma.len(), mb.len());
     assert!(differing.is_empty(), "leaves differ: {differing:?}");
 }
+
+/// A plate of zero thickness (its two faces coincide) is one surface: no leaf gets the pair of
+/// face voxels that are exact negatives of each other in the file.
+#[test]
+fn zero_thickness_plate_is_not_split_into_coincident_faces() {
+    let rot = glam::Mat3::from_euler(glam::EulerRot::XYZ, 0.3, 0.7, 0.2);
+    let plate = procedural::thin_plate(Vec3::new(1.0, 0.0, 0.8)).transformed(|p| rot * p);
+    let (oct, st) = run(&plate, 5, MULTI);
+    assert!(st.leaves > 0);
+    let mut pairs = 0;
+    for (_, vs) in oct.leaves() {
+        for (i, a) in vs.iter().enumerate() {
+            for b in &vs[i + 1..] {
+                if a.surface && b.surface && (0..8).all(|k| a.corners[k] == -b.corners[k]) {
+                    pairs += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(pairs, 0, "{st:?}");
+}
