@@ -401,6 +401,9 @@ impl MeshDistance {
                 let Some(n) = self.leaf_is_clean(&self.leaf_tris[range.clone()]) else {
                     return Vec::new();
                 };
+                if self.leaf_is_crossed(node, range.clone()) {
+                    return Vec::new();
+                }
                 range
                     .filter_map(|slot| {
                         let t = &self.leaf_tris[slot];
@@ -430,6 +433,57 @@ impl MeshDistance {
             out[id as usize] = r;
         }
         out
+    }
+
+    /// Whether a triangle that shares no vertex with a triangle of the leaf (slots `range`,
+    /// box of `leaf`) crosses it: an edge of one through the other (watertight segment test).
+    /// At such self-intersections the winding levels change inside the leaf, so its probe does
+    /// not speak for all of its triangles.
+    fn leaf_is_crossed(&self, leaf: &Bvh2Node, range: std::ops::Range<usize>) -> bool {
+        let lb = leaf.aabb();
+        let overlaps = |n: &Bvh2Node| {
+            let b = n.aabb();
+            b.min.cmple(lb.max).all() && lb.min.cmple(b.max).all()
+        };
+        let crosses = |s: &[Vec3; 3], t: &[Vec3; 3]| {
+            (0..3).any(|k| {
+                let (e0, e1) = (s[k], s[(k + 1) % 3]);
+                WatertightRay::new(e0, e1 - e0)
+                    .and_then(|r| r.intersect(t[0], t[1], t[2], 0.0, 1.0))
+                    .is_some()
+            })
+        };
+        let mut stack = vec![0usize];
+        while let Some(ni) = stack.pop() {
+            let node = &self.nodes[ni];
+            if !overlaps(node) {
+                continue;
+            }
+            if node.prim_count == 0 {
+                stack.push(node.first_index as usize);
+                stack.push(node.first_index as usize + 1);
+                continue;
+            }
+            let start = node.first_index as usize;
+            for other in start..start + node.prim_count as usize {
+                let oi = self.mesh.triangles[self.leaf_ids[other] as usize];
+                let ot = &self.leaf_tris[other];
+                for slot in range.clone() {
+                    if slot == other {
+                        continue;
+                    }
+                    let li = self.mesh.triangles[self.leaf_ids[slot] as usize];
+                    if li.iter().any(|v| oi.contains(v)) {
+                        continue;
+                    }
+                    let lt = &self.leaf_tris[slot];
+                    if crosses(ot, lt) || crosses(lt, ot) {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
     }
 
     /// Computes the one-time data of the sign now (in winding mode, the per-triangle radii of
@@ -950,6 +1004,7 @@ impl MeshDistance {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use sdfmo_mesh::TriMesh;
 
     #[test]
     fn morton_order_is_a_permutation_that_groups_nearby_points() {
@@ -1032,6 +1087,63 @@ mod tests {
             assert!(
                 r <= 0.5 - lowest + 1e-5,
                 "radius {r} for a triangle reaching y = {lowest}"
+            );
+        }
+    }
+
+    #[test]
+    fn shortcut_signs_match_the_winding_number_on_overlapping_and_open_shells() {
+        // Self-intersections leave no chain boundary, so only the probes guard the shortcut:
+        // two overlapping spheres (w = 2 in the overlap), a sphere overlapping an open box, and
+        // points within 0.03 of the surface.
+        let a = sdfmo_mesh::procedural::sphere(Vec3::new(-0.2, 0.0, 0.0), 0.4, 3);
+        let b = sdfmo_mesh::procedural::sphere(Vec3::new(0.2, 0.05, 0.0), 0.35, 3);
+        let mut open_box = sdfmo_mesh::procedural::box_mesh(Vec3::splat(-0.3), Vec3::splat(0.3));
+        let p = open_box.positions.clone();
+        open_box
+            .triangles
+            .retain(|t| !t.iter().all(|&i| p[i as usize].x > 0.29));
+        open_box.parts.truncate(open_box.triangles.len());
+        let merge = |x: &TriMesh, y: &TriMesh| {
+            let mut m = x.clone();
+            let off = m.positions.len() as u32;
+            m.positions.extend(&y.positions);
+            m.triangles
+                .extend(y.triangles.iter().map(|t| t.map(|i| i + off)));
+            m.parts.extend(y.parts.iter().map(|_| 1));
+            m
+        };
+        for mesh in [merge(&a, &b), merge(&b, &open_box)] {
+            let md = MeshDistance::new(&mesh, SignMode::Winding).unwrap();
+            let mut state = 11u64;
+            let mut next = || {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                (state >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+            };
+            let radii = md.clean_winding_radii();
+            let (mut compared, mut shortcut) = (0, 0);
+            for t in mesh.triangles.iter().step_by(3) {
+                let c = t.iter().map(|&i| mesh.positions[i as usize]).sum::<Vec3>() / 3.0;
+                let q = c + Vec3::new(next(), next(), next()) * 0.03;
+                let full = md.winding_number(q);
+                if (full - 0.5).abs() < 0.05 {
+                    continue;
+                }
+                compared += 1;
+                let cp = md.closest_point(q);
+                if cp.feature == Feature::Face
+                    && cp.distance < radii[cp.triangle as usize] * CLEAN_DISTANCE_FRACTION
+                {
+                    shortcut += 1;
+                }
+                assert_eq!(md.signed_distance(q) < 0.0, full > 0.5, "q {q:?}, w {full}");
+            }
+            // The shortcut is exercised (not every leaf is crossed or near the rim).
+            assert!(
+                compared > 100 && shortcut > compared / 10,
+                "{compared} {shortcut}"
             );
         }
     }
