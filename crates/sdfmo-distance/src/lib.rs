@@ -453,6 +453,11 @@ impl MeshDistance {
                     .is_some()
             })
         };
+        let apart = |t: &[Vec3; 3], o: &[Vec3; 3]| {
+            let n = (t[1] - t[0]).cross(t[2] - t[0]);
+            let d = o.map(|v| n.dot(v - t[0]));
+            d.iter().all(|&x| x > 0.0) || d.iter().all(|&x| x < 0.0)
+        };
         let mut stack = vec![0usize];
         while let Some(ni) = stack.pop() {
             let node = &self.nodes[ni];
@@ -477,6 +482,11 @@ impl MeshDistance {
                         continue;
                     }
                     let lt = &self.leaf_tris[slot];
+                    // Early out (Möller 1997): one triangle strictly on one side of the
+                    // other's plane cannot cross it.
+                    if apart(lt, ot) || apart(ot, lt) {
+                        continue;
+                    }
                     if crosses(ot, lt) || crosses(lt, ot) {
                         return true;
                     }
