@@ -14,8 +14,8 @@
 //!   oriented, the winding number otherwise. Signed distances are negative inside. In winding
 //!   mode a query whose closest point lies in the face interior of a triangle far (relative to
 //!   the query's distance) from every chain-boundary edge, in a BVH leaf probed to have winding
-//!   number ≈ 0 in front and ≈ 1 behind, takes its sign from the face normal; the others run a
-//!   coarse winding number (β = [`COARSE_WINDING_BETA`]) and the full one only when the coarse
+//!   number ≈ 0 in front and ≈ 1 behind and crossed by no other triangle, takes its sign from
+//!   the face normal; the others run a coarse winding number (β = [`COARSE_WINDING_BETA`]) and the full one only when the coarse
 //!   value is within [`COARSE_WINDING_MARGIN`] of ½. On the benchmark's 200 000 points (abc1
 //!   and the bunny, near and uniform) the signs equal those of the full winding number.
 //! - **Subsets**: [`MeshDistance::closest_point_in_subset`] and
@@ -363,9 +363,11 @@ impl MeshDistance {
     /// orientations do not cancel (boundary edges of open meshes, unbalanced non-manifold
     /// edges). Per BVH leaf, its largest triangle is probed just in front of and just behind
     /// its centroid with the coarse winding number; the leaf is clean when that gives ≈ 0 in
-    /// front and ≈ 1 behind (a locally closed, outward surface with the usual levels), its
-    /// triangles face the same way (normals within 60°), and the radius is the distance from
-    /// the leaf to the nearest chain-boundary edge. Meshes with more than
+    /// front and ≈ 1 behind (a locally closed, outward surface with the usual levels), no
+    /// triangle sharing no vertex with it crosses it (self-intersections change the levels).
+    /// Each triangle of a clean leaf not facing against the probed one (unit normals' dot
+    /// product > −0.25) gets as radius the distance from its centroid to the nearest
+    /// chain-boundary edge minus its own circumradius about the centroid. Meshes with more than
     /// [`MAX_CHAIN_BOUNDARY_EDGES`] such edges get no shortcut.
     fn clean_winding_radii(&self) -> Vec<f32> {
         let tris = &self.mesh.triangles;
