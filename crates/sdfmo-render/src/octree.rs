@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 use sdfmo_format::PackedOctree;
-use sdfmo_trace::{hit_normal, intersect, occluded, Hit, Ray};
+use sdfmo_trace::{hit_normal, intersect, occluded, occupied_bounds, Hit, Ray};
 
 use crate::scene::Traceable;
 
@@ -11,6 +11,10 @@ use crate::scene::Traceable;
 /// starts on (the kernel's roots are accurate to about 1e-4 of a voxel), small enough not to
 /// skip thin geometry (at depth 9 it is 2e-4 normalised units).
 pub const OCTREE_EPSILON_LEAVES: f32 = 0.05;
+
+/// Levels below the root whose occupied cells make [`Traceable::occupied_bounds`] (cells of
+/// 1/16 of the root's edge: a tight box for a few thousand node visits per render).
+pub const OCCUPIED_LEVELS: u8 = 5;
 
 /// A packed octree as a [`Traceable`] (`sdfmo_trace::{intersect, occluded, hit_normal}`).
 #[derive(Clone, Copy)]
@@ -38,6 +42,12 @@ impl Traceable for OctreeScene<'_> {
     #[inline]
     fn occluded(&self, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> bool {
         occluded(self.0, &Ray { origin, dir }, t_min, t_max)
+    }
+
+    /// The union of the occupied cells [`OCCUPIED_LEVELS`] below the root (`None`, trace
+    /// everything, for an empty octree, which the traversal rejects at once anyway).
+    fn occupied_bounds(&self) -> Option<(Vec3, Vec3)> {
+        occupied_bounds(self.0, OCCUPIED_LEVELS)
     }
 
     fn epsilon(&self) -> f32 {

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use crate::camera::{Camera, CameraFrame};
 use crate::plan::{Counters, Mode, RenderPlan, RenderSettings};
-use crate::scene::Traceable;
+use crate::scene::{Traceable, OCCUPIED_PAD};
 use crate::shading::{
     cosine_hemisphere, depth_grey, lambert_value, light_dir, normal_rgb, DepthRange, PixelRng,
     AO_DISTANCE,
@@ -82,6 +82,12 @@ pub fn render_with_plan<T: Traceable>(
         range: DepthRange::new(camera.eye, bmin, bmax),
         light: light_dir(),
         eps: scene.epsilon(),
+        occupied: scene.occupied_bounds().map(|(lo, hi)| {
+            (
+                lo - Vec3::splat(OCCUPIED_PAD),
+                hi + Vec3::splat(OCCUPIED_PAD),
+            )
+        }),
     };
     match plan.threads {
         None => Ok(ctx.run()),
@@ -102,6 +108,8 @@ struct Ctx<'a, T> {
     range: DepthRange,
     light: Vec3,
     eps: f32,
+    /// The scene's padded occupied box (`None`: trace every ray).
+    occupied: Option<(Vec3, Vec3)>,
 }
 
 /// The output of one tile: its rectangle and its pixels, row-major within the tile.
@@ -205,11 +213,29 @@ impl<T: Traceable> Ctx<'_, T> {
         tile
     }
 
+    /// Whether the ray `[0, t_max]` touches the occupied box, if any (if not, it hits nothing).
+    #[inline]
+    fn meets_occupied(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
+        self.occupied.is_none_or(|(lo, hi)| {
+            sdfmo_trace::ray_meets_box(&sdfmo_trace::Ray { origin: o, dir: d }, lo, hi, 0.0, t_max)
+        })
+    }
+
+    /// The scene's first hit on `[0, ∞)`, skipping the trace for rays that miss the occupied box.
+    #[inline]
+    fn first_hit(&self, o: Vec3, d: Vec3) -> Option<T::Hit> {
+        if self.meets_occupied(o, d, f32::INFINITY) {
+            self.scene.first_hit(o, d, 0.0, f32::INFINITY)
+        } else {
+            None
+        }
+    }
+
     #[inline]
     fn pixel(&self, o: Vec3, d: Vec3, px: u32, py: u32, i: usize, tile: &mut Tile) {
         let c = &mut tile.counters;
         c.rays += 1;
-        let Some(hit) = self.scene.first_hit(o, d, 0.0, f32::INFINITY) else {
+        let Some(hit) = self.first_hit(o, d) else {
             return; // background: black, depth +∞, normal 0 (already there)
         };
         c.hits += 1;
@@ -245,7 +271,9 @@ impl<T: Traceable> Ctx<'_, T> {
         let mut shadow = 1.0;
         if self.plan.shadow_rays && ndl > 0.0 {
             c.shadow_rays += 1;
-            if self.scene.occluded(start, self.light, 0.0, f32::INFINITY) {
+            if self.meets_occupied(start, self.light, f32::INFINITY)
+                && self.scene.occluded(start, self.light, 0.0, f32::INFINITY)
+            {
                 shadow = 0.0;
             }
         }
@@ -255,7 +283,9 @@ impl<T: Traceable> Ctx<'_, T> {
             let mut open = 0u32;
             for _ in 0..self.plan.ao_samples {
                 let dir = cosine_hemisphere(n, rng.next_f32(), rng.next_f32());
-                if !self.scene.occluded(start, dir, 0.0, AO_DISTANCE) {
+                if !(self.meets_occupied(start, dir, AO_DISTANCE)
+                    && self.scene.occluded(start, dir, 0.0, AO_DISTANCE))
+                {
                     open += 1;
                 }
             }

@@ -39,7 +39,18 @@ pub trait Traceable: Sync {
     fn bounds(&self) -> (Vec3, Vec3) {
         (Vec3::splat(-1.0), Vec3::ONE)
     }
+
+    /// A box every hit lies in, `(min, max)`: the renderer skips rays that miss it (padded by
+    /// [`OCCUPIED_PAD`]) without tracing them. Called once per render. `None` (the default):
+    /// no such box is known, every ray is traced.
+    fn occupied_bounds(&self) -> Option<(Vec3, Vec3)> {
+        None
+    }
 }
+
+/// Padding of [`Traceable::occupied_bounds`] before rays are tested against it, normalised
+/// units: far above the rounding of hit points (about 1e-6), so no hit is ever rejected.
+pub const OCCUPIED_PAD: f32 = 1e-3;
 
 /// An analytic scene: a union of spheres (a real renderer input for tests and demos).
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -9,6 +9,7 @@ use sdfmo_mesh::{procedural, TriMesh};
 use sdfmo_render::shading::PixelRng;
 use sdfmo_render::{
     mesh_in_octree_frame, render, Camera, MeshScene, Mode, OctreeScene, RenderSettings, Rendered,
+    Traceable,
 };
 
 fn settings(mode: Mode, shadows: bool, ao: u32, threads: usize) -> RenderSettings {
@@ -303,4 +304,47 @@ fn closed_parts_have_no_pinholes_at_shallow_depths() {
 #[ignore = "slow in the dev profile: run with --release -- --ignored"]
 fn closed_parts_have_no_pinholes_at_deep_depths() {
     assert_watertight(&[8, 9, 10], 100, 64);
+}
+
+/// The octree scene with the occupied-box rejection switched off: every ray is traced.
+struct TraceEverything<'a>(OctreeScene<'a>);
+
+impl Traceable for TraceEverything<'_> {
+    type Hit = <OctreeScene<'static> as Traceable>::Hit;
+    fn first_hit(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<Self::Hit> {
+        self.0.first_hit(o, d, t_min, t_max)
+    }
+    fn hit_t(&self, hit: &Self::Hit) -> f32 {
+        self.0.hit_t(hit)
+    }
+    fn normal(&self, o: Vec3, d: Vec3, hit: &Self::Hit) -> Vec3 {
+        self.0.normal(o, d, hit)
+    }
+    fn occluded(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> bool {
+        self.0.occluded(o, d, t_min, t_max)
+    }
+    fn epsilon(&self) -> f32 {
+        self.0.epsilon()
+    }
+}
+
+#[test]
+fn skipping_rays_outside_the_occupied_box_changes_no_pixel() {
+    // A thin plate (its box is a slab of the root cube) and the demo part, from all four views.
+    let plate = procedural::box_mesh(Vec3::new(-1.0, -0.05, -0.6), Vec3::new(1.0, 0.05, 0.6));
+    for mesh in [plate, procedural::demo_part()] {
+        let tree = octree(&mesh, 6, Method::Multi { max_voxels: 8 });
+        let scene = OctreeScene(&tree);
+        let (lo, hi) = scene.occupied_bounds().expect("non-empty octree");
+        assert!((hi - lo).min_element() < 1.9, "{lo} {hi}");
+        for view in 0..4 {
+            let camera = Camera::paper_view(view, 48, 40);
+            let s = settings(Mode::Lambert, true, 2, 2);
+            let fast = render(&scene, &camera, &s).unwrap();
+            let full = render(&TraceEverything(scene), &camera, &s).unwrap();
+            assert!(fast.counters.hits > 0);
+            assert_eq!(fast.rgb, full.rgb, "view {view}");
+            assert_eq!(fast.counters, full.counters, "view {view}");
+        }
+    }
 }

@@ -31,4 +31,4 @@ pub mod traversal;
 
 pub use normal::{hit_normal, trilinear_gradient};
 pub use ray_voxel::{intersect_voxel, unit_cube_span};
-pub use traversal::{intersect, occluded, Hit, Ray};
+pub use traversal::{intersect, occluded, occupied_bounds, ray_meets_box, Hit, Ray};

@@ -82,6 +82,63 @@ pub fn occluded<O: OctreeAccess + ?Sized>(octree: &O, ray: &Ray, t_min: f32, t_m
     traverse::<O, true>(octree, ray, t_min, t_max).is_some()
 }
 
+/// A box containing every leaf of the octree, `(min, max)` in normalised coordinates: the union
+/// of the occupied cells `levels` below the root (of the leaves, where they are shallower).
+/// `None` for an empty octree. Costs one visit per occupied node down to `levels`; a ray that
+/// misses this box hits nothing, so renderers reject it before [`intersect`].
+pub fn occupied_bounds<O: OctreeAccess + ?Sized>(octree: &O, levels: u8) -> Option<(Vec3, Vec3)> {
+    let root = octree.root()?;
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    let mut stack = vec![(root, Vec3::splat(-1.0), 2.0f32, 0u8)];
+    while let Some((node, min, size, level)) = stack.pop() {
+        if level >= levels || octree.is_leaf(node) {
+            lo = lo.min(min);
+            hi = hi.max(min + Vec3::splat(size));
+            continue;
+        }
+        let mask = octree.child_mask(node);
+        let first = octree.first_child_index(node);
+        let half = 0.5 * size;
+        let mut index = first;
+        for oct in 0..8u8 {
+            if mask >> oct & 1 == 0 {
+                continue;
+            }
+            let offset = Vec3::new(
+                f32::from(oct >> 2),
+                f32::from((oct >> 1) & 1),
+                f32::from(oct & 1),
+            );
+            stack.push((
+                NodeRef::from_index(index),
+                min + offset * half,
+                half,
+                level + 1,
+            ));
+            index += 1;
+        }
+    }
+    le(lo.x, hi.x).then_some((lo, hi))
+}
+
+/// Whether the ray's span in the box `[lo, hi]`, clipped to `[t_min, t_max]`, is not empty
+/// (true for NaN-free rays touching the box; zero direction components handled as in the
+/// traversal). Conservative callers pad the box.
+#[inline]
+pub fn ray_meets_box(ray: &Ray, lo: Vec3, hi: Vec3, t_min: f32, t_max: f32) -> bool {
+    let inv = Vec3::new(
+        safe_inv(ray.dir.x),
+        safe_inv(ray.dir.y),
+        safe_inv(ray.dir.z),
+    );
+    let ta = (lo - ray.origin) * inv;
+    let tb = (hi - ray.origin) * inv;
+    let t_enter = ta.min(tb).max_element().max(t_min);
+    let t_exit = ta.max(tb).min_element().min(t_max);
+    le(t_enter, t_exit)
+}
+
 /// `a ≤ b`, false when either is NaN.
 #[inline]
 pub(crate) fn le(a: f32, b: f32) -> bool {
@@ -440,6 +497,50 @@ mod tests {
             }
         }
         hits
+    }
+
+    #[test]
+    fn occupied_bounds_enclose_the_leaves_and_every_hit() {
+        // An off-centre small sphere: its box is much smaller than the root cube.
+        let c = Vec3::new(0.3, -0.2, 0.1);
+        let sphere = move |p: Vec3| (p - c).length() - 0.25;
+        let octree = octree_from_sdfs(5, &[(&sphere, false)]);
+        let depth = octree.depth();
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for (coord, _) in octree.leaves() {
+            let (min, h) = cell_min(coord, depth);
+            lo = lo.min(min);
+            hi = hi.max(min + Vec3::splat(h));
+        }
+        // At the leaf level the box is exact; coarser levels give boxes around it.
+        assert_eq!(occupied_bounds(&octree, depth), Some((lo, hi)));
+        assert_eq!(occupied_bounds(&octree, 40), Some((lo, hi)));
+        assert_eq!(
+            occupied_bounds(&octree, 0),
+            Some((Vec3::splat(-1.0), Vec3::ONE))
+        );
+        let (clo, chi) = occupied_bounds(&octree, 2).unwrap();
+        assert!(clo.cmple(lo).all() && chi.cmpge(hi).all());
+        assert!((chi - clo).max_element() < 2.0, "{clo} {chi}");
+        // No hit outside the box: rays that miss it miss the octree.
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let (mut hits, mut rejected) = (0, 0);
+        for _ in 0..3000 {
+            let ray = random_ray(&mut rng);
+            let hit = intersect(&octree, &ray, 0.0, f32::INFINITY);
+            if !ray_meets_box(&ray, lo, hi, 0.0, f32::INFINITY) {
+                assert!(hit.is_none(), "{ray:?}");
+                rejected += 1;
+            } else if hit.is_some() {
+                hits += 1;
+            }
+        }
+        assert!(
+            hits > 100 && rejected > 1000,
+            "{hits} hits, {rejected} rejected"
+        );
+        let empty = PackedOctree::from_leaves(meta(3), Vec::new()).unwrap();
+        assert_eq!(occupied_bounds(&empty, 3), None);
     }
 
     #[test]
