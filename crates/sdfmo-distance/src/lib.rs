@@ -188,9 +188,8 @@ pub struct MeshDistance {
     nodes: Vec<Bvh2Node>,
     /// Triangle corners in BVH leaf order.
     leaf_tris: Vec<[Vec3; 3]>,
-    /// Bounding sphere (centre, radius) per leaf slot: skips the closest-point test of triangles
-    /// that cannot beat the best distance so far.
-    leaf_spheres: Vec<Vec4>,
+    /// Per leaf slot, one cache line holding everything the closest-point search reads.
+    leaf_records: Vec<LeafRecord>,
     /// Original triangle index per leaf slot.
     leaf_ids: Vec<u32>,
     /// Triangle corners in the mesh's order (subset queries).
@@ -205,6 +204,24 @@ pub struct MeshDistance {
     /// computed on the first signed query that needs it.
     clean_radius: OnceLock<Vec<f32>>,
     depth: usize,
+}
+
+/// What the closest-point search reads of one leaf slot, in one 64-byte cache line (the
+/// sphere, the corners and the id were three arrays, so up to three cache misses per triangle).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct LeafRecord {
+    /// Bounding sphere (centre, radius): skips the closest-point test of triangles that cannot
+    /// beat the best distance so far.
+    sphere: Vec4,
+    /// The triangle rotated so that its vertex 0 is opposite the longest edge (see
+    /// `point_triangle::apex_rotation`): the search skips the edge lengths and the three-way
+    /// branch of each test.
+    corners: [Vec3; 3],
+    /// Original triangle index.
+    id: u32,
+    /// The rotation applied to `corners`.
+    rotation: u8,
 }
 
 /// Spreads the low 10 bits of `v` to every third bit.
@@ -296,13 +313,22 @@ impl MeshDistance {
         let nodes = bvh.nodes;
         let leaf_ids = bvh.primitive_indices;
         let leaf_tris: Vec<[Vec3; 3]> = leaf_ids.iter().map(|&i| tris[i as usize]).collect();
-        let leaf_spheres = leaf_tris
+        let leaf_records = leaf_tris
             .iter()
-            .map(|t| {
+            .zip(&leaf_ids)
+            .map(|(t, &id)| {
                 let c = (t[0].min(t[1]).min(t[2]) + t[0].max(t[1]).max(t[2])) * 0.5;
                 let r = t.iter().map(|v| (*v - c).length()).fold(0.0f32, f32::max);
-                // Inflated a little so rounding never skips the triangle that attains the minimum.
-                c.extend(r * (1.0 + 1e-5) + 1e-7)
+                let rotation = point_triangle::apex_rotation(t[0], t[1], t[2]);
+                let k = rotation as usize;
+                LeafRecord {
+                    // Inflated a little so rounding never skips the triangle that attains the
+                    // minimum.
+                    sphere: c.extend(r * (1.0 + 1e-5) + 1e-7),
+                    corners: [t[k], t[(k + 1) % 3], t[(k + 2) % 3]],
+                    id,
+                    rotation,
+                }
             })
             .collect();
 
@@ -343,7 +369,7 @@ impl MeshDistance {
             sign,
             nodes,
             leaf_tris,
-            leaf_spheres,
+            leaf_records,
             leaf_ids,
             tris,
             normals,
@@ -609,13 +635,20 @@ impl MeshDistance {
                     let start = node.first_index as usize;
                     let end = start + node.prim_count as usize;
                     for slot in start..end {
-                        let sphere = self.leaf_spheres[slot];
+                        let rec = &self.leaf_records[slot];
+                        let sphere = rec.sphere;
                         let lim = best_d + sphere.w;
                         if (p - sphere.truncate()).length_squared() > lim * lim {
                             continue;
                         }
-                        let t = &self.leaf_tris[slot];
-                        let (q, f) = closest_point_on_triangle(p, t[0], t[1], t[2]);
+                        let t = &rec.corners;
+                        let (q, f) = point_triangle::closest_point_prerotated(
+                            p,
+                            t[0],
+                            t[1],
+                            t[2],
+                            rec.rotation,
+                        );
                         let d2 = (p - q).length_squared();
                         if d2 < best_d2 {
                             best_d2 = d2;
@@ -623,7 +656,7 @@ impl MeshDistance {
                             best = ClosestPoint {
                                 point: q,
                                 distance: d2,
-                                triangle: self.leaf_ids[slot],
+                                triangle: rec.id,
                                 feature: f,
                             };
                         }
