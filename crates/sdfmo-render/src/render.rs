@@ -198,6 +198,10 @@ impl<T: Traceable> Ctx<'_, T> {
             },
             counters: Counters::default(),
         };
+        if self.tile_misses_occupied(x0, y0, tw, th) {
+            tile.counters.rays += n as u64;
+            return tile; // background (already there)
+        }
         // Camera terms cached per tile: the same f64 sums as `CameraFrame::ray`, bit for bit.
         let columns: Vec<DVec3> = (x0..x0 + tw).map(|px| self.frame.column(px)).collect();
         let eye = self.frame.eye.as_vec3();
@@ -218,6 +222,41 @@ impl<T: Traceable> Ctx<'_, T> {
             }
         }
         tile
+    }
+
+    /// Whether no primary ray of the tile can meet the occupied box: the box lies outside one
+    /// of the four planes through the eye that bound the tile's rays (taken a pixel and a half
+    /// beyond the outermost pixel centres, so rounding cannot matter). Conservative: a tile
+    /// that is kept may still miss, its pixels are then rejected one by one.
+    fn tile_misses_occupied(&self, x0: u32, y0: u32, tw: u32, th: u32) -> bool {
+        let Some((lo, hi)) = self.occupied else {
+            return false;
+        };
+        let f = &self.frame;
+        let (w, h) = (f64::from(f.width), f64::from(f.height));
+        let dir = |x: f64, y: f64| {
+            let u = (2.0 * x / w - 1.0) * f.tan_half * w / h;
+            let v = (1.0 - 2.0 * y / h) * f.tan_half;
+            f.fwd + u * f.right + v * f.up
+        };
+        let (xa, xb) = (f64::from(x0) - 1.0, f64::from(x0 + tw) + 1.0);
+        let (ya, yb) = (f64::from(y0) - 1.0, f64::from(y0 + th) + 1.0);
+        let corners = [dir(xa, ya), dir(xb, ya), dir(xb, yb), dir(xa, yb)];
+        let centre = corners[0] + corners[1] + corners[2] + corners[3];
+        let (lo, hi) = (lo.as_dvec3() - f.eye, hi.as_dvec3() - f.eye);
+        (0..4).any(|i| {
+            let normal = corners[i].cross(corners[(i + 1) % 4]);
+            let side = normal.dot(centre);
+            side != 0.0
+                && (0..8).all(|k| {
+                    let p = DVec3::new(
+                        if k & 4 != 0 { hi.x } else { lo.x },
+                        if k & 2 != 0 { hi.y } else { lo.y },
+                        if k & 1 != 0 { hi.z } else { lo.z },
+                    );
+                    normal.dot(p) * side < 0.0
+                })
+        })
     }
 
     /// Whether the ray `[0, t_max]` touches the occupied box, if any (if not, it hits nothing).
@@ -339,5 +378,50 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn culled_tiles_hold_no_pixel_whose_ray_meets_the_occupied_box() {
+        let boxes = [
+            (Vec3::new(-0.9, -0.19, -0.47), Vec3::new(0.9, 0.19, 0.47)),
+            (Vec3::new(0.2, 0.3, -0.1), Vec3::new(0.25, 0.9, 0.05)),
+            (Vec3::new(-1.0, -1.0, -1.0), Vec3::new(-0.8, 1.0, 1.0)),
+        ];
+        let mut culled = 0;
+        for (view, occupied) in (0..8).zip(boxes.iter().cycle()) {
+            let camera = if view < 4 {
+                Camera::paper_view(view, 61, 47)
+            } else {
+                Camera::new(Vec3::new(0.3, 1.9, -2.2), Vec3::ZERO, 75.0, 53, 64)
+            };
+            let frame = camera.frame().unwrap();
+            let mut plan = RenderPlan::new(&RenderSettings::new(Mode::Mask)).unwrap();
+            plan.tile_size = 5;
+            let ctx = Ctx {
+                scene: &DirectionProbe,
+                frame,
+                plan,
+                range: DepthRange::new(camera.eye, Vec3::splat(-1.0), Vec3::ONE),
+                light: light_dir(),
+                eps: 1e-4,
+                occupied: Some(*occupied),
+            };
+            for y0 in (0..frame.height).step_by(5) {
+                for x0 in (0..frame.width).step_by(5) {
+                    let (tw, th) = (5.min(frame.width - x0), 5.min(frame.height - y0));
+                    if !ctx.tile_misses_occupied(x0, y0, tw, th) {
+                        continue;
+                    }
+                    culled += 1;
+                    for py in y0..y0 + th {
+                        for px in x0..x0 + tw {
+                            let (o, d) = camera.primary_ray(px, py);
+                            assert!(!ctx.meets_occupied(o, d, f32::INFINITY), "({px},{py})");
+                        }
+                    }
+                }
+            }
+        }
+        assert!(culled > 200, "{culled} tiles culled");
     }
 }

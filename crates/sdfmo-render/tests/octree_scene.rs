@@ -8,8 +8,8 @@ use sdfmo_format::PackedOctree;
 use sdfmo_mesh::{procedural, TriMesh};
 use sdfmo_render::shading::PixelRng;
 use sdfmo_render::{
-    mesh_in_octree_frame, render, Camera, MeshScene, Mode, OctreeScene, RenderSettings, Rendered,
-    Traceable,
+    mesh_in_octree_frame, render, render_with_plan, Camera, MeshScene, Mode, OctreeScene,
+    RenderPlan, RenderSettings, Rendered, Traceable,
 };
 
 fn settings(mode: Mode, shadows: bool, ao: u32, threads: usize) -> RenderSettings {
@@ -345,6 +345,12 @@ fn skipping_rays_outside_the_occupied_box_changes_no_pixel() {
             assert!(fast.counters.hits > 0);
             assert_eq!(fast.rgb, full.rgb, "view {view}");
             assert_eq!(fast.counters, full.counters, "view {view}");
+            // Small tiles: many of them lie wholly outside the box and are skipped.
+            let mut plan = RenderPlan::new(&s).unwrap();
+            plan.tile_size = 4;
+            let small = render_with_plan(&scene, &camera, &plan).unwrap();
+            assert_eq!(small.rgb, full.rgb, "view {view}, 4-pixel tiles");
+            assert_eq!(small.counters, full.counters, "view {view}, 4-pixel tiles");
         }
     }
 }
