@@ -158,6 +158,52 @@ pub fn trilinear(c: &[f32; 8], l: Vec3) -> f32 {
     c0 + (c1 - c0) * x
 }
 
+/// The gradient of the trilinear interpolant of `c` with respect to the local coordinates
+/// `l ∈ [0,1]³` (value units per cell edge).
+#[inline]
+pub fn trilinear_gradient(c: &[f32; 8], l: Vec3) -> Vec3 {
+    let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+    let (x, y, z) = (l.x, l.y, l.z);
+    // Differences along each axis, interpolated over the other two.
+    let dx = lerp(
+        lerp(c[4] - c[0], c[5] - c[1], z),
+        lerp(c[6] - c[2], c[7] - c[3], z),
+        y,
+    );
+    let dy = lerp(
+        lerp(c[2] - c[0], c[3] - c[1], z),
+        lerp(c[6] - c[4], c[7] - c[5], z),
+        x,
+    );
+    let dz = lerp(
+        lerp(c[1] - c[0], c[3] - c[2], y),
+        lerp(c[5] - c[4], c[7] - c[6], y),
+        x,
+    );
+    Vec3::new(dx, dy, dz)
+}
+
+/// How far (in cell edges, capped at 1) the zero set of the trilinear interpolant `c` of a
+/// signed distance with cell edge `h` is from the point `l` (local coordinates) that should lie
+/// on it: `|f| / |∇f|` to first order, the gradient counted at most at its signed-distance
+/// value (1 per unit length), so the estimate is never below `|f| / h`.
+///
+/// `|f|` alone is blind to a collapsed gradient: a plate thinner than the cell lying on the
+/// cell's diagonal gives corners `+a, −b, −b, +a` whose interpolant is a saddle, `|f|` about
+/// `0.18 h` on the plate's faces while the zero set only hugs two cell edges, so a ray through
+/// the middle of the cell misses the plate (vertical stripes). The gradient there is a third of
+/// a distance's, which the estimate turns into the real gap.
+#[inline]
+pub fn zero_set_gap(c: &[f32; 8], l: Vec3, h: f32) -> f32 {
+    let f = trilinear(c, l).abs();
+    let g = trilinear_gradient(c, l).length().min(h);
+    if f < g {
+        f / g
+    } else {
+        1.0
+    }
+}
+
 /// Offset of corner `i` (`4x + 2y + z`) in units of the cell size.
 #[inline]
 pub fn corner_offset(i: usize) -> Vec3 {
@@ -286,5 +332,51 @@ mod tests {
         ] {
             assert!((trilinear(&c, p) - f(p)).abs() < 1e-6);
         }
+    }
+
+    #[test]
+    fn trilinear_gradient_matches_finite_differences() {
+        let c = [0.3, -0.7, 1.1, 0.2, -0.4, 0.9, -1.3, 0.5];
+        for l in [
+            Vec3::splat(0.5),
+            Vec3::new(0.1, 0.8, 0.3),
+            Vec3::new(0.9, 0.2, 0.6),
+        ] {
+            let g = trilinear_gradient(&c, l);
+            let e = 1e-3;
+            for (axis, d) in [Vec3::X, Vec3::Y, Vec3::Z].into_iter().enumerate() {
+                let fd = (trilinear(&c, l + d * e) - trilinear(&c, l - d * e)) / (2.0 * e);
+                assert!((g[axis] - fd).abs() < 1e-3, "{axis}: {} vs {fd}", g[axis]);
+            }
+        }
+    }
+
+    /// The demo part's thin plate (0.4 voxel thick at depth 7, its mid-plane on the cells'
+    /// diagonal x + z = const): leaf (96, 19, 31) gets these global corners (cell units).
+    /// Its interpolant is a saddle: on the plate's face (u + w = 1.283, centroid of the clipped
+    /// face at u = w = 0.6415) `|f|` is only 0.18 of a cell, below the thin-split threshold 0.2,
+    /// yet the zero set only hugs the two cell edges where the plate's mid-plane meets them, and a
+    /// ray through the middle of the cell misses the plate (the vertical stripes).
+    #[test]
+    fn saddle_of_a_diagonal_thin_plate_is_far_from_its_zero_set() {
+        let c = [0.505, -0.205, 0.505, -0.205, -0.205, 0.505, -0.205, 0.505];
+        let face = Vec3::new(0.6415, 0.5, 0.6415);
+        let f = trilinear(&c, face);
+        assert!(f > 0.17 && f < 0.19, "{f}");
+        let gap = zero_set_gap(&c, face, 1.0);
+        assert!(gap > 0.5, "{gap}");
+        // Along the plate's normal through the face point, the interpolant stays positive:
+        // there really is no zero within the cell's middle.
+        for k in 0..=10 {
+            let s = -0.3 + 0.06 * k as f32;
+            assert!(trilinear(&c, face + Vec3::new(s, 0.0, s)) > 0.1);
+        }
+        // An exact distance (a plane) keeps the estimate at |f|.
+        let plane: [f32; 8] =
+            std::array::from_fn(|i| corner_offset(i).dot(Vec3::new(0.6, 0.0, 0.8)) - 0.5);
+        let l = Vec3::new(0.3, 0.7, 0.2);
+        assert!((zero_set_gap(&plane, l, 1.0) - trilinear(&plane, l).abs()).abs() < 1e-6);
+        // A value beyond the gradient caps at one cell.
+        assert_eq!(zero_set_gap(&[1.0; 8], l, 1.0), 1.0);
     }
 }

@@ -8,8 +8,10 @@
 //!    leaf (signed distance 0).
 //! 2. *Does the SVO voxel already do?* The single voxel from the global signed distance (shared
 //!    corners, quantised as the file stores them) is evaluated at the samples. If the largest
-//!    `|f|` is below [`Params::accept`] of the cell size, the leaf gets that voxel, exactly as the
-//!    SVO (most leaves: smooth surfaces, sharp edges of one component).
+//!    distance from a sample to the voxel's zero set (`|f| / |∇f|`, not `|f|`: a collapsed
+//!    gradient hides a missing zero set) is below [`Params::accept`] of the cell size, the leaf
+//!    gets that voxel, exactly as the SVO (most leaves: smooth surfaces, sharp edges of one
+//!    component). The thin test of step 3 measures the same distance.
 //! 3. *Components.* The gathered triangles split into connected components through shared edges
 //!    of vertices welded by position (never at a sharp edge: a sharp edge shares its vertices;
 //!    part ids pre-split). Pieces of the same *global* component are merged back (a piece cut
@@ -40,7 +42,7 @@ use glam::Vec3;
 use sdfmo_format::{quant, ValueBits, Voxel};
 
 use crate::components::Components;
-use crate::geom::{clip_triangle, corner_offset, trilinear, MAX_CLIP};
+use crate::geom::{clip_triangle, corner_offset, trilinear, zero_set_gap, MAX_CLIP};
 use crate::local::LocalMesh;
 
 /// Tuning of the per-leaf decision (fractions of the cell edge `h`).
@@ -237,7 +239,9 @@ pub fn multi_leaf(
     let mut svo_sum = 0.0f32;
     for l in &s.samples {
         let e = (trilinear(&gq, *l).abs() * inv_h).min(1.0);
-        svo_max = svo_max.max(e);
+        // Acceptance by the distance to the zero set, not |f|: a collapsed gradient (a plate
+        // thinner than the cell) has small |f| on the faces and no zero set through them.
+        svo_max = svo_max.max(zero_set_gap(&gq, *l, h));
         svo_sum += e;
     }
     let open_near = tris.iter().any(|&t| mesh.boundary[t as usize] != 0);
@@ -350,7 +354,7 @@ pub fn multi_leaf(
         let mut err = 0.0f32;
         for (l, &li) in s.samples.iter().zip(&s.sample_tri) {
             if s.comp_of[li as usize] == ci as u32 {
-                err = err.max(trilinear(&q, *l).abs() * inv_h);
+                err = err.max(zero_set_gap(&q, *l, h));
             }
         }
         if err > p.thin && ctris.len() >= 2 {
@@ -398,7 +402,7 @@ pub fn multi_leaf(
                 let mut err2 = 0.0f32;
                 for (l, &li) in s.samples.iter().zip(&s.sample_tri) {
                     if s.comp_of[li as usize] == ci as u32 {
-                        let e = trilinear(&qa, *l).abs().min(trilinear(&qb, *l).abs()) * inv_h;
+                        let e = zero_set_gap(&qa, *l, h).min(zero_set_gap(&qb, *l, h));
                         err2 = err2.max(e);
                     }
                 }

@@ -308,6 +308,63 @@ fn thin_plate_survives_as_surface_voxels() {
     assert!(r_svo < 0.05, "SVO represents the plate at {r_svo}");
 }
 
+/// Regression: the demo part's thin plate (0.4 of a depth-7 voxel thick, upright and rotated
+/// 45° about y, so its mid-plane x + z = 0 runs along the diagonals of the cells with
+/// `gx + gz = 127`) rendered as vertical stripes with both methods. The global corners of such a
+/// cell are `+0.505, −0.205, −0.205, +0.505` cell edges (a saddle): `|f|` on the plate's faces
+/// is only 0.18 of a cell, under the thin-split threshold, so the multi-octree kept that voxel,
+/// whose zero set hugs two cell edges and misses the plate in between. The decision now
+/// measures the distance to the zero set (`|f| / |∇f|`), and the cell gets the two faces.
+#[test]
+fn thin_plate_on_the_cell_diagonal_is_split_into_surface_voxels() {
+    let depth = 7;
+    let mesh = procedural::demo_part();
+    let (_, norm) = mesh.normalized(0.05);
+    assert_eq!(
+        norm.to_normalized(Vec3::new(0.5, -0.7, -0.5)),
+        Vec3::new(0.5, -0.7, -0.5)
+    );
+    let h = 2.0 / (1u32 << depth) as f32;
+    let (svo, _) = run(&mesh, depth, Method::Svo);
+    let (multi, _) = run(&mesh, depth, MULTI);
+    let (svo_map, multi_map) = (leaf_map(&svo), leaf_map(&multi));
+    let svo_cell = &svo_map[&[96, 19, 31]];
+    assert_eq!(svo_cell.len(), 1);
+    let expect = [0.505, -0.205, 0.505, -0.205, -0.205, 0.505, -0.205, 0.505];
+    for (v, e) in svo_cell[0].corners.iter().zip(expect) {
+        assert!(
+            (v / h - e).abs() < 0.002,
+            "{:?}",
+            svo_cell[0].corners.map(|v| v / h)
+        );
+    }
+    let multi_cell = &multi_map[&[96, 19, 31]];
+    assert_eq!(multi_cell.len(), 2, "{multi_cell:?}");
+    assert!(multi_cell.iter().all(|v| v.surface));
+
+    // Rays from the paper's view 1 (eye on +x) through the plate's middle all hit it, at the
+    // plate, with the multi-octree.
+    let eye = Vec3::new(3.0, 0.0, 0.0);
+    let (mut hits, mut n) = (0, 0);
+    for i in 0..24 {
+        for j in 0..8 {
+            // Across the plate (along (1, 0, -1)) and up it, away from its rim.
+            let s = -0.18 + 0.36 * (i as f32 + 0.37) / 24.0;
+            let y = -0.7 - 0.15 + 0.3 * (j as f32 + 0.61) / 8.0;
+            let target = Vec3::new(0.5 + s, y, -0.5 - s);
+            let dir = (target - eye).normalize();
+            let ray = sdfmo_trace::Ray { origin: eye, dir };
+            n += 1;
+            if let Some(hit) = sdfmo_trace::intersect(&multi, &ray, 0.0, 10.0) {
+                if (hit.t - (target - eye).length()).abs() < 0.5 * h {
+                    hits += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(hits, n, "{hits} of {n} rays hit the plate");
+}
+
 #[test]
 fn open_sheet_yields_surface_voxels() {
     // A single open sheet, tilted so it crosses cells obliquely.
