@@ -9,28 +9,13 @@
 //! 2). Narrow a run with criterion's filter, e.g.
 //! `cargo bench -p sdfmo-benches --bench build -- 'build/abc1/d9/multi'`.
 
+use sdfmo_benches::{data_dir, env_list};
 use std::hint::black_box;
-use std::path::PathBuf;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use sdfmo_build::{build, BuildSettings, Method};
 use sdfmo_mesh::{load_mesh, TriMesh};
-
-fn data_dir() -> PathBuf {
-    std::env::var_os("SDFMO_TEST_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data")))
-}
-
-fn env_list(name: &str, default: &str) -> Vec<String> {
-    std::env::var(name)
-        .unwrap_or_else(|_| default.to_string())
-        .split(',')
-        .map(|s| s.trim().to_string())
-        .filter(|s| !s.is_empty())
-        .collect()
-}
 
 fn load(name: &str) -> Option<TriMesh> {
     let path = data_dir().join(format!("{name}.stl"));

@@ -13,8 +13,8 @@
 //! 10000). Narrow a run with criterion's filter, e.g.
 //! `cargo bench -p sdfmo-benches --bench distance -- 'distance/abc1'`.
 
+use sdfmo_benches::data_dir;
 use std::hint::black_box;
-use std::path::PathBuf;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
@@ -22,12 +22,6 @@ use glam::Vec3;
 use sdfmo_distance::sample::{near_surface_points, uniform_points};
 use sdfmo_distance::{MeshDistance, SignMode};
 use sdfmo_mesh::{load_mesh, TriMesh};
-
-fn data_dir() -> PathBuf {
-    std::env::var_os("SDFMO_TEST_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data")))
-}
 
 fn load(file: &str) -> Option<TriMesh> {
     let path = data_dir().join(file);

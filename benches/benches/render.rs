@@ -11,8 +11,8 @@
 //! Narrow a run with criterion's filter, e.g.
 //! `cargo bench -p sdfmo-benches --bench render -- 'render/abc1/d9/multi/lambert'`.
 
+use sdfmo_benches::{data_dir, env_list};
 use std::hint::black_box;
-use std::path::PathBuf;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
@@ -22,21 +22,6 @@ use sdfmo_mesh::{load_mesh, TriMesh};
 use sdfmo_render::{
     mesh_in_octree_frame, render, Camera, MeshScene, Mode, OctreeScene, RenderSettings, Traceable,
 };
-
-fn data_dir() -> PathBuf {
-    std::env::var_os("SDFMO_TEST_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data")))
-}
-
-fn env_list(name: &str, default: &str) -> Vec<String> {
-    std::env::var(name)
-        .unwrap_or_else(|_| default.to_string())
-        .split(',')
-        .map(|s| s.trim().to_string())
-        .filter(|s| !s.is_empty())
-        .collect()
-}
 
 /// (label, settings) of the measured render configurations.
 fn configs() -> Vec<(String, RenderSettings)> {

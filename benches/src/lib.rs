@@ -1,1 +1,34 @@
-//! Shared helpers for the benchmarks (data directory lookup).
+//! Shared helpers for the benchmarks: where the test meshes are, and list-valued knobs.
+
+use std::path::PathBuf;
+
+/// The shared test-mesh directory: `SDFMO_TEST_DATA`, else `../shared/data` beside the workspace.
+pub fn data_dir() -> PathBuf {
+    std::env::var_os("SDFMO_TEST_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data")))
+}
+
+/// A comma-separated environment variable as a list of trimmed, non-empty items (`default` when
+/// the variable is unset).
+pub fn env_list(name: &str, default: &str) -> Vec<String> {
+    std::env::var(name)
+        .unwrap_or_else(|_| default.to_string())
+        .split(',')
+        .map(|s| s.trim().to_string())
+        .filter(|s| !s.is_empty())
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn env_list_splits_trims_and_drops_empties() {
+        assert_eq!(
+            env_list("SDFMO_BENCH_SURELY_UNSET_VARIABLE", " a, b ,,c "),
+            vec!["a", "b", "c"]
+        );
+    }
+}
