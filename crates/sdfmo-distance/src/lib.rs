@@ -43,10 +43,12 @@
 //! ```
 #![deny(missing_docs)]
 
+mod bvh4;
 mod point_triangle;
 mod pseudo_normals;
 mod ray_triangle;
 pub mod sample;
+mod triangle_packet;
 mod winding;
 
 use std::sync::OnceLock;
@@ -63,6 +65,7 @@ pub use point_triangle::{closest_point_on_triangle, Feature};
 pub use ray_triangle::WatertightRay;
 pub use winding::WINDING_BETA;
 
+use bvh4::Bvh4;
 use pseudo_normals::PseudoNormals;
 use winding::{solid_angle, TriangleDipole, WindingNode};
 
@@ -186,6 +189,8 @@ pub struct MeshDistance {
     /// obvhs BVH2 nodes; node 0 is the root, inner nodes' children at `first_index` and
     /// `first_index + 1`, leaves cover `leaf_tris[first_index .. first_index + prim_count]`.
     nodes: Vec<Bvh2Node>,
+    /// The same tree collapsed to four children per node (closest-point search).
+    bvh4: Bvh4,
     /// Triangle corners in BVH leaf order.
     leaf_tris: Vec<[Vec3; 3]>,
     /// Per leaf slot, one cache line holding everything the closest-point search reads.
@@ -222,6 +227,15 @@ struct LeafRecord {
     id: u32,
     /// The rotation applied to `corners`.
     rotation: u8,
+}
+
+/// State of one closest-point search: the query and the best triangle so far (`best.distance`
+/// holds the squared distance until the search returns).
+struct Search {
+    p: Vec3,
+    best_d2: f32,
+    best_d: f32,
+    best: ClosestPoint,
 }
 
 /// Spreads the low 10 bits of `v` to every third bit.
@@ -261,14 +275,6 @@ fn morton_order(points: &[Vec3]) -> Vec<usize> {
         .collect();
     keyed.par_sort_unstable();
     keyed.into_iter().map(|(_, i)| i).collect()
-}
-
-/// Squared distance from `p` to the box of `node` (0 inside).
-#[inline(always)]
-fn box_dist2(node: &Bvh2Node, p: Vec3A) -> f32 {
-    let b = node.aabb();
-    let d = (b.min - p).max(p - b.max).max(Vec3A::ZERO);
-    d.length_squared()
 }
 
 impl MeshDistance {
@@ -313,7 +319,7 @@ impl MeshDistance {
         let nodes = bvh.nodes;
         let leaf_ids = bvh.primitive_indices;
         let leaf_tris: Vec<[Vec3; 3]> = leaf_ids.iter().map(|&i| tris[i as usize]).collect();
-        let leaf_records = leaf_tris
+        let leaf_records: Vec<LeafRecord> = leaf_tris
             .iter()
             .zip(&leaf_ids)
             .map(|(t, &id)| {
@@ -364,10 +370,14 @@ impl MeshDistance {
             }
             s => s,
         };
+        let corners: Vec<[Vec3; 3]> = leaf_records.iter().map(|r| r.corners).collect();
+        let bvh4 = Bvh4::from_bvh2(&nodes, &corners);
+
         Ok(MeshDistance {
             mesh: mesh.clone(),
             sign,
             nodes,
+            bvh4,
             leaf_tris,
             leaf_records,
             leaf_ids,
@@ -621,84 +631,113 @@ impl MeshDistance {
     /// distance during the search and is converted on return. (Tightening the bound with the
     /// children's MINMAXDIST, Roussopoulos et al. 1995, was measured: it saved no node visits on
     /// abc1 or the bunny, since the nearer-first descent finds a close leaf at once.)
-    fn closest_bounded(&self, p: Vec3, mut best_d2: f32, mut best: ClosestPoint) -> ClosestPoint {
+    fn closest_bounded(&self, p: Vec3, best_d2: f32, best: ClosestPoint) -> ClosestPoint {
+        if !p.is_finite() {
+            // NaN would make every box distance (even the empty lanes', min +∞ max −∞) 0.
+            return best;
+        }
+        let mut search = Search {
+            p,
+            best_d2,
+            best_d: best_d2.sqrt(),
+            best,
+        };
         let pa = Vec3A::from(p);
-        let nodes = &self.nodes[..];
-        let mut stack = [(0u32, 0.0f32); MAX_BVH_DEPTH];
+        let nodes = &self.bvh4.nodes[..];
+        // Each level pushes at most three siblings: (child, leaf triangle count or 0, d²).
+        let mut stack = [(0u32, 0u32, 0.0f32); 3 * MAX_BVH_DEPTH + 1];
         let mut sp = 0usize;
         let mut ni = 0usize;
-        let mut best_d = best_d2.sqrt();
-        if box_dist2(&nodes[0], pa) < best_d2 {
-            loop {
-                let node = &nodes[ni];
-                if node.prim_count > 0 {
-                    let start = node.first_index as usize;
-                    let end = start + node.prim_count as usize;
-                    for slot in start..end {
-                        let rec = &self.leaf_records[slot];
-                        let sphere = rec.sphere;
-                        let lim = best_d + sphere.w;
-                        if (p - sphere.truncate()).length_squared() > lim * lim {
-                            continue;
-                        }
-                        let t = &rec.corners;
-                        let (q, f) = point_triangle::closest_point_prerotated(
-                            p,
-                            t[0],
-                            t[1],
-                            t[2],
-                            rec.rotation,
-                        );
-                        let d2 = (p - q).length_squared();
-                        if d2 < best_d2 {
-                            best_d2 = d2;
-                            best_d = d2.sqrt();
-                            best = ClosestPoint {
-                                point: q,
-                                distance: d2,
-                                triangle: rec.id,
-                                feature: f,
-                            };
-                        }
+        'descend: loop {
+            let node = &nodes[ni];
+            let d2 = node.box_dist2(pa).to_array();
+            // The lanes to enter, nearest first (insertion sort of at most four).
+            let mut order = [(0.0f32, 0usize); 4];
+            let mut n = 0;
+            for (lane, &d) in d2.iter().enumerate() {
+                if d < search.best_d2 {
+                    let mut i = n;
+                    while i > 0 && order[i - 1].0 > d {
+                        order[i] = order[i - 1];
+                        i -= 1;
                     }
-                } else {
-                    let l = node.first_index as usize;
-                    let (nl, nr) = (&nodes[l], &nodes[l + 1]);
-                    let dl = box_dist2(nl, pa);
-                    let dr = box_dist2(nr, pa);
-                    let (near, dn, far, df) = if dl <= dr {
-                        (l, dl, l + 1, dr)
-                    } else {
-                        (l + 1, dr, l, dl)
-                    };
-                    if dn < best_d2 {
-                        if df < best_d2 {
-                            stack[sp] = (far as u32, df);
-                            sp += 1;
-                        }
-                        ni = near;
-                        continue;
-                    }
-                }
-                let mut next = None;
-                while sp > 0 {
-                    sp -= 1;
-                    let (n, d) = stack[sp];
-                    if d < best_d2 {
-                        next = Some(n as usize);
-                        break;
-                    }
-                }
-                match next {
-                    Some(n) => ni = n,
-                    None => break,
+                    order[i] = (d, lane);
+                    n += 1;
                 }
             }
+            if n > 0 {
+                // Farther children wait on the stack; the nearest is taken now.
+                for &(d, lane) in order[1..n].iter().rev() {
+                    stack[sp] = (node.child[lane], node.count[lane], d);
+                    sp += 1;
+                }
+                let lane = order[0].1;
+                if node.count[lane] == 0 {
+                    ni = node.child[lane] as usize;
+                    continue;
+                }
+                let first = node.child[lane] as usize;
+                self.search_leaf(&mut search, first..first + node.count[lane] as usize);
+            }
+            while sp > 0 {
+                sp -= 1;
+                let (child, count, d) = stack[sp];
+                if d >= search.best_d2 {
+                    continue;
+                }
+                if count == 0 {
+                    ni = child as usize;
+                    continue 'descend;
+                }
+                let first = child as usize;
+                self.search_leaf(&mut search, first..first + count as usize);
+            }
+            break;
         }
+        let mut best = search.best;
         if best.triangle != u32::MAX {
             best.distance = best.distance.sqrt();
         }
         best
+    }
+
+    /// Tests the triangles of the leaf packets `packets` against the search's best so far: four
+    /// at a time through the SIMD filter, then exactly where a lane can win.
+    #[inline(always)]
+    fn search_leaf(&self, search: &mut Search, packets: std::ops::Range<usize>) {
+        let p = search.p;
+        for packet in &self.bvh4.packets[packets] {
+            let lanes = packet.triangles.dist2_or_zero(p).to_array();
+            for (&d2, &slot) in lanes.iter().zip(&packet.slots) {
+                // (NaN lanes are skipped too.)
+                if d2.partial_cmp(&search.best_d2) != Some(std::cmp::Ordering::Less) {
+                    continue;
+                }
+                let rec = &self.leaf_records[slot as usize];
+                if d2 == 0.0 {
+                    // Face interior or degenerate: the filter gave no bound; the sphere may.
+                    let sphere = rec.sphere;
+                    let lim = search.best_d + sphere.w;
+                    if (p - sphere.truncate()).length_squared() > lim * lim {
+                        continue;
+                    }
+                }
+                let t = &rec.corners;
+                let (q, f) =
+                    point_triangle::closest_point_prerotated(p, t[0], t[1], t[2], rec.rotation);
+                let d2 = (p - q).length_squared();
+                if d2 < search.best_d2 {
+                    search.best_d2 = d2;
+                    search.best_d = d2.sqrt();
+                    search.best = ClosestPoint {
+                        point: q,
+                        distance: d2,
+                        triangle: rec.id,
+                        feature: f,
+                    };
+                }
+            }
+        }
     }
 
     /// Unsigned distance from `p` to the mesh.

@@ -1,0 +1,187 @@
+//! Four triangles at once: a SIMD filter in front of the exact closest-point test.
+//!
+//! The closest-point search tests every triangle whose leaf box is nearer than the best
+//! distance so far; far from the surface that is ≈ 100 triangles per query, and each scalar
+//! test is a chain of unpredictable branches (Ericson's region method). Most of them lose. This
+//! module runs the same region method on four triangles in SIMD lanes, without branches, and
+//! returns per lane the squared distance the scalar test would return: bit for bit the same
+//! where the closest point is a vertex or on an edge (the same f32 operations in the same
+//! order), and 0 ("test it exactly") where it is in the face interior (the scalar test projects
+//! in f64 there) or the triangle is degenerate (the scalar test falls back to its edges). So the
+//! search runs the scalar test only on lanes that can win, and its answer does not change.
+
+use glam::{BVec4A, Vec3, Vec4};
+
+/// Four triangles (corners already rotated as in the leaf records), structure of arrays.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+pub(crate) struct TrianglePacket {
+    /// x, y, z of the first corners.
+    a: [Vec4; 3],
+    /// x, y, z of the second corners.
+    b: [Vec4; 3],
+    /// x, y, z of the third corners.
+    c: [Vec4; 3],
+}
+
+impl TrianglePacket {
+    /// Packs up to four triangles; missing lanes repeat the last triangle (any lane outside the
+    /// caller's range is ignored by the caller).
+    pub(crate) fn new(tris: &[[Vec3; 3]]) -> TrianglePacket {
+        assert!(!tris.is_empty() && tris.len() <= 4);
+        let mut packet = TrianglePacket {
+            a: [Vec4::ZERO; 3],
+            b: [Vec4::ZERO; 3],
+            c: [Vec4::ZERO; 3],
+        };
+        for lane in 0..4 {
+            let t = tris[lane.min(tris.len() - 1)];
+            for (axis, ((a, b), c)) in packet
+                .a
+                .iter_mut()
+                .zip(&mut packet.b)
+                .zip(&mut packet.c)
+                .enumerate()
+            {
+                a[lane] = t[0][axis];
+                b[lane] = t[1][axis];
+                c[lane] = t[2][axis];
+            }
+        }
+        packet
+    }
+
+    /// Per lane: the squared distance from `p` to the triangle when its closest point is a
+    /// vertex or on an edge (bit-identical to `(p - q).length_squared()` of the scalar
+    /// `closest_point_ordered`), 0 when it is in the face interior or the triangle is degenerate
+    /// (the caller must run the exact test), NaN when `p` is not finite.
+    #[inline(always)]
+    pub(crate) fn dist2_or_zero(&self, p: Vec3) -> Vec4 {
+        let [ax, ay, az] = self.a;
+        let [bx, by, bz] = self.b;
+        let [cx, cy, cz] = self.c;
+        let (px, py, pz) = (Vec4::splat(p.x), Vec4::splat(p.y), Vec4::splat(p.z));
+        // glam's scalar Vec3::dot: (x·x' + y·y') + z·z', left to right.
+        let dot = |x: Vec4, y: Vec4, z: Vec4, u: Vec4, v: Vec4, w: Vec4| x * u + y * v + z * w;
+        let (abx, aby, abz) = (bx - ax, by - ay, bz - az);
+        let (acx, acy, acz) = (cx - ax, cy - ay, cz - az);
+        let (apx, apy, apz) = (px - ax, py - ay, pz - az);
+        let d1 = dot(abx, aby, abz, apx, apy, apz);
+        let d2 = dot(acx, acy, acz, apx, apy, apz);
+        let (bpx, bpy, bpz) = (px - bx, py - by, pz - bz);
+        let d3 = dot(abx, aby, abz, bpx, bpy, bpz);
+        let d4 = dot(acx, acy, acz, bpx, bpy, bpz);
+        let (cpx, cpy, cpz) = (px - cx, py - cy, pz - cz);
+        let d5 = dot(abx, aby, abz, cpx, cpy, cpz);
+        let d6 = dot(acx, acy, acz, cpx, cpy, cpz);
+        let vc = d1 * d4 - d3 * d2;
+        let vb = d5 * d2 - d1 * d6;
+        let va = d3 * d6 - d5 * d4;
+        let e4 = d4 - d3;
+        let e5 = d5 - d6;
+        let zero = Vec4::ZERO;
+        let all = |m: [BVec4A; 3]| m[0] & m[1] & m[2];
+
+        // Squared distance to a + e·t, the way the scalar test computes it.
+        let to_edge = |ox: Vec4, oy: Vec4, oz: Vec4, ex: Vec4, ey: Vec4, ez: Vec4, t: Vec4| {
+            let (qx, qy, qz) = (ox + ex * t, oy + ey * t, oz + ez * t);
+            let (dx, dy, dz) = (px - qx, py - qy, pz - qz);
+            dot(dx, dy, dz, dx, dy, dz)
+        };
+        // Regions from last to first, so the first that applies wins (the scalar test's order).
+        // Face interior and the degenerate fallbacks: 0.
+        let mut out = zero;
+        // Edge BC.
+        let den = e4 + e5;
+        let (cbx, cby, cbz) = (cx - bx, cy - by, cz - bz);
+        let on_bc = to_edge(bx, by, bz, cbx, cby, cbz, e4 / den);
+        let in_bc = all([va.cmple(zero), e4.cmpge(zero), e5.cmpge(zero)]);
+        out = Vec4::select(in_bc, Vec4::select(den.cmpgt(zero), on_bc, zero), out);
+        // Edge CA.
+        let den = d2 - d6;
+        let on_ca = to_edge(ax, ay, az, acx, acy, acz, d2 / den);
+        let in_ca = all([vb.cmple(zero), d2.cmpge(zero), d6.cmple(zero)]);
+        out = Vec4::select(in_ca, Vec4::select(den.cmpgt(zero), on_ca, zero), out);
+        // Vertex C.
+        let in_c = d6.cmpge(zero) & d5.cmple(d6);
+        out = Vec4::select(in_c, dot(cpx, cpy, cpz, cpx, cpy, cpz), out);
+        // Edge AB.
+        let den = d1 - d3;
+        let on_ab = to_edge(ax, ay, az, abx, aby, abz, d1 / den);
+        let in_ab = all([vc.cmple(zero), d1.cmpge(zero), d3.cmple(zero)]);
+        out = Vec4::select(in_ab, Vec4::select(den.cmpgt(zero), on_ab, zero), out);
+        // Vertex B.
+        let in_b = d3.cmpge(zero) & d4.cmple(d3);
+        out = Vec4::select(in_b, dot(bpx, bpy, bpz, bpx, bpy, bpz), out);
+        // Vertex A.
+        let in_a = d1.cmple(zero) & d2.cmple(zero);
+        Vec4::select(in_a, dot(apx, apy, apz, apx, apy, apz), out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::point_triangle::{apex_rotation, closest_point_prerotated, Feature};
+    use proptest::prelude::*;
+
+    fn coord() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            -2.0f32..2.0,
+            // Repeated values make degenerate and axis-aligned triangles.
+            Just(0.0f32),
+            Just(0.5f32),
+            -1e-3f32..1e-3,
+        ]
+    }
+
+    fn point() -> impl Strategy<Value = Vec3> {
+        (coord(), coord(), coord()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(4000))]
+        /// Every lane equals the scalar test's squared distance exactly on vertices and edges,
+        /// and is 0 exactly where the scalar test found a face point (so the filter never hides
+        /// a triangle the scalar search would have taken).
+        #[test]
+        fn lanes_match_the_scalar_test(
+            tris in prop::collection::vec((point(), point(), point()), 1..=4),
+            p in point(),
+        ) {
+            let rotated: Vec<[Vec3; 3]> = tris
+                .iter()
+                .map(|&(a, b, c)| {
+                    let k = apex_rotation(a, b, c) as usize;
+                    let t = [a, b, c];
+                    [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
+                })
+                .collect();
+            let lanes = TrianglePacket::new(&rotated).dist2_or_zero(p).to_array();
+            for (lane, t) in rotated.iter().enumerate() {
+                let (q, feature) = closest_point_prerotated(p, t[0], t[1], t[2], 0);
+                let exact = (p - q).length_squared();
+                let got = lanes[lane];
+                if got != 0.0 {
+                    prop_assert_eq!(got.to_bits(), exact.to_bits(), "lane {} {:?}", lane, feature);
+                }
+                if feature == Feature::Face {
+                    prop_assert_eq!(got, 0.0);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn face_and_vertex_lanes() {
+        let t = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let packet = TrianglePacket::new(&[t]);
+        // Above the interior: the exact test must run.
+        assert_eq!(packet.dist2_or_zero(Vec3::new(0.2, 0.2, 1.0)).x, 0.0);
+        // Beyond vertex X: distance² to it.
+        assert_eq!(packet.dist2_or_zero(Vec3::new(3.0, 0.0, 0.0)).x, 4.0);
+        // Beside edge XY.
+        let d = packet.dist2_or_zero(Vec3::new(1.0, 1.0, 0.0)).x;
+        assert!((d - 0.5).abs() < 1e-6, "{d}");
+    }
+}
