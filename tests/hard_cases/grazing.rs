@@ -233,11 +233,29 @@ fn overlapping_boxes_pinholes(sign: SignMode, margin: f32) -> Vec<(String, usize
 /// Overlapping shells: the distance to the mesh is zero on the internal face, inside the solid,
 /// whatever the sign method; rays meet voxels whose corners are zero on a plane through the
 /// solid. Measured with the internal face on a grid plane (margin 1/16) and off it (0.05).
+///
+/// Rays that run in the internal face's plane see an interpolant that is identically zero there;
+/// the kernel counts such a segment as a hit (before it did not: 26–46 pinholes per
+/// configuration). What is left is the last voxel before the outer faces, where the outer
+/// corners are positive and the internal ones zero, so f ≥ 0 along the ray: a tangent zero of the
+/// distance field itself, which only removing the internal face (a mesh boolean) would fix.
+#[test]
+fn overlapping_boxes_leave_at_most_a_few_pinholes_at_the_seam() {
+    for sign in [SignMode::Auto, SignMode::Winding] {
+        for margin in [GRID_MARGIN, sdf_multioctree::DEFAULT_MARGIN] {
+            for (name, holes) in overlapping_boxes_pinholes(sign, margin) {
+                assert!(holes <= 4, "{name}: {holes} pinholes");
+            }
+        }
+    }
+}
+
 #[test]
 #[ignore = "limitation: overlapping boxes (L prism with an internal face y = 0), axis cameras 33 px, \
-            SVO and multi alike, sign Auto or Winding: pinholes inside the 1-px-eroded silhouette, margin \
-            1/16 (internal face on a grid plane): 32 of 2508 px at depth 4, 42 (Auto) / 40 (Winding) at \
-            depth 5; margin 0.05: 38 of 2998 at depth 4, 46 at depth 5; the watertight L prism: 0"]
+            SVO and multi alike, sign Auto or Winding: pinholes inside the 1-px-eroded silhouette, \
+            all in the internal face's plane next to the outer faces: margin 1/16: 0 at depth 4, \
+            0 (Winding) or 2 (Auto) at depth 5; margin 0.05: 4 at depth 4, 0 at depth 5; \
+            the watertight L prism: 0"]
 fn overlapping_boxes_have_no_pinholes() {
     let mut failures = Vec::new();
     for sign in [SignMode::Auto, SignMode::Winding] {

@@ -15,7 +15,8 @@
 //!   that enters a leaf already inside (a neighbour leaf that was not stored, or whose values do
 //!   not match across the shared face) hits that face instead of leaking through it, which is
 //!   what keeps silhouettes free of pinholes. A tangent touch from outside (`f ≥ 0` on both
-//!   sides) is not a hit.
+//!   sides) is not a hit; a segment along which `f` is identically zero (it runs in the zero
+//!   set, e.g. in the plane of an internal face of touching shells) is, where it starts.
 //! * **Surface voxel** (no inside): the first `t` where `f` reaches zero, from either side,
 //!   including `t0` itself when `f(t0) = 0`. An interpolant that is zero everywhere has no
 //!   crossing and no hit.
@@ -212,6 +213,12 @@ pub fn first_root(cubic: &RayCubic, len: f32, surface: bool) -> Option<f32> {
     if g0 < 0.0 && !surface || g0 == 0.0 && surface {
         return Some(0.0);
     }
+    // A volume segment lying in the zero set (the cubic is identically zero: a ray in the plane
+    // of an internal face of touching or overlapping shells, whose distance is 0 inside the
+    // solid) is on the surface: a hit where it starts, not a leak through the solid.
+    if g0 == 0.0 && cubic.a == 0.0 && cubic.b == 0.0 && cubic.c == 0.0 {
+        return Some(0.0);
+    }
     if len.is_nan() || len < 0.0 || g0.is_nan() {
         return None;
     }
@@ -382,7 +389,13 @@ mod tests {
                 b < 0.0
             }
         };
-        if (!surface && fs[0] < 0.0) || (surface && fs[0] == 0.0) {
+        let starts_hit = if surface {
+            fs[0] == 0.0
+        } else {
+            // Inside at once, or running in the zero set.
+            fs[0] < 0.0 || fs.iter().all(|&v| v == 0.0)
+        };
+        if starts_hit {
             oracle = Some(t0);
         } else {
             for i in 1..fs.len() {
@@ -716,6 +729,27 @@ mod tests {
         assert_eq!(intersect_voxel(&c, o, d, 0.0, 1.0, false), None);
         // A surface voxel touches zero at the start.
         assert_eq!(intersect_voxel(&c, o, d, 0.0, 1.0, true), Some(0.0));
+    }
+
+    #[test]
+    fn volume_ray_in_the_zero_set_is_a_hit() {
+        // Zero on the face y = 0, −1 on y = 1: the distance field beside an internal face of
+        // touching shells (zero on the face, inside on both sides).
+        let c: [f32; 8] = core::array::from_fn(|i| if (i >> 1) & 1 == 1 { -1.0 } else { 0.0 });
+        let o = Vec3::new(0.0, 0.0, 0.3);
+        assert_eq!(intersect_voxel(&c, o, Vec3::X, 0.0, 1.0, false), Some(0.0));
+        // Slightly above the face the ray is inside at once.
+        let above = Vec3::new(0.0, 1e-3, 0.3);
+        assert_eq!(
+            intersect_voxel(&c, above, Vec3::X, 0.0, 1.0, false),
+            Some(0.0)
+        );
+        // Outside a zero face (values rising away from it), just off the plane: no hit.
+        let positive = c.map(|v| -v);
+        assert_eq!(
+            intersect_voxel(&positive, above, Vec3::X, 0.0, 1.0, false),
+            None
+        );
     }
 
     #[test]
