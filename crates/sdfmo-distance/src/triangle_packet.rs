@@ -82,35 +82,30 @@ impl TrianglePacket {
         let zero = Vec4::ZERO;
         let all = |m: [BVec4A; 3]| m[0] & m[1] & m[2];
 
-        // Squared distance to a + e·t, the way the scalar test computes it.
-        let to_edge = |ox: Vec4, oy: Vec4, oz: Vec4, ex: Vec4, ey: Vec4, ez: Vec4, t: Vec4| {
-            let (qx, qy, qz) = (ox + ex * t, oy + ey * t, oz + ez * t);
-            let (dx, dy, dz) = (px - qx, py - qy, pz - qz);
-            dot(dx, dy, dz, dx, dy, dz)
+        // On an edge region, the squared distance to o + e·(num/den), the way the scalar test
+        // computes it, or 0 (exact test) when the edge is degenerate (den ≤ 0).
+        let on_edge = |out: Vec4, inside: BVec4A, o: [Vec4; 3], e: [Vec4; 3], num, den: Vec4| {
+            let t = num / den;
+            let (dx, dy, dz) = (
+                px - (o[0] + e[0] * t),
+                py - (o[1] + e[1] * t),
+                pz - (o[2] + e[2] * t),
+            );
+            let d2 = Vec4::select(den.cmpgt(zero), dot(dx, dy, dz, dx, dy, dz), zero);
+            Vec4::select(inside, d2, out)
         };
         // Regions from last to first, so the first that applies wins (the scalar test's order).
         // Face interior and the degenerate fallbacks: 0.
         let mut out = zero;
-        // Edge BC.
-        let den = e4 + e5;
-        let (cbx, cby, cbz) = (cx - bx, cy - by, cz - bz);
-        let on_bc = to_edge(bx, by, bz, cbx, cby, cbz, e4 / den);
+        let cb = [cx - bx, cy - by, cz - bz];
         let in_bc = all([va.cmple(zero), e4.cmpge(zero), e5.cmpge(zero)]);
-        out = Vec4::select(in_bc, Vec4::select(den.cmpgt(zero), on_bc, zero), out);
-        // Edge CA.
-        let den = d2 - d6;
-        let on_ca = to_edge(ax, ay, az, acx, acy, acz, d2 / den);
+        out = on_edge(out, in_bc, self.b, cb, e4, e4 + e5);
         let in_ca = all([vb.cmple(zero), d2.cmpge(zero), d6.cmple(zero)]);
-        out = Vec4::select(in_ca, Vec4::select(den.cmpgt(zero), on_ca, zero), out);
-        // Vertex C.
+        out = on_edge(out, in_ca, self.a, [acx, acy, acz], d2, d2 - d6);
         let in_c = d6.cmpge(zero) & d5.cmple(d6);
         out = Vec4::select(in_c, dot(cpx, cpy, cpz, cpx, cpy, cpz), out);
-        // Edge AB.
-        let den = d1 - d3;
-        let on_ab = to_edge(ax, ay, az, abx, aby, abz, d1 / den);
         let in_ab = all([vc.cmple(zero), d1.cmpge(zero), d3.cmple(zero)]);
-        out = Vec4::select(in_ab, Vec4::select(den.cmpgt(zero), on_ab, zero), out);
-        // Vertex B.
+        out = on_edge(out, in_ab, self.a, [abx, aby, abz], d1, d1 - d3);
         let in_b = d3.cmpge(zero) & d4.cmple(d3);
         out = Vec4::select(in_b, dot(bpx, bpy, bpz, bpx, bpy, bpz), out);
         // Vertex A.
