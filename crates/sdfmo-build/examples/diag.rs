@@ -40,6 +40,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let svo_leaves: HashMap<[u32; 3], Vec<sdfmo_format::Voxel>> = svo.leaves().collect();
     let cam = &Camera::paper_views(size, size)[view];
     let h = 2.0 / (1u32 << depth) as f32;
+    // The leaf key of a hit and the voxels both octrees store there (corners in voxel units).
+    let cell_key = |hit: &sdfmo_trace::Hit| {
+        let c = ((hit.cell_min + glam::Vec3::ONE) / h).round();
+        [c.x as u32, c.y as u32, c.z as u32]
+    };
+    let in_voxels = |x: f32| (x / h * 100.0).round() / 100.0;
+    let print_multi = |key: &[u32; 3]| {
+        for v in leaves.get(key).into_iter().flatten() {
+            println!("   {:?} surf {}", v.corners.map(in_voxels), v.surface);
+        }
+    };
+    let print_svo = |key: &[u32; 3]| {
+        for v in svo_leaves.get(key).into_iter().flatten() {
+            println!("   svo {:?}", v.corners.map(in_voxels));
+        }
+    };
     let mut shown = 0;
     let (mut worse, mut better, mut worse_shown) = (0usize, 0usize, 0usize);
     let (mut nworse, mut nbetter) = (0usize, 0usize);
@@ -72,22 +88,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 if am > as_ + 0.2 {
                     nworse += 1;
                     if nworse <= 4 {
-                        let c = ((hm.cell_min + glam::Vec3::ONE) / h).round();
-                        let key = [c.x as u32, c.y as u32, c.z as u32];
+                        let key = cell_key(&hm);
                         println!("px ({px},{py}) normal error svo {as_:.2} multi {am:.2} rad, surface {} cell {key:?}", hm.surface);
-                        for v in leaves.get(&key).into_iter().flatten() {
-                            println!(
-                                "   {:?} surf {}",
-                                v.corners.map(|x| (x / h * 100.0).round() / 100.0),
-                                v.surface
-                            );
-                        }
-                        for v in svo_leaves.get(&key).into_iter().flatten() {
-                            println!(
-                                "   svo {:?}",
-                                v.corners.map(|x| (x / h * 100.0).round() / 100.0)
-                            );
-                        }
+                        print_multi(&key);
+                        print_svo(&key);
                     }
                 } else if as_ > am + 0.2 {
                     nbetter += 1;
@@ -98,25 +102,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     worse += 1;
                     if worse_shown < 4 {
                         worse_shown += 1;
-                        let c = ((hm.cell_min + glam::Vec3::ONE) / h).round();
-                        let key = [c.x as u32, c.y as u32, c.z as u32];
+                        let key = cell_key(&hm);
                         println!(
                             "px ({px},{py}) depth error svo {es:.3} h multi {em:.3} h, multi voxel {} surface {} cell {key:?}",
                             hm.voxel, hm.surface
                         );
-                        for v in leaves.get(&key).into_iter().flatten() {
-                            println!(
-                                "   {:?} surf {}",
-                                v.corners.map(|x| (x / h * 100.0).round() / 100.0),
-                                v.surface
-                            );
-                        }
-                        for v in svo_leaves.get(&key).into_iter().flatten() {
-                            println!(
-                                "   svo {:?}",
-                                v.corners.map(|x| (x / h * 100.0).round() / 100.0)
-                            );
-                        }
+                        print_multi(&key);
+                        print_svo(&key);
                     }
                 } else if es > em + 0.1 {
                     better += 1;
@@ -126,8 +118,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 if shown < 3 && hr.is_none() {
                     shown += 1;
                     let p = o + dir * hm.t;
-                    let c = ((hm.cell_min + glam::Vec3::ONE) / h).round();
-                    let key = [c.x as u32, c.y as u32, c.z as u32];
+                    let key = cell_key(&hm);
                     println!(
                         "px ({px},{py}) multi hit t {:.4} voxel {} surface {} true dist {:.3} h, ref hit {:?}",
                         hm.t,
@@ -136,12 +127,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         d.unsigned_distance(p) / h,
                         hr.map(|r| r.t)
                     );
-                    for v in svo_leaves.get(&key).into_iter().flatten() {
-                        println!(
-                            "   svo {:?}",
-                            v.corners.map(|x| (x / h * 100.0).round() / 100.0)
-                        );
-                    }
+                    print_svo(&key);
                     let lo = hm.cell_min;
                     let exact: Vec<f32> = (0..8)
                         .map(|i| {
@@ -151,17 +137,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                                     ((i >> 1) & 1) as f32,
                                     (i & 1) as f32,
                                 ) * h;
-                            (d.signed_distance(q) / h * 100.0).round() / 100.0
+                            in_voxels(d.signed_distance(q))
                         })
                         .collect();
                     println!("   exact global {exact:?} cell {key:?}");
-                    for v in leaves.get(&key).into_iter().flatten() {
-                        println!(
-                            "   {:?} surf {}",
-                            v.corners.map(|x| (x / h * 100.0).round() / 100.0),
-                            v.surface
-                        );
-                    }
+                    print_multi(&key);
                 }
             }
         }
