@@ -1113,6 +1113,17 @@ mod tests {
         assert_eq!(spread_bits(0x3ff), 0x0924_9249);
     }
 
+    /// A reproducible stream of values `u · scale − offset`, u uniform in [0, 1) (a 64-bit LCG).
+    fn lcg_stream(seed: u64, scale: f32, offset: f32) -> impl FnMut() -> f32 {
+        let mut state = seed;
+        move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 40) as f32 / (1u64 << 24) as f32 * scale - offset
+        }
+    }
+
     #[test]
     fn two_stage_winding_sign_matches_the_full_winding_number() {
         // An open sheet (w ≈ ±½ near its rim) and a closed sphere: wherever the full hierarchical
@@ -1122,13 +1133,7 @@ mod tests {
             sdfmo_mesh::procedural::sphere(Vec3::ZERO, 0.5, 3),
         ] {
             let md = MeshDistance::new(&mesh, SignMode::Winding).unwrap();
-            let mut state = 7u64;
-            let mut next = || {
-                state = state
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (state >> 40) as f32 / (1u64 << 24) as f32 * 1.6 - 0.8
-            };
+            let mut next = lcg_stream(7, 1.6, 0.8);
             let mut near_half = 0;
             for _ in 0..3000 {
                 let p = Vec3::new(next(), next() * 0.2, next());
@@ -1190,24 +1195,12 @@ mod tests {
             .triangles
             .retain(|t| !t.iter().all(|&i| p[i as usize].x > 0.29));
         open_box.parts.truncate(open_box.triangles.len());
-        let merge = |x: &TriMesh, y: &TriMesh| {
-            let mut m = x.clone();
-            let off = m.positions.len() as u32;
-            m.positions.extend(&y.positions);
-            m.triangles
-                .extend(y.triangles.iter().map(|t| t.map(|i| i + off)));
-            m.parts.extend(y.parts.iter().map(|_| 1));
-            m
-        };
-        for mesh in [merge(&a, &b), merge(&b, &open_box)] {
+        for mesh in [
+            TriMesh::merge(&[a, b.clone()]),
+            TriMesh::merge(&[b, open_box]),
+        ] {
             let md = MeshDistance::new(&mesh, SignMode::Winding).unwrap();
-            let mut state = 11u64;
-            let mut next = || {
-                state = state
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (state >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
-            };
+            let mut next = lcg_stream(11, 2.0, 1.0);
             let radii = md.clean_winding_radii();
             let (mut compared, mut shortcut) = (0, 0);
             for t in mesh.triangles.iter().step_by(3) {
