@@ -124,13 +124,12 @@ impl Bvh4 {
                     let slots = first..first + nodes[k].prim_count as usize;
                     node.child[lane] = out.packets.len() as u32;
                     node.count[lane] = slots.len().div_ceil(4) as u32;
-                    for chunk in slots.collect::<Vec<_>>().chunks(4) {
-                        let last = chunk.len() - 1;
-                        let lane_slot = |l: usize| chunk[l.min(last)];
-                        let tris: Vec<[Vec3; 3]> = (0..4).map(|l| corners[lane_slot(l)]).collect();
+                    for start in slots.clone().step_by(4) {
+                        let chunk = start..(start + 4).min(slots.end);
+                        let last = chunk.end - 1;
                         out.packets.push(LeafPacket {
-                            triangles: TrianglePacket::new(&tris),
-                            slots: std::array::from_fn(|l| lane_slot(l) as u32),
+                            triangles: TrianglePacket::new(&corners[chunk]),
+                            slots: std::array::from_fn(|l| (start + l).min(last) as u32),
                         });
                     }
                 } else {

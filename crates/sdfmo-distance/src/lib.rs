@@ -240,6 +240,17 @@ struct Search {
     best: ClosestPoint,
 }
 
+impl Search {
+    /// The result: the best closest point with its distance (no longer squared).
+    fn finish(self) -> ClosestPoint {
+        let mut best = self.best;
+        if best.triangle != u32::MAX {
+            best.distance = best.distance.sqrt();
+        }
+        best
+    }
+}
+
 /// Spreads the low 10 bits of `v` to every third bit.
 fn spread_bits(v: u32) -> u32 {
     let mut x = v & 0x3ff;
@@ -634,16 +645,16 @@ impl MeshDistance {
     /// children's MINMAXDIST, Roussopoulos et al. 1995, was measured: it saved no node visits on
     /// abc1 or the bunny, since the nearer-first descent finds a close leaf at once.)
     fn closest_bounded(&self, p: Vec3, best_d2: f32, best: ClosestPoint) -> ClosestPoint {
-        if !p.is_finite() {
-            // NaN would make every box distance (even the empty lanes', min +∞ max −∞) 0.
-            return best;
-        }
         let mut search = Search {
             p,
             best_d2,
             best_d: best_d2.sqrt(),
             best,
         };
+        if !p.is_finite() {
+            // NaN would make every box distance (even the empty lanes', min +∞ max −∞) 0.
+            return search.finish();
+        }
         let pa = Vec3A::from(p);
         let nodes = &self.bvh4.nodes[..];
         // Each level pushes at most three siblings: (child, leaf triangle count or 0, d²).
@@ -696,11 +707,7 @@ impl MeshDistance {
             }
             break;
         }
-        let mut best = search.best;
-        if best.triangle != u32::MAX {
-            best.distance = best.distance.sqrt();
-        }
-        best
+        search.finish()
     }
 
     /// Tests the triangles of the leaf packets `packets` against the search's best so far: four
