@@ -1,0 +1,172 @@
+//! Safe file I/O for sdf-multioctree, shared by every crate that reads or writes files.
+//!
+//! Three rules, each in its own module:
+//! - **Writes are atomic and never clobber special files** ([`write_atomic`], [`OutputBatch`]):
+//!   the bytes go to a fresh temporary file created with `O_EXCL` in the destination's
+//!   directory, are synced, then renamed over the destination. A destination that exists and is
+//!   not a regular file (a directory, a device such as `/dev/null`, a FIFO, a socket) is refused
+//!   before anything is written. A symbolic link is *followed*: the file it points to is
+//!   replaced and the link itself stays (as a shell's `>` would do); a dangling link is refused.
+//!   The temporary file is removed on every error path.
+//! - **Reads take regular files only, with a size limit known before reading**
+//!   ([`read_regular`]): devices and FIFOs are refused at once (no endless `/dev/zero`, no
+//!   blocking FIFO), and a file larger than the caller's limit is refused before allocating.
+//! - **Relative resources stay in their folder** ([`resolve_in_folder`]): absolute paths, `..`
+//!   components and symbolic links that lead outside the folder are refused.
+#![deny(missing_docs)]
+
+mod confine;
+mod read;
+mod write;
+
+use std::fmt;
+use std::path::PathBuf;
+
+pub use confine::resolve_in_folder;
+pub use read::{open_regular, read_regular, read_regular_to_string};
+pub use write::{check_destination, write_atomic, OutputBatch};
+
+/// What kind of file system object a path names, for errors about the wrong kind.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FileKind {
+    /// A directory.
+    Directory,
+    /// A character device (`/dev/null`, `/dev/zero`, a terminal).
+    CharDevice,
+    /// A block device (a disk).
+    BlockDevice,
+    /// A named pipe.
+    Fifo,
+    /// A Unix domain socket.
+    Socket,
+    /// Anything else that is not a regular file.
+    Other,
+}
+
+impl FileKind {
+    /// The kind of a non-regular file from its metadata.
+    pub fn of(meta: &std::fs::Metadata) -> FileKind {
+        let t = meta.file_type();
+        if t.is_dir() {
+            return FileKind::Directory;
+        }
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::FileTypeExt;
+            if t.is_char_device() {
+                return FileKind::CharDevice;
+            }
+            if t.is_block_device() {
+                return FileKind::BlockDevice;
+            }
+            if t.is_fifo() {
+                return FileKind::Fifo;
+            }
+            if t.is_socket() {
+                return FileKind::Socket;
+            }
+        }
+        FileKind::Other
+    }
+}
+
+impl fmt::Display for FileKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            FileKind::Directory => "a directory",
+            FileKind::CharDevice => "a character device",
+            FileKind::BlockDevice => "a block device",
+            FileKind::Fifo => "a FIFO (named pipe)",
+            FileKind::Socket => "a socket",
+            FileKind::Other => "not a regular file",
+        })
+    }
+}
+
+/// Everything that can go wrong reading or writing a file. The `Display` of each variant names
+/// the path and the reason once; the operating system's error, where there is one, is the
+/// [`source`](std::error::Error::source) (print the chain, e.g. anyhow's `{:#}`, to see it).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum IoError {
+    /// The operating system refused an operation on `path`.
+    #[error("cannot {action} {}", path.display())]
+    Os {
+        /// What was being done: "read", "open", "create a temporary file in", …
+        action: &'static str,
+        /// The path it was done on.
+        path: PathBuf,
+        /// The operating system's error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The path exists but is not a regular file.
+    #[error("{} is {kind}; only regular files can be {action}", path.display())]
+    NotRegularFile {
+        /// The path as given.
+        path: PathBuf,
+        /// What it is.
+        kind: FileKind,
+        /// "read" or "written".
+        action: &'static str,
+    },
+    /// The file is larger than the reader allows.
+    #[error("{} holds {size} bytes, more than the limit of {limit} bytes", path.display())]
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// Its size (at least; a growing file is cut off after `limit + 1` bytes).
+        size: u64,
+        /// The most bytes the caller accepts.
+        limit: u64,
+    },
+    /// An output path that is a symbolic link whose target does not exist.
+    #[error("{} is a symbolic link to a file that does not exist", path.display())]
+    DanglingLink {
+        /// The link.
+        path: PathBuf,
+    },
+    /// A path that cannot name a file (empty, or ending in a separator, `.` or `..`).
+    #[error("{} is not a file path: {reason}", path.display())]
+    NotAFilePath {
+        /// The path as given.
+        path: PathBuf,
+        /// Why not.
+        reason: &'static str,
+    },
+    /// A relative reference (e.g. a glTF buffer URI) that would leave its folder.
+    #[error("{reference:?} is outside the folder {}: {reason}", folder.display())]
+    OutsideFolder {
+        /// The reference as decoded (shortened to 120 characters).
+        reference: String,
+        /// The folder it must stay in.
+        folder: PathBuf,
+        /// Why it leaves: absolute, `..`, or a symbolic link.
+        reason: &'static str,
+    },
+}
+
+impl IoError {
+    /// The operating system's error kind, when the error comes from one.
+    pub fn os_kind(&self) -> Option<std::io::ErrorKind> {
+        match self {
+            IoError::Os { source, .. } => Some(source.kind()),
+            _ => None,
+        }
+    }
+}
+
+/// The result type of this crate.
+pub type Result<T> = std::result::Result<T, IoError>;
+
+pub(crate) fn os(
+    action: &'static str,
+    path: &std::path::Path,
+) -> impl FnOnce(std::io::Error) -> IoError {
+    let path = path.to_path_buf();
+    move |source| IoError::Os {
+        action,
+        path,
+        source,
+    }
+}

@@ -1,0 +1,194 @@
+//! Atomic writes: a fresh temporary file beside the destination, synced, then renamed over it.
+
+use std::io::Write;
+use std::path::{Component, Path, PathBuf};
+
+use tempfile::NamedTempFile;
+
+use crate::{os, FileKind, IoError, Result};
+
+/// Checks that `path` may be written, and returns the file that a write will replace: `path`
+/// itself, or for a symbolic link the (canonical) file it points to.
+///
+/// Refused: a path without a file name (empty, ending in `/`, `.` or `..`); an existing
+/// directory, device, FIFO or socket (also through a link); a dangling link. A path that does
+/// not exist yet is fine (its folder is checked when the file is created).
+///
+/// Call it on every output before long work, so a bad `-o` fails at once.
+///
+/// # Errors
+/// [`IoError::NotAFilePath`], [`IoError::NotRegularFile`], [`IoError::DanglingLink`], or
+/// [`IoError::Os`] when the path cannot be examined.
+pub fn check_destination(path: &Path) -> Result<PathBuf> {
+    let not_file = |reason| IoError::NotAFilePath {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let text = path.as_os_str().as_encoded_bytes();
+    if text.is_empty() {
+        return Err(not_file("it is empty"));
+    }
+    if text.ends_with(b"/") || (cfg!(windows) && text.ends_with(b"\\")) {
+        return Err(not_file("it ends with a path separator"));
+    }
+    if matches!(
+        path.components().next_back(),
+        Some(Component::CurDir | Component::ParentDir | Component::RootDir)
+    ) || path.file_name().is_none()
+    {
+        return Err(not_file("it names no file"));
+    }
+    let meta = match std::fs::symlink_metadata(path) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(path.to_path_buf()),
+        Err(e) => return Err(os("examine", path)(e)),
+    };
+    let special = |meta: &std::fs::Metadata| IoError::NotRegularFile {
+        path: path.to_path_buf(),
+        kind: FileKind::of(meta),
+        action: "written",
+    };
+    if meta.file_type().is_symlink() {
+        return match std::fs::metadata(path) {
+            Ok(target) if target.is_file() => path.canonicalize().map_err(os("resolve", path)),
+            Ok(target) => Err(special(&target)),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Err(IoError::DanglingLink {
+                path: path.to_path_buf(),
+            }),
+            Err(e) => Err(os("examine", path)(e)),
+        };
+    }
+    if meta.is_file() {
+        Ok(path.to_path_buf())
+    } else {
+        Err(special(&meta))
+    }
+}
+
+/// Writes `bytes` to `path` atomically: readers see the old file or the whole new one, never a
+/// prefix, and a failure leaves the old file and no temporary behind. See the crate docs for
+/// the rules on special files and symbolic links.
+///
+/// # Errors
+/// As [`check_destination`], plus [`IoError::Os`] when the temporary file cannot be created,
+/// written, synced or renamed (a full disk, a read-only folder, a missing folder).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let mut batch = OutputBatch::new();
+    batch.stage(path, bytes)?;
+    batch.commit()
+}
+
+/// Several outputs written all or none: every file is written to its temporary and synced
+/// before the first one is renamed into place, so an encoding error, a full disk or a refused
+/// destination in any of them leaves all destinations untouched. (Only a failure of a rename
+/// itself, after the others succeeded, can leave some renamed; renames within one folder do
+/// not fail for lack of space.) Dropping a batch without committing removes its temporaries.
+#[derive(Debug, Default)]
+pub struct OutputBatch {
+    staged: Vec<Staged>,
+}
+
+#[derive(Debug)]
+struct Staged {
+    temp: NamedTempFile,
+    /// The file replaced (the link's target for a symbolic link).
+    target: PathBuf,
+    /// The path as the caller named it, for errors.
+    named: PathBuf,
+}
+
+impl OutputBatch {
+    /// An empty batch.
+    pub fn new() -> OutputBatch {
+        OutputBatch::default()
+    }
+
+    /// Number of staged outputs.
+    pub fn len(&self) -> usize {
+        self.staged.len()
+    }
+
+    /// True when nothing is staged.
+    pub fn is_empty(&self) -> bool {
+        self.staged.is_empty()
+    }
+
+    /// Checks `path` ([`check_destination`]), writes `bytes` to a new temporary file beside
+    /// the file it will replace and syncs it. Nothing at `path` changes until [`commit`].
+    ///
+    /// [`commit`]: OutputBatch::commit
+    ///
+    /// # Errors
+    /// As [`write_atomic`]; two outputs of one batch naming the same file is an
+    /// [`IoError::NotAFilePath`].
+    pub fn stage(&mut self, path: &Path, bytes: &[u8]) -> Result<()> {
+        let target = check_destination(path)?;
+        if self.staged.iter().any(|s| s.target == target) {
+            return Err(IoError::NotAFilePath {
+                path: path.to_path_buf(),
+                reason: "it is already an output of the same command",
+            });
+        }
+        let dir = match target.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let name = target
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let prefix = format!(".{name}.");
+        let mut builder = tempfile::Builder::new();
+        builder.prefix(&prefix).suffix(".tmp");
+        // NamedTempFile defaults to 0600; a result file should get the usual 0666 & !umask.
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            builder.permissions(std::fs::Permissions::from_mode(0o666));
+        }
+        let mut temp = builder
+            .tempfile_in(&dir)
+            .map_err(os("create a temporary file in", &dir))?;
+        // On error `temp` is dropped here, which removes it.
+        temp.write_all(bytes)
+            .and_then(|()| temp.as_file().sync_all())
+            .map_err(os("write", path))?;
+        self.staged.push(Staged {
+            temp,
+            target,
+            named: path.to_path_buf(),
+        });
+        Ok(())
+    }
+
+    /// Renames every staged temporary over its destination, in staging order, then syncs the
+    /// folders (best effort: not every platform can sync a folder).
+    ///
+    /// # Errors
+    /// [`IoError::Os`] for a rename that fails; the temporaries not yet renamed are removed.
+    pub fn commit(self) -> Result<()> {
+        let mut dirs: Vec<PathBuf> = Vec::new();
+        for s in self.staged {
+            let named = s.named;
+            s.temp
+                .persist(&s.target)
+                .map_err(|e| os("replace", &named)(e.error))?;
+            if let Some(d) = s.target.parent() {
+                if !dirs.iter().any(|x| x == d) {
+                    dirs.push(d.to_path_buf());
+                }
+            }
+        }
+        for d in dirs {
+            let d = if d.as_os_str().is_empty() {
+                PathBuf::from(".")
+            } else {
+                d
+            };
+            if let Ok(f) = std::fs::File::open(&d) {
+                let _ = f.sync_all();
+            }
+        }
+        Ok(())
+    }
+}
