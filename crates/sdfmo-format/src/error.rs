@@ -1,6 +1,5 @@
 //! The crate's error type.
 
-use std::path::PathBuf;
 
 /// Everything that can go wrong when building, writing or reading a packed octree.
 ///
@@ -113,15 +112,10 @@ pub enum FormatError {
         /// What is wrong with it.
         reason: String,
     },
-    /// Reading or writing a file failed.
-    #[error("I/O error on {path}: {source}")]
-    Io {
-        /// The file concerned.
-        path: PathBuf,
-        /// The underlying error.
-        #[source]
-        source: std::io::Error,
-    },
+    /// Reading or writing a file failed: not found, not a regular file, too large, a refused
+    /// destination, a full disk (see [`sdfmo_io::IoError`]).
+    #[error(transparent)]
+    Io(#[from] sdfmo_io::IoError),
 }
 
 impl FormatError {

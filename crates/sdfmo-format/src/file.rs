@@ -3,15 +3,13 @@
 //! `docs/format.md` is the byte-by-byte specification; [`HEADER_FIELDS`] is the same table in
 //! code, and a test checks the two against each other and against real bytes.
 
-use std::io::Write;
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::path::Path;
 
 use crate::crc32::crc32;
-use crate::error::{FormatError, Result};
+use crate::error::Result;
 use crate::octree::{Corners, PackedOctree};
 use crate::view::PackedOctreeView;
-use crate::ValueBits;
+use crate::{ValueBits, MAX_FILE_SIZE};
 
 /// The eight magic bytes, hex `89 53 4D 4F 0D 0A 1A 0A`: `\x89 S M O \r \n \x1a \n`
 /// (PNG's trick: a high byte, the name, and the line endings and EOF character that text-mode
@@ -314,72 +312,30 @@ impl PackedOctree {
         Ok(PackedOctreeView::new(bytes)?.to_octree())
     }
 
-    /// Writes the file atomically: a temporary file in the same directory, fsync, rename.
+    /// Writes the file atomically ([`sdfmo_io::write_atomic`]): a fresh temporary file in the
+    /// same directory, fsync, rename. A destination that is a directory, a device or a FIFO is
+    /// refused; a symbolic link is followed (its target is replaced).
     pub fn save(&self, path: &Path) -> Result<()> {
-        write_atomic(path, &self.to_bytes())
+        Ok(sdfmo_io::write_atomic(path, &self.to_bytes())?)
     }
 
-    /// Reads and validates a `.smo` file.
+    /// Reads and validates a `.smo` file of at most [`MAX_FILE_SIZE`] bytes (a regular file:
+    /// devices and FIFOs are refused without reading).
     pub fn load(path: &Path) -> Result<PackedOctree> {
-        let bytes = std::fs::read(path).map_err(|source| FormatError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        PackedOctree::load_with_limit(path, MAX_FILE_SIZE)
+    }
+
+    /// [`PackedOctree::load`] with an explicit size limit in bytes, checked before reading.
+    pub fn load_with_limit(path: &Path, max_bytes: u64) -> Result<PackedOctree> {
+        let bytes = sdfmo_io::read_regular(path, max_bytes)?;
         PackedOctree::from_bytes(&bytes)
     }
-}
-
-/// Writes `bytes` to `path` so that `path` holds either its old content or all the new bytes,
-/// never a prefix: write a temporary file next to it, fsync it, rename it over `path`, then
-/// fsync the directory (best effort).
-pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let io = |p: &Path| {
-        let p = p.to_path_buf();
-        move |source| FormatError::Io { path: p, source }
-    };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let name = path
-        .file_name()
-        .ok_or_else(|| FormatError::Io {
-            path: path.to_path_buf(),
-            source: std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file path"),
-        })?
-        .to_string_lossy()
-        .into_owned();
-    let tmp = dir.join(format!(
-        ".{name}.tmp.{}.{}",
-        std::process::id(),
-        COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
-    let result = (|| {
-        let mut f = std::fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&tmp)
-            .map_err(io(&tmp))?;
-        f.write_all(bytes).map_err(io(&tmp))?;
-        f.sync_all().map_err(io(&tmp))?;
-        drop(f);
-        std::fs::rename(&tmp, path).map_err(io(path))
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-        return result;
-    }
-    // Make the rename itself durable; not every platform lets a directory be opened and synced.
-    if let Ok(d) = std::fs::File::open(&dir) {
-        let _ = d.sync_all();
-    }
-    Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::error::FormatError;
     use crate::{LeafInput, OctreeMeta, Voxel};
     use glam::Vec3;
 

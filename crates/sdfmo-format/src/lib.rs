@@ -68,6 +68,10 @@ pub const MAX_DEPTH: u8 = 16;
 /// Most voxels one leaf may hold (its count is one byte).
 pub const MAX_VOXELS_PER_LEAF: usize = 255;
 
+/// Largest `.smo` file [`PackedOctree::load`] reads (16 GiB); a larger file is refused before
+/// any memory is allocated (use [`PackedOctree::load_with_limit`] to change it).
+pub const MAX_FILE_SIZE: u64 = 1 << 34;
+
 /// Bits per quantised corner value.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum ValueBits {

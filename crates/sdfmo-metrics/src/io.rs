@@ -2,9 +2,11 @@
 
 use crate::{MetricsError, Result};
 use image::{DynamicImage, ImageEncoder, ImageFormat, ImageReader, RgbImage};
-use std::fs;
-use std::io::{BufReader, Write};
+use std::io::Cursor;
 use std::path::Path;
+
+/// Largest image file [`load_rgb8`] reads (1 GiB), checked before reading.
+pub const MAX_IMAGE_FILE_SIZE: u64 = 1 << 30;
 
 /// Loads an image file as 8-bit RGB, ready for [`psnr`](crate::psnr) and [`flip`](crate::flip).
 ///
@@ -21,12 +23,15 @@ use std::path::Path;
 /// [`MetricsError::Decode`] if decoding fails (corrupt, truncated, too large).
 pub fn load_rgb8(path: impl AsRef<Path>) -> Result<RgbImage> {
     let path = path.as_ref();
-    let read_error = |source| MetricsError::Read {
-        path: path.to_path_buf(),
-        source,
+    let read_error = |source| {
+        MetricsError::Read(sdfmo_io::IoError::Os {
+            action: "read",
+            path: path.to_path_buf(),
+            source,
+        })
     };
-    let file = fs::File::open(path).map_err(read_error)?;
-    let reader = ImageReader::new(BufReader::new(file))
+    let bytes = sdfmo_io::read_regular(path, MAX_IMAGE_FILE_SIZE).map_err(MetricsError::Read)?;
+    let reader = ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
         .map_err(read_error)?;
     if reader.format() != Some(ImageFormat::Png) {
@@ -64,9 +69,10 @@ fn to_rgb8_like_stb(image: DynamicImage) -> RgbImage {
     }
 }
 
-/// Saves an 8-bit RGB image as PNG, atomically: the file is written next to `path` under a
-/// temporary name and then renamed over it, so a crash never leaves half a file. Missing parent
-/// directories are created (as the CLI's conventions ask).
+/// Saves an 8-bit RGB image as PNG, atomically ([`sdfmo_io::write_atomic`]: a fresh temporary
+/// file next to `path`, then a rename), so a crash never leaves half a file; a destination that
+/// is a directory, device or FIFO is refused. Missing parent directories are created (as the
+/// CLI's conventions ask).
 ///
 /// # Errors
 ///
@@ -87,37 +93,23 @@ pub fn save_png(image: &RgbImage, path: impl AsRef<Path>) -> Result<()> {
             path: path.to_path_buf(),
             source,
         })?;
-    let file_name = path.file_name().ok_or_else(|| MetricsError::Write {
-        path: path.to_path_buf(),
-        source: std::io::Error::new(std::io::ErrorKind::InvalidInput, "path has no file name"),
-    })?;
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(file_name);
-    tmp_name.push(format!(".tmp{}", std::process::id()));
-    let tmp = path.with_file_name(tmp_name);
-    let write = || -> std::io::Result<()> {
-        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-            fs::create_dir_all(parent)?;
-        }
-        let mut file = fs::File::create(&tmp)?;
-        file.write_all(&bytes)?;
-        file.sync_all()?;
-        fs::rename(&tmp, path)
-    };
-    write().map_err(|source| {
-        // Best effort: the temporary may not exist if creating it failed.
-        let _ = fs::remove_file(&tmp);
-        MetricsError::Write {
-            path: path.to_path_buf(),
-            source,
-        }
-    })
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).map_err(|source| {
+            MetricsError::Write(sdfmo_io::IoError::Os {
+                action: "create the folder of",
+                path: path.to_path_buf(),
+                source,
+            })
+        })?;
+    }
+    sdfmo_io::write_atomic(path, &bytes).map_err(MetricsError::Write)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use image::Rgb;
+    use std::fs;
     use std::path::PathBuf;
 
     /// A fresh directory under the system temp dir, removed on drop.
@@ -199,7 +191,7 @@ mod tests {
         assert!(matches!(err, MetricsError::Read { .. }));
         assert_eq!(
             err.to_string(),
-            "cannot read image /nonexistent/sdfmo/metrics.png"
+            "cannot read /nonexistent/sdfmo/metrics.png"
         );
         let dir = TempDir::new("dir");
         assert!(matches!(load_rgb8(&dir.0), Err(MetricsError::Read { .. })));

@@ -48,7 +48,7 @@ use std::fmt;
 use std::path::PathBuf;
 
 pub use flip::{flip, flip_heatmap, flip_with_ppd, FlipResult, DEFAULT_PPD};
-pub use io::{load_rgb8, save_png};
+pub use io::{load_rgb8, save_png, MAX_IMAGE_FILE_SIZE};
 pub use psnr::{mse, psnr};
 
 /// Which of the two compared images an error is about.
@@ -107,15 +107,10 @@ pub enum MetricsError {
     /// `flip-rs` rejected the evaluation (e.g. filter work limits, failed allocation).
     #[error("FLIP evaluation failed")]
     Flip(#[source] flip_rs::FlipError),
-    /// An image file could not be opened or read.
-    #[error("cannot read image {}", path.display())]
-    Read {
-        /// The file.
-        path: PathBuf,
-        /// The I/O error.
-        #[source]
-        source: std::io::Error,
-    },
+    /// An image file could not be read: missing, not a regular file, larger than
+    /// [`MAX_IMAGE_FILE_SIZE`](crate::MAX_IMAGE_FILE_SIZE), unreadable.
+    #[error(transparent)]
+    Read(sdfmo_io::IoError),
     /// An image file's content is not a format this crate decodes (PNG).
     #[error("{}: not a PNG image (unrecognised content)", path.display())]
     UnsupportedFormat {
@@ -140,15 +135,10 @@ pub enum MetricsError {
         #[source]
         source: image::ImageError,
     },
-    /// An image file could not be written (or moved into place).
-    #[error("cannot write image {}", path.display())]
-    Write {
-        /// The file.
-        path: PathBuf,
-        /// The I/O error.
-        #[source]
-        source: std::io::Error,
-    },
+    /// An image file could not be written: a refused destination (directory, device, FIFO),
+    /// a missing folder that cannot be created, a full disk.
+    #[error(transparent)]
+    Write(sdfmo_io::IoError),
 }
 
 /// Result alias of this crate.

@@ -31,7 +31,7 @@ use std::path::PathBuf;
 pub use camera::{Camera, CameraFrame};
 pub use mesh::{apply_normalization, mesh_in_octree_frame, octree_normalization, MeshScene};
 pub use octree::OctreeScene;
-pub use output::{save_exr, save_png};
+pub use output::{encode_exr, encode_png, save_exr, save_png};
 pub use plan::{Counters, Mode, RenderPlan, RenderSettings};
 pub use render::{render, render_with_plan, Rendered};
 pub use scene::{SphereHit, Spheres, Traceable};
@@ -47,7 +47,7 @@ pub enum RenderError {
     #[error("invalid render settings: {0}")]
     InvalidSettings(String),
     /// The local thread pool could not be created.
-    #[error("cannot create a pool of {threads} threads: {source}")]
+    #[error("cannot create a pool of {threads} threads")]
     ThreadPool {
         /// Requested threads.
         threads: usize,
@@ -68,7 +68,7 @@ pub enum RenderError {
         height: u32,
     },
     /// PNG encoding failed.
-    #[error("cannot encode PNG {}: {source}", path.display())]
+    #[error("cannot encode PNG {}", path.display())]
     Png {
         /// Destination.
         path: PathBuf,
@@ -76,8 +76,8 @@ pub enum RenderError {
         #[source]
         source: image::ImageError,
     },
-    /// EXR encoding or writing failed.
-    #[error("cannot write EXR {}: {source}", path.display())]
+    /// EXR encoding failed.
+    #[error("cannot encode EXR {}", path.display())]
     Exr {
         /// Destination.
         path: PathBuf,
@@ -85,13 +85,8 @@ pub enum RenderError {
         #[source]
         source: exr::error::Error,
     },
-    /// A file could not be written or renamed.
-    #[error("cannot write {}: {source}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The I/O error.
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file could not be written: a refused destination (directory, device, FIFO), a
+    /// missing folder, a full disk (see [`sdfmo_io::IoError`]).
+    #[error(transparent)]
+    Io(#[from] sdfmo_io::IoError),
 }

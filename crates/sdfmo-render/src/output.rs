@@ -1,32 +1,13 @@
-//! Writing images: 8-bit PNG and f32 OpenEXR, both atomically (temporary file, then rename).
+//! Writing images: 8-bit PNG and f32 OpenEXR, encoded in memory, then written atomically with
+//! [`sdfmo_io`] (one file, or several all-or-none with an [`sdfmo_io::OutputBatch`]).
 
-use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use exr::prelude::{AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes};
 use exr::prelude::{SmallVec, WritableImage};
 use image::ImageEncoder;
 
 use crate::{RenderError, Rendered};
-
-/// A temporary sibling of `path` (same directory, so the rename is atomic).
-fn temp_path(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map_or_else(|| "image".into(), |n| n.to_string_lossy());
-    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
-}
-
-/// Moves `tmp` over `path`, removing `tmp` on failure.
-fn commit(tmp: &Path, path: &Path) -> Result<(), RenderError> {
-    fs::rename(tmp, path).map_err(|source| {
-        let _ = fs::remove_file(tmp);
-        RenderError::Io {
-            path: path.to_path_buf(),
-            source,
-        }
-    })
-}
 
 fn check_len(r: &Rendered, what: &str, len: usize, per_pixel: usize) -> Result<(), RenderError> {
     let expect = r.width as usize * r.height as usize * per_pixel;
@@ -42,9 +23,25 @@ fn check_len(r: &Rendered, what: &str, len: usize, per_pixel: usize) -> Result<(
     }
 }
 
-/// Writes the 8-bit RGB image as PNG, atomically (a temporary file in the same directory, then
-/// a rename), so a crash never leaves half a file.
-pub fn save_png(r: &Rendered, path: &Path) -> Result<(), RenderError> {
+/// Writes the 8-bit RGB image as PNG, atomically ([`sdfmo_io::write_atomic`]: a fresh
+/// temporary file in the same directory, then a rename), so a crash never leaves half a file.
+/// A destination that is a directory, device or FIFO is refused; a symbolic link is followed.
+pub fn save_png(r: &Rendered, path: impl AsRef<Path>) -> Result<(), RenderError> {
+    let path = path.as_ref();
+    Ok(sdfmo_io::write_atomic(path, &encode_png(r, path)?)?)
+}
+
+/// Writes [`encode_exr`]'s file atomically, like [`save_png`].
+pub fn save_exr(r: &Rendered, path: impl AsRef<Path>) -> Result<(), RenderError> {
+    let path = path.as_ref();
+    Ok(sdfmo_io::write_atomic(path, &encode_exr(r, path)?)?)
+}
+
+/// The 8-bit RGB image as PNG bytes; `path` only names the image in errors.
+///
+/// # Errors
+/// [`RenderError::BufferSize`] for an inconsistent image, [`RenderError::Png`].
+pub fn encode_png(r: &Rendered, path: &Path) -> Result<Vec<u8>, RenderError> {
     check_len(r, "rgb", r.rgb.len(), 3)?;
     let mut bytes = Vec::new();
     image::codecs::png::PngEncoder::new(&mut bytes)
@@ -53,22 +50,17 @@ pub fn save_png(r: &Rendered, path: &Path) -> Result<(), RenderError> {
             path: path.to_path_buf(),
             source,
         })?;
-    let tmp = temp_path(path);
-    fs::write(&tmp, &bytes).map_err(|source| {
-        let _ = fs::remove_file(&tmp);
-        RenderError::Io {
-            path: tmp.clone(),
-            source,
-        }
-    })?;
-    commit(&tmp, path)
+    Ok(bytes)
 }
 
-/// Writes an OpenEXR file (one layer, f32 samples, ZIP compression), atomically: channels `R`,
-/// `G`, `B` hold the 8-bit image divided by 255; `Z` the ray distance when
-/// [`Rendered::depth`] is present (+∞ for background); `N.X`, `N.Y`, `N.Z` the viewer-facing
-/// normal when [`Rendered::normals`] is present (zero for background).
-pub fn save_exr(r: &Rendered, path: &Path) -> Result<(), RenderError> {
+/// An OpenEXR file as bytes (one layer, f32 samples, ZIP compression); `path` only names the
+/// image in errors. Channels `R`, `G`, `B` hold the 8-bit image divided by 255; `Z` the ray
+/// distance when [`Rendered::depth`] is present (+∞ for background); `N.X`, `N.Y`, `N.Z` the
+/// viewer-facing normal when [`Rendered::normals`] is present (zero for background).
+///
+/// # Errors
+/// [`RenderError::BufferSize`] for an inconsistent image, [`RenderError::Exr`].
+pub fn encode_exr(r: &Rendered, path: &Path) -> Result<Vec<u8>, RenderError> {
     check_len(r, "rgb", r.rgb.len(), 3)?;
     let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
     for (c, name) in ["R", "G", "B"].into_iter().enumerate() {
@@ -98,16 +90,13 @@ pub fn save_exr(r: &Rendered, path: &Path) -> Result<(), RenderError> {
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(channels),
     );
-    let tmp = temp_path(path);
+    let mut bytes = std::io::Cursor::new(Vec::new());
     Image::from_layer(layer)
         .write()
-        .to_file(&tmp)
-        .map_err(|source| {
-            let _ = fs::remove_file(&tmp);
-            RenderError::Exr {
-                path: path.to_path_buf(),
-                source,
-            }
+        .to_buffered(&mut bytes)
+        .map_err(|source| RenderError::Exr {
+            path: path.to_path_buf(),
+            source,
         })?;
-    commit(&tmp, path)
+    Ok(bytes.into_inner())
 }

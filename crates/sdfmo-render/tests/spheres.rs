@@ -301,7 +301,7 @@ fn png_round_trips_exactly() {
                 .unwrap()
                 .file_name()
                 .to_string_lossy()
-                .contains(".tmp-")
+                .ends_with(".tmp")
         })
         .count();
     assert_eq!(leftovers, 0);
