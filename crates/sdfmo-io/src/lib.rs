@@ -147,6 +147,18 @@ pub enum IoError {
 }
 
 impl IoError {
+    /// The path the error is about (for [`IoError::OutsideFolder`], the folder).
+    pub fn path(&self) -> &std::path::Path {
+        match self {
+            IoError::Os { path, .. }
+            | IoError::NotRegularFile { path, .. }
+            | IoError::TooLarge { path, .. }
+            | IoError::DanglingLink { path }
+            | IoError::NotAFilePath { path, .. } => path,
+            IoError::OutsideFolder { folder, .. } => folder,
+        }
+    }
+
     /// The operating system's error kind, when the error comes from one.
     pub fn os_kind(&self) -> Option<std::io::ErrorKind> {
         match self {

@@ -1,7 +1,5 @@
 //! The crate's one error type.
 
-use std::path::PathBuf;
-
 /// Result alias used throughout the crate.
 pub type Result<T, E = MeshError> = std::result::Result<T, E>;
 
@@ -13,14 +11,21 @@ pub type Result<T, E = MeshError> = std::result::Result<T, E>;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum MeshError {
-    /// The file could not be read.
-    #[error("{}: cannot read: {source}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The underlying I/O error.
+    /// The file could not be read: missing, not a regular file (a device, FIFO or directory),
+    /// larger than [`LoadLimits::max_file_bytes`](crate::LoadLimits), unreadable.
+    #[error(transparent)]
+    Io(#[from] sdfmo_io::IoError),
+    /// An external glTF buffer could not be read: its URI leaves the model's folder, or the
+    /// file is missing or not a regular file (the source says which).
+    #[error("{file}: external buffer {index}")]
+    ExternalBuffer {
+        /// The glTF file.
+        file: String,
+        /// The buffer's index.
+        index: usize,
+        /// Why it could not be read.
         #[source]
-        source: std::io::Error,
+        source: sdfmo_io::IoError,
     },
     /// Neither the extension nor the content identify a supported format.
     #[error("{file}: unknown mesh format ({reason})")]
@@ -122,8 +127,9 @@ impl MeshError {
     /// The file named by the error.
     pub fn file(&self) -> String {
         match self {
-            MeshError::Io { path, .. } => path.display().to_string(),
-            MeshError::UnknownFormat { file, .. }
+            MeshError::Io(e) => e.path().display().to_string(),
+            MeshError::ExternalBuffer { file, .. }
+            | MeshError::UnknownFormat { file, .. }
             | MeshError::Truncated { file, .. }
             | MeshError::HeaderMismatch { file, .. }
             | MeshError::TooLarge { file, .. }

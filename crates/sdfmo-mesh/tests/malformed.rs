@@ -23,7 +23,7 @@ enum Want {
 
 fn variant(e: &MeshError) -> Want {
     match e {
-        MeshError::Io { .. } => Want::Io,
+        MeshError::Io { .. } | MeshError::ExternalBuffer { .. } => Want::Io,
         MeshError::UnknownFormat { .. } => Want::UnknownFormat,
         MeshError::Truncated { .. } => Want::Truncated,
         MeshError::HeaderMismatch { .. } => Want::HeaderMismatch,
@@ -145,6 +145,17 @@ fn cases() -> Vec<(&'static str, Vec<u8>, Want)> {
         ("short_header.stl", vec![7u8; 50], Want::Truncated),
         ("count_lies.stl", with_count(1000), Want::HeaderMismatch),
         ("count_4g.stl", with_count(u32::MAX), Want::HeaderMismatch),
+        // Binary, but the header starts with "solid" (as many exporters write it): still a
+        // binary STL with a wrong count, not broken ASCII.
+        (
+            "solid_header_count_lies.stl",
+            {
+                let mut b = with_count(1000);
+                b[..12].copy_from_slice(b"solid binary");
+                b
+            },
+            Want::HeaderMismatch,
+        ),
         (
             "cut_record.stl",
             bin_stl[..bin_stl.len() - 17].to_vec(),

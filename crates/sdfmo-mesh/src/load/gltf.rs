@@ -123,52 +123,6 @@ fn split_glb<'b>(bytes: &'b [u8], ctx: &Ctx) -> Result<(&'b [u8], Option<&'b [u8
     ))
 }
 
-fn base64_decode(s: &str) -> Option<Vec<u8>> {
-    fn val(c: u8) -> Option<u32> {
-        Some(match c {
-            b'A'..=b'Z' => c - b'A',
-            b'a'..=b'z' => c - b'a' + 26,
-            b'0'..=b'9' => c - b'0' + 52,
-            b'+' | b'-' => 62,
-            b'/' | b'_' => 63,
-            _ => return None,
-        } as u32)
-    }
-    let s = s.trim_end_matches('=');
-    let mut out = Vec::with_capacity(s.len() / 4 * 3 + 3);
-    let (mut acc, mut bits) = (0u32, 0u32);
-    for &c in s.as_bytes() {
-        if c.is_ascii_whitespace() {
-            continue;
-        }
-        acc = (acc << 6) | val(c)?;
-        bits += 6;
-        if bits >= 8 {
-            bits -= 8;
-            out.push((acc >> bits) as u8);
-            acc &= (1 << bits) - 1;
-        }
-    }
-    Some(out)
-}
-
-fn percent_decode(s: &str) -> Option<String> {
-    let b = s.as_bytes();
-    let mut out = Vec::with_capacity(b.len());
-    let mut i = 0;
-    while i < b.len() {
-        if b[i] == b'%' {
-            let hex = std::str::from_utf8(b.get(i + 1..i + 3)?).ok()?;
-            out.push(u8::from_str_radix(hex, 16).ok()?);
-            i += 3;
-        } else {
-            out.push(b[i]);
-            i += 1;
-        }
-    }
-    String::from_utf8(out).ok()
-}
-
 fn load_buffer(buffer: &gltf::Buffer, bin: Option<&[u8]>, ctx: &Ctx) -> Result<Vec<u8>> {
     let idx = buffer.index();
     let data = match buffer.source() {
@@ -182,7 +136,7 @@ fn load_buffer(buffer: &gltf::Buffer, bin: Option<&[u8]>, ctx: &Ctx) -> Result<V
                         file: ctx.file.into(),
                         reason: format!("buffer {idx}: data URI without base64 encoding"),
                     })?;
-            base64_decode(payload)
+            decode_base64(payload)
                 .ok_or_else(|| ctx.parse(format!("buffer {idx}: invalid base64 in data URI")))?
         }
         gltf::buffer::Source::Uri(uri) => {
@@ -209,16 +163,10 @@ fn load_buffer(buffer: &gltf::Buffer, bin: Option<&[u8]>, ctx: &Ctx) -> Result<V
                     ),
                 });
             };
-            let rel = percent_decode(uri)
-                .ok_or_else(|| ctx.parse(format!("buffer {idx}: bad percent-encoding in URI")))?;
-            let path = base.join(rel);
-            std::fs::read(&path).map_err(|e| MeshError::Io {
-                path,
-                source: std::io::Error::new(
-                    e.kind(),
-                    format!("external buffer {idx} of {}: {e}", ctx.file),
-                ),
-            })?
+            let rel = percent_encoding::percent_decode_str(uri)
+                .decode_utf8()
+                .map_err(|_| ctx.parse(format!("buffer {idx}: URI is not UTF-8 once decoded")))?;
+            read_external(base, &rel, buffer.length(), idx, ctx)?
         }
     };
     if data.len() < buffer.length() {
@@ -231,6 +179,50 @@ fn load_buffer(buffer: &gltf::Buffer, bin: Option<&[u8]>, ctx: &Ctx) -> Result<V
             ),
         });
     }
+    Ok(data)
+}
+
+/// Standard or URL-safe base64, padded or not, whitespace ignored (as exporters write it).
+fn decode_base64(payload: &str) -> Option<Vec<u8>> {
+    use base64::engine::general_purpose::{GeneralPurpose, GeneralPurposeConfig};
+    use base64::engine::DecodePaddingMode;
+    use base64::{alphabet, Engine};
+    let config = GeneralPurposeConfig::new()
+        .with_decode_padding_mode(DecodePaddingMode::Indifferent)
+        .with_decode_allow_trailing_bits(true);
+    let compact: String = payload
+        .chars()
+        .filter(|c| !c.is_ascii_whitespace())
+        .collect();
+    let alphabet = if compact.contains(['-', '_']) {
+        &alphabet::URL_SAFE
+    } else {
+        &alphabet::STANDARD
+    };
+    GeneralPurpose::new(alphabet, config).decode(compact).ok()
+}
+
+/// Reads at most `length` bytes of the external buffer `rel` (percent-decoded) from the
+/// model's folder `base`: the reference must stay in the folder and name a regular file.
+fn read_external(base: &Path, rel: &str, length: usize, idx: usize, ctx: &Ctx) -> Result<Vec<u8>> {
+    use std::io::Read;
+    let external = |source| MeshError::ExternalBuffer {
+        file: ctx.file.into(),
+        index: idx,
+        source,
+    };
+    let path = sdfmo_io::resolve_in_folder(base, rel).map_err(external)?;
+    let (file, _) = sdfmo_io::open_regular(&path).map_err(external)?;
+    let mut data = Vec::new();
+    file.take(length as u64)
+        .read_to_end(&mut data)
+        .map_err(|source| {
+            external(sdfmo_io::IoError::Os {
+                action: "read",
+                path: path.clone(),
+                source,
+            })
+        })?;
     Ok(data)
 }
 
@@ -608,12 +600,13 @@ mod tests {
     use crate::{load_mesh_from_bytes, MeshFormat};
 
     #[test]
-    fn base64_and_percent() {
-        assert_eq!(base64_decode("aGVsbG8=").unwrap(), b"hello");
-        assert_eq!(base64_decode("AAEC").unwrap(), vec![0, 1, 2]);
-        assert!(base64_decode("a*b").is_none());
-        assert_eq!(percent_decode("a%20b.bin").unwrap(), "a b.bin");
-        assert!(percent_decode("a%2").is_none());
+    fn base64_forms() {
+        assert_eq!(decode_base64("aGVsbG8=").unwrap(), b"hello");
+        assert_eq!(decode_base64("aGVsbG8").unwrap(), b"hello");
+        assert_eq!(decode_base64("aGVs\nbG8=").unwrap(), b"hello");
+        assert_eq!(decode_base64("AAEC").unwrap(), vec![0, 1, 2]);
+        assert_eq!(decode_base64("-_8").unwrap(), vec![0xfb, 0xff]);
+        assert!(decode_base64("a*b").is_none());
     }
 
     /// A GLB around `json` with a BIN chunk of four positions (a unit square in z = 0:

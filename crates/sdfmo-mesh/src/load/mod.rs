@@ -59,16 +59,19 @@ pub struct LoadLimits {
     pub max_vertices: usize,
     /// Most glTF node visits while walking the scene (instancing, deep hierarchies).
     pub max_node_visits: usize,
+    /// Largest mesh file read, in bytes (checked before reading; only regular files are read).
+    pub max_file_bytes: u64,
 }
 
 impl Default for LoadLimits {
     /// 2^26 triangles and vertices (about 1.6 GB of mesh, far beyond what the octree builder
-    /// needs), 2^20 node visits.
+    /// needs), 2^20 node visits, 4 GiB files (a binary STL of 2^26 triangles is 3.2 GiB).
     fn default() -> Self {
         LoadLimits {
             max_triangles: 1 << 26,
             max_vertices: 1 << 26,
             max_node_visits: 1 << 20,
+            max_file_bytes: 1 << 32,
         }
     }
 }
@@ -116,8 +119,11 @@ impl RawMesh {
 /// degenerate and duplicate triangles (counted in the report).
 ///
 /// The format is chosen by the extension and confirmed by the content (magic bytes, binary STL
-/// length); a file whose content clearly says otherwise is read as what it is. External glTF
-/// buffers are read from files relative to `path` (no other URI schemes than `data:`).
+/// length); a file whose content clearly says otherwise is read as what it is. Only regular
+/// files are read (a device or FIFO is refused at once). External glTF buffers are read from
+/// files in `path`'s folder only: after percent-decoding, absolute URIs, `..` and symbolic
+/// links leading out of the folder are refused, and at most the buffer's declared `byteLength`
+/// is read (no other URI schemes than `data:`).
 ///
 /// # Errors
 /// A [`MeshError`] naming the file and the reason for every malformed input.
@@ -130,10 +136,7 @@ pub fn load_mesh(path: &Path) -> Result<LoadedMesh> {
 /// # Errors
 /// As [`load_mesh`].
 pub fn load_mesh_with_limits(path: &Path, limits: &LoadLimits) -> Result<LoadedMesh> {
-    let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = sdfmo_io::read_regular(path, limits.max_file_bytes)?;
     let name = path.display().to_string();
     let hint = path
         .extension()

@@ -23,7 +23,11 @@ pub(super) fn read(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawM
     let text = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     let trimmed = text.trim_ascii_start();
     let solid = trimmed.len() >= 5 && trimmed[..5].eq_ignore_ascii_case(b"solid");
-    if solid && !is_binary_length(bytes) {
+    // Binary exporters often start the 80-byte header with "solid" too; text never holds a
+    // NUL byte while binary headers and float records almost always do, so such a file with a
+    // wrong triangle count is reported as the broken binary STL it is.
+    let binary_content = bytes.iter().take(4096).any(|&b| b == 0);
+    if solid && !is_binary_length(bytes) && !binary_content {
         let last_line = trimmed.split(|&b| b == b'\n').count();
         read_ascii(trimmed, file, limits).map_err(|e| match e {
             // A bad last line without a final newline: the file was cut short.
