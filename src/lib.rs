@@ -50,6 +50,7 @@
 pub use sdfmo_build as build;
 pub use sdfmo_distance as distance;
 pub use sdfmo_format as format;
+pub use sdfmo_io as io;
 pub use sdfmo_mesh as mesh;
 pub use sdfmo_metrics as metrics;
 pub use sdfmo_render as render;

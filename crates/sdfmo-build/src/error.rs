@@ -16,12 +16,27 @@ pub enum BuildError {
     #[error("degenerate mesh: {0}")]
     DegenerateMesh(String),
     /// The depth is outside the supported range.
-    #[error("depth {depth} is out of range (0..={max})")]
+    #[error("depth {depth} is out of range (1..={max})")]
     InvalidDepth {
         /// The requested depth.
         depth: u8,
         /// The deepest supported.
         max: u8,
+    },
+    /// The predicted peak memory of the build exceeds the budget
+    /// ([`estimate_memory`](crate::estimate_memory)).
+    #[error(
+        "depth {depth} would need about {} of memory, more than the budget of {}",
+        human_bytes(*estimate),
+        human_bytes(*budget)
+    )]
+    MemoryBudget {
+        /// The requested depth.
+        depth: u8,
+        /// Predicted peak bytes.
+        estimate: u64,
+        /// The budget in bytes.
+        budget: u64,
     },
     /// `Method::Multi { max_voxels: 0 }`.
     #[error("max_voxels must be at least 1 (got {0})")]
@@ -45,3 +60,19 @@ pub enum BuildError {
 
 /// `Result` with a [`BuildError`].
 pub type Result<T> = std::result::Result<T, BuildError>;
+
+/// `1536 MiB` → "1.5 GiB": bytes for people.
+pub(crate) fn human_bytes(b: u64) -> String {
+    const UNITS: [&str; 5] = ["bytes", "KiB", "MiB", "GiB", "TiB"];
+    let mut v = b as f64;
+    let mut unit = 0;
+    while v >= 1024.0 && unit + 1 < UNITS.len() {
+        v /= 1024.0;
+        unit += 1;
+    }
+    if unit == 0 {
+        format!("{b} bytes")
+    } else {
+        format!("{v:.1} {}", UNITS[unit])
+    }
+}

@@ -34,6 +34,7 @@
 
 #![deny(missing_docs)]
 
+mod budget;
 mod components;
 mod error;
 mod geom;
@@ -50,6 +51,7 @@ use sdfmo_distance::{MeshDistance, SignMode};
 use sdfmo_format::{quant, LeafInput, OctreeMeta, PackedOctree, ValueBits, MAX_DEPTH};
 use sdfmo_mesh::TriMesh;
 
+pub use budget::{default_memory_budget, estimate_memory, physical_memory, MemoryEstimate};
 pub use error::{BuildError, Result};
 pub use geom::{closest_point_triangle, trilinear, Feature};
 pub use local::LocalMesh;
@@ -76,7 +78,7 @@ impl Default for Method {
 /// What [`build`] builds.
 #[derive(Clone, Copy, Debug)]
 pub struct BuildSettings {
-    /// Leaves at this level (edge `2 / 2^depth`); 0..=16.
+    /// Leaves at this level (edge `2 / 2^depth`); 1..=16 ([`MIN_DEPTH`]..=[`MAX_DEPTH`]).
     pub depth: u8,
     /// SVO or multi-octree.
     pub method: Method,
@@ -142,8 +144,11 @@ pub fn margins(depth: u8, bits: ValueBits, method: Method) -> (f32, f32) {
     }
 }
 
+/// Shallowest depth [`build`] accepts: depth 0 would be one leaf for the whole root cube.
+pub const MIN_DEPTH: u8 = 1;
+
 fn validate(mesh: &TriMesh, settings: &BuildSettings) -> Result<()> {
-    if settings.depth > MAX_DEPTH {
+    if !(MIN_DEPTH..=MAX_DEPTH).contains(&settings.depth) {
         return Err(BuildError::InvalidDepth {
             depth: settings.depth,
             max: MAX_DEPTH,
@@ -203,12 +208,40 @@ fn validate(mesh: &TriMesh, settings: &BuildSettings) -> Result<()> {
 
 /// Builds the octree of `mesh` (model units; normalised here, the transform is stored in the
 /// octree). `progress` receives fractions in `0..=1`, increasing, from the calling thread.
+///
+/// The build is refused before it starts when its predicted peak memory
+/// ([`estimate_memory`]) exceeds [`default_memory_budget`] (half the physical memory); use
+/// [`build_with_budget`] to choose the budget.
 pub fn build(
     mesh: &TriMesh,
     settings: &BuildSettings,
     progress: Option<&(dyn Fn(f32) + Sync)>,
 ) -> Result<(PackedOctree, BuildStats)> {
+    build_with_budget(mesh, settings, default_memory_budget(), progress)
+}
+
+/// [`build`] with an explicit memory budget in bytes (`None`: no limit).
+///
+/// # Errors
+/// [`BuildError::MemoryBudget`] when the prediction exceeds `budget`, and every error of
+/// [`build`].
+pub fn build_with_budget(
+    mesh: &TriMesh,
+    settings: &BuildSettings,
+    budget: Option<u64>,
+    progress: Option<&(dyn Fn(f32) + Sync)>,
+) -> Result<(PackedOctree, BuildStats)> {
     validate(mesh, settings)?;
+    if let Some(budget) = budget {
+        let estimate = estimate_memory(mesh, settings).bytes;
+        if estimate > budget {
+            return Err(BuildError::MemoryBudget {
+                depth: settings.depth,
+                estimate,
+                budget,
+            });
+        }
+    }
     match settings.threads {
         Some(n) => {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build()?;

@@ -113,15 +113,19 @@ pub enum BitsArg {
 pub struct BuildArgs {
     /// Mesh file (OBJ, glTF/GLB, STL); without it, the built-in demo part.
     pub mesh: Option<PathBuf>,
-    /// Octree depth: leaves of edge 2/2^DEPTH in the root cube [-1, 1]³.
-    #[arg(short, long, value_name = "DEPTH")]
+    /// Octree depth, 1..=16: leaves of edge 2/2^DEPTH in the root cube [-1, 1]³.
+    #[arg(short, long, value_name = "DEPTH", value_parser = parse_depth, allow_hyphen_values = true)]
     pub depth: u8,
     /// Construction method.
     #[arg(long, value_enum, default_value_t = MethodArg::Multi)]
     pub method: MethodArg,
-    /// Most voxels per leaf (multi-octree only).
-    #[arg(long, value_name = "N", default_value_t = 8)]
+    /// Most voxels per leaf, 1..=255 (multi-octree only).
+    #[arg(long, value_name = "N", default_value_t = 8, value_parser = clap::value_parser!(u8).range(1..))]
     pub max_voxels: u8,
+    /// Memory budget of the build, e.g. `8G`, `512M` or bytes (default: half the physical
+    /// memory). A build whose predicted peak exceeds it is refused before it starts.
+    #[arg(long, value_name = "SIZE", value_parser = parse_memory)]
+    pub max_memory: Option<u64>,
     /// Bits per quantised corner value.
     #[arg(long, value_enum, default_value_t = BitsArg::Eight)]
     pub bits: BitsArg,
@@ -131,7 +135,7 @@ pub struct BuildArgs {
     /// Worker threads (default: all cores); the output is the same for any count.
     #[arg(long, value_name = "N", value_parser = parse_threads)]
     pub threads: Option<usize>,
-    /// Output `.smo` file (written atomically).
+    /// Output `.smo` file (written atomically; must end in `.smo`).
     #[arg(short, long, value_name = "OUT.smo")]
     pub output: PathBuf,
     /// Print one JSON object on stdout instead of the human summary.
@@ -162,17 +166,19 @@ pub enum ViewsArg {
 /// Camera, mode and output options shared by `render` and `render-mesh`.
 #[derive(Debug, Args)]
 pub struct RenderOptions {
-    /// Output PNG; with several views `_0`, `_1`, … are inserted before the extension.
+    /// Output PNG (must end in `.png`); with several views `_0`, `_1`, … are inserted before
+    /// the extension.
     #[arg(short, long, value_name = "OUT.png")]
     pub output: PathBuf,
     /// What to compute and write.
     #[arg(long, value_enum, default_value_t = ModeArg::Lambert)]
     pub mode: ModeArg,
-    /// Shadows from the light (lambert mode).
+    /// Shadows from the light (lambert mode only; an error with other modes).
     #[arg(long)]
     pub shadows: bool,
-    /// Ambient-occlusion rays per pixel (0: none).
-    #[arg(long, value_name = "N", default_value_t = 0)]
+    /// Ambient-occlusion rays per pixel, 0..=1024 (0: none; lambert mode only).
+    #[arg(long, value_name = "N", default_value_t = 0,
+          value_parser = clap::value_parser!(u32).range(0..=i64::from(sdf_multioctree::render::MAX_AO_SAMPLES)))]
     pub ao: u32,
     /// Camera position (default: the paper's view 0, 0,0,3).
     #[arg(long, value_name = "x,y,z", value_parser = parse_vec3, allow_hyphen_values = true, conflicts_with = "views")]
@@ -192,7 +198,8 @@ pub struct RenderOptions {
     /// Worker threads (default: all cores); the image is the same for any count.
     #[arg(long, value_name = "N", value_parser = parse_threads)]
     pub threads: Option<usize>,
-    /// Also write depth and normals as f32 EXR (numbered like the PNG with several views).
+    /// Also write depth and normals as f32 EXR (must end in `.exr`; numbered like the PNG with
+    /// several views). All images of one command are written, or none.
     #[arg(long, value_name = "OUT.exr")]
     pub exr: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the human summary.
@@ -242,7 +249,7 @@ pub struct CompareArgs {
 pub struct SweepArgs {
     /// Mesh files; without any, the built-in demo part.
     pub meshes: Vec<PathBuf>,
-    /// Depths, inclusive: `A..B` (or `A..=B`, or one depth `A`).
+    /// Depths, inclusive, within 1..=16: `A..B` (or `A..=B`, or one depth `A`).
     #[arg(long, value_name = "A..B", value_parser = parse_depths, default_value = "6..9")]
     pub depths: RangeInclusive<u8>,
     /// Methods, comma separated.
@@ -251,9 +258,13 @@ pub struct SweepArgs {
     /// Image size of each (square) view in pixels.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(8..=8192), default_value_t = 1024)]
     pub size: u32,
-    /// Most voxels per leaf of the multi-octree.
-    #[arg(long, value_name = "N", default_value_t = 8)]
+    /// Most voxels per leaf of the multi-octree, 1..=255.
+    #[arg(long, value_name = "N", default_value_t = 8, value_parser = clap::value_parser!(u8).range(1..))]
     pub max_voxels: u8,
+    /// Memory budget of each build (as for `build --max-memory`); checked for the deepest
+    /// depth of every mesh before any work.
+    #[arg(long, value_name = "SIZE", value_parser = parse_memory)]
+    pub max_memory: Option<u64>,
     /// Worker threads for builds and renders (default: all cores).
     #[arg(long, value_name = "N", value_parser = parse_threads)]
     pub threads: Option<usize>,
@@ -326,6 +337,41 @@ pub fn parse_threads(s: &str) -> Result<usize, String> {
     }
 }
 
+/// Deepest depth the builder accepts.
+const MAX_DEPTH: u8 = sdf_multioctree::format::MAX_DEPTH;
+
+/// Parses an octree depth in 1..=16 (the builder's range).
+pub fn parse_depth(s: &str) -> Result<u8, String> {
+    match s.trim().parse::<i64>() {
+        Ok(d) if (1..=i64::from(MAX_DEPTH)).contains(&d) => Ok(d as u8),
+        _ => Err(format!(
+            "depth must be an integer in 1..={MAX_DEPTH}, got {s:?}"
+        )),
+    }
+}
+
+/// Parses a memory size: bytes, or a number with `K`, `M`, `G` or `T` (powers of 1024,
+/// optional `iB`/`B`), at least 1 MiB.
+pub fn parse_memory(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let upper = t.to_ascii_uppercase();
+    let digits = upper.trim_end_matches("IB").trim_end_matches('B');
+    let (num, shift) = match digits.chars().last() {
+        Some('K') => (&digits[..digits.len() - 1], 10),
+        Some('M') => (&digits[..digits.len() - 1], 20),
+        Some('G') => (&digits[..digits.len() - 1], 30),
+        Some('T') => (&digits[..digits.len() - 1], 40),
+        _ => (digits, 0),
+    };
+    let bad = || format!("expected a memory size such as 8G, 512M or 1000000 bytes, got {s:?}");
+    let v: f64 = num.trim().parse().map_err(|_| bad())?;
+    let bytes = v * (1u64 << shift) as f64;
+    if !(bytes.is_finite() && bytes >= (1u64 << 20) as f64 && bytes < 2f64.powi(63)) {
+        return Err(format!("memory size {s:?} must be between 1M and 8E bytes"));
+    }
+    Ok(bytes as u64)
+}
+
 /// Parses `A..B`, `A..=B` (both inclusive) or `A`.
 pub fn parse_depths(s: &str) -> Result<RangeInclusive<u8>, String> {
     let num = |t: &str| -> Result<u8, String> {
@@ -341,9 +387,9 @@ pub fn parse_depths(s: &str) -> Result<RangeInclusive<u8>, String> {
         let a = num(s)?;
         (a, a)
     };
-    if a == 0 || a > b {
+    if a == 0 || a > b || b > MAX_DEPTH {
         return Err(format!(
-            "depth range {a}..{b} must be non-empty and start at 1 or more"
+            "depth range {a}..{b} must be non-empty and within 1..={MAX_DEPTH}"
         ));
     }
     Ok(a..=b)
@@ -383,6 +429,22 @@ mod tests {
         assert_eq!(parse_depths("7").unwrap(), 7..=7);
         assert!(parse_depths("9..6").is_err());
         assert!(parse_depths("0..3").is_err());
+        assert!(parse_depths("15..20").is_err());
+        assert_eq!(parse_depth("16").unwrap(), 16);
+        for bad in ["0", "17", "-1", "x", "255"] {
+            assert!(parse_depth(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn memory_sizes() {
+        assert_eq!(parse_memory("8G").unwrap(), 8 << 30);
+        assert_eq!(parse_memory("512MiB").unwrap(), 512 << 20);
+        assert_eq!(parse_memory("1.5g").unwrap(), 3 << 29);
+        assert_eq!(parse_memory("2000000").unwrap(), 2_000_000);
+        for bad in ["", "G", "-1G", "12", "1Q", "nan"] {
+            assert!(parse_memory(bad).is_err(), "{bad}");
+        }
         assert!(parse_depths("a..b").is_err());
     }
 

@@ -1,13 +1,15 @@
 //! `sdfmo`: the command-line tool of sdf-multioctree.
 //!
 //! Every command prints a short human summary, or with `--json` exactly one JSON object on
-//! stdout. Errors are one line on stderr (the whole cause chain, `{:#}`) and exit code 2; a
+//! stdout. Errors are one line on stderr (the whole cause chain, `{:#}`, each cause once) and
+//! exit code 2, out of memory included; a
 //! closed stdout (broken pipe, e.g. `sdfmo distance … | head`) counts as success. Long work shows
 //! a progress bar on stderr only when stderr is a terminal.
 //!
 //! The library work lives in the layers (re-exported by the `sdf-multioctree` facade); this
 //! binary parses arguments, reads and writes files and formats the results.
 
+mod alloc;
 mod args;
 mod commands;
 mod output;
@@ -19,6 +21,9 @@ use std::process::ExitCode;
 use clap::Parser;
 
 use crate::args::{Cli, Command};
+
+#[global_allocator]
+static ALLOCATOR: alloc::ExitOnOom = alloc::ExitOnOom;
 
 /// Exit code of a failed command (bad input, I/O error, …).
 const EXIT_ERROR: u8 = 2;

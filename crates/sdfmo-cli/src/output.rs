@@ -5,12 +5,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
-/// Prints one JSON object (one line) on stdout.
+/// Prints one JSON object (one line) on stdout. Serialised first, so that a closed stdout is
+/// a plain `io::Error` (broken pipe: success) rather than one wrapped in serde's error.
 pub fn print_json(value: &serde_json::Value) -> anyhow::Result<()> {
-    let mut out = std::io::stdout().lock();
-    serde_json::to_writer(&mut out, value).context("cannot write to stdout")?;
-    writeln!(out).context("cannot write to stdout")?;
-    out.flush().context("cannot write to stdout")
+    let mut line = serde_json::to_string(value).context("cannot serialise the JSON output")?;
+    line.push('\n');
+    print_text(&line)
 }
 
 /// Prints text on stdout (a human summary).
@@ -33,33 +33,32 @@ pub fn json_f32(x: f32) -> serde_json::Value {
     json_f64(x.to_string().parse().unwrap_or(f64::NAN))
 }
 
-/// Writes `bytes` to `path` atomically: a temporary file in the same directory, flushed, then
-/// renamed over the target, so a reader never sees half a file.
+/// Writes `bytes` to `path` atomically with [`sdf_multioctree::io::write_atomic`] (fresh temporary file,
+/// fsync, rename; directories, devices and FIFOs refused; a symbolic link's target replaced).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let name = path
-        .file_name()
-        .with_context(|| format!("{}: not a file path", path.display()))?;
-    let tmp = dir.join(format!(
-        ".{}.tmp-{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let result = (|| -> std::io::Result<()> {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        drop(f);
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(e) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(e).with_context(|| format!("cannot write {}", path.display()));
+    Ok(sdf_multioctree::io::write_atomic(path, bytes)?)
+}
+
+/// Checks an output path before any work: it must name a file that may be replaced
+/// ([`sdf_multioctree::io::check_destination`]) and, when `extensions` is not empty, end in one of them
+/// (case-insensitive), so that `-o image.jpg` does not silently get PNG bytes.
+pub fn check_output(path: &Path, what: &str, extensions: &[&str]) -> anyhow::Result<()> {
+    sdf_multioctree::io::check_destination(path)?;
+    if extensions.is_empty() {
+        return Ok(());
     }
-    Ok(())
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    if ext.as_deref().is_some_and(|e| extensions.contains(&e)) {
+        return Ok(());
+    }
+    let wanted: Vec<String> = extensions.iter().map(|e| format!(".{e}")).collect();
+    anyhow::bail!(
+        "{}: {what} must end in {} (the format follows the extension)",
+        path.display(),
+        wanted.join(" or ")
+    )
 }
 
 /// Encodes an RGB image as PNG and writes it atomically.
@@ -121,19 +120,15 @@ mod tests {
     }
 
     #[test]
-    fn atomic_write_replaces_and_leaves_no_temporary() {
-        let dir = std::env::temp_dir().join(format!("sdfmo-cli-atomic-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let p = dir.join("x.txt");
-        write_atomic(&p, b"one").unwrap();
-        write_atomic(&p, b"two").unwrap();
-        assert_eq!(std::fs::read(&p).unwrap(), b"two");
-        let names: Vec<_> = std::fs::read_dir(&dir)
-            .unwrap()
-            .map(|e| e.unwrap().file_name())
-            .collect();
-        assert_eq!(names.len(), 1, "{names:?}");
-        assert!(write_atomic(&dir.join("missing/x.txt"), b"x").is_err());
-        std::fs::remove_dir_all(&dir).unwrap();
+    fn outputs_are_checked_by_extension_and_kind() {
+        assert!(check_output(Path::new("a/out.PNG"), "-o", &["png"]).is_ok());
+        let e = check_output(Path::new("out.jpg"), "-o", &["png"]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "out.jpg: -o must end in .png (the format follows the extension)"
+        );
+        assert!(check_output(Path::new("noext"), "-o", &["smo"]).is_err());
+        assert!(check_output(Path::new("adir/"), "-o", &["png"]).is_err());
+        assert!(check_output(Path::new("/dev/null"), "-o", &[]).is_err());
     }
 }

@@ -32,7 +32,7 @@ pub use camera::{Camera, CameraFrame};
 pub use mesh::{apply_normalization, mesh_in_octree_frame, octree_normalization, MeshScene};
 pub use octree::OctreeScene;
 pub use output::{encode_exr, encode_png, save_exr, save_png};
-pub use plan::{Counters, Mode, RenderPlan, RenderSettings};
+pub use plan::{Counters, Mode, RenderPlan, RenderSettings, MAX_AO_SAMPLES};
 pub use render::{render, render_with_plan, Rendered};
 pub use scene::{SphereHit, Spheres, Traceable};
 

@@ -8,11 +8,13 @@ use serde_json::json;
 
 use crate::args::BuildArgs;
 use crate::commands::load_input;
-use crate::output::{ensure_parent, print_json, print_text};
+use crate::output::{check_output, ensure_parent, print_json, print_text};
 use crate::progress;
 
 /// Builds the octree with a progress bar, saves it atomically and prints the statistics.
 pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
+    // A bad destination fails now, not after the build.
+    check_output(&args.output, "the octree file (-o)", &["smo"])?;
     let input = load_input(args.mesh.as_deref())?;
     let settings = BuildSettings {
         depth: args.depth,
@@ -22,16 +24,16 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
         margin: sdf_multioctree::DEFAULT_MARGIN,
         sign: args.sign.mode(),
     };
+    let budget = args.max_memory.or_else(build::default_memory_budget);
+    let estimate = build::estimate_memory(&input.mesh, &settings);
     let bar = progress::fraction(&format!("building {} depth {}", input.name, args.depth));
     let on_progress = |f: f32| progress::set_fraction(&bar, f);
-    let built = build::build(&input.mesh, &settings, Some(&on_progress));
+    let built = build::build_with_budget(&input.mesh, &settings, budget, Some(&on_progress));
     bar.finish_and_clear();
     let (octree, stats) =
         built.with_context(|| format!("cannot build an octree of {}", input.source))?;
     ensure_parent(&args.output)?;
-    octree
-        .save(&args.output)
-        .with_context(|| format!("cannot save {}", args.output.display()))?;
+    octree.save(&args.output)?;
 
     if args.json {
         let mut j = stats_json(&stats);
@@ -43,6 +45,9 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
             j["max_voxels"] = json!(args.max_voxels);
         }
         j["output"] = json!(args.output.display().to_string());
+        j["memory_estimate"] = json!(estimate.bytes);
+        j["candidate_cells_estimate"] = json!(estimate.candidate_cells.round());
+        j["memory_budget"] = json!(budget);
         return print_json(&j);
     }
     let mut s = format!(

@@ -5,10 +5,13 @@ use sdf_multioctree::metrics;
 use serde_json::json;
 
 use crate::args::CompareArgs;
-use crate::output::{ensure_parent, json_f64, print_json, print_text};
+use crate::output::{check_output, ensure_parent, json_f64, print_json, print_text};
 
 /// Compares the two images and prints PSNR (dB) and mean FLIP; writes the heat map if asked.
 pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
+    if let Some(out) = &args.heatmap {
+        check_output(out, "the heat map (--heatmap)", &["png"])?;
+    }
     let reference = metrics::load_rgb8(&args.reference)?;
     let test = metrics::load_rgb8(&args.test)?;
     let psnr = metrics::psnr(&reference, &test).with_context(|| {

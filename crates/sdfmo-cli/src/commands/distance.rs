@@ -11,13 +11,18 @@ use serde_json::json;
 
 use crate::args::DistanceArgs;
 use crate::commands::{load_input, sign_name, with_threads};
-use crate::output::{json_f32, print_json, print_text, write_atomic};
+use crate::output::{check_output, json_f32, print_json, print_text, write_atomic};
+
+/// Largest points file read (1 GiB, some 30 million points).
+const MAX_POINTS_FILE: u64 = 1 << 30;
 
 /// Loads the mesh, normalises it as the builder does, and prints or writes one signed distance
 /// per point (negative inside).
 pub fn run(args: &DistanceArgs) -> anyhow::Result<()> {
-    let text = std::fs::read_to_string(&args.points)
-        .with_context(|| format!("cannot read points file {}", args.points.display()))?;
+    if let Some(out) = &args.output {
+        check_output(out, "the distances file (-o)", &[])?;
+    }
+    let text = sdf_multioctree::io::read_regular_to_string(&args.points, MAX_POINTS_FILE)?;
     let points = parse_points(&text, &args.points)?;
     let input = load_input(Some(&args.mesh))?;
     let (normalized, _) = input.mesh.normalized(sdf_multioctree::DEFAULT_MARGIN);

@@ -37,8 +37,8 @@ pub struct InputMesh {
 pub fn load_input(path: Option<&Path>) -> anyhow::Result<InputMesh> {
     match path {
         Some(p) => {
-            let loaded =
-                mesh::load_mesh(p).with_context(|| format!("cannot load mesh {}", p.display()))?;
+            // Every mesh error names the file already.
+            let loaded = mesh::load_mesh(p)?;
             let name = p
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())

@@ -14,28 +14,72 @@ use serde_json::json;
 
 use crate::args::{ModeArg, RenderArgs, RenderMeshArgs, RenderOptions, ViewsArg};
 use crate::commands::load_input;
-use crate::output::{ensure_parent, indexed_path, print_json, print_text};
+use crate::output::{check_output, ensure_parent, indexed_path, print_json, print_text};
 use crate::progress;
 
 /// Renders a `.smo` octree.
 pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
-    let octree = PackedOctree::load(&args.octree)
-        .with_context(|| format!("cannot load octree {}", args.octree.display()))?;
+    let outputs = check_options(&args.opts)?;
+    let octree = PackedOctree::load(&args.octree).map_err(|e| match e {
+        // I/O errors name the file already; format errors do not.
+        sdf_multioctree::format::FormatError::Io(io) => anyhow::Error::new(io),
+        e => anyhow::Error::new(e).context(format!("cannot load octree {}", args.octree.display())),
+    })?;
     render_all(
         &OctreeScene(&octree),
         &args.octree.display().to_string(),
         &args.opts,
+        &outputs,
     )
 }
 
 /// Renders the source mesh, normalised exactly as the builder does, so the images line up with
 /// the octree's.
 pub fn run_mesh(args: &RenderMeshArgs) -> anyhow::Result<()> {
+    let outputs = check_options(&args.opts)?;
     let input = load_input(args.mesh.as_deref())?;
     let (normalized, _) = input.mesh.normalized(sdf_multioctree::DEFAULT_MARGIN);
     let dist = MeshDistance::new(&normalized, SignMode::Auto)
         .with_context(|| format!("cannot prepare ray queries on {}", input.source))?;
-    render_all(&MeshScene(&dist), &input.source, &args.opts)
+    render_all(&MeshScene(&dist), &input.source, &args.opts, &outputs)
+}
+
+/// The files one view writes: the PNG and, when asked, the EXR.
+type ViewOutputs = (PathBuf, Option<PathBuf>);
+
+/// Checks the options before any work: flags the mode cannot use are errors, and every output
+/// (numbered per view) must have the right extension and be a file that may be replaced.
+/// Returns the outputs of each view.
+fn check_options(opts: &RenderOptions) -> anyhow::Result<Vec<ViewOutputs>> {
+    if opts.mode != ModeArg::Lambert && (opts.shadows || opts.ao > 0) {
+        anyhow::bail!(
+            "--shadows and --ao apply to --mode lambert only (the {} mode casts no light rays)",
+            opts.mode.name()
+        );
+    }
+    let views = cameras(opts).len();
+    let name = |p: &PathBuf, k: usize| {
+        if views > 1 {
+            indexed_path(p, k)
+        } else {
+            p.clone()
+        }
+    };
+    (0..views)
+        .map(|k| {
+            let png = name(&opts.output, k);
+            check_output(&png, "the image (-o)", &["png"])?;
+            let exr = match &opts.exr {
+                Some(p) => {
+                    let p = name(p, k);
+                    check_output(&p, "the EXR image (--exr)", &["exr"])?;
+                    Some(p)
+                }
+                None => None,
+            };
+            Ok((png, exr))
+        })
+        .collect()
 }
 
 impl ModeArg {
@@ -102,46 +146,40 @@ pub fn counters_json(c: &Counters) -> serde_json::Value {
     })
 }
 
-/// Renders every camera, writes the PNGs (and EXRs), prints times and counters.
-fn render_all<T: Traceable>(scene: &T, source: &str, opts: &RenderOptions) -> anyhow::Result<()> {
+/// Renders every camera, writes the PNGs (and EXRs) all or none, prints times and counters.
+fn render_all<T: Traceable>(
+    scene: &T,
+    source: &str,
+    opts: &RenderOptions,
+    outputs: &[ViewOutputs],
+) -> anyhow::Result<()> {
     let cams = cameras(opts);
     let settings = settings(opts);
     ensure_parent(&opts.output)?;
     if let Some(exr) = &opts.exr {
         ensure_parent(exr)?;
     }
-    let numbered = cams.len() > 1;
-    let name = |p: &PathBuf, k: usize| {
-        if numbered {
-            indexed_path(p, k)
-        } else {
-            p.clone()
-        }
-    };
 
     let bar = progress::steps(cams.len() as u64, "rendering");
     let mut views = Vec::new();
     let mut total = Counters::default();
     let mut total_ms = 0.0;
-    for (k, cam) in cams.iter().enumerate() {
+    // Every image is encoded and staged (written to a synced temporary) before the first is
+    // renamed into place: an encoding error or a full disk leaves every destination as it was.
+    let mut batch = sdf_multioctree::io::OutputBatch::new();
+    for (cam, (png, exr)) in cams.iter().zip(outputs) {
         let r: Rendered = render::render(scene, cam, &settings)
             .with_context(|| format!("cannot render {source}"))?;
-        let png = name(&opts.output, k);
-        render::save_png(&r, &png).with_context(|| format!("cannot write {}", png.display()))?;
-        let exr = match &opts.exr {
-            Some(p) => {
-                let p = name(p, k);
-                render::save_exr(&r, &p)
-                    .with_context(|| format!("cannot write {}", p.display()))?;
-                Some(p)
-            }
-            None => None,
-        };
+        batch.stage(png, &render::encode_png(&r, png)?)?;
+        if let Some(p) = exr {
+            batch.stage(p, &render::encode_exr(&r, p)?)?;
+        }
         total += r.counters;
         total_ms += r.render_ms;
-        views.push((png, exr, r.render_ms, r.counters));
+        views.push((png.clone(), exr.clone(), r.render_ms, r.counters));
         bar.inc(1);
     }
+    batch.commit()?;
     bar.finish_and_clear();
 
     let (w, h) = opts.size;

@@ -114,6 +114,32 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
             methods.push(*m);
         }
     }
+    let paths: Vec<Option<&Path>> = if args.meshes.is_empty() {
+        vec![None]
+    } else {
+        args.meshes.iter().map(|p| Some(p.as_path())).collect()
+    };
+    // Every mesh is loaded, and every build checked against the memory budget, before any
+    // work: a bad last mesh or too deep a depth fails in seconds, not after the others.
+    let inputs = paths
+        .iter()
+        .map(|p| load_input(*p))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let budget = args.max_memory.or_else(build::default_memory_budget);
+    for input in &inputs {
+        for &method in &methods {
+            let deepest = build_settings(args, method, *args.depths.end());
+            let estimate = build::estimate_memory(&input.mesh, &deepest).bytes;
+            if let Some(budget) = budget.filter(|&b| estimate > b) {
+                return Err(build::BuildError::MemoryBudget {
+                    depth: deepest.depth,
+                    estimate,
+                    budget,
+                })
+                .with_context(|| format!("cannot sweep {} {}", method.name(), input.source));
+            }
+        }
+    }
     let out = &args.output;
     std::fs::create_dir_all(out.join("images"))
         .with_context(|| format!("cannot create directory {}", out.display()))?;
@@ -126,19 +152,13 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
         views: Camera::paper_views(args.size, args.size).len(),
     };
 
-    let paths: Vec<Option<&Path>> = if args.meshes.is_empty() {
-        vec![None]
-    } else {
-        args.meshes.iter().map(|p| Some(p.as_path())).collect()
-    };
-    let steps = paths.len() * (1 + methods.len() * depths.len());
+    let steps = inputs.len() * (1 + methods.len() * depths.len());
     let bar = progress::steps(steps as u64, "starting");
 
     let mut rows: Vec<Row> = Vec::new();
     let mut models: Vec<Model> = Vec::new();
     let mut files: Vec<String> = Vec::new();
-    for path in paths {
-        let mut input = load_input(path)?;
+    for mut input in inputs {
         input.name = unique_name(&sanitize(&input.name), &models);
         let model = sweep_model(
             args, &settings, &methods, &depths, &input, &bar, &models, &mut rows,
@@ -167,6 +187,18 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
         out.join("index.html").display()
     ));
     print_text(&s)
+}
+
+/// The settings of one build of the sweep.
+fn build_settings(args: &SweepArgs, method: MethodArg, depth: u8) -> BuildSettings {
+    BuildSettings {
+        depth,
+        method: method.method(args.max_voxels),
+        bits: sdf_multioctree::format::ValueBits::Eight,
+        threads: args.threads,
+        margin: sdf_multioctree::DEFAULT_MARGIN,
+        sign: SignMode::Auto,
+    }
 }
 
 /// Renders the reference of one model, then builds, renders and compares every configuration.
@@ -213,17 +245,12 @@ fn sweep_model(
     for &method in methods {
         for &depth in depths {
             bar.set_message(format!("{name}: {} depth {depth}: build", method.name()));
-            let build_settings = BuildSettings {
-                depth,
-                method: method.method(args.max_voxels),
-                bits: sdf_multioctree::format::ValueBits::Eight,
-                threads: args.threads,
-                margin: sdf_multioctree::DEFAULT_MARGIN,
-                sign: SignMode::Auto,
-            };
+            let build_settings = build_settings(args, method, depth);
             let stage = format!("{name}: {} depth {depth}: build", method.name());
             let on_progress = |f: f32| bar.set_message(format!("{stage} {:.0}%", f * 100.0));
-            let (octree, stats) = build::build(&input.mesh, &build_settings, Some(&on_progress))
+            let budget = args.max_memory.or_else(build::default_memory_budget);
+            let (octree, stats) =
+                build::build_with_budget(&input.mesh, &build_settings, budget, Some(&on_progress))
                 .with_context(|| {
                     format!(
                         "cannot build {} depth {depth} of {}",
