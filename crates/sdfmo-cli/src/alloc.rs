@@ -57,7 +57,9 @@ unsafe impl GlobalAlloc for ExitOnOom {
         if p.is_null() {
             // SAFETY: `Layout::from_size_align_unchecked` requirements hold: `layout`'s align
             // is valid and the caller guarantees `new_size` does not overflow when rounded.
-            Self::out_of_memory(unsafe { Layout::from_size_align_unchecked(new_size, layout.align()) });
+            Self::out_of_memory(unsafe {
+                Layout::from_size_align_unchecked(new_size, layout.align())
+            });
         }
         p
     }

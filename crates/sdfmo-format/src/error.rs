@@ -1,6 +1,5 @@
 //! The crate's error type.
 
-
 /// Everything that can go wrong when building, writing or reading a packed octree.
 ///
 /// Building errors name the offending leaf by its coordinates; file errors name the field or

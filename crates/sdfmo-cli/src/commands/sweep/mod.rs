@@ -251,13 +251,13 @@ fn sweep_model(
             let budget = args.max_memory.or_else(build::default_memory_budget);
             let (octree, stats) =
                 build::build_with_budget(&input.mesh, &build_settings, budget, Some(&on_progress))
-                .with_context(|| {
-                    format!(
-                        "cannot build {} depth {depth} of {}",
-                        method.name(),
-                        input.source
-                    )
-                })?;
+                    .with_context(|| {
+                        format!(
+                            "cannot build {} depth {depth} of {}",
+                            method.name(),
+                            input.source
+                        )
+                    })?;
             bar.set_message(format!("{name}: {} depth {depth}: render", method.name()));
             let mut row = Row {
                 model: name.clone(),

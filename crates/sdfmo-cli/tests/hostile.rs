@@ -1,0 +1,644 @@
+//! A catalogue of hostile inputs and outputs, run on the real `sdfmo` binary inside one temporary
+//! folder: glTF buffer URIs that try to leave the model's folder, special files as outputs,
+//! planted temporary-file links, endless and blocking inputs, builds too deep for the memory,
+//! a full disk, out-of-range parameters. Every case must exit 2 with one line on stderr that
+//! names the problem, each cause once, in bounded time; and afterwards nothing outside the
+//! outputs a case was allowed to write has changed: the "victim" files beside the model are
+//! intact, FIFOs and devices are still FIFOs and devices, and no file was left behind.
+
+use std::ffi::OsString;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+const SDFMO: &str = env!("CARGO_BIN_EXE_sdfmo");
+
+/// What the victim files hold: three valid vertices, so that a loader that did read one
+/// would succeed (exit 0) and the case would fail.
+fn triangle_bytes() -> Vec<u8> {
+    [0f32, 0., 0., 1., 0., 0., 0., 1., 0.]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect()
+}
+
+/// A one-triangle glTF whose only buffer is `uri` (JSON-escaped here).
+fn gltf_with_uri(uri: &str) -> String {
+    let uri = serde_json::to_string(uri).unwrap();
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"buffers":[{{"uri":{uri},"byteLength":36}}],
+"bufferViews":[{{"buffer":0,"byteLength":36}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],"nodes":[{{"mesh":0}}],"scenes":[{{"nodes":[0]}}],"scene":0}}"#
+    )
+}
+
+fn mkfifo(path: &Path) {
+    let ok = Command::new("mkfifo")
+        .arg(path)
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(ok, "mkfifo {}", path.display());
+}
+
+fn is_root() -> bool {
+    Command::new("id")
+        .arg("-u")
+        .output()
+        .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
+}
+
+/// Every file under `dir` with its kind, size and content hash (links not followed).
+fn snapshot(dir: &Path) -> Vec<(PathBuf, String)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            let m = std::fs::symlink_metadata(&p).unwrap();
+            let t = m.file_type();
+            let desc = if t.is_symlink() {
+                format!("link {:?}", std::fs::read_link(&p).unwrap())
+            } else if t.is_dir() {
+                stack.push(p.clone());
+                "dir".to_owned()
+            } else if t.is_file() {
+                let bytes = std::fs::read(&p).unwrap();
+                let h = bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+                    (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+                });
+                format!("file {} {h:x}", bytes.len())
+            } else {
+                use std::os::unix::fs::FileTypeExt;
+                format!("special fifo={} char={}", t.is_fifo(), t.is_char_device())
+            };
+            out.push((p, desc));
+        }
+    }
+    out.sort();
+    out
+}
+
+fn data_model(name: &str) -> Option<PathBuf> {
+    let dir = std::env::var_os("SDFMO_TEST_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data"))
+        });
+    let p = dir.join(name);
+    if p.exists() {
+        return Some(p);
+    }
+    assert!(
+        std::env::var("SDFMO_REQUIRE_TEST_DATA").as_deref() != Ok("1"),
+        "test data missing at {}",
+        p.display()
+    );
+    eprintln!("note: {} missing, its cases skipped", p.display());
+    None
+}
+
+/// One hostile case: arguments, a fragment its error line must contain, a time bound.
+struct Case {
+    name: String,
+    args: Vec<OsString>,
+    needle: &'static str,
+    limit: Duration,
+}
+
+fn case(name: &str, args: &[&dyn AsRef<std::ffi::OsStr>], needle: &'static str) -> Case {
+    Case {
+        name: name.to_owned(),
+        args: args.iter().map(|a| a.as_ref().to_owned()).collect(),
+        needle,
+        limit: Duration::from_secs(2),
+    }
+}
+
+/// Runs a case: exit 2, nothing on stdout, one stderr line containing the needle, no fragment
+/// of it (between ": ") said twice, within the time limit.
+fn check(c: &Case) {
+    let start = Instant::now();
+    let out = Command::new(SDFMO)
+        .args(&c.args)
+        .stdin(Stdio::null())
+        .output()
+        .expect("cannot run sdfmo");
+    let took = start.elapsed();
+    let err = String::from_utf8_lossy(&out.stderr);
+    let name = &c.name;
+    assert_eq!(out.status.code(), Some(2), "{name}: {err}");
+    assert!(out.stdout.is_empty(), "{name}: stdout {:?}", out.stdout);
+    assert!(took < c.limit, "{name}: took {took:?}");
+    let line = err.trim_end();
+    // clap's own errors add a "For more information" line; ours are one line.
+    let first = line.lines().next().unwrap_or_default();
+    if first.starts_with("sdfmo: error: ") {
+        assert_eq!(line.lines().count(), 1, "{name}: {err}");
+    }
+    assert!(!err.contains("panicked"), "{name}: {err}");
+    assert!(
+        first.contains(c.needle),
+        "{name}: {:?} not in {first:?}",
+        c.needle
+    );
+    let fragments: Vec<&str> = first
+        .trim_start_matches("sdfmo: error: ")
+        .split(": ")
+        .collect();
+    for (i, a) in fragments.iter().enumerate() {
+        for b in &fragments[i + 1..] {
+            assert!(a != b, "{name}: {a:?} said twice in {first:?}");
+        }
+    }
+}
+
+#[test]
+#[cfg(unix)]
+fn hostile_catalogue() {
+    let root = tempfile::tempdir().unwrap();
+    let root = root.path();
+    let model = root.join("model");
+    let out = root.join("out");
+    std::fs::create_dir_all(model.join("sub")).unwrap();
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(root.join("secret.bin"), triangle_bytes()).unwrap();
+    std::fs::write(model.join("tri.bin"), triangle_bytes()).unwrap();
+    std::os::unix::fs::symlink(root.join("secret.bin"), model.join("link_out.bin")).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", model.join("link_zero.bin")).unwrap();
+    std::os::unix::fs::symlink("tri.bin", model.join("link_in.bin")).unwrap();
+    mkfifo(&model.join("pipe.bin"));
+
+    // Controls: a buffer inside the folder, also through a link that stays inside, loads.
+    for uri in ["tri.bin", "link_in.bin", "./tri.bin"] {
+        let g = model.join(format!("ok_{}.gltf", uri.replace(['/', '.'], "_")));
+        std::fs::write(&g, gltf_with_uri(uri)).unwrap();
+        let o = Command::new(SDFMO).arg("info").arg(&g).output().unwrap();
+        assert!(
+            o.status.success(),
+            "control {uri}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+
+    let mut cases = Vec::new();
+    // 1. glTF buffer URIs that leave the model's folder, or name no regular file.
+    let uris: [(&str, &str, &'static str); 16] = [
+        ("plain_dotdot", "../secret.bin", "climbs out"),
+        (
+            "deep_dotdot",
+            "../../../../../../../../etc/passwd",
+            "climbs out",
+        ),
+        ("percent_dots", "%2e%2e/secret.bin", "climbs out"),
+        ("percent_all", "%2E%2E%2Fsecret.bin", "climbs out"),
+        ("percent_absolute", "%2Fetc%2Fpasswd", "absolute path"),
+        (
+            "absolute",
+            "/etc/passwd",
+            "only data: URIs and relative paths",
+        ),
+        (
+            "file_scheme",
+            "file:///etc/passwd",
+            "only data: URIs and relative paths",
+        ),
+        ("inner_dotdot", "sub/../../secret.bin", "climbs out"),
+        ("backslash", "..\\secret.bin", "backslashes"),
+        ("nul", "tri%00.bin", "NUL"),
+        ("bad_utf8", "%ff%fe.bin", "not UTF-8"),
+        ("symlink_out", "link_out.bin", "symbolic link leads out"),
+        (
+            "symlink_dev_zero",
+            "link_zero.bin",
+            "symbolic link leads out",
+        ),
+        ("fifo_buffer", "pipe.bin", "FIFO"),
+        ("directory_buffer", "sub", "a directory"),
+        ("missing_buffer", "nothing.bin", "No such file"),
+    ];
+    for (name, uri, needle) in uris {
+        let g = model.join(format!("{name}.gltf"));
+        std::fs::write(&g, gltf_with_uri(uri)).unwrap();
+        cases.push(case(&format!("gltf {name}"), &[&"info", &g], needle));
+    }
+
+    // 2. Special files and links as outputs.
+    let smo = out.join("in.smo");
+    let o = Command::new(SDFMO)
+        .args(["build", "-d", "5", "-o"])
+        .arg(&smo)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let fifo_smo = out.join("fifo.smo");
+    let fifo_png = out.join("fifo.png");
+    let fifo_exr = out.join("fifo.exr");
+    let fifo_txt = out.join("fifo.txt");
+    for f in [&fifo_smo, &fifo_png, &fifo_exr, &fifo_txt] {
+        mkfifo(f);
+    }
+    std::os::unix::fs::symlink(&fifo_smo, out.join("to_fifo.smo")).unwrap();
+    std::os::unix::fs::symlink("nowhere.smo", out.join("dangling.smo")).unwrap();
+    std::fs::create_dir(out.join("dir.png")).unwrap();
+    let png = out.join("new.png");
+    let points = root.join("points.txt");
+    std::fs::write(&points, "0 0 0\n").unwrap();
+    let cube = model.join("ok_tri_bin.gltf");
+    cases.extend([
+        case(
+            "build -o fifo",
+            &[&"build", &"-d", &"4", &"-o", &fifo_smo],
+            "FIFO",
+        ),
+        case(
+            "render -o fifo",
+            &[&"render", &smo, &"-o", &fifo_png],
+            "FIFO",
+        ),
+        case(
+            "render -o /dev/null",
+            &[&"render", &smo, &"-o", &"/dev/null"],
+            "character device",
+        ),
+        case(
+            "build -o /dev/full",
+            &[&"build", &"-d", &"4", &"-o", &"/dev/full"],
+            "character device",
+        ),
+        case(
+            "build -o link to fifo",
+            &[&"build", &"-d", &"4", &"-o", &out.join("to_fifo.smo")],
+            "FIFO",
+        ),
+        case(
+            "build -o dangling link",
+            &[&"build", &"-d", &"4", &"-o", &out.join("dangling.smo")],
+            "does not exist",
+        ),
+        case(
+            "render -o directory",
+            &[&"render", &smo, &"-o", &out.join("dir.png")],
+            "a directory",
+        ),
+        case(
+            "render --exr fifo writes no png either",
+            &[&"render", &smo, &"-o", &png, &"--exr", &fifo_exr],
+            "FIFO",
+        ),
+        case(
+            "distance -o fifo",
+            &[&"distance", &cube, &"--points", &points, &"-o", &fifo_txt],
+            "FIFO",
+        ),
+        case(
+            "compare --heatmap fifo",
+            &[&"compare", &"a.png", &"b.png", &"--heatmap", &fifo_png],
+            "FIFO",
+        ),
+        case(
+            "build -o trailing slash",
+            &[&"build", &"-d", &"4", &"-o", &"adir/"],
+            "ends with a path separator",
+        ),
+    ]);
+    let mut device = None;
+    if is_root() {
+        let dev = out.join("null.smo");
+        let made = Command::new("mknod")
+            .arg(&dev)
+            .args(["c", "1", "3"])
+            .status()
+            .is_ok_and(|s| s.success());
+        if made {
+            cases.push(case(
+                "build -o device node",
+                &[&"build", &"-d", &"4", &"-o", &dev],
+                "character device",
+            ));
+            device = Some(dev);
+        }
+    }
+    if device.is_none() {
+        eprintln!("note: not root or mknod refused: the device-node case is skipped");
+    }
+
+    // 3. Endless and blocking inputs.
+    let fifo_in = root.join("input.stl");
+    mkfifo(&fifo_in);
+    let fifo_smo_in = root.join("input.smo");
+    mkfifo(&fifo_smo_in);
+    let fifo_points = root.join("points.fifo");
+    mkfifo(&fifo_points);
+    cases.extend([
+        case(
+            "info /dev/zero",
+            &[&"info", &"/dev/zero"],
+            "character device",
+        ),
+        case(
+            "render /dev/zero",
+            &[&"render", &"/dev/zero", &"-o", &png],
+            "character device",
+        ),
+        case(
+            "distance --points /dev/zero",
+            &[&"distance", &cube, &"--points", &"/dev/zero"],
+            "character device",
+        ),
+        case("info fifo", &[&"info", &fifo_in], "FIFO"),
+        case(
+            "render fifo",
+            &[&"render", &fifo_smo_in, &"-o", &png],
+            "FIFO",
+        ),
+        case(
+            "distance --points fifo",
+            &[&"distance", &cube, &"--points", &fifo_points],
+            "FIFO",
+        ),
+        case(
+            "compare /dev/zero",
+            &[&"compare", &"/dev/zero", &"/dev/zero"],
+            "character device",
+        ),
+        case("info directory", &[&"info", &model], "a directory"),
+    ]);
+
+    // 4. Out-of-range parameters, refused before any work.
+    cases.extend([
+        case(
+            "depth 0",
+            &[&"build", &"-d", &"0", &"-o", &out.join("d0.smo")],
+            "1..=16",
+        ),
+        case(
+            "depth -1",
+            &[&"build", &"-d", &"-1", &"-o", &out.join("d.smo")],
+            "1..=16",
+        ),
+        case(
+            "depth 17",
+            &[&"build", &"-d", &"17", &"-o", &out.join("d.smo")],
+            "1..=16",
+        ),
+        case(
+            "max voxels 0",
+            &[
+                &"build",
+                &"-d",
+                &"4",
+                &"--max-voxels",
+                &"0",
+                &"-o",
+                &out.join("m.smo"),
+            ],
+            "1..=255",
+        ),
+        case(
+            "ao 100000",
+            &[&"render", &smo, &"-o", &png, &"--ao", &"100000"],
+            "0..=1024",
+        ),
+        case(
+            "sweep depths beyond 16",
+            &[&"sweep", &"--depths", &"15..20", &"-o", &out.join("sweep")],
+            "within 1..=16",
+        ),
+        case(
+            "tiny memory budget",
+            &[
+                &"build",
+                &"-d",
+                &"6",
+                &"--max-memory",
+                &"1M",
+                &"-o",
+                &out.join("b.smo"),
+            ],
+            "more than the budget",
+        ),
+        case(
+            "build -o wrong extension",
+            &[&"build", &"-d", &"4", &"-o", &out.join("x.png")],
+            "must end in .smo",
+        ),
+        case(
+            "render -o jpg",
+            &[&"render", &smo, &"-o", &out.join("x.jpg")],
+            "must end in .png",
+        ),
+        case(
+            "shadows in normal mode",
+            &[
+                &"render",
+                &smo,
+                &"-o",
+                &png,
+                &"--mode",
+                &"normal",
+                &"--shadows",
+            ],
+            "lambert only",
+        ),
+    ]);
+
+    // 5. Builds too deep for the machine's memory, on a real model, under the default budget.
+    if let Some(abc5) = data_model("abc5.stl") {
+        let budget = sdf_multioctree::build::default_memory_budget();
+        let mesh = sdf_multioctree::mesh::load_mesh(&abc5).unwrap().mesh;
+        for depth in 13..=16u8 {
+            let settings = sdf_multioctree::build::BuildSettings {
+                depth,
+                ..Default::default()
+            };
+            let estimate = sdf_multioctree::build::estimate_memory(&mesh, &settings).bytes;
+            if budget.is_none_or(|b| estimate <= b) {
+                eprintln!("note: depth {depth} fits this machine's budget: case skipped");
+                continue;
+            }
+            let mut c = case(
+                &format!("abc5 depth {depth}"),
+                &[
+                    &"build",
+                    &abc5,
+                    &"-d",
+                    &depth.to_string(),
+                    &"-o",
+                    &out.join("deep.smo"),
+                ],
+                "more than the budget",
+            );
+            c.limit = Duration::from_secs(5);
+            cases.push(c);
+        }
+        let mut c = case(
+            "sweep abc5 depth 13",
+            &[
+                &"sweep",
+                &abc5,
+                &"--depths",
+                &"12..13",
+                &"-o",
+                &out.join("deep_sweep"),
+            ],
+            "more than the budget",
+        );
+        c.limit = Duration::from_secs(5);
+        if budget.is_some_and(|b| {
+            let s = sdf_multioctree::build::BuildSettings {
+                depth: 13,
+                ..Default::default()
+            };
+            sdf_multioctree::build::estimate_memory(&mesh, &s).bytes > b
+        }) {
+            cases.push(c);
+        }
+    }
+
+    // 6. Links planted at the temporary names the old writers used (`.NAME.tmp-PID`,
+    //    `.NAME.tmp.PID.0`) for the next few hundred process ids: a writer that followed them
+    //    would overwrite the victim.
+    let victim = root.join("victim.txt");
+    std::fs::write(&victim, b"precious").unwrap();
+    let next_pid: u32 = std::fs::read_to_string("/proc/sys/kernel/ns_last_pid")
+        .ok()
+        .and_then(|s| s.trim().parse().ok())
+        .unwrap_or(std::process::id());
+    for pid in next_pid..next_pid + 300 {
+        for name in [
+            format!(".planted.png.tmp-{pid}"),
+            format!(".planted.txt.tmp-{pid}"),
+            format!(".planted.smo.tmp.{pid}.0"),
+        ] {
+            let _ = std::os::unix::fs::symlink(&victim, out.join(name));
+        }
+    }
+
+    let before_model = snapshot(&model);
+    let before_root: Vec<_> = snapshot(root)
+        .into_iter()
+        .filter(|(p, _)| !p.starts_with(&out))
+        .collect();
+    let before_out = snapshot(&out);
+    assert!(cases.len() >= 40, "{} cases", cases.len());
+    for c in &cases {
+        check(c);
+    }
+
+    // The planted links: the writers succeed and the victim is untouched.
+    let planted_png = out.join("planted.png");
+    let planted_txt = out.join("planted.txt");
+    let planted_smo = out.join("planted.smo");
+    for args in [
+        vec![
+            OsString::from("render"),
+            smo.clone().into(),
+            "-o".into(),
+            planted_png.clone().into(),
+            "--size".into(),
+            "16".into(),
+        ],
+        vec![
+            "distance".into(),
+            cube.clone().into(),
+            "--points".into(),
+            points.clone().into(),
+            "-o".into(),
+            planted_txt.clone().into(),
+        ],
+        vec![
+            "build".into(),
+            "-d".into(),
+            "4".into(),
+            "-o".into(),
+            planted_smo.clone().into(),
+        ],
+    ] {
+        let o = Command::new(SDFMO).args(&args).output().unwrap();
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    assert_eq!(std::fs::read(&victim).unwrap(), b"precious");
+
+    // Nothing changed but the three planted outputs: the model folder and everything outside
+    // `out` as they were, FIFOs still FIFOs, no temporary or partial file left in `out`.
+    assert_eq!(snapshot(&model), before_model);
+    let after_root: Vec<_> = snapshot(root)
+        .into_iter()
+        .filter(|(p, _)| !p.starts_with(&out))
+        .collect();
+    assert_eq!(after_root, before_root);
+    let after_out: Vec<_> = snapshot(&out)
+        .into_iter()
+        .filter(|(p, _)| ![&planted_png, &planted_txt, &planted_smo].contains(&p))
+        .collect();
+    assert_eq!(after_out, before_out);
+}
+
+/// A disk that fills up mid-write: a 64 KiB tmpfs (root only). The error is clean, the old
+/// file stays whole, and no temporary is left on the full disk.
+#[test]
+#[cfg(unix)]
+fn a_full_disk_loses_nothing() {
+    if !is_root() {
+        eprintln!("note: not root: the full-disk case is skipped");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mnt = dir.path().join("small");
+    std::fs::create_dir(&mnt).unwrap();
+    let mounted = Command::new("mount")
+        .args(["-t", "tmpfs", "-o", "size=64k", "tmpfs"])
+        .arg(&mnt)
+        .status()
+        .is_ok_and(|s| s.success());
+    if !mounted {
+        eprintln!("note: cannot mount a tmpfs here: the full-disk case is skipped");
+        return;
+    }
+    let old = mnt.join("keep.smo");
+    let o = Command::new(SDFMO)
+        .args(["build", "-d", "4", "-o"])
+        .arg(&old)
+        .output()
+        .unwrap();
+    let result = std::panic::catch_unwind(|| {
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let before = std::fs::read(&old).unwrap();
+        for args in [
+            vec!["build", "-d", "8", "-o", old.to_str().unwrap()],
+            vec![
+                "render",
+                old.to_str().unwrap(),
+                "-o",
+                mnt.join("big.png").to_str().unwrap(),
+                "--views",
+                "paper",
+                "--size",
+                "1024",
+            ],
+        ] {
+            let c = Case {
+                name: format!("full disk: {}", args[0]),
+                args: args.iter().map(OsString::from).collect(),
+                needle: "No space left on device",
+                limit: Duration::from_secs(20),
+            };
+            check(&c);
+        }
+        assert_eq!(std::fs::read(&old).unwrap(), before);
+        let names: Vec<_> = std::fs::read_dir(&mnt)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names, vec![OsString::from("keep.smo")]);
+    });
+    let _ = Command::new("umount").arg(&mnt).status();
+    if let Err(e) = result {
+        std::panic::resume_unwind(e);
+    }
+}
