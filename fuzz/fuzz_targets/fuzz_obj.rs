@@ -14,6 +14,7 @@ const LIMITS: LoadLimits = LoadLimits {
     max_triangles: 1 << 18,
     max_vertices: 1 << 18,
     max_node_visits: 1 << 12,
+    max_file_bytes: 1 << 24,
 };
 
 fn check(m: &TriMesh) {

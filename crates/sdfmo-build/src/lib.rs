@@ -255,9 +255,99 @@ fn ms(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
 
-#[inline]
-fn corner_key(c: [u32; 3]) -> u64 {
-    ((c[0] as u64) << 42) | ((c[1] as u64) << 21) | c[2] as u64
+/// The distinct grid points of the candidates' corners, each once, in key order: their
+/// positions, the closest-point hint of the first cell that has them, and for every slot
+/// `cell · 8 + k` the index of its point.
+///
+/// The slots are sorted by corner key. Where the key (`depth + 1` bits per axis: a corner
+/// coordinate reaches `2^depth`) and the slot index fit in 64 bits together, one packed `u64`
+/// per slot is sorted (half the memory of a `(key, slot)` pair and of its sort: this array is
+/// the build's peak); otherwise the pairs. Both orders are the same (slots are unique), so the
+/// points and the octree are too.
+fn shared_corners(sub: &subdivide::Subdivision, depth: u8) -> (Vec<Vec3>, Vec<u32>, Vec<u32>) {
+    let n = sub.cells.len();
+    let axis_bits = u32::from(depth) + 1;
+    let slot_bits = u64::BITS - ((n as u64) * 8).leading_zeros();
+    let key_of = |c: &subdivide::Candidate, k: u32| -> u64 {
+        let g = [
+            c.coord[0] + ((k >> 2) & 1),
+            c.coord[1] + ((k >> 1) & 1),
+            c.coord[2] + (k & 1),
+        ];
+        ((g[0] as u64) << (2 * axis_bits)) | ((g[1] as u64) << axis_bits) | g[2] as u64
+    };
+    let mut out = SharedCorners::with_capacity(n);
+    let h = 2.0 / (1u64 << depth) as f32;
+    let axis_mask = (1u64 << axis_bits) - 1;
+    let mut visit = |key: u64, slot: u32| out.visit(key, slot, sub, h, axis_bits, axis_mask);
+    if 3 * axis_bits + slot_bits <= u64::BITS {
+        let mut packed: Vec<u64> = Vec::with_capacity(n * 8);
+        for (i, c) in sub.cells.iter().enumerate() {
+            for k in 0..8u32 {
+                packed.push((key_of(c, k) << slot_bits) | u64::from(i as u32 * 8 + k));
+            }
+        }
+        packed.par_sort_unstable();
+        let slot_mask = (1u64 << slot_bits) - 1;
+        for &p in &packed {
+            visit(p >> slot_bits, (p & slot_mask) as u32);
+        }
+    } else {
+        let mut slots: Vec<(u64, u32)> = Vec::with_capacity(n * 8);
+        for (i, c) in sub.cells.iter().enumerate() {
+            for k in 0..8u32 {
+                slots.push((key_of(c, k), i as u32 * 8 + k));
+            }
+        }
+        slots.par_sort_unstable();
+        for &(key, slot) in &slots {
+            visit(key, slot);
+        }
+    }
+    (out.points, out.hints, out.point_of_slot)
+}
+
+/// What [`shared_corners`] accumulates while walking the sorted slots.
+struct SharedCorners {
+    points: Vec<Vec3>,
+    hints: Vec<u32>,
+    point_of_slot: Vec<u32>,
+    last: u64,
+}
+
+impl SharedCorners {
+    fn with_capacity(cells: usize) -> SharedCorners {
+        SharedCorners {
+            points: Vec::with_capacity(cells * 2),
+            hints: Vec::with_capacity(cells * 2),
+            point_of_slot: vec![0u32; cells * 8],
+            last: u64::MAX,
+        }
+    }
+
+    #[inline]
+    fn visit(
+        &mut self,
+        key: u64,
+        slot: u32,
+        sub: &subdivide::Subdivision,
+        h: f32,
+        axis_bits: u32,
+        axis_mask: u64,
+    ) {
+        if key != self.last {
+            let g = [
+                (key >> (2 * axis_bits)) & axis_mask,
+                (key >> axis_bits) & axis_mask,
+                key & axis_mask,
+            ];
+            self.points
+                .push(Vec3::new(g[0] as f32, g[1] as f32, g[2] as f32) * h - Vec3::ONE);
+            self.hints.push(sub.cells[(slot / 8) as usize].hint);
+            self.last = key;
+        }
+        self.point_of_slot[slot as usize] = (self.points.len() - 1) as u32;
+    }
 }
 
 /// The global signed distance at a corner. With `hybrid` (sign mode `Auto` on a mesh that is
@@ -334,35 +424,7 @@ fn build_in_pool(
     // 4. Shared corners: every distinct grid point of the candidates, once.
     let t = Instant::now();
     let n = sub.cells.len();
-    let mut slots: Vec<(u64, u32)> = Vec::with_capacity(n * 8);
-    for (i, c) in sub.cells.iter().enumerate() {
-        for k in 0..8u32 {
-            let g = [
-                c.coord[0] + ((k >> 2) & 1),
-                c.coord[1] + ((k >> 1) & 1),
-                c.coord[2] + (k & 1),
-            ];
-            slots.push((corner_key(g), i as u32 * 8 + k));
-        }
-    }
-    slots.par_sort_unstable();
-    let mut points: Vec<Vec3> = Vec::with_capacity(n * 2);
-    let mut hints: Vec<u32> = Vec::with_capacity(n * 2);
-    let mut point_of_slot = vec![0u32; n * 8];
-    let h = 2.0 / (1u64 << depth) as f32;
-    let mask = (1u64 << 21) - 1;
-    let mut last = u64::MAX;
-    for &(key, slot) in &slots {
-        if key != last {
-            let g = [(key >> 42) & mask, (key >> 21) & mask, key & mask];
-            points.push(Vec3::new(g[0] as f32, g[1] as f32, g[2] as f32) * h - Vec3::ONE);
-            let cell = &sub.cells[(slot / 8) as usize];
-            hints.push(cell.hint);
-            last = key;
-        }
-        point_of_slot[slot as usize] = (points.len() - 1) as u32;
-    }
-    drop(slots);
+    let (points, hints, point_of_slot) = shared_corners(&sub, depth);
     let hybrid = settings.sign == SignMode::Auto && dist.sign_mode() == SignMode::Winding;
     let values: Vec<f32> = points
         .par_iter()
@@ -370,10 +432,11 @@ fn build_in_pool(
         .with_min_len(256)
         .map(|(&p, &hint)| global_signed_distance(&dist, &local, hybrid, p, hint))
         .collect();
+    drop((points, hints));
     let corners: Vec<[f32; 8]> = (0..n)
         .map(|i| std::array::from_fn(|k| values[point_of_slot[i * 8 + k] as usize]))
         .collect();
-    drop(point_of_slot);
+    drop((point_of_slot, values));
     phases.push(("corners".to_string(), ms(t)));
     report(0.45);
 
