@@ -11,11 +11,12 @@ use sdfmo_mesh::TriMesh;
 
 use crate::{BuildSettings, Method};
 
-/// Peak bytes per predicted candidate leaf of an SVO build (measured 205–250 at depth 11).
-const BYTES_PER_CELL_SVO: f64 = 280.0;
+/// Peak bytes per predicted candidate leaf of an SVO build (measured 167–182 at depth 11 on
+/// abc1, abc3, abc5; rounded up by a fifth).
+const BYTES_PER_CELL_SVO: f64 = 220.0;
 /// Peak bytes per predicted candidate leaf of a multi-octree build (gathered triangles, a
-/// component split per leaf; measured 205–250 at depth 11).
-const BYTES_PER_CELL_MULTI: f64 = 300.0;
+/// component split per leaf; measured 171–184 at depth 11).
+const BYTES_PER_CELL_MULTI: f64 = 230.0;
 /// Bytes per triangle of the mesh copies and distance structures (BVH, packets, topology).
 const BYTES_PER_TRIANGLE: f64 = 600.0;
 /// Fixed cost: the process, the thread pool, the progress bar.
