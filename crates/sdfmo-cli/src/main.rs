@@ -27,6 +27,9 @@ static ALLOCATOR: alloc::ExitOnOom = alloc::ExitOnOom;
 
 /// Exit code of a failed command (bad input, I/O error, …).
 const EXIT_ERROR: u8 = 2;
+/// Exit code after SIGINT, SIGTERM or SIGHUP (128 + SIGINT, as shells report it).
+const EXIT_INTERRUPTED: i32 = 130;
+
 /// Exit code of an internal bug (a panic in a layer): `EX_SOFTWARE` of sysexits.h.
 const EXIT_BUG: u8 = 70;
 
@@ -49,6 +52,15 @@ fn main() -> ExitCode {
             "sdfmo: internal error, please report it: {msg}{at}"
         );
     }));
+
+    // Interrupted (Ctrl-C, kill, a closed terminal): remove the temporaries of a write in
+    // progress, so nothing is left beside the outputs, then exit. The handler runs on a thread
+    // of its own, not in signal context.
+    let _ = ctrlc::set_handler(|| {
+        sdf_multioctree::io::remove_pending_temporaries();
+        let _ = writeln!(std::io::stderr(), "sdfmo: interrupted");
+        std::process::exit(EXIT_INTERRUPTED);
+    });
 
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,

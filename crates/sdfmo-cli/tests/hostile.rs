@@ -642,3 +642,46 @@ fn a_full_disk_loses_nothing() {
         std::panic::resume_unwind(e);
     }
 }
+
+/// SIGINT (Ctrl-C) or SIGTERM in the middle of a sweep that writes many files: exit 130, one
+/// line, and no temporary file left anywhere under the output folder.
+#[test]
+#[cfg(unix)]
+fn an_interrupt_leaves_no_temporary() {
+    for signal in ["-INT", "-TERM"] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("sweep");
+        let child = Command::new(SDFMO)
+            .args(["sweep", "--size", "128", "--depths", "5..8", "-o"])
+            .arg(&out)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Wait until it has started writing, then interrupt it.
+        let start = Instant::now();
+        while !out.join("images").exists() && start.elapsed() < Duration::from_secs(20) {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        std::thread::sleep(Duration::from_millis(300));
+        let killed = Command::new("kill")
+            .arg(signal)
+            .arg(child.id().to_string())
+            .status()
+            .unwrap();
+        assert!(killed.success());
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        if o.status.success() {
+            eprintln!("note: the sweep finished before {signal} arrived");
+            continue;
+        }
+        assert_eq!(o.status.code(), Some(130), "{signal}: {err}");
+        assert_eq!(err.trim_end(), "sdfmo: interrupted", "{signal}");
+        let leftovers: Vec<_> = snapshot(dir.path())
+            .into_iter()
+            .filter(|(p, _)| p.to_string_lossy().ends_with(".tmp"))
+            .collect();
+        assert!(leftovers.is_empty(), "{signal}: {leftovers:?}");
+    }
+}

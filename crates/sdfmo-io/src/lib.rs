@@ -24,7 +24,7 @@ use std::path::PathBuf;
 
 pub use confine::resolve_in_folder;
 pub use read::{open_regular, read_regular, read_regular_to_string};
-pub use write::{check_destination, write_atomic, OutputBatch};
+pub use write::{check_destination, remove_pending_temporaries, write_atomic, OutputBatch};
 
 /// What kind of file system object a path names, for errors about the wrong kind.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -2,6 +2,7 @@
 
 use std::io::Write;
 use std::path::{Component, Path, PathBuf};
+use std::sync::Mutex;
 
 use tempfile::NamedTempFile;
 
@@ -88,9 +89,75 @@ pub struct OutputBatch {
     staged: Vec<Staged>,
 }
 
+/// Temporaries created and not yet renamed or removed, for [`remove_pending_temporaries`].
+static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+fn pending() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    // A panic while holding the lock leaves the list valid: keep using it.
+    PENDING.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Removes every temporary file of this process that is not yet renamed into place or removed,
+/// and returns how many it removed. Meant for a SIGINT/SIGTERM handler that then exits (the
+/// CLI's does), so an interrupted write leaves nothing behind; a later commit of those outputs
+/// fails. (SIGKILL cannot be caught: a process killed by it mid-write can leave one
+/// `.NAME.XXXXXX.tmp` beside the destination.)
+pub fn remove_pending_temporaries() -> usize {
+    let mut list = pending();
+    let n = list
+        .drain(..)
+        .filter(|p| std::fs::remove_file(p).is_ok())
+        .count();
+    n
+}
+
+/// A temporary file registered in [`PENDING`] for as long as it exists under its name.
+#[derive(Debug)]
+struct Tracked(Option<NamedTempFile>);
+
+impl Tracked {
+    fn new(temp: NamedTempFile) -> Tracked {
+        pending().push(temp.path().to_path_buf());
+        Tracked(Some(temp))
+    }
+
+    fn file(&mut self) -> &mut NamedTempFile {
+        self.0
+            .as_mut()
+            .expect("a tracked temporary until persisted")
+    }
+
+    fn forget(path: &Path) {
+        let mut list = pending();
+        if let Some(i) = list.iter().position(|p| p == path) {
+            list.swap_remove(i);
+        }
+    }
+
+    /// Renames the temporary over `target`.
+    fn persist(mut self, target: &Path) -> std::io::Result<()> {
+        let temp = self.0.take().expect("persisted once");
+        let path = temp.path().to_path_buf();
+        let result = temp.persist(target).map(drop).map_err(|e| e.error);
+        // On error `persist` handed the file back inside `e` and dropped it: removed.
+        Tracked::forget(&path);
+        result
+    }
+}
+
+impl Drop for Tracked {
+    fn drop(&mut self) {
+        if let Some(temp) = self.0.take() {
+            let path = temp.path().to_path_buf();
+            drop(temp); // removes the file
+            Tracked::forget(&path);
+        }
+    }
+}
+
 #[derive(Debug)]
 struct Staged {
-    temp: NamedTempFile,
+    temp: Tracked,
     /// The file replaced (the link's target for a symbolic link).
     target: PathBuf,
     /// The path as the caller named it, for errors.
@@ -146,12 +213,15 @@ impl OutputBatch {
             use std::os::unix::fs::PermissionsExt;
             builder.permissions(std::fs::Permissions::from_mode(0o666));
         }
-        let mut temp = builder
-            .tempfile_in(&dir)
-            .map_err(os("create a temporary file in", &dir))?;
+        let mut temp = Tracked::new(
+            builder
+                .tempfile_in(&dir)
+                .map_err(os("create a temporary file in", &dir))?,
+        );
         // On error `temp` is dropped here, which removes it.
-        temp.write_all(bytes)
-            .and_then(|()| temp.as_file().sync_all())
+        let file = temp.file();
+        file.write_all(bytes)
+            .and_then(|()| file.as_file().sync_all())
             .map_err(os("write", path))?;
         self.staged.push(Staged {
             temp,
@@ -170,9 +240,7 @@ impl OutputBatch {
         let mut dirs: Vec<PathBuf> = Vec::new();
         for s in self.staged {
             let named = s.named;
-            s.temp
-                .persist(&s.target)
-                .map_err(|e| os("replace", &named)(e.error))?;
+            s.temp.persist(&s.target).map_err(os("replace", &named))?;
             if let Some(d) = s.target.parent() {
                 if !dirs.iter().any(|x| x == d) {
                     dirs.push(d.to_path_buf());
