@@ -92,7 +92,7 @@ fn sub_voxel_plates_stay_visible_in_the_multi_octree() {
                             format!("thin-{oname}-{depth}-{vname}-{tag}.png").replace(' ', "_");
                         sdf_multioctree::render::save_png(
                             img,
-                            &std::path::Path::new(&dir).join(name),
+                            std::path::Path::new(&dir).join(name),
                         )
                         .unwrap();
                     }

@@ -14,9 +14,9 @@ impl ExitOnOom {
         // No allocation from here on: format into a fixed buffer, write it raw.
         let mut buf = [0u8; 192];
         let mut w = std::io::Cursor::new(&mut buf[..]);
-        let _ = write!(
+        let _ = writeln!(
             w,
-            "sdfmo: error: out of memory: an allocation of {} bytes failed (try a smaller depth or --max-memory)\n",
+            "sdfmo: error: out of memory: an allocation of {} bytes failed (try a smaller depth or --max-memory)",
             layout.size()
         );
         let len = w.position() as usize;

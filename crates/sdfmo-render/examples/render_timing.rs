@@ -126,7 +126,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         let s = RenderSettings::new(mode).with_threads(t);
                         let (m, cpu) = best_of(&MeshScene(&dist), &camera, &s, repeat);
                         row(&format!("{name} mesh (BVH)"), mode, t, &m, cpu);
-                        save_png(&m, &out.join(format!("{name}_mesh_{mode}.png")))?;
+                        save_png(&m, out.join(format!("{name}_mesh_{mode}.png")))?;
                     }
                 }
                 reference_done = true;
@@ -138,7 +138,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     row(&format!("{name} d{depth} {method_name}"), mode, t, &o, cpu);
                     save_png(
                         &o,
-                        &out.join(format!("{name}_d{depth}_{method_name}_{mode}.png")),
+                        out.join(format!("{name}_d{depth}_{method_name}_{mode}.png")),
                     )?;
                 }
             }

@@ -306,7 +306,7 @@ fn png_round_trips_exactly() {
         .count();
     assert_eq!(leftovers, 0);
     // a missing directory is an error
-    assert!(save_png(&r, &out_dir().join("missing/dir/x.png")).is_err());
+    assert!(save_png(&r, out_dir().join("missing/dir/x.png")).is_err());
     // a buffer that does not match the size is an error
     let broken = Rendered {
         rgb: vec![0; 5],
