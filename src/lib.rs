@@ -55,7 +55,7 @@ pub use sdfmo_metrics as metrics;
 pub use sdfmo_render as render;
 pub use sdfmo_trace as trace;
 
-/// Margin of the normalisation into the root cube [-1, 1]³ (design §3): the longest extent of a
+/// Margin of the normalisation into the root cube [-1, 1]³ (the repository's `docs/architecture.md`, Conventions): the longest extent of a
 /// mesh becomes 2·(1 − margin). The builder's default; the CLI normalises meshes with it for
 /// `distance` and `render-mesh` so that their frame is the octree's.
 pub const DEFAULT_MARGIN: f32 = 0.05;
@@ -235,7 +235,7 @@ pub struct Comparison {
     pub flip: f32,
 }
 
-/// Compares a test image with a reference (design §3: PSNR on the 8-bit RGB values, LDR-FLIP
+/// Compares a test image with a reference (PSNR on the 8-bit RGB values, LDR-FLIP
 /// at 67 pixels per degree).
 ///
 /// # Errors

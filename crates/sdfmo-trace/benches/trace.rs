@@ -121,7 +121,7 @@ fn bench_mesh() -> (String, TriMesh) {
     }
 }
 
-/// Paper view 0 (design §3): eye (0, 0, 3), looking at the origin, fov 60°, square image.
+/// Paper view 0: eye (0, 0, 3), looking at the origin, fov 60°, square image.
 fn paper_view_rays(size: u32) -> Vec<Ray> {
     let eye = Vec3::new(0.0, 0.0, 3.0);
     let fwd = (-eye).normalize();
