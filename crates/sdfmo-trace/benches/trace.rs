@@ -103,11 +103,7 @@ fn bench_kernel(c: &mut Criterion) {
 }
 
 fn data_dir() -> PathBuf {
-    std::env::var_os("SDFMO_TEST_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data"))
-        })
+    sdfmo_testdata::test_data_dir(env!("CARGO_MANIFEST_DIR").as_ref())
 }
 
 fn bench_mesh() -> (String, TriMesh) {
