@@ -20,6 +20,17 @@
 //! | [`render`] | `sdfmo-render` | cameras, render modes, PNG/EXR, mesh reference images |
 //! | [`metrics`] | `sdfmo-metrics` | PSNR and FLIP |
 //!
+//! ## Debug builds
+//!
+//! The builder and the renderer are numeric loops: a debug build of a crate that depends on
+//! this one renders about 14× slower than a release build. Optimise the dependencies in dev
+//! builds (or build in release):
+//!
+//! ```toml
+//! [profile.dev.package."*"]
+//! opt-level = 3
+//! ```
+//!
 //! ## The pipeline in a few calls
 //!
 //! The functions at the root of this crate cover the common path with the paper's defaults
