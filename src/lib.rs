@@ -37,9 +37,8 @@
 //! (load → build → save/load → render → compare); each layer offers every setting.
 //!
 //! ```
-//! use sdf_multioctree::build::Method;
 //! use sdf_multioctree::{build_octree, compare, demo_mesh, load_octree, paper_views};
-//! use sdf_multioctree::{render_mesh, render_octree, save_octree};
+//! use sdf_multioctree::{render_mesh, render_octree, save_octree, save_png, Method, Mode};
 //!
 //! let mesh = demo_mesh(); // or sdf_multioctree::load_mesh("part.stl")?
 //! let (octree, stats) = build_octree(&mesh, 5, Method::Multi { max_voxels: 8 })?;
@@ -49,11 +48,17 @@
 //! assert_eq!(octree.byte_size(), stats.bytes);
 //!
 //! let camera = &paper_views(64)[0];
-//! let reference = render_mesh(&mesh, camera)?; // the source mesh, same camera and shading
-//! let image = render_octree(&octree, camera)?;
+//! let reference = render_mesh(&mesh, camera, Mode::Lambert)?; // same camera and shading
+//! let image = render_octree(&octree, camera, Mode::Lambert)?;
 //! let quality = compare(&reference, &image)?;
 //! assert!(quality.psnr > 10.0 && quality.flip < 0.5);
+//!
+//! let mask = render_octree(&octree, camera, Mode::Mask)?; // only hit or miss: no normals
+//! assert_eq!(mask.counters.normal_evals, 0);
+//! let png = path.with_extension("png");
+//! save_png(&mask, &png)?;
 //! # std::fs::remove_file(&path).ok();
+//! # std::fs::remove_file(&png).ok();
 //! # Ok::<(), sdf_multioctree::Error>(())
 //! ```
 #![deny(missing_docs)]
@@ -74,11 +79,16 @@ pub const DEFAULT_MARGIN: f32 = 0.05;
 use std::fmt;
 use std::path::Path;
 
-use build::{BuildSettings, BuildStats, Method};
+use build::BuildSettings;
 use distance::{MeshDistance, SignMode};
-use format::PackedOctree;
-use mesh::TriMesh;
-use render::{Camera, MeshScene, Mode, OctreeScene, RenderSettings, Rendered};
+use render::{MeshScene, OctreeScene, RenderSettings};
+
+// The types and functions the high-level API takes and returns, at the root so that a caller
+// of these functions (and the examples) needs no layer path.
+pub use build::{BuildStats, Method};
+pub use format::PackedOctree;
+pub use mesh::TriMesh;
+pub use render::{save_png, Camera, Mode, Rendered};
 
 /// An error of the high-level API: the layer's own error, one variant per layer.
 #[derive(Debug)]
@@ -201,26 +211,28 @@ pub fn paper_views(size: u32) -> Vec<Camera> {
     Camera::paper_views(size, size)
 }
 
-/// Ray traces an octree with the paper's shading (lambert, no shadows), on all cores.
+/// Ray traces an octree in `mode` on all cores: [`Mode::Lambert`] is the paper's shading (no
+/// shadows), [`Mode::Mask`], [`Mode::Depth`] and [`Mode::Normal`] compute only what they show.
+/// Use [`render::render`] with [`render::RenderSettings`] for shadows, occlusion and threads.
 ///
 /// # Errors
 /// [`Error::Render`] for an invalid camera.
-pub fn render_octree(octree: &PackedOctree, camera: &Camera) -> Result<Rendered> {
+pub fn render_octree(octree: &PackedOctree, camera: &Camera, mode: Mode) -> Result<Rendered> {
     Ok(render::render(
         &OctreeScene(octree),
         camera,
-        &RenderSettings::new(Mode::Lambert),
+        &RenderSettings::new(mode),
     )?)
 }
 
-/// Ray traces the source mesh (model units) as the reference image: normalised exactly as the
-/// builder does, the same camera and shading as [`render_octree`], face normals.
+/// Ray traces the source mesh (model units) in `mode` as the reference image: normalised
+/// exactly as the builder does, the same camera and shading as [`render_octree`], face normals.
 ///
 /// # Errors
 /// [`Error::Mesh`] for an invalid mesh (non-finite positions, out-of-range indices, no
 /// triangles), [`Error::Distance`] if the ray queries cannot be prepared, [`Error::Render`] for
 /// an invalid camera.
-pub fn render_mesh(mesh: &TriMesh, camera: &Camera) -> Result<Rendered> {
+pub fn render_mesh(mesh: &TriMesh, camera: &Camera, mode: Mode) -> Result<Rendered> {
     // `TriMesh`'s fields are public, so the mesh may never have been validated: check it before
     // normalising (which indexes positions by the triangles) so bad input is an error, not a panic.
     TriMesh::new(
@@ -233,7 +245,7 @@ pub fn render_mesh(mesh: &TriMesh, camera: &Camera) -> Result<Rendered> {
     Ok(render::render(
         &MeshScene(&dist),
         camera,
-        &RenderSettings::new(Mode::Lambert),
+        &RenderSettings::new(mode),
     )?)
 }
 
