@@ -8,9 +8,9 @@
 //! Defaults: the demo part, depth 6, 256×256 views (a few seconds). The paper's protocol is
 //! depth 9 and 1024×1024 (`sdfmo sweep` runs it over many models and depths).
 
-use sdf_multioctree::build::Method;
 use sdf_multioctree::{
-    build_octree, compare, demo_mesh, load_mesh, paper_views, render_mesh, render_octree,
+    build_octree, compare, demo_mesh, load_mesh, paper_views, render_mesh, render_octree, Method,
+    Mode,
 };
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -31,7 +31,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let cameras = paper_views(size);
     let references = cameras
         .iter()
-        .map(|c| render_mesh(&mesh, c))
+        .map(|c| render_mesh(&mesh, c, Mode::Lambert))
         .collect::<Result<Vec<_>, _>>()?;
 
     println!(
@@ -48,7 +48,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let (octree, stats) = build_octree(&mesh, depth, method)?;
         let (mut psnr, mut flip, mut ms) = (0.0, 0.0, 0.0);
         for (camera, reference) in cameras.iter().zip(&references) {
-            let image = render_octree(&octree, camera)?;
+            let image = render_octree(&octree, camera, Mode::Lambert)?;
             let q = compare(reference, &image)?;
             psnr += q.psnr;
             flip += f64::from(q.flip);

@@ -6,9 +6,9 @@
 //!
 //! Defaults: depth 6, output in the system's temporary directory. Runs in about a second.
 
-use sdf_multioctree::build::Method;
 use sdf_multioctree::{
-    build_octree, demo_mesh, load_octree, paper_views, render, render_octree, save_octree,
+    build_octree, demo_mesh, load_octree, paper_views, render_octree, save_octree, save_png,
+    Method, Mode,
 };
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -39,9 +39,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     // 4. Render the paper's first view and save it.
     let camera = &paper_views(512)[0];
-    let image = render_octree(&octree, camera)?;
+    let image = render_octree(&octree, camera, Mode::Lambert)?;
     let png = out_dir.join("quickstart.png");
-    render::save_png(&image, &png)?;
+    save_png(&image, &png)?;
     println!(
         "rendered {}x{} in {:.1} ms: {} and {}",
         image.width,

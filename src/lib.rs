@@ -20,15 +20,25 @@
 //! | [`render`] | `sdfmo-render` | cameras, render modes, PNG/EXR, mesh reference images |
 //! | [`metrics`] | `sdfmo-metrics` | PSNR and FLIP |
 //!
+//! ## Debug builds
+//!
+//! The builder and the renderer are numeric loops: a debug build of a crate that depends on
+//! this one renders about 14× slower than a release build. Optimise the dependencies in dev
+//! builds (or build in release):
+//!
+//! ```toml
+//! [profile.dev.package."*"]
+//! opt-level = 3
+//! ```
+//!
 //! ## The pipeline in a few calls
 //!
 //! The functions at the root of this crate cover the common path with the paper's defaults
 //! (load → build → save/load → render → compare); each layer offers every setting.
 //!
 //! ```
-//! use sdf_multioctree::build::Method;
 //! use sdf_multioctree::{build_octree, compare, demo_mesh, load_octree, paper_views};
-//! use sdf_multioctree::{render_mesh, render_octree, save_octree};
+//! use sdf_multioctree::{render_mesh, render_octree, save_octree, save_png, Method, Mode};
 //!
 //! let mesh = demo_mesh(); // or sdf_multioctree::load_mesh("part.stl")?
 //! let (octree, stats) = build_octree(&mesh, 5, Method::Multi { max_voxels: 8 })?;
@@ -38,11 +48,17 @@
 //! assert_eq!(octree.byte_size(), stats.bytes);
 //!
 //! let camera = &paper_views(64)[0];
-//! let reference = render_mesh(&mesh, camera)?; // the source mesh, same camera and shading
-//! let image = render_octree(&octree, camera)?;
+//! let reference = render_mesh(&mesh, camera, Mode::Lambert)?; // same camera and shading
+//! let image = render_octree(&octree, camera, Mode::Lambert)?;
 //! let quality = compare(&reference, &image)?;
 //! assert!(quality.psnr > 10.0 && quality.flip < 0.5);
+//!
+//! let mask = render_octree(&octree, camera, Mode::Mask)?; // only hit or miss: no normals
+//! assert_eq!(mask.counters.normal_evals, 0);
+//! let png = path.with_extension("png");
+//! save_png(&mask, &png)?;
 //! # std::fs::remove_file(&path).ok();
+//! # std::fs::remove_file(&png).ok();
 //! # Ok::<(), sdf_multioctree::Error>(())
 //! ```
 #![deny(missing_docs)]
@@ -56,7 +72,7 @@ pub use sdfmo_metrics as metrics;
 pub use sdfmo_render as render;
 pub use sdfmo_trace as trace;
 
-/// Margin of the normalisation into the root cube [-1, 1]³ (design §3): the longest extent of a
+/// Margin of the normalisation into the root cube [-1, 1]³ (the repository's `docs/architecture.md`, Conventions): the longest extent of a
 /// mesh becomes 2·(1 − margin). The builder's default; the CLI normalises meshes with it for
 /// `distance` and `render-mesh` so that their frame is the octree's.
 pub const DEFAULT_MARGIN: f32 = 0.05;
@@ -64,11 +80,16 @@ pub const DEFAULT_MARGIN: f32 = 0.05;
 use std::fmt;
 use std::path::Path;
 
-use build::{BuildSettings, BuildStats, Method};
+use build::BuildSettings;
 use distance::{MeshDistance, SignMode};
-use format::PackedOctree;
-use mesh::TriMesh;
-use render::{Camera, MeshScene, Mode, OctreeScene, RenderSettings, Rendered};
+use render::{MeshScene, OctreeScene, RenderSettings};
+
+// The types and functions the high-level API takes and returns, at the root so that a caller
+// of these functions (and the examples) needs no layer path.
+pub use build::{BuildStats, Method};
+pub use format::PackedOctree;
+pub use mesh::TriMesh;
+pub use render::{save_png, Camera, Mode, Rendered};
 
 /// An error of the high-level API: the layer's own error, one variant per layer.
 #[derive(Debug)]
@@ -191,26 +212,28 @@ pub fn paper_views(size: u32) -> Vec<Camera> {
     Camera::paper_views(size, size)
 }
 
-/// Ray traces an octree with the paper's shading (lambert, no shadows), on all cores.
+/// Ray traces an octree in `mode` on all cores: [`Mode::Lambert`] is the paper's shading (no
+/// shadows), [`Mode::Mask`], [`Mode::Depth`] and [`Mode::Normal`] compute only what they show.
+/// Use [`render::render`] with [`render::RenderSettings`] for shadows, occlusion and threads.
 ///
 /// # Errors
 /// [`Error::Render`] for an invalid camera.
-pub fn render_octree(octree: &PackedOctree, camera: &Camera) -> Result<Rendered> {
+pub fn render_octree(octree: &PackedOctree, camera: &Camera, mode: Mode) -> Result<Rendered> {
     Ok(render::render(
         &OctreeScene(octree),
         camera,
-        &RenderSettings::new(Mode::Lambert),
+        &RenderSettings::new(mode),
     )?)
 }
 
-/// Ray traces the source mesh (model units) as the reference image: normalised exactly as the
-/// builder does, the same camera and shading as [`render_octree`], face normals.
+/// Ray traces the source mesh (model units) in `mode` as the reference image: normalised
+/// exactly as the builder does, the same camera and shading as [`render_octree`], face normals.
 ///
 /// # Errors
 /// [`Error::Mesh`] for an invalid mesh (non-finite positions, out-of-range indices, no
 /// triangles), [`Error::Distance`] if the ray queries cannot be prepared, [`Error::Render`] for
 /// an invalid camera.
-pub fn render_mesh(mesh: &TriMesh, camera: &Camera) -> Result<Rendered> {
+pub fn render_mesh(mesh: &TriMesh, camera: &Camera, mode: Mode) -> Result<Rendered> {
     // `TriMesh`'s fields are public, so the mesh may never have been validated: check it before
     // normalising (which indexes positions by the triangles) so bad input is an error, not a panic.
     TriMesh::new(
@@ -223,7 +246,7 @@ pub fn render_mesh(mesh: &TriMesh, camera: &Camera) -> Result<Rendered> {
     Ok(render::render(
         &MeshScene(&dist),
         camera,
-        &RenderSettings::new(Mode::Lambert),
+        &RenderSettings::new(mode),
     )?)
 }
 
@@ -236,7 +259,7 @@ pub struct Comparison {
     pub flip: f32,
 }
 
-/// Compares a test image with a reference (design §3: PSNR on the 8-bit RGB values, LDR-FLIP
+/// Compares a test image with a reference (PSNR on the 8-bit RGB values, LDR-FLIP
 /// at 67 pixels per degree).
 ///
 /// # Errors

@@ -2,11 +2,10 @@
 
 use std::path::PathBuf;
 
-/// The shared test-mesh directory: `SDFMO_TEST_DATA`, else `../shared/data` beside the workspace.
+/// The shared test-mesh directory: `SDFMO_TEST_DATA`, else `../shared/data` beside the workspace
+/// (a relative value is taken against the workspace root; see `sdfmo-testdata`).
 pub fn data_dir() -> PathBuf {
-    std::env::var_os("SDFMO_TEST_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data")))
+    sdfmo_testdata::test_data_dir(env!("CARGO_MANIFEST_DIR").as_ref())
 }
 
 /// A comma-separated environment variable as a list of trimmed, non-empty items (`default` when

@@ -1,4 +1,4 @@
-//! Fuzzes the OBJ loader (tobj underneath): any bytes must give a `MeshError` or a valid mesh, never a panic, an
+//! Fuzzes the OBJ loader (one validating pass, `src/load/obj.rs`): any bytes must give a `MeshError` or a valid mesh, never a panic, an
 //! out-of-bounds read or an allocation sized by an unchecked count.
 //!
 //! Properties checked on every accepted input: the mesh satisfies `TriMesh::new`'s

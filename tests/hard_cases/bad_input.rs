@@ -6,7 +6,7 @@ use glam::Vec3;
 use sdf_multioctree::build::Method;
 use sdf_multioctree::format::PackedOctree;
 use sdf_multioctree::mesh::{procedural, TriMesh};
-use sdf_multioctree::render::Camera;
+use sdf_multioctree::render::{Camera, Mode};
 use sdf_multioctree::{build_octree, load_mesh, load_octree, render_mesh, render_octree, Error};
 
 use crate::common::{METHODS, MULTI};
@@ -45,7 +45,7 @@ fn nan_and_infinite_coordinates_are_typed_errors() {
         // The reference renderer refuses it too (no NaN image, no panic).
         let cam = Camera::paper_view(0, 16, 16);
         assert!(
-            render_mesh(&m, &cam).is_err(),
+            render_mesh(&m, &cam, Mode::Lambert).is_err(),
             "{bad}: render_mesh accepted a non-finite mesh"
         );
     }
@@ -104,7 +104,7 @@ fn empty_meshes_are_typed_errors() {
             let e = build_octree(&m, 5, method).unwrap_err();
             assert!(matches!(e, Error::Build(_)), "{e}");
         }
-        assert!(render_mesh(&m, &Camera::paper_view(0, 16, 16)).is_err());
+        assert!(render_mesh(&m, &Camera::paper_view(0, 16, 16), Mode::Lambert).is_err());
     }
     for (name, bytes) in [
         ("empty.obj", &b""[..]),
@@ -160,7 +160,7 @@ fn invalid_settings_and_cameras_are_typed_errors() {
             ..good
         },
     ] {
-        let e = render_octree(&o, &cam).unwrap_err();
+        let e = render_octree(&o, &cam, Mode::Lambert).unwrap_err();
         assert!(matches!(e, Error::Render(_)), "{cam:?}: {e}");
     }
 }
@@ -229,8 +229,9 @@ fn corrupt_octree_files_are_typed_errors() {
 fn render_mesh_with_out_of_range_index_is_a_typed_error() {
     for idx in [3u32, 1000, u32::MAX] {
         let m = raw(tri(), vec![[0, 1, 2], [0, idx, 1]]);
-        let r =
-            std::panic::catch_unwind(|| render_mesh(&m, &Camera::paper_view(0, 16, 16)).is_err());
+        let r = std::panic::catch_unwind(|| {
+            render_mesh(&m, &Camera::paper_view(0, 16, 16), Mode::Lambert).is_err()
+        });
         assert!(
             matches!(r, Ok(true)),
             "index {idx}: render_mesh panicked or accepted the mesh"

@@ -172,8 +172,9 @@ fn two_boxes_sharing_a_face() {
 }
 
 #[test]
+#[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
 fn teapot_builds_and_renders_with_both_methods() {
-    let Some(dir) = data_dir() else { return };
+    let dir = data_dir();
     let teapot = sdf_multioctree::load_mesh(dir.join("teapot.obj")).expect("teapot");
     assert!(!teapot.topology().watertight);
     let cams = paper_views(48);

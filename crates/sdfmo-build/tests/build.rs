@@ -23,29 +23,14 @@ fn run(mesh: &TriMesh, depth: u8, method: Method) -> (PackedOctree, BuildStats) 
     build(mesh, &settings(depth, method), None).expect("build")
 }
 
-fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var("SDFMO_TEST_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|_| {
-            PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data"))
-        });
-    if dir.is_dir() {
-        Some(dir)
-    } else if std::env::var("SDFMO_REQUIRE_TEST_DATA").as_deref() == Ok("1") {
-        panic!("test data not found at {}", dir.display());
-    } else {
-        eprintln!("note: test data not found at {}; skipping", dir.display());
-        None
-    }
-}
-
-fn load(name: &str) -> Option<TriMesh> {
-    let dir = data_dir()?;
-    Some(
-        sdfmo_mesh::load_mesh(&dir.join(name))
-            .expect("load test mesh")
-            .mesh,
-    )
+/// A mesh of the shared test data (resolved by `build.rs` through `sdfmo-testdata`); the tests
+/// that call this are ignored when the directory is absent and `SDFMO_REQUIRE_TEST_DATA` is not
+/// `1`.
+fn load(name: &str) -> TriMesh {
+    let path = PathBuf::from(env!("SDFMO_TEST_DATA_DIR")).join(name);
+    sdfmo_mesh::load_mesh(&path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .mesh
 }
 
 fn leaf_map(o: &PackedOctree) -> HashMap<[u32; 3], Vec<Voxel>> {
@@ -80,29 +65,20 @@ fn identical_bytes_for_1_2_and_4_threads() {
         assert_eq!(bytes[0], bytes[1], "{method:?}: 1 vs 2 threads");
         assert_eq!(bytes[0], bytes[2], "{method:?}: 1 vs 4 threads");
     }
-    if let Some(abc5) = load("abc5.stl") {
-        let a = build(
-            &abc5,
-            &BuildSettings {
-                threads: Some(1),
-                ..settings(6, MULTI)
-            },
-            None,
-        )
-        .unwrap()
-        .0;
-        let b = build(
-            &abc5,
-            &BuildSettings {
-                threads: Some(4),
-                ..settings(6, MULTI)
-            },
-            None,
-        )
-        .unwrap()
-        .0;
-        assert_eq!(a.to_bytes(), b.to_bytes());
-    }
+}
+
+#[test]
+#[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
+fn identical_bytes_for_1_and_4_threads_on_abc5() {
+    let abc5 = load("abc5.stl");
+    let with_threads = |t| {
+        let s = BuildSettings {
+            threads: Some(t),
+            ..settings(6, MULTI)
+        };
+        build(&abc5, &s, None).unwrap().0.to_bytes()
+    };
+    assert_eq!(with_threads(1), with_threads(4));
 }
 
 #[test]
@@ -375,10 +351,9 @@ fn open_sheet_yields_surface_voxels() {
 }
 
 #[test]
+#[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
 fn teapot_yields_surface_voxels() {
-    let Some(teapot) = load("teapot.obj") else {
-        return;
-    };
+    let teapot = load("teapot.obj");
     let (_, st) = run(&teapot, 6, MULTI);
     assert!(st.surface_voxels > 0, "{st:?}");
     let (_, svo) = run(&teapot, 6, Method::Svo);
@@ -386,8 +361,9 @@ fn teapot_yields_surface_voxels() {
 }
 
 #[test]
+#[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
 fn abc5_parts_side_by_side_get_several_voxels() {
-    let Some(abc5) = load("abc5.stl") else { return };
+    let abc5 = load("abc5.stl");
     let depth = 7;
     let (oct, st) = run(&abc5, depth, MULTI);
     let multi_leaves: usize = st.voxels_per_leaf[2..].iter().sum();

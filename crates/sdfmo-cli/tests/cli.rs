@@ -82,24 +82,6 @@ fn cube_obj(dir: &Path) -> PathBuf {
     p
 }
 
-fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("SDFMO_TEST_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data"))
-        });
-    if dir.join("abc5_parts.glb").exists() {
-        return Some(dir);
-    }
-    assert!(
-        std::env::var("SDFMO_REQUIRE_TEST_DATA").as_deref() != Ok("1"),
-        "test data missing at {}",
-        dir.display()
-    );
-    eprintln!("note: {} missing, test skipped", dir.display());
-    None
-}
-
 #[test]
 fn info_of_a_generated_cube_and_the_demo_part() {
     let dir = tmp("info");
@@ -507,8 +489,10 @@ fn walk(dir: &Path) -> Vec<PathBuf> {
 }
 
 #[test]
+#[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
 fn shared_data_parts_and_sign() {
-    let Some(data) = data_dir() else { return };
+    // The shared test meshes, as `build.rs` resolved them (`sdfmo-testdata`).
+    let data = PathBuf::from(env!("SDFMO_TEST_DATA_DIR"));
     let j = json_ok(&[
         "info".as_ref(),
         data.join("abc5_parts.glb").as_os_str(),

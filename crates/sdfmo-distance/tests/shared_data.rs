@@ -1,5 +1,5 @@
-//! Tests on the shared meshes (`SDFMO_TEST_DATA`, default `../shared/data`): skipped with a note
-//! when the directory is missing, unless `SDFMO_REQUIRE_TEST_DATA=1`.
+//! Tests on the shared meshes (`SDFMO_TEST_DATA`, default `../shared/data` beside the workspace):
+//! reported as ignored when the directory is missing, unless `SDFMO_REQUIRE_TEST_DATA=1`.
 
 mod common;
 
@@ -12,30 +12,13 @@ use rand_chacha::ChaCha8Rng;
 use sdfmo_distance::{MeshDistance, SignMode};
 use sdfmo_mesh::{load_mesh, TriMesh};
 
-fn data_file(name: &str) -> Option<PathBuf> {
-    let dir = std::env::var_os("SDFMO_TEST_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data"))
-        });
-    let path = dir.join(name);
-    if path.is_file() {
-        return Some(path);
-    }
-    if std::env::var("SDFMO_REQUIRE_TEST_DATA").as_deref() == Ok("1") {
-        panic!(
-            "test data {} is missing (SDFMO_REQUIRE_TEST_DATA=1)",
-            path.display()
-        );
-    }
-    eprintln!("note: skipping, test data {} not found", path.display());
-    None
-}
-
-fn load_normalized(name: &str) -> Option<TriMesh> {
-    let path = data_file(name)?;
+/// A mesh of the shared test data (resolved by `build.rs` through `sdfmo-testdata`), normalised;
+/// the tests that call this are ignored when the directory is absent and
+/// `SDFMO_REQUIRE_TEST_DATA` is not `1`.
+fn load_normalized(name: &str) -> TriMesh {
+    let path = PathBuf::from(env!("SDFMO_TEST_DATA_DIR")).join(name);
     let loaded = load_mesh(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    Some(loaded.mesh.normalized(0.05).0)
+    loaded.mesh.normalized(0.05).0
 }
 
 /// Points uniformly in the root cube and close to random triangles.
@@ -68,10 +51,9 @@ fn sample_points(mesh: &TriMesh, n: usize, seed: u64) -> Vec<Vec3> {
 }
 
 #[test]
+#[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
 fn teapot_distances_match_the_oracle_and_winding_signs_match_the_exact_winding_number() {
-    let Some(mesh) = load_normalized("teapot.obj") else {
-        return;
-    };
+    let mesh = load_normalized("teapot.obj");
     let md = MeshDistance::new(&mesh, SignMode::Auto).unwrap();
     assert_eq!(md.sign_mode(), SignMode::Winding, "the teapot is open");
     let pts = sample_points(&mesh, 600, 1);
@@ -102,10 +84,9 @@ fn teapot_distances_match_the_oracle_and_winding_signs_match_the_exact_winding_n
 }
 
 #[test]
+#[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
 fn closed_cad_part_has_no_sign_errors_near_edges_and_vertices() {
-    let Some(mesh) = load_normalized("abc8.stl") else {
-        return;
-    };
+    let mesh = load_normalized("abc8.stl");
     let md = MeshDistance::new(&mesh, SignMode::Auto).unwrap();
     assert_eq!(md.sign_mode(), SignMode::PseudoNormal, "abc8 is watertight");
     // Every 8th point near a vertex or an edge, offsets 1e-5 .. 1e-2 (normalised units).

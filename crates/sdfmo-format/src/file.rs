@@ -1,6 +1,6 @@
 //! The `.smo` file: header constants, layout, writing, atomic save and load.
 //!
-//! `docs/format.md` is the byte-by-byte specification; [`HEADER_FIELDS`] is the same table in
+//! The crate's `FORMAT.md` is the byte-by-byte specification; [`HEADER_FIELDS`] is the same table in
 //! code, and a test checks the two against each other and against real bytes.
 
 use std::path::Path;
@@ -37,7 +37,7 @@ pub const CHECKSUM_SIZE: usize = 4;
 /// One header field: name, byte offset and size (all fields little-endian).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct HeaderField {
-    /// Field name as written in `docs/format.md`.
+    /// Field name as written in the crate's `FORMAT.md`.
     pub name: &'static str,
     /// Byte offset from the start of the file.
     pub offset: usize,
@@ -239,7 +239,7 @@ impl PackedOctree {
         flags
     }
 
-    /// The `.smo` file as bytes (`docs/format.md`).
+    /// The `.smo` file as bytes (specified in the crate's `FORMAT.md`).
     pub fn to_bytes(&self) -> Vec<u8> {
         let l = self.layout();
         let mut out = Vec::with_capacity(l.file_size as usize);

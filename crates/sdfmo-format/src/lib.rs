@@ -7,7 +7,7 @@
 //! count, offset and index, and the CRC-32, before using anything. [`PackedOctreeView`] reads the
 //! same bytes in place (zero copy).
 //!
-//! # Layout (also the file's payload; `docs/format.md` specifies it byte by byte)
+//! # Layout (also the file's payload; the crate's `FORMAT.md` specifies it byte by byte)
 //!
 //! Nodes are numbered breadth first: the root is node 0, and the children of every node follow
 //! in order, so the children of one node are contiguous and, because a child's octant is

@@ -1,4 +1,5 @@
-//! `docs/format.md` against the code: the header table and the worked example's bytes.
+//! `FORMAT.md` (the `.smo` specification, shipped in the package) against the code: the header
+//! table and the worked example's bytes.
 
 use glam::Vec3;
 use sdfmo_format::{
@@ -6,8 +7,8 @@ use sdfmo_format::{
 };
 
 fn format_md() -> String {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/format.md");
-    std::fs::read_to_string(path).expect("docs/format.md")
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/FORMAT.md");
+    std::fs::read_to_string(path).expect("FORMAT.md")
 }
 
 /// The rows `| offset | size | type | `name` | … |` of the section headed `## Header`.

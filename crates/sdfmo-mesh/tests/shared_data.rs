@@ -5,28 +5,16 @@ use std::path::PathBuf;
 
 use sdfmo_mesh::{load_mesh, MeshFormat};
 
-fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("SDFMO_TEST_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data"))
-        });
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    if std::env::var("SDFMO_REQUIRE_TEST_DATA").as_deref() == Ok("1") {
-        panic!(
-            "test data not found at {} (SDFMO_REQUIRE_TEST_DATA=1)",
-            dir.display()
-        );
-    }
-    eprintln!("note: test data not found at {}; skipping", dir.display());
-    None
+/// The shared test meshes, as `build.rs` resolved them (`sdfmo-testdata`); the tests below are
+/// ignored when the directory is absent and `SDFMO_REQUIRE_TEST_DATA` is not `1`.
+fn data_dir() -> PathBuf {
+    PathBuf::from(env!("SDFMO_TEST_DATA_DIR"))
 }
 
 #[test]
+#[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
 fn every_shared_file_loads() {
-    let Some(dir) = data_dir() else { return };
+    let dir = data_dir();
     let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -95,8 +83,9 @@ const TRIMESH: [Reference; 9] = [
 ];
 
 #[test]
+#[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
 fn info_agrees_with_trimesh() {
-    let Some(dir) = data_dir() else { return };
+    let dir = data_dir();
     for r in &TRIMESH {
         let l = load_mesh(&dir.join(r.file)).unwrap_or_else(|e| panic!("{e}"));
         let info = l.mesh.info();
@@ -127,8 +116,9 @@ fn info_agrees_with_trimesh() {
 }
 
 #[test]
+#[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
 fn same_model_in_three_formats_gives_the_same_mesh() {
-    let Some(dir) = data_dir() else { return };
+    let dir = data_dir();
     let stl = load_mesh(&dir.join("abc5.stl")).unwrap().mesh;
     let obj = load_mesh(&dir.join("abc5_parts.obj")).unwrap();
     let glb = load_mesh(&dir.join("abc5_parts.glb")).unwrap();

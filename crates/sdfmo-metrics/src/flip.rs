@@ -4,7 +4,7 @@ use crate::{check_pair, rgb_bytes, MetricsError, Result};
 use image::RgbImage;
 
 /// The reference tool's default pixels per degree, about 67.02 (a 0.7 m wide, 3840-pixel
-/// monitor viewed from 0.7 m): what "67 pixels per degree" means in design §3.
+/// monitor viewed from 0.7 m): what "67 pixels per degree" means in the paper's protocol.
 pub const DEFAULT_PPD: f32 = flip_rs::DEFAULT_PPD;
 
 /// An LDR-FLIP evaluation: the per-pixel error map and its mean.
@@ -38,7 +38,7 @@ impl FlipResult {
     }
 }
 
-/// LDR-FLIP between two 8-bit images read as sRGB, at [`DEFAULT_PPD`] (design §3).
+/// LDR-FLIP between two 8-bit images read as sRGB, at [`DEFAULT_PPD`], the 8-bit values read as sRGB.
 ///
 /// # Errors
 ///

@@ -1,4 +1,5 @@
-//! PSNR on 8-bit RGB images (design §3).
+//! PSNR on 8-bit RGB images: over all pixels, background included, the squared error averaged
+//! over the three channels.
 
 use crate::{check_pair, rgb_bytes, Result};
 use image::RgbImage;

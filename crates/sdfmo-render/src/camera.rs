@@ -1,4 +1,5 @@
-//! The pinhole camera of design §3 and the paper's four views.
+//! The pinhole camera (the repository's `docs/architecture.md`, Conventions) and the paper's four
+//! views.
 //!
 //! Pixel `(px, py)`, `py` counted from the top, is sampled at its centre:
 //!
@@ -23,7 +24,7 @@ pub const MAX_IMAGE_SIDE: u32 = 32_768;
 /// Largest accepted pixel count (so a hostile size cannot ask for a huge allocation).
 pub const MAX_PIXELS: u64 = 1 << 28;
 
-/// A pinhole camera (design §3): eye, target, up hint, vertical field of view, image size.
+/// A pinhole camera (see the module docs): eye, target, up hint, vertical field of view, image size.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     /// Eye position (normalised frame).
@@ -68,7 +69,7 @@ impl Camera {
         Camera::new(eye, Vec3::ZERO, 60.0, width, height)
     }
 
-    /// The paper's four views (design §3), in order k = 0, 1, 2, 3.
+    /// The paper's four views (eye 3·(sin θ, 0, cos θ), θ = 2πk/4, fov 60°), in order k = 0, 1, 2, 3.
     pub fn paper_views(width: u32, height: u32) -> Vec<Camera> {
         (0..4)
             .map(|k| Camera::paper_view(k, width, height))

@@ -1,7 +1,7 @@
 //! Rendering for sdf-multioctree: cameras, render modes, effect planning, tiles in parallel,
 //! PNG/EXR output, for the packed octree and for the source mesh (the reference image).
 //!
-//! Conventions (design §3): right-handed, +Y up, the octree root is [-1, 1]³ and meshes are
+//! Conventions (the repository's `docs/architecture.md`): right-handed, +Y up, the octree root is [-1, 1]³ and meshes are
 //! rendered in the same normalised frame. The camera is described in [`camera`], the exact
 //! shading formulas in [`shading`], the planning in [`plan`].
 //!

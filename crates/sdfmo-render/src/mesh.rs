@@ -1,4 +1,4 @@
-//! The source mesh as a scene: the reference image (design §3), rendered by the same camera and
+//! The source mesh as a scene: the reference image (the source mesh with its face normals), rendered by the same camera and
 //! shading through `sdfmo-distance`'s watertight ray hits, with geometric (face) normals,
 //! two-sided.
 

@@ -23,7 +23,7 @@ pub enum Mode {
     /// The viewer-facing unit normal as colour, n·0.5 + 0.5; the f32 normals are kept in
     /// [`crate::Rendered::normals`].
     Normal,
-    /// Design §3 shading (see [`crate::shading::lambert_value`]), optionally with shadows and
+    /// The paper protocol's shading (see [`crate::shading::lambert_value`]), optionally with shadows and
     /// ambient occlusion.
     #[default]
     Lambert,

@@ -5,7 +5,7 @@
 //! sRGB-encoded display values by the metrics, as the paper's images are). The background is
 //! black (0, 0, 0) in every mode.
 //!
-//! - **lambert** (design §3): `value = clamp(AMBIENT·a + LIGHT_INTENSITY·max(0, n·l)·s, 0, 1)`
+//! - **lambert** (the paper's protocol): `value = clamp(AMBIENT·a + LIGHT_INTENSITY·max(0, n·l)·s, 0, 1)`
 //!   with white albedo, `l = normalize(1, 1, 1)`, [`AMBIENT`] = 0.25, [`LIGHT_INTENSITY`] = 2/3,
 //!   `n` the unit normal flipped to face the viewer (two-sided), `s` = 0 when a shadow ray finds
 //!   an occluder and 1 otherwise (always 1 without shadows), `a` = the fraction of unoccluded

@@ -103,11 +103,7 @@ fn bench_kernel(c: &mut Criterion) {
 }
 
 fn data_dir() -> PathBuf {
-    std::env::var_os("SDFMO_TEST_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data"))
-        })
+    sdfmo_testdata::test_data_dir(env!("CARGO_MANIFEST_DIR").as_ref())
 }
 
 fn bench_mesh() -> (String, TriMesh) {
@@ -121,7 +117,7 @@ fn bench_mesh() -> (String, TriMesh) {
     }
 }
 
-/// Paper view 0 (design §3): eye (0, 0, 3), looking at the origin, fov 60°, square image.
+/// Paper view 0: eye (0, 0, 3), looking at the origin, fov 60°, square image.
 fn paper_view_rays(size: u32) -> Vec<Ray> {
     let eye = Vec3::new(0.0, 0.0, 3.0);
     let fwd = (-eye).normalize();

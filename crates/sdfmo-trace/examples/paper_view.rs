@@ -1,4 +1,4 @@
-//! Trace the paper's four views (eye 3·(sin θ, 0, cos θ), θ = 2πk/4, fov 60°, design §3) of a
+//! Trace the paper's four views (eye 3·(sin θ, 0, cos θ), θ = 2πk/4, fov 60°) of a
 //! mesh's octree with
 //! `sdfmo_trace::intersect`, one thread, and print the best time per frame of a few runs: wall
 //! time, and on Linux the thread's CPU time from `/proc/thread-self/schedstat`, which other load

@@ -1,6 +1,7 @@
 //! Ray tracing the packed SDF multi-octree: front-to-back traversal of a [`PackedOctree`]
-//! ([`intersect`], [`occluded`]), the ray vs trilinear-voxel kernel ([`intersect_voxel`]) and
-//! analytic normals ([`hit_normal`]).
+//! ([`intersect`], [`occluded`]), the ray vs trilinear-voxel kernel ([`intersect_voxel`]),
+//! analytic normals ([`hit_normal`]), and the stored signed distance and its gradient at a
+//! point ([`distance_at`], for collision queries).
 //!
 //! Depends on `sdfmo-format` and glam only, so an engine that loads and renders octrees embeds
 //! these two crates and nothing else. Nothing here allocates: the traversal keeps a fixed-size
@@ -25,10 +26,12 @@
 
 #![deny(missing_docs)]
 
+pub mod distance;
 pub mod normal;
 pub mod ray_voxel;
 pub mod traversal;
 
+pub use distance::{distance_at, DistanceSample};
 pub use normal::{hit_normal, trilinear_gradient};
 pub use ray_voxel::{intersect_voxel, unit_cube_span};
 pub use traversal::{intersect, occluded, occupied_bounds, ray_meets_box, Hit, Ray};

@@ -20,7 +20,7 @@ const VIEWS: usize = 100;
 /// Erosion radius of the reference silhouette, pixels (a disk).
 const ERODE: i32 = 2;
 
-/// A pinhole camera as design §3: pixel centres, py from the top, right = fwd × up.
+/// The pinhole camera of `docs/architecture.md` (Conventions): pixel centres, py from the top, right = fwd × up.
 struct Camera {
     eye: Vec3,
     fwd: Vec3,

@@ -1,16 +1,29 @@
-//! OBJ reader on top of `tobj`.
+//! OBJ reader: one validating pass over the lines that produces positions, triangles and parts
+//! directly.
 //!
-//! The input is first reduced to the statements that carry geometry (`v`, `f`, `o`, `g`), each
-//! checked here with its line number: coordinates must be finite numbers and face indices must
-//! be integers that resolve (1-based, or negative = relative) to an existing vertex. Texture
-//! and normal references are stripped from faces, so `tobj` never sees an index it might
-//! mishandle, and no material file is ever opened. `tobj` then groups faces into objects and
-//! triangulates polygons (as fans); each distinct `o`/`g` name becomes a part.
+//! Only the statements that carry geometry are read (`v`, `f`, `o`, `g`), each checked with its
+//! line number: coordinates must be finite numbers (a fourth, homogeneous `w` divides them and
+//! must not be 0) and face indices must be integers that resolve (1-based, or negative =
+//! relative) to an already defined vertex. Texture and normal references in faces are ignored,
+//! and no material file is ever opened. Polygons are triangulated as fans `(0, k, k + 1)`;
+//! points and lines are not surfaces and are skipped.
+//!
+//! Grouping follows the usual OBJ reading (tobj's, which this reader replaced): every `o` or `g`
+//! statement that follows faces starts a new object, named by the rest of the line
+//! (`unnamed_object` when empty or before the first statement); each distinct name is a part,
+//! and each object gets its own copy of the vertices it uses, in the order of first use. Memory:
+//! 20 bytes per `v` line plus the output (12 bytes per position, 16 per triangle), never a
+//! re-serialised copy of the text (see `docs/results/mesh.md`).
+
+use std::collections::HashMap;
 
 use glam::Vec3;
 
 use super::{LoadLimits, RawMesh};
 use crate::error::{MeshError, Result};
+
+/// Name of the object before the first `o`/`g` statement, and of an `o`/`g` without a name.
+const UNNAMED: &str = "unnamed_object";
 
 /// Weak content check: the first meaningful lines are OBJ statements.
 pub(super) fn looks_like_obj(text: &[u8]) -> bool {
@@ -41,9 +54,19 @@ pub(super) fn looks_like_obj(text: &[u8]) -> bool {
 
 pub(super) fn read(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawMesh> {
     let text = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
-    let mut clean = String::with_capacity(text.len().min(1 << 30));
-    let mut vertices: u64 = 0;
-    let mut face_triangles: usize = 0;
+    let mut raw = RawMesh::default();
+    // Every vertex read so far (after dividing by w).
+    let mut vertices: Vec<Vec3> = Vec::new();
+    // `owner[v] == object` when vertex `v` already has a copy in the current object, at
+    // `raw.positions[copy[v]]`.
+    let mut owner: Vec<u32> = Vec::new();
+    let mut copy: Vec<u32> = Vec::new();
+    let mut object: u32 = 0;
+    let mut name = String::from(UNNAMED);
+    // The part of the current object, assigned at its first face.
+    let mut part: Option<u32> = None;
+    let mut part_ids: HashMap<String, u32> = HashMap::new();
+    let mut face: Vec<u32> = Vec::new();
     for (i, line) in text.split(|&b| b == b'\n').enumerate() {
         let lineno = i + 1;
         let perr = |reason: String| MeshError::Parse {
@@ -55,61 +78,67 @@ pub(super) fn read(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawM
         let mut words = line.split_ascii_whitespace();
         match words.next() {
             Some("v") => {
-                let nums: Vec<&str> = words.collect();
-                if nums.len() < 3 {
-                    return Err(perr(format!(
-                        "`v` needs 3 coordinates, found {}",
-                        nums.len()
-                    )));
-                }
+                let n = vertices.len() + 1;
                 let mut c = [0.0f32; 3];
-                for (k, w) in nums[..3].iter().enumerate() {
-                    c[k] = w.parse::<f32>().map_err(|_| {
+                for (k, x) in c.iter_mut().enumerate() {
+                    let w = words
+                        .next()
+                        .ok_or_else(|| perr(format!("`v` needs 3 coordinates, found {k}")))?;
+                    *x = w.parse::<f32>().map_err(|_| {
                         perr(format!(
                             "`{}` is not a number",
                             w.chars().take(40).collect::<String>()
                         ))
                     })?;
                 }
-                let p = Vec3::from_array(c);
+                let mut p = Vec3::from_array(c);
                 if !p.is_finite() {
                     let bad = c.into_iter().find(|x| !x.is_finite()).unwrap_or(f32::NAN);
                     return Err(MeshError::NonFinite {
                         file: file.into(),
-                        element: format!("vertex {} (line {lineno})", vertices + 1),
+                        element: format!("vertex {n} (line {lineno})"),
                         value: bad.to_string(),
                     });
                 }
-                vertices += 1;
-                if vertices > limits.max_vertices as u64 {
-                    return Err(MeshError::TooLarge {
-                        file: file.into(),
-                        what: "vertex count".into(),
-                        count: vertices,
-                        limit: limits.max_vertices as u64,
-                    });
-                }
-                clean.push_str("v ");
-                clean.push_str(&nums[..3].join(" "));
-                if nums.len() == 4 {
-                    // A homogeneous w: `tobj` divides by it (and rejects w = 0).
-                    let w: f32 = nums[3]
-                        .parse()
-                        .map_err(|_| perr("bad `w` coordinate".into()))?;
+                // Exactly four numbers: a homogeneous w. More (vertex colours) are ignored.
+                if let (Some(w), None) = (words.next(), words.next()) {
+                    let w: f32 = w.parse().map_err(|_| perr("bad `w` coordinate".into()))?;
                     if !w.is_finite() {
                         return Err(MeshError::NonFinite {
                             file: file.into(),
-                            element: format!("vertex {vertices} w (line {lineno})"),
+                            element: format!("vertex {n} w (line {lineno})"),
                             value: w.to_string(),
                         });
                     }
-                    clean.push(' ');
-                    clean.push_str(nums[3]);
+                    if w == 0.0 {
+                        return Err(perr("`w` is 0: cannot divide the coordinates by it".into()));
+                    }
+                    p /= w;
+                    if !p.is_finite() {
+                        // A tiny w overflows the division.
+                        return Err(MeshError::NonFinite {
+                            file: file.into(),
+                            element: format!("vertex {n} after dividing by w (line {lineno})"),
+                            value: p.to_string(),
+                        });
+                    }
                 }
-                clean.push('\n');
+                // Indices are u32: never more vertices than that, whatever the limits say.
+                if n > limits.max_vertices.min(u32::MAX as usize) {
+                    return Err(MeshError::TooLarge {
+                        file: file.into(),
+                        what: "vertex count".into(),
+                        count: n as u64,
+                        limit: limits.max_vertices as u64,
+                    });
+                }
+                vertices.push(p);
+                owner.push(u32::MAX);
+                copy.push(0);
             }
             Some("f") => {
-                let mut idx = Vec::new();
+                face.clear();
+                let count = vertices.len() as i64;
                 for w in words {
                     let first = w.split('/').next().unwrap_or("");
                     let v: i64 = first.parse().map_err(|_| {
@@ -118,110 +147,63 @@ pub(super) fn read(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawM
                             w.chars().take(40).collect::<String>()
                         ))
                     })?;
-                    let resolved = if v < 0 { vertices as i64 + v + 1 } else { v };
-                    if v == 0 || resolved < 1 || resolved > vertices as i64 {
+                    let resolved = if v < 0 { count + v + 1 } else { v };
+                    if v == 0 || resolved < 1 || resolved > count {
                         return Err(MeshError::IndexOutOfRange {
                             file: file.into(),
                             element: format!("face at line {lineno}"),
                             index: v,
-                            vertex_count: vertices as usize,
+                            vertex_count: vertices.len(),
                         });
                     }
-                    idx.push(resolved);
+                    // `resolved <= count <= u32::MAX` (checked at each `v`).
+                    face.push((resolved - 1) as u32);
                 }
-                if idx.len() < 3 {
+                if face.len() < 3 {
                     // Points and lines are not surfaces.
                     continue;
                 }
-                face_triangles = face_triangles.saturating_add(idx.len() - 2);
-                if face_triangles > limits.max_triangles {
+                raw.check_room(file, face.len() - 2, limits)?;
+                let part = *part.get_or_insert_with(|| {
+                    let next = part_ids.len() as u32;
+                    *part_ids.entry(name.clone()).or_insert_with(|| {
+                        raw.part_names.push(name.clone());
+                        next
+                    })
+                });
+                if raw.positions.len() + face.len() > u32::MAX as usize {
                     return Err(MeshError::TooLarge {
                         file: file.into(),
-                        what: "triangle count".into(),
-                        count: face_triangles as u64,
-                        limit: limits.max_triangles as u64,
+                        what: "vertex count (copies per object)".into(),
+                        count: (raw.positions.len() + face.len()) as u64,
+                        limit: u32::MAX as u64,
                     });
                 }
-                clean.push('f');
-                for v in idx {
-                    clean.push(' ');
-                    clean.push_str(&v.to_string());
+                for v in face.iter_mut() {
+                    let k = *v as usize;
+                    if owner[k] != object {
+                        owner[k] = object;
+                        copy[k] = raw.positions.len() as u32;
+                        raw.positions.push(vertices[k]);
+                    }
+                    *v = copy[k];
                 }
-                clean.push('\n');
+                for k in 1..face.len() - 1 {
+                    raw.triangles.push([face[0], face[k], face[k + 1]]);
+                    raw.parts.push(part);
+                }
             }
-            Some(w @ ("o" | "g")) => {
-                let name = line.trim_start()[1..].trim();
-                clean.push_str(w);
-                clean.push(' ');
-                clean.push_str(name);
-                clean.push('\n');
+            Some("o" | "g") => {
+                if part.is_some() {
+                    // The current object has faces: the statement ends it.
+                    object += 1;
+                    part = None;
+                }
+                let named = line.trim_start()[1..].trim();
+                name.clear();
+                name.push_str(if named.is_empty() { UNNAMED } else { named });
             }
             _ => {}
-        }
-    }
-
-    let opts = tobj::LoadOptions {
-        single_index: true,
-        triangulate: true,
-        ignore_points: true,
-        ignore_lines: true,
-    };
-    let (models, _materials) = tobj::load_obj_buf(&mut clean.as_bytes(), &opts, |_| {
-        Err(tobj::LoadError::OpenFileFailed)
-    })
-    .map_err(|e| MeshError::Parse {
-        file: file.into(),
-        line: None,
-        reason: format!("tobj: {e}"),
-    })?;
-
-    let mut raw = RawMesh::default();
-    for model in &models {
-        let m = &model.mesh;
-        if m.indices.is_empty() {
-            continue;
-        }
-        let part = match raw.part_names.iter().position(|n| *n == model.name) {
-            Some(p) => p as u32,
-            None => {
-                raw.part_names.push(model.name.clone());
-                (raw.part_names.len() - 1) as u32
-            }
-        };
-        let base = raw.positions.len();
-        let nv = m.positions.len() / 3;
-        raw.positions.extend(
-            m.positions
-                .chunks_exact(3)
-                .map(|c| Vec3::new(c[0], c[1], c[2])),
-        );
-        raw.check_room(file, m.indices.len() / 3, limits)?;
-        for t in m.indices.chunks_exact(3) {
-            let mut tri = [0u32; 3];
-            for (k, &v) in t.iter().enumerate() {
-                if v as usize >= nv {
-                    // tobj guarantees this; kept as an error rather than trust.
-                    return Err(MeshError::IndexOutOfRange {
-                        file: file.into(),
-                        element: format!("object `{}`", model.name),
-                        index: v as i64,
-                        vertex_count: nv,
-                    });
-                }
-                tri[k] = (base + v as usize) as u32;
-            }
-            raw.triangles.push(tri);
-            raw.parts.push(part);
-        }
-    }
-    for (i, p) in raw.positions.iter().enumerate() {
-        if !p.is_finite() {
-            // Reachable through a tiny `w` overflowing the division.
-            return Err(MeshError::NonFinite {
-                file: file.into(),
-                element: format!("vertex {i} after dividing by w"),
-                value: p.to_string(),
-            });
         }
     }
     if raw.triangles.is_empty() {
@@ -259,6 +241,56 @@ v 0 1 1\nusemtl m\nf -5 -4 -3 -2 -1\no first\nf 1//1 3//1 5//1\ns off\nl 1 2\nf 
         for i in 0..l.mesh.triangle_count() {
             assert!(l.mesh.triangle_normal_f64(i)[2] > 0.0 || l.mesh.parts[i] == 0);
         }
+    }
+
+    /// The reader's raw output before welding: each object gets its own copies of the vertices it
+    /// uses, in order of first use (as tobj gave them before this reader replaced it), and an
+    /// `o`/`g` without a name, or faces before the first one, belong to `unnamed_object`.
+    #[test]
+    fn objects_copy_their_vertices_and_unnamed_objects_share_a_part() {
+        let text = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 3 2 1\ng\nf 2 4 3\ng named\nf 1 2 3\n";
+        let raw = read(text, "o.obj", &LoadLimits::default()).unwrap();
+        assert_eq!(raw.part_names, vec![UNNAMED, "named"]);
+        assert_eq!(raw.parts, vec![0, 0, 1]);
+        assert_eq!(raw.triangles, vec![[0, 1, 2], [3, 4, 5], [6, 7, 8]]);
+        let v = |x, y| Vec3::new(x, y, 0.0);
+        assert_eq!(
+            raw.positions,
+            vec![
+                v(0., 1.),
+                v(1., 0.),
+                v(0., 0.),
+                v(1., 0.),
+                v(1., 1.),
+                v(0., 1.),
+                v(0., 0.),
+                v(1., 0.),
+                v(0., 1.)
+            ]
+        );
+        // `o`/`g` statements with no faces between them do not split an object.
+        let raw = read(
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\ng a\no b\nf 1 2 3\nf 1 2 3\n",
+            "o.obj",
+            &LoadLimits::default(),
+        )
+        .unwrap();
+        assert_eq!(
+            (raw.part_names, raw.positions.len()),
+            (vec!["b".to_string()], 3)
+        );
+    }
+
+    #[test]
+    fn w_that_overflows_the_division_is_non_finite() {
+        let text = b"v 1e30 0 0 1e-30\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+        let err = read(text, "w.obj", &LoadLimits::default()).unwrap_err();
+        assert!(matches!(err, MeshError::NonFinite { .. }), "{err}");
+        let err = read(b"v 1 0 0 0\n", "w.obj", &LoadLimits::default()).unwrap_err();
+        assert!(
+            matches!(err, MeshError::Parse { line: Some(1), .. }),
+            "{err}"
+        );
     }
 
     #[test]

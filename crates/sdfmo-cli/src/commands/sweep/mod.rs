@@ -148,7 +148,8 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
         methods: methods.iter().map(|m| m.name().to_owned()).collect(),
         size: args.size,
         max_voxels: args.max_voxels,
-        threads: args.threads,
+        // Provenance: the number of workers actually used, never `null`.
+        threads: Some(args.threads.unwrap_or_else(rayon::current_num_threads)),
         views: Camera::paper_views(args.size, args.size).len(),
     };
 

@@ -4,10 +4,85 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use serde::Serialize;
 use serde_json::json;
 
 use super::{heatmap_file, image_rel, reference_file, view_file, Model, Row, SweepSettings};
 use crate::output::write_atomic;
+
+/// Where and with what a sweep ran, recorded in results.json and on the page.
+#[derive(Clone, Debug, Serialize)]
+pub struct Provenance {
+    /// `sdfmo-cli` and its version.
+    pub program: String,
+    /// The git commit the binary was built from, when it was built from a git checkout.
+    pub git_commit: Option<String>,
+    /// CPU model (`model name` in `/proc/cpuinfo`), when known.
+    pub cpu: Option<String>,
+    /// Logical CPUs of the machine.
+    pub cpus: usize,
+    /// Worker threads the sweep used.
+    pub threads: usize,
+    /// When the results were written, UTC (`YYYY-MM-DDTHH:MM:SSZ`).
+    pub date: String,
+}
+
+impl Provenance {
+    /// The provenance of this process, with the sweep's worker count.
+    pub fn current(settings: &SweepSettings) -> Provenance {
+        let cpu = std::fs::read_to_string("/proc/cpuinfo").ok().and_then(|t| {
+            t.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_owned())
+        });
+        let secs = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs());
+        Provenance {
+            program: format!("sdfmo-cli {}", env!("CARGO_PKG_VERSION")),
+            git_commit: option_env!("SDFMO_GIT_COMMIT").map(str::to_owned),
+            cpu,
+            cpus: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            threads: settings.threads.unwrap_or_else(rayon::current_num_threads),
+            date: utc_date(secs),
+        }
+    }
+
+    fn html(&self) -> String {
+        format!(
+            "<p class=\"provenance\">Produced by {} (commit {}) on {} ({} logical CPUs) with {} \
+             worker threads, {}.</p>",
+            esc(&self.program),
+            esc(self.git_commit.as_deref().unwrap_or("unknown")),
+            esc(self.cpu.as_deref().unwrap_or("an unknown CPU")),
+            self.cpus,
+            self.threads,
+            esc(&self.date)
+        )
+    }
+}
+
+/// Seconds since the Unix epoch as `YYYY-MM-DDTHH:MM:SSZ` (proleptic Gregorian calendar; the
+/// days-to-civil algorithm of Howard Hinnant's `chrono`-compatible date library).
+fn utc_date(secs: u64) -> String {
+    let (days, rem) = ((secs / 86_400) as i64, secs % 86_400);
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!(
+        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}Z",
+        rem / 3600,
+        rem / 60 % 60,
+        rem % 60
+    )
+}
 
 /// Writes results.json, results.csv and table.md; returns their names.
 pub fn write_tables(
@@ -16,7 +91,12 @@ pub fn write_tables(
     models: &[Model],
     rows: &[Row],
 ) -> anyhow::Result<Vec<String>> {
-    let results = json!({ "settings": settings, "models": models, "rows": rows });
+    let results = json!({
+        "settings": settings,
+        "provenance": Provenance::current(settings),
+        "models": models,
+        "rows": rows,
+    });
     let mut text = serde_json::to_string_pretty(&results)?;
     text.push('\n');
     write_atomic(&out.join("results.json"), text.as_bytes())?;
@@ -385,6 +465,39 @@ fn esc(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
+/// What the page compares, for a reader who has not read the paper.
+fn introduction(settings: &SweepSettings, models: &[Model]) -> String {
+    let mut s = String::from(
+        "<p>This page compares two ways of storing a triangle mesh as a sparse octree of \
+         trilinear signed-distance voxels, at several octree depths, by rendering them and \
+         comparing the images with the mesh itself. The <b>SVO</b> (sparse voxel octree) is the \
+         classic baseline: one voxel (eight corner distances) per leaf. The <b>multi-octree</b> is \
+         the method of <i>SDFMultiOctree: implicit representation of surfaces based on signed \
+         distance functions</i> (Mayorov, Garifullin, Voloboy, Frolov): a leaf may hold several \
+         voxels, one per connected component of the mesh inside it, so parts closer than a voxel \
+         do not melt together, and a voxel may be flagged <i>surface</i> (no inside or outside), \
+         so open sheets and elements thinner than a voxel survive.</p>\n",
+    );
+    if models.iter().any(|m| m.source == "demo") {
+        s.push_str(
+            "<p>The built-in <b>demo part</b> puts one case of each kind in every view: a sphere \
+             and a box (plain closed volumes, where both methods agree), a plate thinner than a \
+             voxel (an SVO loses it or shows holes), an open sheet (no inside: an SVO cannot \
+             represent it) and two cubes separated by a slot narrower than a voxel at eye height \
+             (an SVO closes the slot).</p>\n",
+        );
+    }
+    let _ = writeln!(
+        s,
+        "<p>Each configuration is rendered from the paper's {} views; the thumbnails link to the \
+         full-resolution images, and the zoomed crops below each model show, at the depth where \
+         the methods' FLIP differs most, the region of each view where their FLIP maps differ \
+         most.</p>",
+        settings.views
+    );
+    s
+}
+
 /// index.html: tables, plots, and per model and view the reference, each method's image and
 /// FLIP heat map side by side; every link relative to the output directory.
 pub fn write_html(
@@ -406,6 +519,8 @@ pub fn write_html(
          .grid img{width:100%;max-width:256px;image-rendering:pixelated}\n\
          </style>\n</head>\n<body>\n<h1>sdfmo sweep</h1>\n",
     );
+    s.push_str(&introduction(settings, models));
+    s.push_str(&Provenance::current(settings).html());
     let _ = writeln!(s, "<p>{}</p>", esc(&protocol(settings)));
     let links: Vec<String> = files
         .iter()
@@ -591,6 +706,31 @@ mod tests {
         assert!(html.contains("src=\"plot_a.png\""));
         assert!(!html.contains("src=\"/"), "links must be relative");
         assert_eq!(esc("<a&\">"), "&lt;a&amp;&quot;&gt;");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn utc_dates_of_known_instants() {
+        assert_eq!(utc_date(0), "1970-01-01T00:00:00Z");
+        assert_eq!(utc_date(951_782_400), "2000-02-29T00:00:00Z");
+        assert_eq!(utc_date(1_798_761_599), "2026-12-31T23:59:59Z");
+    }
+
+    #[test]
+    fn results_json_has_provenance_with_threads() {
+        let dir = std::env::temp_dir().join(format!("sdfmo-cli-prov-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        write_tables(&dir, &settings(), &[], &rows()).unwrap();
+        let text = std::fs::read_to_string(dir.join("results.json")).unwrap();
+        let j: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let p = &j["provenance"];
+        assert_eq!(p["threads"], 1, "{p}");
+        assert!(
+            p["program"].as_str().unwrap().starts_with("sdfmo-cli 0."),
+            "{p}"
+        );
+        assert!(p["cpus"].as_u64().unwrap() >= 1, "{p}");
+        assert_eq!(p["date"].as_str().unwrap().len(), 20, "{p}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
