@@ -5,6 +5,10 @@
 //! rendered in the same normalised frame. The camera is described in [`camera`], the exact
 //! shading formulas in [`shading`], the planning in [`plan`].
 //!
+//! The reference renderer of the source mesh (`MeshScene`, module `mesh`) is behind the
+//! default feature `mesh-reference`; with `default-features = false` the crate renders octrees
+//! on `sdfmo-format` and `sdfmo-trace` alone and compiles no mesh loader or BVH.
+//!
 //! ```
 //! use sdfmo_render::{render, Camera, Mode, RenderSettings, Spheres};
 //! use glam::Vec3;
@@ -18,6 +22,7 @@
 #![deny(missing_docs)]
 
 pub mod camera;
+#[cfg(feature = "mesh-reference")]
 pub mod mesh;
 pub mod octree;
 mod output;
@@ -29,6 +34,7 @@ pub mod shading;
 use std::path::PathBuf;
 
 pub use camera::{Camera, CameraFrame};
+#[cfg(feature = "mesh-reference")]
 pub use mesh::{apply_normalization, mesh_in_octree_frame, octree_normalization, MeshScene};
 pub use octree::OctreeScene;
 pub use output::{encode_exr, encode_png, save_exr, save_png};
