@@ -488,8 +488,12 @@ fn bad_input_is_a_typed_error() {
         s(|s| s.margin = f32::NAN),
         Err(BuildError::InvalidMargin(_))
     ));
-    // And the smallest valid builds work.
-    assert!(s(|s| s.depth = 0).is_ok());
+    // Depth 0 (one leaf for the whole root cube) used to give an empty octree: refused now,
+    // as the CLI refuses `-d 0`. The smallest valid build works.
+    assert!(matches!(
+        s(|s| s.depth = 0),
+        Err(BuildError::InvalidDepth { depth: 0, .. })
+    ));
     assert!(s(|s| s.depth = 1).is_ok());
 }
 
