@@ -19,9 +19,9 @@ use glam::Vec3;
 use sdfmo_distance::sample::{near_surface_points, uniform_points};
 use sdfmo_distance::{MeshDistance, SignMode};
 
-fn write_f32(path: &PathBuf, data: impl Iterator<Item = f32>) -> std::io::Result<()> {
+fn write_f32(path: &PathBuf, data: impl Iterator<Item = f32>) -> Result<(), sdfmo_io::IoError> {
     let bytes: Vec<u8> = data.flat_map(f32::to_le_bytes).collect();
-    std::fs::write(path, bytes)
+    sdfmo_io::write_atomic(path, bytes)
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -60,7 +60,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .flatten()
         .flat_map(|i| i.to_le_bytes())
         .collect();
-    std::fs::write(out.join("faces.u32"), faces)?;
+    sdfmo_io::write_atomic(out.join("faces.u32"), faces)?;
 
     let t0 = Instant::now();
     let md = MeshDistance::new(&mesh, SignMode::Auto)?;

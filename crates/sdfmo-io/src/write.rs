@@ -73,9 +73,9 @@ pub fn check_destination(path: &Path) -> Result<PathBuf> {
 /// # Errors
 /// As [`check_destination`], plus [`IoError::Os`] when the temporary file cannot be created,
 /// written, synced or renamed (a full disk, a read-only folder, a missing folder).
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+pub fn write_atomic(path: impl AsRef<Path>, bytes: impl AsRef<[u8]>) -> Result<()> {
     let mut batch = OutputBatch::new();
-    batch.stage(path, bytes)?;
+    batch.stage(path.as_ref(), bytes.as_ref())?;
     batch.commit()
 }
 

@@ -19,7 +19,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "gltf" => write::to_gltf_embedded(&mesh).into_bytes(),
         _ => return Err(format!("unknown extension in {out} (obj, stl, glb, gltf)").into()),
     };
-    std::fs::write(&out, bytes)?;
+    sdfmo_io::write_atomic(&out, bytes)?;
     println!(
         "{out}: {} triangles, {} parts",
         mesh.triangle_count(),

@@ -27,24 +27,24 @@ fn main() -> std::io::Result<()> {
         std::fs::create_dir_all(root.join(dir))?;
     }
     for (name, m) in &meshes {
-        std::fs::write(root.join(format!("fuzz_obj/{name}.obj")), write::to_obj(m))?;
-        std::fs::write(
+        sdfmo_io::write_atomic(root.join(format!("fuzz_obj/{name}.obj")), write::to_obj(m))?;
+        sdfmo_io::write_atomic(
             root.join(format!("fuzz_stl/{name}.stl")),
             write::to_stl_binary(m),
         )?;
-        std::fs::write(
+        sdfmo_io::write_atomic(
             root.join(format!("fuzz_stl/{name}_ascii.stl")),
             write::to_stl_ascii(m),
         )?;
-        std::fs::write(root.join(format!("fuzz_gltf/{name}.glb")), write::to_glb(m))?;
-        std::fs::write(
+        sdfmo_io::write_atomic(root.join(format!("fuzz_gltf/{name}.glb")), write::to_glb(m))?;
+        sdfmo_io::write_atomic(
             root.join(format!("fuzz_gltf/{name}.gltf")),
             write::to_gltf_embedded(m),
         )?;
     }
     // Hand-written OBJ features the writer does not produce: quads, polygons, negative
     // indices, texture/normal references, groups, w coordinates, comments.
-    std::fs::write(
+    sdfmo_io::write_atomic(
         root.join("fuzz_obj/features.obj"),
         "# features\nmtllib x.mtl\no first\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0 1.0\nvt 0 0\nvn 0 0 1\n\
          f 1/1/1 2/1/1 3/1/1 4/1/1\ng second\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0.5 1.5 1\nv 0 1 1\n\
