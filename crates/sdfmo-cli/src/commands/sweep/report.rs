@@ -518,7 +518,7 @@ pub fn write_html(
          .grid td{text-align:center;vertical-align:top;font-size:small}\n\
          .grid img{width:100%;max-width:256px}\n\
          .crop td{text-align:center;vertical-align:top;font-size:small}\n\
-         .crop img{image-rendering:pixelated;width:256px}\n\
+         .crop img{image-rendering:pixelated}\n\
          </style>\n</head>\n<body>\n<h1>sdfmo sweep</h1>\n",
     );
     s.push_str(&introduction(settings, models));
@@ -655,7 +655,7 @@ fn best_window(map: &[f32], width: u32, height: u32, size: u32) -> (u32, u32) {
 }
 
 /// Zoomed crops for one model: at the depth where the two methods' mean FLIP differs most, per
-/// view the window (an eighth of the image) where their FLIP maps differ most, cut from the
+/// view the window (a tenth of the image's side) where their FLIP maps differ most, cut from the
 /// reference, each method's image and heat map, and shown magnified with visible pixels. The
 /// FLIP maps are recomputed from the saved PNGs (exactly what the page shows). When an image
 /// cannot be read the section says so instead of failing the page.
@@ -718,7 +718,7 @@ fn write_crops(
             .map(|(x, y)| (x - y).abs())
             .collect();
         let (w, h) = reference.dimensions();
-        let size = (w.min(h) / 8).max(8).min(w.min(h));
+        let size = (w.min(h) / 10).max(8).min(w.min(h));
         let (x, y) = best_window(&diff, w, h, size);
         let window_mean = |f: &metrics::FlipResult| {
             let mut sum = 0.0f64;
@@ -754,7 +754,14 @@ fn write_crops(
             let file = format!("crop_d{depth}_{view}_{tag}.png");
             let crop = image::imageops::crop_imm(&img, x, y, size, size).to_image();
             crate::output::write_png(&out.join(image_rel(name, &file)), &crop)?;
-            s.push_str(&img_cell(&image_rel(name, &file), &caption));
+            // Shown at exactly twice its size: every image pixel is a 2×2 block.
+            let _ = write!(
+                s,
+                "<td><a href=\"{0}\"><img src=\"{0}\" alt=\"{1}\" width=\"{2}\" height=\"{2}\"></a><br>{1}</td>",
+                esc(&image_rel(name, &file)),
+                esc(&caption),
+                2 * size
+            );
         }
         s.push_str("</tr>\n");
     }
