@@ -316,7 +316,7 @@ impl PackedOctree {
     /// same directory, fsync, rename. A destination that is a directory, a device or a FIFO is
     /// refused; a symbolic link is followed (its target is replaced).
     pub fn save(&self, path: &Path) -> Result<()> {
-        Ok(sdfmo_io::write_atomic(path, &self.to_bytes())?)
+        Ok(sdfmo_io::write_atomic(path, self.to_bytes())?)
     }
 
     /// Reads and validates a `.smo` file of at most [`MAX_FILE_SIZE`] bytes (a regular file:

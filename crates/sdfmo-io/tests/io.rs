@@ -60,7 +60,7 @@ fn paths_that_name_no_file_are_refused() {
         ),
         "{e}"
     );
-    let e = write_atomic(&dir.path().join("missing/x.txt"), b"x").unwrap_err();
+    let e = write_atomic(dir.path().join("missing/x.txt"), b"x").unwrap_err();
     assert_eq!(e.os_kind(), Some(std::io::ErrorKind::NotFound), "{e}");
     assert!(names(dir.path()).is_empty());
 }
@@ -95,7 +95,7 @@ fn special_destinations_are_refused_and_kept() {
     );
     // A link to a FIFO is refused too, and the FIFO stays a FIFO.
     std::os::unix::fs::symlink(&fifo, dir.path().join("to-pipe")).unwrap();
-    assert!(write_atomic(&dir.path().join("to-pipe"), b"x").is_err());
+    assert!(write_atomic(dir.path().join("to-pipe"), b"x").is_err());
     use std::os::unix::fs::FileTypeExt;
     assert!(std::fs::metadata(&fifo).unwrap().file_type().is_fifo());
     assert_eq!(names(dir.path()), ["pipe", "to-pipe"]);
@@ -135,7 +135,7 @@ fn a_planted_link_at_a_temporary_name_is_never_followed() {
     for name in [format!(".out.png.tmp-{pid}"), format!(".out.png.tmp{pid}")] {
         std::os::unix::fs::symlink(&victim, dir.path().join(name)).unwrap();
     }
-    write_atomic(&dir.path().join("out.png"), b"image").unwrap();
+    write_atomic(dir.path().join("out.png"), b"image").unwrap();
     assert_eq!(std::fs::read(&victim).unwrap(), b"precious");
     assert_eq!(std::fs::read(dir.path().join("out.png")).unwrap(), b"image");
 }

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use glam::Vec3;
 use sdfmo_mesh::{procedural, write};
 
-fn main() -> std::io::Result<()> {
+fn main() -> Result<(), Box<dyn std::error::Error>> {
     let root = PathBuf::from(
         std::env::args()
             .nth(1)

@@ -1,7 +1,7 @@
-//! Ray tracing the packed SDF multi-octree: front-to-back traversal of a [`PackedOctree`]
-//! ([`intersect`], [`occluded`]), the ray vs trilinear-voxel kernel ([`intersect_voxel`]),
-//! analytic normals ([`hit_normal`]), and the stored signed distance and its gradient at a
-//! point ([`distance_at`], for collision queries).
+//! Ray tracing the packed SDF multi-octree: front-to-back traversal of a
+//! [`PackedOctree`](sdfmo_format::PackedOctree) ([`intersect`], [`occluded`]), the ray vs
+//! trilinear-voxel kernel ([`intersect_voxel`]), analytic normals ([`hit_normal`]), and the
+//! stored signed distance and its gradient at a point ([`distance_at`], for collision queries).
 //!
 //! Depends on `sdfmo-format` and glam only, so an engine that loads and renders octrees embeds
 //! these two crates and nothing else. Nothing here allocates: the traversal keeps a fixed-size

@@ -12,9 +12,11 @@ use plotters::prelude::*;
 use super::Row;
 use crate::output::write_png;
 
-/// Plot size in pixels.
-const WIDTH: u32 = 900;
+/// Plot size in pixels, legend included.
+const WIDTH: u32 = 1100;
 const HEIGHT: u32 = 600;
+/// Width of the legend column right of the chart (outside the data).
+const LEGEND_WIDTH: u32 = 210;
 
 /// Colours of the models' lines (a colour per model, cycled).
 const PALETTE: [RGBColor; 8] = [
@@ -49,6 +51,8 @@ struct Series {
     /// Dashed with triangles (the SVO baseline) or solid with dots (the multi-octree, others).
     dashed: bool,
     points: Vec<(f64, f64)>,
+    /// The depth of each point, written beside it.
+    depths: Vec<u8>,
 }
 
 /// Axis of a plot: its label and whether it is logarithmic.
@@ -148,7 +152,10 @@ pub fn write_plots(dir: &Path, rows: &[Row]) -> anyhow::Result<Vec<String>> {
             }
             let label = format!("{} {}", r.model, r.method);
             match series.iter_mut().find(|s| s.label == label) {
-                Some(s) => s.points.push((px, py)),
+                Some(s) => {
+                    s.points.push((px, py));
+                    s.depths.push(r.depth);
+                }
                 None => {
                     let m = models.iter().position(|m| *m == r.model).unwrap_or(0);
                     series.push(Series {
@@ -156,6 +163,7 @@ pub fn write_plots(dir: &Path, rows: &[Row]) -> anyhow::Result<Vec<String>> {
                         color: PALETTE[m % PALETTE.len()],
                         dashed: r.method == "svo",
                         points: vec![(px, py)],
+                        depths: vec![r.depth],
                     });
                 }
             }
@@ -198,6 +206,34 @@ fn spans_a_decade(values: impl Iterator<Item = f64>) -> bool {
     lo > 0.0 && hi / lo >= 8.0
 }
 
+/// Ticks of a logarithmic axis over `r`: 1, 2 and 5 times each power of ten inside it (every
+/// integer multiple when that gives fewer than four), so that a range below 100 ms is labelled
+/// too, not only at the powers of ten.
+fn log_ticks(r: &std::ops::Range<f64>) -> Vec<f64> {
+    let (lo, hi) = (r.start, r.end);
+    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
+        return Vec::new();
+    }
+    let ticks = |multiples: &[f64]| -> Vec<f64> {
+        let mut out = Vec::new();
+        for e in lo.log10().floor() as i32..=hi.log10().ceil() as i32 {
+            for &m in multiples {
+                let v = m * 10f64.powi(e);
+                if v >= lo && v <= hi {
+                    out.push(v);
+                }
+            }
+        }
+        out
+    };
+    let coarse = ticks(&[1.0, 2.0, 5.0]);
+    if coarse.len() >= 4 {
+        coarse
+    } else {
+        ticks(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0])
+    }
+}
+
 /// A tick label: integers only on an integer axis, else about three significant digits without
 /// trailing zeros (0.3, 25, 1200, 0.045).
 fn axis_label(v: f64, integer: bool) -> String {
@@ -237,17 +273,34 @@ fn plot(title: &str, x: &Axis, y: &Axis, series: &[Series]) -> anyhow::Result<im
     let xr = range(xs(), x.log, x.integer);
     let yr = range(ys(), y.log, y.integer);
     let mut buf = vec![0u8; (WIDTH * HEIGHT * 3) as usize];
+    let (kx, ky) = (log_ticks(&xr), log_ticks(&yr));
     match (x.log, y.log) {
         (false, false) => draw(&mut buf, title, x, y, xr, yr, series),
-        (true, false) => draw(&mut buf, title, x, y, xr.log_scale(), yr, series),
-        (false, true) => draw(&mut buf, title, x, y, xr, yr.log_scale(), series),
+        (true, false) => draw(
+            &mut buf,
+            title,
+            x,
+            y,
+            xr.log_scale().with_key_points(kx),
+            yr,
+            series,
+        ),
+        (false, true) => draw(
+            &mut buf,
+            title,
+            x,
+            y,
+            xr,
+            yr.log_scale().with_key_points(ky),
+            series,
+        ),
         (true, true) => draw(
             &mut buf,
             title,
             x,
             y,
-            xr.log_scale(),
-            yr.log_scale(),
+            xr.log_scale().with_key_points(kx),
+            yr.log_scale().with_key_points(ky),
             series,
         ),
     }?;
@@ -274,7 +327,8 @@ where
     let y_fmt = |v: &f64| axis_label(*v, y.integer);
     let root = BitMapBackend::with_buffer(buf, (WIDTH, HEIGHT)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
-    let mut chart = ChartBuilder::on(&root)
+    let (area, legend) = root.split_horizontally(WIDTH - LEGEND_WIDTH);
+    let mut chart = ChartBuilder::on(&area)
         .caption(title, ("sans-serif", 26))
         .margin(16)
         .x_label_area_size(48)
@@ -300,16 +354,7 @@ where
         if s.dashed {
             chart
                 .draw_series(DashedLineSeries::new(s.points.iter().copied(), 8, 5, style))
-                .map_err(|e| err(&e))?
-                .label(&s.label)
-                .legend(move |(lx, ly)| {
-                    DashedPathElement::new(
-                        vec![(lx, ly), (lx + 20, ly)],
-                        6,
-                        4,
-                        color.stroke_width(2),
-                    )
-                });
+                .map_err(|e| err(&e))?;
             chart
                 .draw_series(
                     s.points
@@ -320,24 +365,65 @@ where
         } else {
             chart
                 .draw_series(LineSeries::new(s.points.iter().copied(), style))
-                .map_err(|e| err(&e))?
-                .label(&s.label)
-                .legend(move |(lx, ly)| {
-                    PathElement::new(vec![(lx, ly), (lx + 20, ly)], color.stroke_width(2))
-                });
+                .map_err(|e| err(&e))?;
             chart
                 .draw_series(s.points.iter().map(|&p| Circle::new(p, 4, color.filled())))
                 .map_err(|e| err(&e))?;
         }
     }
-    if !series.is_empty() {
-        chart
-            .configure_series_labels()
-            .label_font(("sans-serif", 15))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::LowerRight)
-            .draw()
+    // Each point's depth beside it (not on the depth plot, where x is the depth): multi-octree
+    // labels above right, SVO labels below right, so the two methods' labels do not collide.
+    if !x.integer {
+        for s in series {
+            let offset = if s.dashed { (6, 4) } else { (6, -17) };
+            let font = ("sans-serif", 13).into_font().color(&s.color);
+            chart
+                .draw_series(s.points.iter().zip(&s.depths).map(|(&p, d)| {
+                    EmptyElement::at(p) + Text::new(format!("d{d}"), offset, font.clone())
+                }))
+                .map_err(|e| err(&e))?;
+        }
+    }
+    // The legend in its own column, outside the data.
+    let text = ("sans-serif", 15).into_font();
+    let mut ly = 60;
+    for s in series {
+        let color = s.color;
+        if s.dashed {
+            legend
+                .draw(&DashedPathElement::new(
+                    vec![(8, ly), (40, ly)],
+                    6,
+                    4,
+                    color.stroke_width(2),
+                ))
+                .map_err(|e| err(&e))?;
+            legend
+                .draw(&TriangleMarker::new((24, ly), 5, color.filled()))
+                .map_err(|e| err(&e))?;
+        } else {
+            legend
+                .draw(&PathElement::new(
+                    vec![(8, ly), (40, ly)],
+                    color.stroke_width(2),
+                ))
+                .map_err(|e| err(&e))?;
+            legend
+                .draw(&Circle::new((24, ly), 4, color.filled()))
+                .map_err(|e| err(&e))?;
+        }
+        legend
+            .draw(&Text::new(s.label.clone(), (48, ly - 8), text.clone()))
+            .map_err(|e| err(&e))?;
+        ly += 24;
+    }
+    if !series.is_empty() && !x.integer {
+        legend
+            .draw(&Text::new(
+                "dN = octree depth".to_owned(),
+                (8, ly + 8),
+                ("sans-serif", 13).into_font().color(&RGBColor(90, 90, 90)),
+            ))
             .map_err(|e| err(&e))?;
     }
     root.present().map_err(|e| err(&e))?;
@@ -347,6 +433,20 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn log_ticks_label_below_100_ms() {
+        assert_eq!(
+            log_ticks(&(11.0..2000.0)),
+            vec![20.0, 50.0, 100.0, 200.0, 500.0, 1000.0, 2000.0]
+        );
+        // Less than a decade: every integer multiple.
+        assert_eq!(
+            log_ticks(&(6.5..45.0)),
+            vec![7.0, 8.0, 9.0, 10.0, 20.0, 30.0, 40.0]
+        );
+        assert!(log_ticks(&(0.0..10.0)).is_empty());
+    }
 
     fn row(model: &str, method: &str, depth: u8, psnr: Option<f64>) -> Row {
         Row {

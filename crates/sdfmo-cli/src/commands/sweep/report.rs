@@ -516,7 +516,9 @@ pub fn write_html(
          th{background:#eee}\n\
          .plots img{width:48%;min-width:420px;margin:0.5%}\n\
          .grid td{text-align:center;vertical-align:top;font-size:small}\n\
-         .grid img{width:100%;max-width:256px;image-rendering:pixelated}\n\
+         .grid img{width:100%;max-width:256px}\n\
+         .crop td{text-align:center;vertical-align:top;font-size:small}\n\
+         .crop img{image-rendering:pixelated}\n\
          </style>\n</head>\n<body>\n<h1>sdfmo sweep</h1>\n",
     );
     s.push_str(&introduction(settings, models));
@@ -564,6 +566,7 @@ pub fn write_html(
                 t.html()
             );
         }
+        s.push_str(&crops_html(out, settings, name, rows));
         for view in 0..settings.views {
             let _ = writeln!(
                 s,
@@ -619,6 +622,151 @@ pub fn write_html(
     s.push_str("</body>\n</html>\n");
     write_atomic(&out.join("index.html"), s.as_bytes())?;
     Ok("index.html".to_owned())
+}
+
+/// The square window of edge `size` (top-left corner) with the largest sum of `map`
+/// (row-major, `width` × `height`), by a summed-area table; the first such window in row-major
+/// order on ties.
+fn best_window(map: &[f32], width: u32, height: u32, size: u32) -> (u32, u32) {
+    let (w, h) = (width as usize, height as usize);
+    let size = (size as usize).min(w).min(h);
+    if size == 0 || map.len() != w * h {
+        return (0, 0);
+    }
+    let mut sat = vec![0.0f64; (w + 1) * (h + 1)];
+    for y in 0..h {
+        let mut row = 0.0;
+        for x in 0..w {
+            row += f64::from(map[y * w + x]);
+            sat[(y + 1) * (w + 1) + x + 1] = sat[y * (w + 1) + x + 1] + row;
+        }
+    }
+    let at = |x: usize, y: usize| sat[y * (w + 1) + x];
+    let mut best = (f64::NEG_INFINITY, 0, 0);
+    for y in 0..=h - size {
+        for x in 0..=w - size {
+            let sum = at(x + size, y + size) - at(x, y + size) - at(x + size, y) + at(x, y);
+            if sum > best.0 {
+                best = (sum, x, y);
+            }
+        }
+    }
+    (best.1 as u32, best.2 as u32)
+}
+
+/// Zoomed crops for one model: at the depth where the two methods' mean FLIP differs most, per
+/// view the window (a tenth of the image's side) where their FLIP maps differ most, cut from the
+/// reference, each method's image and heat map, and shown magnified with visible pixels. The
+/// FLIP maps are recomputed from the saved PNGs (exactly what the page shows). When an image
+/// cannot be read the section says so instead of failing the page.
+fn crops_html(out: &Path, settings: &SweepSettings, name: &str, rows: &[Row]) -> String {
+    match write_crops(out, settings, name, rows) {
+        Ok(html) => html,
+        Err(e) => format!(
+            "<p>Zoomed crops unavailable: {}</p>\n",
+            esc(&format!("{e:#}"))
+        ),
+    }
+}
+
+fn write_crops(
+    out: &Path,
+    settings: &SweepSettings,
+    name: &str,
+    rows: &[Row],
+) -> anyhow::Result<String> {
+    use sdf_multioctree::metrics;
+    let [a, b] = match settings.methods.as_slice() {
+        [a, b, ..] => [a, b],
+        _ => return Ok(String::new()),
+    };
+    let Some(depth) = settings
+        .depths
+        .iter()
+        .filter_map(|&d| {
+            Some((
+                d,
+                (find(rows, name, a, d)?.flip - find(rows, name, b, d)?.flip).abs(),
+            ))
+        })
+        .max_by(|x, y| x.1.total_cmp(&y.1))
+        .map(|(d, _)| d)
+    else {
+        return Ok(String::new());
+    };
+    let mut s = format!(
+        "<h3>Where {} and {} differ most (depth {depth})</h3>\n<table class=\"crop\">\n\
+         <tr><th>view</th><th>reference</th><th>{0}</th><th>{1}</th><th>FLIP {0}</th><th>FLIP {1}</th></tr>\n",
+        esc(label(a)),
+        esc(label(b))
+    );
+    for view in 0..settings.views {
+        let load = |file: String| metrics::load_rgb8(out.join(image_rel(name, &file)));
+        let reference = load(reference_file(view))?;
+        let (ia, ib) = (
+            load(view_file(a, depth, view))?,
+            load(view_file(b, depth, view))?,
+        );
+        let (fa, fb) = (
+            metrics::flip(&reference, &ia)?,
+            metrics::flip(&reference, &ib)?,
+        );
+        let diff: Vec<f32> = fa
+            .map
+            .iter()
+            .zip(&fb.map)
+            .map(|(x, y)| (x - y).abs())
+            .collect();
+        let (w, h) = reference.dimensions();
+        let size = (w.min(h) / 10).max(8).min(w.min(h));
+        let (x, y) = best_window(&diff, w, h, size);
+        let window_mean = |f: &metrics::FlipResult| {
+            let mut sum = 0.0f64;
+            for yy in y..y + size {
+                for xx in x..x + size {
+                    sum += f64::from(f.map[(yy * w + xx) as usize]);
+                }
+            }
+            sum / f64::from(size * size)
+        };
+        let _ = write!(
+            s,
+            "<tr><td>{view}<br>x {x}–{}<br>y {y}–{}</td>",
+            x + size,
+            y + size
+        );
+        let parts = [
+            ("reference", reference, "mesh".to_owned()),
+            (a.as_str(), ia, label(a).to_owned()),
+            (b.as_str(), ib, label(b).to_owned()),
+            (
+                "flip_a",
+                metrics::flip_heatmap(&fa),
+                format!("FLIP {:.4} here", window_mean(&fa)),
+            ),
+            (
+                "flip_b",
+                metrics::flip_heatmap(&fb),
+                format!("FLIP {:.4} here", window_mean(&fb)),
+            ),
+        ];
+        for (tag, img, caption) in parts {
+            let file = format!("crop_d{depth}_{view}_{tag}.png");
+            let crop = image::imageops::crop_imm(&img, x, y, size, size).to_image();
+            crate::output::write_png(&out.join(image_rel(name, &file)), &crop)?;
+            // Shown at exactly twice its size: every image pixel is a 2×2 block.
+            let _ = write!(
+                s,
+                "<td><a href=\"{0}\"><img src=\"{0}\" alt=\"{1}\" width=\"{2}\" height=\"{2}\"></a><br>{1}</td>",
+                esc(&image_rel(name, &file)),
+                esc(&caption),
+                2 * size
+            );
+        }
+        s.push_str("</tr>\n");
+    }
+    s.push_str("</table>\n");
+    Ok(s)
 }
 
 fn img_cell(src: &str, caption: &str) -> String {
@@ -707,6 +855,21 @@ mod tests {
         assert!(!html.contains("src=\"/"), "links must be relative");
         assert_eq!(esc("<a&\">"), "&lt;a&amp;&quot;&gt;");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn best_window_finds_the_hot_spot() {
+        let (w, h) = (40u32, 30u32);
+        let mut map = vec![0.1f32; (w * h) as usize];
+        for y in 20..24 {
+            for x in 5..9 {
+                map[(y * w + x) as usize] = 1.0;
+            }
+        }
+        assert_eq!(best_window(&map, w, h, 4), (5, 20));
+        // A larger window still covers the spot, the first such position in row-major order.
+        assert_eq!(best_window(&map, w, h, 8), (1, 16));
+        assert_eq!(best_window(&map, w, h, 100), (0, 0));
     }
 
     #[test]
