@@ -13,6 +13,16 @@
 //!   blocking FIFO), and a file larger than the caller's limit is refused before allocating.
 //! - **Relative resources stay in their folder** ([`resolve_in_folder`]): absolute paths, `..`
 //!   components and symbolic links that lead outside the folder are refused.
+//!
+//! ```
+//! let dir = tempfile::tempdir()?;
+//! let out = dir.path().join("result.txt");
+//! sdfmo_io::write_atomic(&out, b"all or nothing")?;
+//! assert_eq!(sdfmo_io::read_regular(&out, 1 << 20)?, b"all or nothing");
+//! # #[cfg(unix)]
+//! assert!(sdfmo_io::read_regular(std::path::Path::new("/dev/zero"), 1 << 20).is_err());
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 #![deny(missing_docs)]
 
 mod confine;
