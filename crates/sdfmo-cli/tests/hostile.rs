@@ -410,6 +410,13 @@ fn hostile_catalogue() {
             "must end in .png",
         ),
         case(
+            "ambient occlusion in mask mode",
+            &[
+                &"render", &smo, &"-o", &png, &"--mode", &"mask", &"--ao", &"4",
+            ],
+            "lambert only",
+        ),
+        case(
             "shadows in normal mode",
             &[
                 &"render",
