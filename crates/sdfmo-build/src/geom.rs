@@ -3,6 +3,9 @@
 
 use glam::Vec3;
 
+/// What a voxel is lives in the format: its corner order and interpolant.
+pub use sdfmo_format::{corner_offset, trilinear, trilinear_gradient};
+
 /// The feature of a triangle a closest point lies on (Voronoi region).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Feature {
@@ -145,44 +148,6 @@ pub fn clip_triangle(tri: [Vec3; 3], lo: Vec3, hi: Vec3, out: &mut [Vec3; MAX_CL
     n
 }
 
-/// The trilinear interpolant of `corners` (index `4x + 2y + z`) at local coordinates `l ∈ [0,1]³`.
-#[inline]
-pub fn trilinear(c: &[f32; 8], l: Vec3) -> f32 {
-    let (x, y, z) = (l.x, l.y, l.z);
-    let c00 = c[0] + (c[1] - c[0]) * z;
-    let c01 = c[2] + (c[3] - c[2]) * z;
-    let c10 = c[4] + (c[5] - c[4]) * z;
-    let c11 = c[6] + (c[7] - c[6]) * z;
-    let c0 = c00 + (c01 - c00) * y;
-    let c1 = c10 + (c11 - c10) * y;
-    c0 + (c1 - c0) * x
-}
-
-/// The gradient of the trilinear interpolant of `c` with respect to the local coordinates
-/// `l ∈ [0,1]³` (value units per cell edge).
-#[inline]
-pub fn trilinear_gradient(c: &[f32; 8], l: Vec3) -> Vec3 {
-    let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
-    let (x, y, z) = (l.x, l.y, l.z);
-    // Differences along each axis, interpolated over the other two.
-    let dx = lerp(
-        lerp(c[4] - c[0], c[5] - c[1], z),
-        lerp(c[6] - c[2], c[7] - c[3], z),
-        y,
-    );
-    let dy = lerp(
-        lerp(c[2] - c[0], c[3] - c[1], z),
-        lerp(c[6] - c[4], c[7] - c[5], z),
-        x,
-    );
-    let dz = lerp(
-        lerp(c[1] - c[0], c[3] - c[2], y),
-        lerp(c[5] - c[4], c[7] - c[6], y),
-        x,
-    );
-    Vec3::new(dx, dy, dz)
-}
-
 /// How far (in cell edges, capped at 1) the zero set of the trilinear interpolant `c` of a
 /// signed distance with cell edge `h` is from the point `l` (local coordinates) that should lie
 /// on it: `|f| / |∇f|` to first order, the gradient counted at most at its signed-distance
@@ -202,12 +167,6 @@ pub fn zero_set_gap(c: &[f32; 8], l: Vec3, h: f32) -> f32 {
     } else {
         1.0
     }
-}
-
-/// Offset of corner `i` (`4x + 2y + z`) in units of the cell size.
-#[inline]
-pub fn corner_offset(i: usize) -> Vec3 {
-    Vec3::new(((i >> 2) & 1) as f32, ((i >> 1) & 1) as f32, (i & 1) as f32)
 }
 
 #[cfg(test)]
@@ -314,40 +273,6 @@ mod tests {
         assert_eq!(n, 4);
         for p in &out[..n] {
             assert!(p.cmpge(Vec3::splat(-1e-6)).all() && p.cmple(Vec3::splat(1.0 + 1e-6)).all());
-        }
-    }
-
-    #[test]
-    fn trilinear_reproduces_linear_functions() {
-        let f = |p: Vec3| 0.3 * p.x - 0.7 * p.y + 0.2 * p.z + 0.1;
-        let mut c = [0.0; 8];
-        for (i, ci) in c.iter_mut().enumerate() {
-            *ci = f(corner_offset(i));
-        }
-        for p in [
-            Vec3::ZERO,
-            Vec3::ONE,
-            Vec3::new(0.25, 0.5, 0.75),
-            Vec3::new(0.9, 0.1, 0.4),
-        ] {
-            assert!((trilinear(&c, p) - f(p)).abs() < 1e-6);
-        }
-    }
-
-    #[test]
-    fn trilinear_gradient_matches_finite_differences() {
-        let c = [0.3, -0.7, 1.1, 0.2, -0.4, 0.9, -1.3, 0.5];
-        for l in [
-            Vec3::splat(0.5),
-            Vec3::new(0.1, 0.8, 0.3),
-            Vec3::new(0.9, 0.2, 0.6),
-        ] {
-            let g = trilinear_gradient(&c, l);
-            let e = 1e-3;
-            for (axis, d) in [Vec3::X, Vec3::Y, Vec3::Z].into_iter().enumerate() {
-                let fd = (trilinear(&c, l + d * e) - trilinear(&c, l - d * e)) / (2.0 * e);
-                assert!((g[axis] - fd).abs() < 1e-3, "{axis}: {} vs {fd}", g[axis]);
-            }
         }
     }
 

@@ -26,6 +26,9 @@
 
 use glam::Vec3;
 
+/// The interpolant a voxel is (owned by the format, re-exported here for the kernel's users).
+pub use sdfmo_format::trilinear;
+
 /// Newton/bisection steps at most; bisection alone reaches the tolerance (1e-6 of the segment)
 /// in 20.
 const MAX_POLISH_STEPS: u32 = 32;
@@ -121,18 +124,6 @@ impl RayCubic {
         }
         (out, n)
     }
-}
-
-/// The trilinear interpolant of `corners` at local point `p` (corner `i = 4x + 2y + z`).
-#[inline]
-pub fn trilinear(corners: &[f32; 8], p: Vec3) -> f32 {
-    let [c000, c001, c010, c011, c100, c101, c110, c111] = *corners;
-    let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
-    let c00 = lerp(c000, c001, p.z);
-    let c01 = lerp(c010, c011, p.z);
-    let c10 = lerp(c100, c101, p.z);
-    let c11 = lerp(c110, c111, p.z);
-    lerp(lerp(c00, c01, p.y), lerp(c10, c11, p.y), p.x)
 }
 
 /// The parameter span `[t_enter, t_exit]` of the ray `origin + t·dir` inside the unit cube
