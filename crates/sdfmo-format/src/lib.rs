@@ -56,11 +56,11 @@ use glam::Vec3;
 pub use access::OctreeAccess;
 pub use crc32::crc32;
 pub use error::{FormatError, Result};
-pub use interpolant::{corner_offset, trilinear, trilinear_gradient};
 pub use file::{
     HeaderField, SectionSizes, CHECKSUM_SIZE, FLAG_MULTI_VOXEL, FLAG_SURFACE_VOXELS,
     FORMAT_VERSION_MAJOR, FORMAT_VERSION_MINOR, HEADER_FIELDS, HEADER_SIZE, KNOWN_FLAGS, MAGIC,
 };
+pub use interpolant::{corner_offset, trilinear, trilinear_gradient};
 pub use octree::{NodeRef, PackedOctree};
 pub use view::PackedOctreeView;
 
