@@ -12,7 +12,7 @@ use std::sync::OnceLock;
 use glam::Vec3;
 use rayon::prelude::*;
 use sdfmo_distance::{MeshDistance, SignMode};
-use sdfmo_mesh::TriMesh;
+use sdfmo_mesh::{TriMesh, UnionFind};
 
 use crate::geom::closest_point_triangle;
 use crate::local::LocalMesh;
@@ -31,15 +31,6 @@ pub struct Components {
     pub of_triangle: Vec<u32>,
     /// Index of each global triangle within its component.
     pub index_in: Vec<u32>,
-}
-
-fn find(parent: &mut [u32], mut i: u32) -> u32 {
-    while parent[i as usize] != i {
-        let gp = parent[parent[i as usize] as usize];
-        parent[i as usize] = gp;
-        i = gp;
-    }
-    i
 }
 
 fn component_distance(local: &LocalMesh, tris: &[u32]) -> Option<MeshDistance> {
@@ -65,7 +56,7 @@ impl Components {
     /// Connected components of `local` through shared welded edges within one part.
     pub fn new(local: &LocalMesh) -> Components {
         let n = local.len();
-        let mut parent: Vec<u32> = (0..n as u32).collect();
+        let mut sets = UnionFind::new(n);
         let mut edges: Vec<(u64, u32)> = Vec::with_capacity(3 * n);
         for (t, v) in local.vids.iter().enumerate() {
             for k in 0..3 {
@@ -78,25 +69,14 @@ impl Components {
         edges.par_sort_unstable();
         for w in edges.windows(2) {
             if w[0].0 == w[1].0 && local.parts[w[0].1 as usize] == local.parts[w[1].1 as usize] {
-                let ra = find(&mut parent, w[0].1);
-                let rb = find(&mut parent, w[1].1);
-                if ra != rb {
-                    let (r, o) = if ra < rb { (ra, rb) } else { (rb, ra) };
-                    parent[o as usize] = r;
-                }
+                sets.union(w[0].1, w[1].1);
             }
         }
-        let mut of_triangle = vec![u32::MAX; n];
+        let mut of_triangle = Vec::new();
+        let count = sets.labels_into(&mut of_triangle);
         let mut index_in = vec![0u32; n];
-        let mut members: Vec<Vec<u32>> = Vec::new();
-        for t in 0..n {
-            let r = find(&mut parent, t as u32) as usize;
-            if of_triangle[r] == u32::MAX {
-                of_triangle[r] = members.len() as u32;
-                members.push(Vec::new());
-            }
-            let c = of_triangle[r];
-            of_triangle[t] = c;
+        let mut members: Vec<Vec<u32>> = vec![Vec::new(); count];
+        for (t, &c) in of_triangle.iter().enumerate() {
             index_in[t] = members[c as usize].len() as u32;
             members[c as usize].push(t as u32);
         }

@@ -40,6 +40,7 @@
 
 use glam::Vec3;
 use sdfmo_format::{quant, ValueBits, Voxel};
+use sdfmo_mesh::UnionFind;
 
 use crate::components::Components;
 use crate::geom::{clip_triangle, corner_offset, trilinear, zero_set_gap, MAX_CLIP};
@@ -141,7 +142,7 @@ struct Cand {
 pub struct Scratch {
     samples: Vec<Vec3>,
     sample_tri: Vec<u32>,
-    parent: Vec<u32>,
+    sets: UnionFind,
     edges: Vec<(u64, u32)>,
     comp_of: Vec<u32>,
     comp_tris: Vec<Vec<u32>>,
@@ -167,15 +168,6 @@ pub fn svo_leaf(p: &Params, g: &[f32; 8]) -> LeafResult {
     } else {
         LeafResult::default()
     }
-}
-
-fn find(parent: &mut [u32], mut i: u32) -> u32 {
-    while parent[i as usize] != i {
-        let gp = parent[parent[i as usize] as usize];
-        parent[i as usize] = gp;
-        i = gp;
-    }
-    i
 }
 
 /// The multi-octree leaf at cell `coord` with gathered triangles `tris` and global corners `g`.
@@ -252,8 +244,7 @@ pub fn multi_leaf(
 
     // 3. Components through shared welded edges (same part only).
     let n = tris.len();
-    s.parent.clear();
-    s.parent.extend(0..n as u32);
+    s.sets.reset(n);
     s.edges.clear();
     for (li, &t) in tris.iter().enumerate() {
         let v = mesh.vids[t as usize];
@@ -273,13 +264,8 @@ pub fn multi_leaf(
         if ka == kb
             && mesh.parts[tris[ta as usize] as usize] == mesh.parts[tris[tb as usize] as usize]
         {
-            let ra = find(&mut s.parent, ta);
-            let rb = find(&mut s.parent, tb);
-            if ra != rb {
-                // Smaller root wins: deterministic.
-                let (r, o) = if ra < rb { (ra, rb) } else { (rb, ra) };
-                s.parent[o as usize] = r;
-            }
+            // The smaller root wins (UnionFind's rule): deterministic.
+            s.sets.union(ta, tb);
         }
     }
     // Pieces of one global component are merged back: a piece of a closed surface cut out by
@@ -297,26 +283,11 @@ pub fn multi_leaf(
         let (ga, ta) = s.edges[w];
         let (gb, tb) = s.edges[w + 1];
         if ga == gb {
-            let ra = find(&mut s.parent, ta);
-            let rb = find(&mut s.parent, tb);
-            if ra != rb {
-                let (r, o) = if ra < rb { (ra, rb) } else { (rb, ra) };
-                s.parent[o as usize] = r;
-            }
+            s.sets.union(ta, tb);
         }
     }
     // Component ids in order of first triangle.
-    s.comp_of.clear();
-    s.comp_of.resize(n, u32::MAX);
-    let mut k = 0usize;
-    for li in 0..n {
-        let r = find(&mut s.parent, li as u32) as usize;
-        if s.comp_of[r] == u32::MAX {
-            s.comp_of[r] = k as u32;
-            k += 1;
-        }
-        s.comp_of[li] = s.comp_of[r];
-    }
+    let k = s.sets.labels_into(&mut s.comp_of);
     while s.comp_tris.len() < k {
         s.comp_tris.push(Vec::new());
     }

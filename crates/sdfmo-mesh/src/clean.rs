@@ -173,15 +173,7 @@ pub fn weld_within(mesh: &TriMesh, tolerance: f32) -> Result<(TriMesh, CleanRepo
         grid.entry(cell(p)).or_default().push(i as u32);
     }
     // Union–find over vertices; the root is always the lowest index of its set.
-    let mut parent: Vec<u32> = (0..n as u32).collect();
-    fn find(parent: &mut [u32], mut x: u32) -> u32 {
-        while parent[x as usize] != x {
-            let gp = parent[parent[x as usize] as usize];
-            parent[x as usize] = gp;
-            x = gp;
-        }
-        x
-    }
+    let mut sets = crate::UnionFind::new(n);
     let tol2 = tolerance * tolerance;
     for (i, &p) in mesh.positions.iter().enumerate() {
         let c = cell(p);
@@ -195,9 +187,7 @@ pub fn weld_within(mesh: &TriMesh, tolerance: f32) -> Result<(TriMesh, CleanRepo
                         if (j as usize) < i
                             && p.distance_squared(mesh.positions[j as usize]) <= tol2
                         {
-                            let (a, b) = (find(&mut parent, i as u32), find(&mut parent, j));
-                            let (lo, hi) = (a.min(b), a.max(b));
-                            parent[hi as usize] = lo;
+                            sets.union(i as u32, j);
                         }
                     }
                 }
@@ -205,7 +195,7 @@ pub fn weld_within(mesh: &TriMesh, tolerance: f32) -> Result<(TriMesh, CleanRepo
         }
     }
     let positions: Vec<Vec3> = (0..n as u32)
-        .map(|i| mesh.positions[find(&mut parent, i) as usize])
+        .map(|i| mesh.positions[sets.find(i) as usize])
         .collect();
     clean(
         crate::mesh::MEMORY,

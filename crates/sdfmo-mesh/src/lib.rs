@@ -24,6 +24,7 @@ mod load;
 mod mesh;
 pub mod procedural;
 mod topology;
+mod union_find;
 pub mod write;
 
 pub use clean::{clean, weld_within, CleanReport};
@@ -34,6 +35,7 @@ pub use load::{
 };
 pub use mesh::{Aabb, Normalization, TriMesh};
 pub use topology::{EdgeAdjacency, Topology};
+pub use union_find::UnionFind;
 
 /// The numbers `sdfmo info` reports for a mesh, in one place.
 #[derive(Clone, Debug, PartialEq)]

@@ -6,6 +6,7 @@
 //! an 80k-triangle mesh takes a few milliseconds.
 
 use crate::mesh::TriMesh;
+use crate::union_find::UnionFind;
 
 /// Connectivity of a mesh through shared edges of its (welded) vertices.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -90,59 +91,14 @@ impl EdgeAdjacency {
                 uf.union(tris[0], t);
             }
         }
-        let mut id_of_root = vec![u32::MAX; triangle_count];
-        let mut ids = Vec::with_capacity(triangle_count);
-        let mut count = 0u32;
-        for t in 0..triangle_count as u32 {
-            let r = uf.find(t) as usize;
-            if id_of_root[r] == u32::MAX {
-                id_of_root[r] = count;
-                count += 1;
-            }
-            ids.push(id_of_root[r]);
-        }
-        (ids, count as usize)
+        let mut ids = Vec::new();
+        let count = uf.labels_into(&mut ids);
+        (ids, count)
     }
 
     /// Triangles incident to edge `e`.
     pub fn triangles_of(&self, e: usize) -> &[u32] {
         &self.triangles[self.offsets[e] as usize..self.offsets[e + 1] as usize]
-    }
-}
-
-/// Union–find with path halving and union by size.
-struct UnionFind {
-    parent: Vec<u32>,
-    size: Vec<u32>,
-}
-
-impl UnionFind {
-    fn new(n: usize) -> Self {
-        UnionFind {
-            parent: (0..n as u32).collect(),
-            size: vec![1; n],
-        }
-    }
-
-    fn find(&mut self, mut x: u32) -> u32 {
-        while self.parent[x as usize] != x {
-            let gp = self.parent[self.parent[x as usize] as usize];
-            self.parent[x as usize] = gp;
-            x = gp;
-        }
-        x
-    }
-
-    fn union(&mut self, a: u32, b: u32) {
-        let (mut ra, mut rb) = (self.find(a), self.find(b));
-        if ra == rb {
-            return;
-        }
-        if self.size[ra as usize] < self.size[rb as usize] {
-            std::mem::swap(&mut ra, &mut rb);
-        }
-        self.parent[rb as usize] = ra;
-        self.size[ra as usize] += self.size[rb as usize];
     }
 }
 
