@@ -14,7 +14,6 @@ use rayon::prelude::*;
 use sdfmo_distance::{MeshDistance, SignMode};
 use sdfmo_mesh::{TriMesh, UnionFind};
 
-use crate::geom::closest_point_triangle;
 use crate::local::LocalMesh;
 
 /// All global components and each triangle's component and index within it. The distance
@@ -119,11 +118,11 @@ impl Components {
         let Some(&t) = members.get(cp.triangle as usize) else {
             return f32::INFINITY;
         };
-        let [a, b, cc] = local.tris[t as usize];
-        let (q, f) = closest_point_triangle(p, a, b, cc);
+        // The component mesh keeps each triangle's vertex order, so the feature is the same.
+        let f = cp.feature;
         if self.open[c as usize] || local.feature_is_clean(t as usize, f) {
             let n = local.pseudo_normal(t as usize, f);
-            if (p - q).dot(n) < 0.0 {
+            if (p - cp.point).dot(n) < 0.0 {
                 -cp.distance
             } else {
                 cp.distance

@@ -1,101 +1,13 @@
-//! Small geometric helpers of the builder: closest point on a triangle with the feature it lies
-//! on, triangle clipping against a box, and the trilinear interpolant.
+//! Small geometric helpers of the builder: triangle clipping against a box and the distance of
+//! an interpolant's zero set; the closest point on a triangle and the interpolant are the
+//! layers' (re-exported here under the builder's names).
 
 use glam::Vec3;
 
-/// What a voxel is lives in the format: its corner order and interpolant.
+/// The closest point and its feature live in the distance layer (one routine, with its needle
+/// conditioning), what a voxel is in the format (corner order, interpolant).
+pub use sdfmo_distance::{closest_point_on_triangle as closest_point_triangle, Feature};
 pub use sdfmo_format::{corner_offset, trilinear, trilinear_gradient};
-
-/// The feature of a triangle a closest point lies on (Voronoi region).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Feature {
-    /// Vertex 0, 1 or 2.
-    Vertex(u8),
-    /// Edge 0 (v0–v1), 1 (v1–v2) or 2 (v2–v0).
-    Edge(u8),
-    /// The interior of the face.
-    Face,
-}
-
-/// Closest point on triangle `(a, b, c)` to `p` and the feature it lies on (Ericson,
-/// *Real-Time Collision Detection*, 5.1.5). Degenerate triangles fall into vertex or edge regions.
-#[inline]
-pub fn closest_point_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> (Vec3, Feature) {
-    let ab = b - a;
-    let ac = c - a;
-    let ap = p - a;
-    let d1 = ab.dot(ap);
-    let d2 = ac.dot(ap);
-    // Vertex region of a.
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return (a, Feature::Vertex(0));
-    }
-    let bp = p - b;
-    let d3 = ab.dot(bp);
-    let d4 = ac.dot(bp);
-    // Vertex region of b.
-    if d3 >= 0.0 && d4 <= d3 {
-        return (b, Feature::Vertex(1));
-    }
-    // Edge region of ab.
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let denom = d1 - d3;
-        let v = if denom > 0.0 { d1 / denom } else { 0.0 };
-        return (a + ab * v, Feature::Edge(0));
-    }
-    let cp = p - c;
-    let d5 = ab.dot(cp);
-    let d6 = ac.dot(cp);
-    // Vertex region of c.
-    if d6 >= 0.0 && d5 <= d6 {
-        return (c, Feature::Vertex(2));
-    }
-    // Edge region of ac (edge 2: v2–v0).
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let denom = d2 - d6;
-        let w = if denom > 0.0 { d2 / denom } else { 0.0 };
-        return (a + ac * w, Feature::Edge(2));
-    }
-    // Edge region of bc (edge 1).
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        let denom = (d4 - d3) + (d5 - d6);
-        let w = if denom > 0.0 { (d4 - d3) / denom } else { 0.0 };
-        return (b + (c - b) * w, Feature::Edge(1));
-    }
-    // Face region.
-    let sum = va + vb + vc;
-    if sum.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !sum.is_finite() {
-        // Degenerate (collinear) triangle that slipped through: nearest of the three edges.
-        let mut best = (a, Feature::Vertex(0));
-        let mut bd = f32::INFINITY;
-        for (i, (s, e)) in [(a, b), (b, c), (c, a)].into_iter().enumerate() {
-            let q = closest_on_segment(p, s, e);
-            let d = (q - p).length_squared();
-            if d < bd {
-                bd = d;
-                best = (q, Feature::Edge(i as u8));
-            }
-        }
-        return best;
-    }
-    let denom = 1.0 / sum;
-    let v = vb * denom;
-    let w = vc * denom;
-    (a + ab * v + ac * w, Feature::Face)
-}
-
-#[inline]
-fn closest_on_segment(p: Vec3, a: Vec3, b: Vec3) -> Vec3 {
-    let d = b - a;
-    let l = d.length_squared();
-    if l <= 0.0 {
-        return a;
-    }
-    a + d * ((p - a).dot(d) / l).clamp(0.0, 1.0)
-}
 
 /// Most vertices a triangle clipped by the six planes of a box can have.
 pub const MAX_CLIP: usize = 9;

@@ -371,12 +371,11 @@ fn global_signed_distance(
         dist.closest_point(p)
     };
     if hybrid && (c.triangle as usize) < local.len() {
+        // The search's closest point carries its feature: no second closest-point test.
         let t = c.triangle as usize;
-        let [a, b, cc] = local.tris[t];
-        let (q, f) = closest_point_triangle(p, a, b, cc);
-        if local.feature_is_clean(t, f) {
-            let n = local.pseudo_normal(t, f);
-            return if (p - q).dot(n) < 0.0 {
+        if local.feature_is_clean(t, c.feature) {
+            let n = local.pseudo_normal(t, c.feature);
+            return if (p - c.point).dot(n) < 0.0 {
                 -c.distance
             } else {
                 c.distance
