@@ -1,6 +1,7 @@
 //! The builder's own view of the normalised mesh: triangles with vertices welded by position,
-//! face and angle-weighted pseudo-normals (Bærentzen & Aanæs 2005) over the whole mesh, boundary
-//! edges, and brute-force signed distance to a small triangle subset (a leaf's component).
+//! face and angle-weighted pseudo-normals (Bærentzen & Aanæs 2005) over the whole mesh (the
+//! distance layer's `PseudoNormals`, in f64), boundary and clean-edge flags, and brute-force
+//! signed distance to a small triangle subset (a leaf's component).
 //!
 //! The subset queries run on a handful of triangles per leaf, millions of times per build, so
 //! they are written here against flat arrays (no BVH, no allocation) rather than through the
@@ -65,10 +66,8 @@ impl LocalMesh {
         let n = mesh.triangles.len();
         let mut tris = Vec::with_capacity(n);
         let mut vids = Vec::with_capacity(n);
-        let mut face_normal = Vec::with_capacity(n);
         let mut bbox = Vec::with_capacity(n);
         let mut area2 = Vec::with_capacity(n);
-        let mut vertex_normal = vec![Vec3::ZERO; welded_pos.len()];
         for t in &mesh.triangles {
             let v = [
                 remap[t[0] as usize],
@@ -81,20 +80,16 @@ impl LocalMesh {
                 welded_pos[v[2] as usize],
             ];
             let cr = (p[1] - p[0]).cross(p[2] - p[0]);
-            let nrm = cr.normalize_or_zero();
-            for k in 0..3 {
-                let e1 = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
-                let e2 = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
-                let angle = e1.dot(e2).clamp(-1.0, 1.0).acos();
-                vertex_normal[v[k] as usize] += nrm * angle;
-            }
             tris.push(p);
             vids.push(v);
-            face_normal.push(nrm);
             bbox.push((p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2])));
             area2.push(cr.length());
         }
-        // Edges: sort (min vid, max vid, triangle, local edge) and group.
+        // Face, edge and vertex pseudo-normals of the welded mesh: the distance layer's (f64).
+        let normals = sdfmo_distance::PseudoNormals::new(&welded_pos, &vids);
+        let face_normal = normals.face;
+        let vertex_normal = normals.vertex;
+        // Edges: sort (min vid, max vid, triangle, local edge) and group, for the flags.
         let mut edges: Vec<(u64, u32, u8)> = Vec::with_capacity(3 * n);
         for (ti, v) in vids.iter().enumerate() {
             for k in 0..3 {
@@ -108,23 +103,20 @@ impl LocalMesh {
             }
         }
         edges.sort_unstable();
-        let mut edge_normal = vec![[Vec3::ZERO; 3]; n];
+        let edge_normal = normals.edge;
         let mut boundary = vec![0u8; n];
         let mut edge_clean = vec![0u8; n];
         let mut vertex_clean = vec![true; welded_pos.len()];
         let mut i = 0;
         while i < edges.len() {
             let mut j = i;
-            let mut sum = Vec3::ZERO;
             while j < edges.len() && edges[j].0 == edges[i].0 {
-                sum += face_normal[edges[j].1 as usize];
                 j += 1;
             }
             // Clean: two triangles traversing the edge in opposite directions.
             let dir = |e: &(u64, u32, u8)| vids[e.1 as usize][e.2 as usize];
             let clean = j - i == 2 && dir(&edges[i]) != dir(&edges[i + 1]);
             for e in &edges[i..j] {
-                edge_normal[e.1 as usize][e.2 as usize] = sum;
                 if j - i == 1 {
                     boundary[e.1 as usize] |= 1 << e.2;
                 }

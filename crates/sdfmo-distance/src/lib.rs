@@ -68,7 +68,7 @@ pub use ray_triangle::WatertightRay;
 pub use winding::WINDING_BETA;
 
 use bvh4::Bvh4;
-use pseudo_normals::PseudoNormals;
+pub use pseudo_normals::PseudoNormals;
 use winding::{solid_angle, TriangleDipole, WindingNode};
 
 /// Deepest BVH the fixed traversal stacks support. obvhs' PLOC trees over real meshes are far

@@ -16,9 +16,11 @@ use glam::{DVec3, Vec3};
 use crate::point_triangle::Feature;
 
 /// Pseudo-normals of every face, edge and vertex, plus what the edge pass learnt about the
-/// topology.
+/// topology. Computed in f64 (face normals from the f64 cross product, vertex angles from
+/// `atan2`, robust for needles and obtuse corners) and stored in f32. The builder's per-leaf
+/// signs use these too, so a fix here is a fix everywhere.
 #[derive(Clone, Debug)]
-pub(crate) struct PseudoNormals {
+pub struct PseudoNormals {
     /// Unit face normal per triangle (zero for zero-area triangles).
     pub face: Vec<Vec3>,
     /// Edge pseudo-normal per triangle and local edge k (v_k → v_{k+1}).
@@ -30,7 +32,11 @@ pub(crate) struct PseudoNormals {
 }
 
 impl PseudoNormals {
-    /// Computes the pseudo-normals; indices must be in range (checked by the caller).
+    /// Computes the pseudo-normals of the triangles over `positions`; edges are shared through
+    /// equal vertex indices (weld first).
+    ///
+    /// # Panics
+    /// When an index is out of range (validate the mesh first, as `TriMesh::new` does).
     pub fn new(positions: &[Vec3], triangles: &[[u32; 3]]) -> PseudoNormals {
         let mut face = Vec::with_capacity(triangles.len());
         let mut vertex = vec![DVec3::ZERO; positions.len()];
