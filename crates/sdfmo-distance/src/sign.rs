@@ -1,0 +1,175 @@
+//! Signed distance: the sign of a closest point (pseudo-normals, the winding number, the
+//! hybrid shortcuts), batches, and the winding number itself.
+
+use super::*;
+
+impl MeshDistance {
+    /// Signed distance from `p` to the mesh, negative inside, with the sign of
+    /// [`sign_mode`](Self::sign_mode).
+    pub fn signed_distance(&self, p: Vec3) -> f32 {
+        let c = self.closest_point(p);
+        self.apply_sign(p, &c)
+    }
+
+    /// Signs the distance of a closest point `c` of `p` (found by any of the closest-point
+    /// queries on this mesh) with the mode of this `MeshDistance`. Lets a caller that already has
+    /// the closest point (from a bounded or hinted query) avoid a second search.
+    pub fn sign_closest(&self, p: Vec3, c: &ClosestPoint) -> f32 {
+        self.apply_sign(p, c)
+    }
+
+    #[inline]
+    pub(crate) fn apply_sign(&self, p: Vec3, c: &ClosestPoint) -> f32 {
+        match self.sign {
+            SignMode::Winding => {
+                if self.winding_inside_near(p, c) {
+                    -c.distance
+                } else {
+                    c.distance
+                }
+            }
+            _ => self.pseudo_normal_sign(p, c),
+        }
+    }
+
+    /// Whether the winding number of `p` exceeds ½ for a query whose closest point is `c`:
+    /// from the face normal when `c` lies in the interior of a clean triangle (see
+    /// [`clean_winding_radii`](Self::clean_winding_radii)) and `p` is closer to it than
+    /// [`CLEAN_DISTANCE_FRACTION`] of the clean radius, else [`winding_inside`](Self::winding_inside).
+    #[inline]
+    pub(crate) fn winding_inside_near(&self, p: Vec3, c: &ClosestPoint) -> bool {
+        if c.feature == Feature::Face {
+            let radii = self.clean_radius.get_or_init(|| self.clean_winding_radii());
+            if let Some(&r) = radii.get(c.triangle as usize) {
+                if c.distance < r * CLEAN_DISTANCE_FRACTION {
+                    let n = self.normals.face[c.triangle as usize];
+                    return (p - c.point).dot(n) < 0.0;
+                }
+            }
+        }
+        self.winding_inside(p)
+    }
+
+    /// Whether `winding_number(p) > ½`, decided in two stages: a coarse pass with
+    /// β = [`COARSE_WINDING_BETA`] (far fewer exact solid angles near the surface) settles every
+    /// point whose coarse w lies farther than [`COARSE_WINDING_MARGIN`] from ½ (away from the
+    /// rims and seams of an open or non-manifold mesh w is close to 0 or 1); only the others are
+    /// recomputed with the full [`WINDING_BETA`].
+    #[inline]
+    pub(crate) fn winding_inside(&self, p: Vec3) -> bool {
+        let coarse = self.winding_number_scaled(p, COARSE_FAR_SCALE);
+        if (coarse - 0.5).abs() > COARSE_WINDING_MARGIN {
+            coarse > 0.5
+        } else {
+            self.winding_number(p) > 0.5
+        }
+    }
+
+    #[inline]
+    pub(crate) fn pseudo_normal_sign(&self, p: Vec3, c: &ClosestPoint) -> f32 {
+        let Some(&idx) = self.mesh.triangles.get(c.triangle as usize) else {
+            return c.distance;
+        };
+        let n = self.normals.normal(c.triangle as usize, idx, c.feature);
+        if (p - c.point).dot(n) < 0.0 {
+            -c.distance
+        } else {
+            c.distance
+        }
+    }
+
+    /// Signed distances of many points, in parallel (rayon), in the same order; each value is
+    /// bit-identical to [`signed_distance`](Self::signed_distance) of that point. The points are
+    /// visited in Morton (Z-curve) order so that consecutive queries of a thread touch the same
+    /// BVH and winding-tree nodes; the results are returned in the caller's order.
+    pub fn signed_distances(&self, points: &[Vec3]) -> Vec<f32> {
+        if points.len() < 256 {
+            return points.iter().map(|&p| self.signed_distance(p)).collect();
+        }
+        // Initialised here, before the workers start, rather than by whichever worker comes
+        // first while the others wait.
+        self.prepare_sign();
+        let order = morton_order(points);
+        let sorted: Vec<f32> = order
+            .par_iter()
+            .with_min_len(64)
+            .map(|&i| self.signed_distance(points[i]))
+            .collect();
+        let mut out = vec![0.0f32; points.len()];
+        for (&i, d) in order.iter().zip(sorted) {
+            out[i] = d;
+        }
+        out
+    }
+
+    /// Generalised winding number of the mesh at `p` (Jacobson et al. 2013), with the
+    /// hierarchical approximation of Barill et al. 2018 (accuracy parameter
+    /// [`WINDING_BETA`]): ≈ 1 inside a closed outward-oriented surface, ≈ 0 outside.
+    pub fn winding_number(&self, p: Vec3) -> f32 {
+        self.winding_number_scaled(p, 1.0)
+    }
+
+    /// Hierarchical winding number at `p` with accuracy parameter `beta` instead of
+    /// [`WINDING_BETA`]: a node (or a triangle of a near leaf) is taken as its expansion when `p`
+    /// is farther than `beta` times its radius from its centre. Smaller is faster and coarser;
+    /// `beta` is clamped to at least 1 (the expansion diverges inside the bounding sphere), and a
+    /// NaN `beta` means [`WINDING_BETA`].
+    pub fn winding_number_with_beta(&self, p: Vec3, beta: f32) -> f32 {
+        let beta = if beta.is_nan() {
+            WINDING_BETA
+        } else {
+            beta.max(1.0)
+        };
+        let k = beta / WINDING_BETA;
+        self.winding_number_scaled(p, k * k)
+    }
+
+    /// The hierarchical winding number with every far-field threshold (β·r)² multiplied by
+    /// `scale`.
+    #[inline]
+    pub(crate) fn winding_number_scaled(&self, p: Vec3, scale: f32) -> f32 {
+        let mut stack = [0u32; MAX_BVH_DEPTH + 1];
+        let mut sp = 1usize;
+        let mut sum = 0.0f32;
+        while sp > 0 {
+            sp -= 1;
+            let w = &self.winding[stack[sp] as usize];
+            let d = w.center - p;
+            let d2 = d.length_squared();
+            if d2 > w.far2 * scale {
+                sum += w.far_field(d, d2);
+            } else if w.count > 0 {
+                let start = w.first as usize;
+                let end = start + w.count as usize;
+                for (t, dp) in self.leaf_tris[start..end]
+                    .iter()
+                    .zip(&self.leaf_dipoles[start..end])
+                {
+                    let d = dp.center - p;
+                    let d2 = d.length_squared();
+                    if d2 > dp.far2 * scale {
+                        sum += dp.normal.dot(d) / (d2 * d2.sqrt());
+                    } else {
+                        sum += solid_angle(p, t[0], t[1], t[2]);
+                    }
+                }
+            } else {
+                stack[sp] = w.first;
+                stack[sp + 1] = w.first + 1;
+                sp += 2;
+            }
+        }
+        sum / (4.0 * std::f32::consts::PI)
+    }
+
+    /// Exact generalised winding number at `p`: the sum over every triangle, O(n). For tests and
+    /// for measuring the accuracy of [`winding_number`](Self::winding_number).
+    pub fn winding_number_exact(&self, p: Vec3) -> f64 {
+        let s: f64 = self
+            .tris
+            .iter()
+            .map(|t| solid_angle(p, t[0], t[1], t[2]) as f64)
+            .sum();
+        s / (4.0 * std::f64::consts::PI)
+    }
+}
