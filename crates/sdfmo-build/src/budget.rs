@@ -9,7 +9,7 @@
 
 use sdfmo_mesh::TriMesh;
 
-use crate::{BuildSettings, Method};
+use crate::{BuildError, BuildSettings, Method, Result};
 
 /// Peak bytes per predicted candidate leaf of an SVO build (measured 167–182 at depth 11 on
 /// abc1, abc3, abc5; rounded up by a fifth).
@@ -48,7 +48,7 @@ pub fn estimate_memory(mesh: &TriMesh, settings: &BuildSettings) -> MemoryEstima
         .sum();
     let cells_per_edge = (1u64 << settings.depth.min(62)) as f64;
     let h = 2.0 / cells_per_edge;
-    // At least one cell per triangle's worth of surface, at most every cell of the grid.
+    // Never more than every cell of the grid.
     let candidate_cells = (crossed / (h * h)).min(cells_per_edge.powi(3));
     let per_cell = match settings.method {
         Method::Svo => BYTES_PER_CELL_SVO,
@@ -59,6 +59,25 @@ pub fn estimate_memory(mesh: &TriMesh, settings: &BuildSettings) -> MemoryEstima
     MemoryEstimate {
         candidate_cells,
         bytes: bytes.min(u64::MAX as f64) as u64,
+    }
+}
+
+/// The prediction of [`estimate_memory`], or [`BuildError::MemoryBudget`] when it exceeds
+/// `budget` (`None`: no limit). [`build_with_budget`](crate::build_with_budget) calls it before
+/// any work; a caller that runs several builds (a sweep) can call it for all of them first.
+pub fn check_memory(
+    mesh: &TriMesh,
+    settings: &BuildSettings,
+    budget: Option<u64>,
+) -> Result<MemoryEstimate> {
+    let estimate = estimate_memory(mesh, settings);
+    match budget {
+        Some(budget) if estimate.bytes > budget => Err(BuildError::MemoryBudget {
+            depth: settings.depth,
+            estimate: estimate.bytes,
+            budget,
+        }),
+        _ => Ok(estimate),
     }
 }
 

@@ -51,7 +51,9 @@ use sdfmo_distance::{MeshDistance, SignMode};
 use sdfmo_format::{quant, LeafInput, OctreeMeta, PackedOctree, ValueBits, MAX_DEPTH};
 use sdfmo_mesh::TriMesh;
 
-pub use budget::{default_memory_budget, estimate_memory, physical_memory, MemoryEstimate};
+pub use budget::{
+    check_memory, default_memory_budget, estimate_memory, physical_memory, MemoryEstimate,
+};
 pub use error::{BuildError, Result};
 pub use geom::{closest_point_triangle, trilinear, Feature};
 pub use local::LocalMesh;
@@ -232,16 +234,7 @@ pub fn build_with_budget(
     progress: Option<&(dyn Fn(f32) + Sync)>,
 ) -> Result<(PackedOctree, BuildStats)> {
     validate(mesh, settings)?;
-    if let Some(budget) = budget {
-        let estimate = estimate_memory(mesh, settings).bytes;
-        if estimate > budget {
-            return Err(BuildError::MemoryBudget {
-                depth: settings.depth,
-                estimate,
-                budget,
-            });
-        }
-    }
+    check_memory(mesh, settings, budget)?;
     match settings.threads {
         Some(n) => {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build()?;
@@ -265,6 +258,18 @@ fn ms(t: Instant) -> f64 {
 /// the build's peak); otherwise the pairs. Both orders are the same (slots are unique), so the
 /// points and the octree are too.
 fn shared_corners(sub: &subdivide::Subdivision, depth: u8) -> (Vec<Vec3>, Vec<u32>, Vec<u32>) {
+    let slot_bits = u64::BITS - ((sub.cells.len() as u64) * 8).leading_zeros();
+    let packs = 3 * (u32::from(depth) + 1) + slot_bits <= u64::BITS;
+    shared_corners_sorted(sub, depth, packs)
+}
+
+/// [`shared_corners`] with the sort chosen by the caller: packed `u64` keys (`packs`, only when
+/// key and slot fit) or `(key, slot)` pairs.
+fn shared_corners_sorted(
+    sub: &subdivide::Subdivision,
+    depth: u8,
+    packs: bool,
+) -> (Vec<Vec3>, Vec<u32>, Vec<u32>) {
     let n = sub.cells.len();
     let axis_bits = u32::from(depth) + 1;
     let slot_bits = u64::BITS - ((n as u64) * 8).leading_zeros();
@@ -276,11 +281,8 @@ fn shared_corners(sub: &subdivide::Subdivision, depth: u8) -> (Vec<Vec3>, Vec<u3
         ];
         ((g[0] as u64) << (2 * axis_bits)) | ((g[1] as u64) << axis_bits) | g[2] as u64
     };
-    let mut out = SharedCorners::with_capacity(n);
-    let h = 2.0 / (1u64 << depth) as f32;
-    let axis_mask = (1u64 << axis_bits) - 1;
-    let mut visit = |key: u64, slot: u32| out.visit(key, slot, sub, h, axis_bits, axis_mask);
-    if 3 * axis_bits + slot_bits <= u64::BITS {
+    let mut out = SharedCorners::new(sub, depth, axis_bits);
+    if packs {
         let mut packed: Vec<u64> = Vec::with_capacity(n * 8);
         for (i, c) in sub.cells.iter().enumerate() {
             for k in 0..8u32 {
@@ -290,7 +292,7 @@ fn shared_corners(sub: &subdivide::Subdivision, depth: u8) -> (Vec<Vec3>, Vec<u3
         packed.par_sort_unstable();
         let slot_mask = (1u64 << slot_bits) - 1;
         for &p in &packed {
-            visit(p >> slot_bits, (p & slot_mask) as u32);
+            out.visit(p >> slot_bits, (p & slot_mask) as u32);
         }
     } else {
         let mut slots: Vec<(u64, u32)> = Vec::with_capacity(n * 8);
@@ -301,23 +303,31 @@ fn shared_corners(sub: &subdivide::Subdivision, depth: u8) -> (Vec<Vec3>, Vec<u3
         }
         slots.par_sort_unstable();
         for &(key, slot) in &slots {
-            visit(key, slot);
+            out.visit(key, slot);
         }
     }
     (out.points, out.hints, out.point_of_slot)
 }
 
 /// What [`shared_corners`] accumulates while walking the sorted slots.
-struct SharedCorners {
+struct SharedCorners<'a> {
+    sub: &'a subdivide::Subdivision,
+    /// Cell edge in the normalised frame.
+    h: f32,
+    axis_bits: u32,
     points: Vec<Vec3>,
     hints: Vec<u32>,
     point_of_slot: Vec<u32>,
     last: u64,
 }
 
-impl SharedCorners {
-    fn with_capacity(cells: usize) -> SharedCorners {
+impl<'a> SharedCorners<'a> {
+    fn new(sub: &'a subdivide::Subdivision, depth: u8, axis_bits: u32) -> SharedCorners<'a> {
+        let cells = sub.cells.len();
         SharedCorners {
+            sub,
+            h: 2.0 / (1u64 << depth) as f32,
+            axis_bits,
             points: Vec::with_capacity(cells * 2),
             hints: Vec::with_capacity(cells * 2),
             point_of_slot: vec![0u32; cells * 8],
@@ -325,25 +335,15 @@ impl SharedCorners {
         }
     }
 
+    /// One sorted slot: a new key starts a new point.
     #[inline]
-    fn visit(
-        &mut self,
-        key: u64,
-        slot: u32,
-        sub: &subdivide::Subdivision,
-        h: f32,
-        axis_bits: u32,
-        axis_mask: u64,
-    ) {
+    fn visit(&mut self, key: u64, slot: u32) {
         if key != self.last {
-            let g = [
-                (key >> (2 * axis_bits)) & axis_mask,
-                (key >> axis_bits) & axis_mask,
-                key & axis_mask,
-            ];
+            let (b, mask) = (self.axis_bits, (1u64 << self.axis_bits) - 1);
+            let g = [(key >> (2 * b)) & mask, (key >> b) & mask, key & mask];
             self.points
-                .push(Vec3::new(g[0] as f32, g[1] as f32, g[2] as f32) * h - Vec3::ONE);
-            self.hints.push(sub.cells[(slot / 8) as usize].hint);
+                .push(Vec3::new(g[0] as f32, g[1] as f32, g[2] as f32) * self.h - Vec3::ONE);
+            self.hints.push(self.sub.cells[(slot / 8) as usize].hint);
             self.last = key;
         }
         self.point_of_slot[slot as usize] = (self.points.len() - 1) as u32;
@@ -518,4 +518,35 @@ fn build_in_pool(
         bytes: octree.byte_size(),
     };
     Ok((octree, stats))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The packed sort (used up to about depth 11) and the pair sort (deeper) give the same
+    /// points, hints and slot map, so the octree does not depend on which one ran.
+    #[test]
+    fn both_corner_sorts_agree() {
+        let mesh = sdfmo_mesh::procedural::demo_part();
+        let (norm, _) = mesh.normalized(0.05);
+        let local = LocalMesh::new(&norm);
+        for depth in [4u8, 6] {
+            let (gather, candidate) = margins(depth, ValueBits::Eight, Method::default());
+            let sub = subdivide::subdivide(&local, depth, gather, candidate);
+            assert!(!sub.cells.is_empty());
+            let packed = shared_corners_sorted(&sub, depth, true);
+            let pairs = shared_corners_sorted(&sub, depth, false);
+            assert_eq!(packed, pairs, "depth {depth}");
+            assert_eq!(shared_corners(&sub, depth), pairs);
+            // Every slot of a cell points at that corner's grid position.
+            let h = 2.0 / (1u32 << depth) as f32;
+            for (slot, &pt) in pairs.2.iter().enumerate() {
+                let c = sub.cells[slot / 8].coord;
+                let o = sdfmo_format::corner_offset(slot % 8);
+                let want = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) * h + o * h - Vec3::ONE;
+                assert!((pairs.0[pt as usize] - want).length() < 1e-6);
+            }
+        }
+    }
 }

@@ -104,11 +104,9 @@ fn pending() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
 /// `.NAME.XXXXXX.tmp` beside the destination.)
 pub fn remove_pending_temporaries() -> usize {
     let mut list = pending();
-    let n = list
-        .drain(..)
+    list.drain(..)
         .filter(|p| std::fs::remove_file(p).is_ok())
-        .count();
-    n
+        .count()
 }
 
 /// A temporary file registered in [`PENDING`] for as long as it exists under its name.

@@ -7,7 +7,7 @@ use sdf_multioctree::build::{self, BuildSettings, BuildStats};
 use serde_json::json;
 
 use crate::args::BuildArgs;
-use crate::commands::load_input;
+use crate::commands::{load_input, memory_budget};
 use crate::output::{check_output, ensure_parent, print_json, print_text};
 use crate::progress;
 
@@ -24,8 +24,7 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
         margin: sdf_multioctree::DEFAULT_MARGIN,
         sign: args.sign.mode(),
     };
-    let budget = args.max_memory.or_else(build::default_memory_budget);
-    let estimate = build::estimate_memory(&input.mesh, &settings);
+    let budget = memory_budget(args.max_memory);
     let bar = progress::fraction(&format!("building {} depth {}", input.name, args.depth));
     let on_progress = |f: f32| progress::set_fraction(&bar, f);
     let built = build::build_with_budget(&input.mesh, &settings, budget, Some(&on_progress));
@@ -45,6 +44,7 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
             j["max_voxels"] = json!(args.max_voxels);
         }
         j["output"] = json!(args.output.display().to_string());
+        let estimate = build::estimate_memory(&input.mesh, &settings);
         j["memory_estimate"] = json!(estimate.bytes);
         j["candidate_cells_estimate"] = json!(estimate.candidate_cells.round());
         j["memory_budget"] = json!(budget);

@@ -112,6 +112,12 @@ impl BitsArg {
     }
 }
 
+/// The memory budget of a build: `--max-memory`, else the builder's default (half the
+/// physical memory).
+pub fn memory_budget(max_memory: Option<u64>) -> Option<u64> {
+    max_memory.or_else(sdf_multioctree::build::default_memory_budget)
+}
+
 /// Runs `f` on a rayon pool of `threads` workers, or on the global pool when `None`.
 pub fn with_threads<R: Send>(
     threads: Option<usize>,

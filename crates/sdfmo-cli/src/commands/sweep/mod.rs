@@ -16,7 +16,7 @@ use serde::Serialize;
 use serde_json::json;
 
 use crate::args::{MethodArg, SweepArgs};
-use crate::commands::{load_input, with_threads, InputMesh};
+use crate::commands::{load_input, memory_budget, with_threads, InputMesh};
 use crate::output::{print_json, print_text, write_png};
 use crate::progress;
 
@@ -125,19 +125,12 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
         .iter()
         .map(|p| load_input(*p))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    let budget = args.max_memory.or_else(build::default_memory_budget);
+    let budget = memory_budget(args.max_memory);
     for input in &inputs {
         for &method in &methods {
             let deepest = build_settings(args, method, *args.depths.end());
-            let estimate = build::estimate_memory(&input.mesh, &deepest).bytes;
-            if let Some(budget) = budget.filter(|&b| estimate > b) {
-                return Err(build::BuildError::MemoryBudget {
-                    depth: deepest.depth,
-                    estimate,
-                    budget,
-                })
-                .with_context(|| format!("cannot sweep {} {}", method.name(), input.source));
-            }
+            build::check_memory(&input.mesh, &deepest, budget)
+                .with_context(|| format!("cannot sweep {} {}", method.name(), input.source))?;
         }
     }
     let out = &args.output;
@@ -162,7 +155,7 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
     for mut input in inputs {
         input.name = unique_name(&sanitize(&input.name), &models);
         let model = sweep_model(
-            args, &settings, &methods, &depths, &input, &bar, &models, &mut rows,
+            args, &settings, &methods, &depths, &input, budget, &bar, &models, &mut rows,
         )?;
         models.push(model);
         files = report::write_tables(out, &settings, &models, &rows)?;
@@ -210,6 +203,7 @@ fn sweep_model(
     methods: &[MethodArg],
     depths: &[u8],
     input: &InputMesh,
+    budget: Option<u64>,
     bar: &indicatif::ProgressBar,
     models: &[Model],
     rows: &mut Vec<Row>,
@@ -249,7 +243,6 @@ fn sweep_model(
             let build_settings = build_settings(args, method, depth);
             let stage = format!("{name}: {} depth {depth}: build", method.name());
             let on_progress = |f: f32| bar.set_message(format!("{stage} {:.0}%", f * 100.0));
-            let budget = args.max_memory.or_else(build::default_memory_budget);
             let (octree, stats) =
                 build::build_with_budget(&input.mesh, &build_settings, budget, Some(&on_progress))
                     .with_context(|| {
