@@ -1,0 +1,387 @@
+//! Per-leaf voxel construction: the SVO's single voxel and the multi-octree's component voxels,
+//! volume or surface, reduced to the cap, and kept only where they earn their place.
+//!
+//! # The multi-octree decision, leaf by leaf
+//!
+//! [`multi_leaf`] runs five phases, each a function of its own module with its own tests:
+//! [`samples`] → [`split`] (components and their candidate voxels) → [`reduce`] → [`score`].
+//! Every threshold is a documented field of [`Params`].
+//!
+//! 1. *Samples.* Every gathered triangle is clipped to the leaf cell; the clipped polygon's
+//!    vertices, centroid and centroid–vertex midpoints are points of the true surface inside the
+//!    leaf (signed distance 0).
+//! 2. *Does the SVO voxel already do?* The single voxel from the global signed distance (shared
+//!    corners, quantised as the file stores them) is evaluated at the samples. If the largest
+//!    distance from a sample to the voxel's zero set (`|f| / |∇f|`, not `|f|`: a collapsed
+//!    gradient hides a missing zero set) is below [`Params::accept`] of the cell size, the leaf
+//!    gets that voxel, exactly as the SVO (most leaves: smooth surfaces, sharp edges of one
+//!    component). The thin test of step 3 measures the same distance.
+//! 3. *Components.* The gathered triangles split into connected components through shared edges
+//!    of vertices welded by position (never at a sharp edge: a sharp edge shares its vertices;
+//!    part ids pre-split). Pieces of the same *global* component are merged back (a piece cut
+//!    out of a closed surface by the leaf is not closed: its own signed distance is a
+//!    half-space, see the `components` module). One voxel per component, corners = exact
+//!    signed distance to that whole component alone. A component with boundary edges (open)
+//!    gets a *surface* voxel. A component its own voxel does not reproduce (error above
+//!    [`Params::thin`] at its samples: a plate thinner than a voxel whose corners all come out
+//!    positive) whose triangles form two nearly opposite groups of normals (the plate's two
+//!    faces, never the two faces of a sharp edge) is split into two surface voxels, one per face.
+//!    The groups are canonical (reference normal oriented towards a fixed direction, side faces
+//!    in neither group), so a one-ulp change of the input does not regroup the faces.
+//! 4. *Reduction.* Voxels whose quantised corners do not change sign cannot be hit and go;
+//!    voxels whose surface samples all lie inside another volume voxel are hidden and go; above
+//!    the cap, the most similar volume voxels merge (min = union), then the most nearly coplanar
+//!    surface voxels merge (average, oriented alike); a cap hit is counted.
+//! 5. *Earn its place.* The voxel set and the SVO voxel are scored on the same samples: the
+//!    mean error `max(min_v |f_v(p)|, buried depth inside a volume voxel)` plus a false-surface
+//!    term (on a 3×3×3 grid in the cell, how much closer some voxel's zero set is than the
+//!    true surface) plus a small cost per extra voxel. The multi set is kept only when it
+//!    scores better by [`Params::earn`] *and* its visible zero set reaches no farther from the
+//!    mesh than the SVO voxel's (plus [`Params::reach_tol`]): the zero crossings of every voxel
+//!    on 4×4 axis-parallel lines per axis (exact, the interpolant is linear along them), minus
+//!    those buried in another volume voxel, are measured against the true unsigned distance.
+//!    Otherwise the leaf gets the SVO voxel.
+
+use glam::Vec3;
+use sdfmo_format::{quant, ValueBits, Voxel};
+
+use crate::components::Components;
+use crate::geom::corner_offset;
+use crate::local::LocalMesh;
+
+pub(crate) mod reduce;
+pub(crate) mod samples;
+pub(crate) mod score;
+pub(crate) mod split;
+
+use samples::{svo_fit, Samples};
+use split::LeafComponents;
+
+/// Tuning of the per-leaf decision. Lengths are fractions of the cell edge `h`.
+#[derive(Clone, Copy, Debug)]
+pub struct Params {
+    /// Cell edge.
+    pub h: f32,
+    /// Quantisation range (the cell diagonal).
+    pub dmax: f32,
+    /// Corner bits.
+    pub bits: ValueBits,
+    /// Voxel cap per leaf.
+    pub max_voxels: usize,
+    /// The SVO voxel is accepted outright when its largest sample error is below this.
+    pub accept: f32,
+    /// A component voxel with a larger sample error is considered thin (split into surfaces).
+    pub thin: f32,
+    /// The multi set must beat the SVO voxel's score by this much.
+    pub earn: f32,
+    /// Score cost of every voxel beyond the first.
+    pub voxel_cost: f32,
+    /// A multi set whose visible zero set reaches farther from the true surface than the SVO
+    /// voxel's by more than this is never chosen.
+    pub reach_tol: f32,
+    /// With at most this many gathered triangles, each clipped polygon also gives the midpoints
+    /// between its centroid and its vertices as samples (more samples where they are cheap).
+    pub rich_samples_below: usize,
+    /// Thin split: faces whose normal makes `|cos|` below this with the reference normal are
+    /// side faces (the rim) and belong to neither face group.
+    pub rim_cos: f32,
+    /// Thin split: the two face groups' mean normals must be nearly opposite, `cos < −this`
+    /// (the two faces of a sharp edge are at an angle and are never split: fins).
+    pub opposite_cos: f32,
+    /// Thin split: kept when the two surface voxels' sample error is below this fraction of
+    /// the one voxel's.
+    pub split_gain: f32,
+    /// A voxel is hidden (dropped) when all its samples lie deeper than this inside another
+    /// component's volume voxel.
+    pub bury: f32,
+    /// False-surface term of the score: a voxel's zero set counts as false only where it is
+    /// closer than the true surface by more than this.
+    pub false_surface_slack: f32,
+    /// Reach test: a zero crossing deeper than this inside another volume voxel is hidden.
+    pub reach_bury: f32,
+    /// Points per axis of the score's false-surface grid, at `(i + 1) / (n + 1)` of the cell.
+    pub score_grid: usize,
+    /// Lines per axis direction of the reach test (`n²` lines per axis, at `(i + ½) / n`).
+    pub reach_lines: usize,
+}
+
+impl Params {
+    /// Defaults for a depth and quantisation.
+    pub fn new(depth: u8, bits: ValueBits, max_voxels: usize) -> Params {
+        Params {
+            h: 2.0 / (1u64 << depth) as f32,
+            dmax: quant::voxel_diagonal(depth),
+            bits,
+            max_voxels,
+            accept: 0.08,
+            thin: 0.2,
+            earn: 0.03,
+            voxel_cost: 0.01,
+            reach_tol: 0.05,
+            rich_samples_below: 16,
+            rim_cos: 0.3,
+            opposite_cos: 0.8,
+            split_gain: 0.5,
+            bury: 0.05,
+            false_surface_slack: 0.1,
+            reach_bury: 0.02,
+            score_grid: 3,
+            reach_lines: 4,
+        }
+    }
+
+    /// The value the file stores for `v` (quantised and read back).
+    #[inline]
+    pub fn q(&self, v: f32) -> f32 {
+        let code = quant::quantize(v, self.dmax, self.bits);
+        code as f32 * (self.dmax / quant::max_code(self.bits) as f32)
+    }
+
+    /// All eight corners quantised.
+    #[inline]
+    pub fn q8(&self, c: &[f32; 8]) -> [f32; 8] {
+        c.map(|v| self.q(v))
+    }
+
+    /// Whether the quantised corners change sign (the interpolant reaches zero in the cell).
+    #[inline]
+    pub fn crosses(&self, c: &[f32; 8]) -> bool {
+        let mut lo = i32::MAX;
+        let mut hi = i32::MIN;
+        for &v in c {
+            let k = quant::quantize(v, self.dmax, self.bits);
+            lo = lo.min(k);
+            hi = hi.max(k);
+        }
+        lo <= 0 && hi >= 0 && lo != hi
+    }
+}
+
+/// One leaf cell: its box in the normalised frame and its edge.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Cell {
+    /// Lowest corner.
+    pub lo: Vec3,
+    /// Highest corner.
+    pub hi: Vec3,
+    /// Edge.
+    pub h: f32,
+    /// `1 / h`.
+    pub inv_h: f32,
+}
+
+impl Cell {
+    /// The cell at integer coordinates `coord` of a grid of edge `h` over `[-1, 1]³`.
+    pub fn new(coord: [u32; 3], h: f32) -> Cell {
+        let lo = Vec3::new(coord[0] as f32, coord[1] as f32, coord[2] as f32) * h - Vec3::ONE;
+        Cell {
+            lo,
+            hi: lo + Vec3::splat(h),
+            h,
+            inv_h: 1.0 / h,
+        }
+    }
+
+    /// The eight corner positions, index `4x + 2y + z`.
+    pub fn corners(&self) -> [Vec3; 8] {
+        std::array::from_fn(|i| self.lo + corner_offset(i) * self.h)
+    }
+
+    /// The point at local coordinates `l` (`[0, 1]³`).
+    #[inline]
+    pub fn at(&self, l: Vec3) -> Vec3 {
+        self.lo + l * self.h
+    }
+}
+
+/// The outcome of one leaf.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LeafResult {
+    /// The voxels (empty: the leaf is dropped).
+    pub voxels: Vec<Voxel>,
+    /// The component split produced more voxels than the cap.
+    pub cap_hit: bool,
+}
+
+/// A voxel under construction: corners, quantised corners, surface flag, owning component.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Cand {
+    /// Corner signed distances.
+    pub c: [f32; 8],
+    /// The same, quantised as the file stores them.
+    pub q: [f32; 8],
+    /// Surface (thin) voxel.
+    pub surface: bool,
+    /// The leaf component it represents.
+    pub comp: u32,
+}
+
+/// Reusable buffers of one worker (no allocation per leaf after warm-up).
+#[derive(Default)]
+pub struct Scratch {
+    samples: Samples,
+    components: LeafComponents,
+    cands: Vec<Cand>,
+    reach: score::ReachScratch,
+}
+
+/// The SVO leaf: the global-distance voxel if its quantised corners change sign.
+#[inline]
+pub fn svo_leaf(p: &Params, g: &[f32; 8]) -> LeafResult {
+    if p.crosses(g) {
+        LeafResult {
+            voxels: vec![Voxel {
+                corners: *g,
+                surface: false,
+            }],
+            cap_hit: false,
+        }
+    } else {
+        LeafResult::default()
+    }
+}
+
+/// The multi-octree leaf at cell `coord` with gathered triangles `tris` and global corners `g`.
+pub fn multi_leaf(
+    p: &Params,
+    mesh: &LocalMesh,
+    global: &Components,
+    coord: [u32; 3],
+    tris: &[u32],
+    g: &[f32; 8],
+    s: &mut Scratch,
+) -> LeafResult {
+    let cell = Cell::new(coord, p.h);
+
+    // 1. Samples of the true surface inside the cell; does the SVO voxel already do?
+    s.samples.collect(p, mesh, &cell, tris);
+    if s.samples.is_empty() {
+        return svo_leaf(p, g);
+    }
+    let gq = p.q8(g);
+    let svo = svo_fit(&gq, &s.samples, &cell);
+    let open_near = tris.iter().any(|&t| mesh.boundary[t as usize] != 0);
+    if svo.max_gap <= p.accept && !open_near {
+        return svo_leaf(p, g);
+    }
+
+    // 2–3. Components and one (or two) voxels per component.
+    let k = s.components.find(mesh, global, tris);
+    split::candidate_voxels(
+        p,
+        mesh,
+        global,
+        &cell,
+        g,
+        &s.samples,
+        &mut s.components,
+        &mut s.cands,
+    );
+    if k == 1 && s.cands.len() == 1 && !s.cands[0].surface {
+        // One component, one volume voxel: that is the SVO voxel.
+        return svo_leaf(p, g);
+    }
+
+    // 4. Reduction: voxels that cannot be hit, hidden voxels, then the cap.
+    reduce::drop_unhit(p, &mut s.cands);
+    reduce::drop_hidden(p, &mut s.cands, &s.samples, &s.components);
+    let cap_hit = s.cands.len() > p.max_voxels;
+    if cap_hit {
+        reduce::merge_to_cap(p, &mut s.cands);
+    }
+    if s.cands.is_empty() {
+        return svo_leaf(p, g);
+    }
+
+    // 5. Earn its place.
+    let keep = score::multi_earns_its_place(
+        p,
+        mesh,
+        tris,
+        &cell,
+        g,
+        &gq,
+        &svo,
+        &s.samples,
+        &s.cands,
+        &mut s.reach,
+    );
+    if keep {
+        LeafResult {
+            voxels: s
+                .cands
+                .iter()
+                .map(|c| Voxel {
+                    corners: c.c,
+                    surface: c.surface,
+                })
+                .collect(),
+            cap_hit,
+        }
+    } else {
+        let mut r = svo_leaf(p, g);
+        r.cap_hit = cap_hit;
+        r
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod test_meshes;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn crossing_uses_quantised_values() {
+        let p = Params::new(4, ValueBits::Eight, 8);
+        let step = p.dmax / 127.0;
+        let mut c = [p.h; 8];
+        assert!(!p.crosses(&c));
+        c[3] = 0.4 * step; // rounds to 0: touches zero
+        assert!(p.crosses(&c));
+        c[3] = 0.6 * step;
+        assert!(!p.crosses(&c));
+        c[3] = -0.6 * step;
+        assert!(p.crosses(&c));
+        assert!(!p.crosses(&[0.0; 8]));
+    }
+
+    #[test]
+    fn cell_geometry() {
+        let c = Cell::new([1, 0, 3], 0.5);
+        assert_eq!(c.lo, Vec3::new(-0.5, -1.0, 0.5));
+        assert_eq!(c.hi, Vec3::new(0.0, -0.5, 1.0));
+        assert_eq!(c.corners()[0], c.lo);
+        assert_eq!(c.corners()[7], c.hi);
+        assert_eq!(c.corners()[4], Vec3::new(0.0, -1.0, 0.5));
+        assert_eq!(c.at(Vec3::splat(0.5)), (c.lo + c.hi) * 0.5);
+    }
+
+    /// The whole pipeline: two boxes 0.4 of a cell apart, the gap inside one cell whose
+    /// corners all lie inside a box (the SVO voxel has no zero set: the gap is closed), get one
+    /// volume voxel each; a cell on one box's flat face gets the SVO voxel.
+    #[test]
+    fn separate_parts_closer_than_a_cell_keep_their_gap() {
+        use sdfmo_mesh::{procedural, TriMesh};
+        let a = procedural::box_mesh(Vec3::new(-0.5, -0.5, -0.5), Vec3::new(0.05, 0.5, 0.5));
+        let b = procedural::box_mesh(Vec3::new(0.15, -0.5, -0.5), Vec3::new(0.6, 0.5, 0.5));
+        let f = test_meshes::Fixture::new(TriMesh::merge(&[a, b]));
+        let p = Params::new(3, ValueBits::Eight, 8);
+        let mut s = Scratch::default();
+        let leaf = f.leaf(&p, Vec3::new(0.1, 0.1, 0.1));
+        assert!(!p.crosses(&leaf.g), "the SVO voxel closes the gap");
+        let r = multi_leaf(
+            &p, &f.mesh, &f.global, leaf.coord, &leaf.tris, &leaf.g, &mut s,
+        );
+        assert_eq!(r.voxels.len(), 2, "{r:?}");
+        assert!(r.voxels.iter().all(|v| !v.surface));
+        assert!(!r.cap_hit);
+        let face = f.leaf(&p, Vec3::new(-0.3, 0.5, 0.1));
+        let r = multi_leaf(
+            &p, &f.mesh, &f.global, face.coord, &face.tris, &face.g, &mut s,
+        );
+        assert_eq!(r, svo_leaf(&p, &face.g));
+        assert_eq!(r.voxels.len(), 1);
+    }
+}
