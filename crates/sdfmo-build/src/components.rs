@@ -10,9 +10,8 @@
 use std::sync::OnceLock;
 
 use glam::Vec3;
-use rayon::prelude::*;
 use sdfmo_distance::{MeshDistance, SignMode};
-use sdfmo_mesh::{TriMesh, UnionFind};
+use sdfmo_mesh::{EdgeAdjacency, TriMesh};
 
 use crate::local::LocalMesh;
 
@@ -55,24 +54,8 @@ impl Components {
     /// Connected components of `local` through shared welded edges within one part.
     pub fn new(local: &LocalMesh) -> Components {
         let n = local.len();
-        let mut sets = UnionFind::new(n);
-        let mut edges: Vec<(u64, u32)> = Vec::with_capacity(3 * n);
-        for (t, v) in local.vids.iter().enumerate() {
-            for k in 0..3 {
-                let (a, b) = (v[k], v[(k + 1) % 3]);
-                if a != b {
-                    edges.push((((a.min(b) as u64) << 32) | a.max(b) as u64, t as u32));
-                }
-            }
-        }
-        edges.par_sort_unstable();
-        for w in edges.windows(2) {
-            if w[0].0 == w[1].0 && local.parts[w[0].1 as usize] == local.parts[w[1].1 as usize] {
-                sets.union(w[0].1, w[1].1);
-            }
-        }
-        let mut of_triangle = Vec::new();
-        let count = sets.labels_into(&mut of_triangle);
+        let (of_triangle, count) =
+            EdgeAdjacency::of_triangles(&local.vids).components_within_parts(&local.parts);
         let mut index_in = vec![0u32; n];
         let mut members: Vec<Vec<u32>> = vec![Vec::new(); count];
         for (t, &c) in of_triangle.iter().enumerate() {

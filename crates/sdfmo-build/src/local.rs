@@ -7,10 +7,8 @@
 //! they are written here against flat arrays (no BVH, no allocation) rather than through the
 //! general [`sdfmo_distance::MeshDistance`] API.
 
-use std::collections::HashMap;
-
 use glam::Vec3;
-use sdfmo_mesh::TriMesh;
+use sdfmo_mesh::{EdgeAdjacency, TriMesh};
 
 use crate::geom::{closest_point_triangle, Feature};
 
@@ -47,99 +45,30 @@ impl LocalMesh {
     pub fn new(mesh: &TriMesh) -> LocalMesh {
         // Weld by exact position (the loaders weld bit-identical vertices per part; OBJ objects
         // and glTF primitives may still repeat a position across parts).
-        let mut weld: HashMap<[u32; 3], u32> = HashMap::with_capacity(mesh.positions.len());
-        let mut remap = Vec::with_capacity(mesh.positions.len());
-        let mut welded_pos: Vec<Vec3> = Vec::with_capacity(mesh.positions.len());
-        for p in &mesh.positions {
-            // +0.0 and -0.0 weld together.
-            let key = [
-                (p.x + 0.0).to_bits(),
-                (p.y + 0.0).to_bits(),
-                (p.z + 0.0).to_bits(),
-            ];
-            let id = *weld.entry(key).or_insert_with(|| {
-                welded_pos.push(*p);
-                (welded_pos.len() - 1) as u32
-            });
-            remap.push(id);
-        }
-        let n = mesh.triangles.len();
-        let mut tris = Vec::with_capacity(n);
-        let mut vids = Vec::with_capacity(n);
-        let mut bbox = Vec::with_capacity(n);
-        let mut area2 = Vec::with_capacity(n);
-        for t in &mesh.triangles {
-            let v = [
-                remap[t[0] as usize],
-                remap[t[1] as usize],
-                remap[t[2] as usize],
-            ];
-            let p = [
-                welded_pos[v[0] as usize],
-                welded_pos[v[1] as usize],
-                welded_pos[v[2] as usize],
-            ];
-            let cr = (p[1] - p[0]).cross(p[2] - p[0]);
+        let (welded_pos, vids) = mesh.welded_by_position();
+        let mut tris = Vec::with_capacity(vids.len());
+        let mut bbox = Vec::with_capacity(vids.len());
+        let mut area2 = Vec::with_capacity(vids.len());
+        for v in &vids {
+            let p = v.map(|i| welded_pos[i as usize]);
             tris.push(p);
-            vids.push(v);
             bbox.push((p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2])));
-            area2.push(cr.length());
+            area2.push((p[1] - p[0]).cross(p[2] - p[0]).length());
         }
-        // Face, edge and vertex pseudo-normals of the welded mesh: the distance layer's (f64).
+        // Face, edge and vertex pseudo-normals of the welded mesh: the distance layer's (f64);
+        // boundary and clean flags: the mesh layer's.
         let normals = sdfmo_distance::PseudoNormals::new(&welded_pos, &vids);
-        let face_normal = normals.face;
-        let vertex_normal = normals.vertex;
-        // Edges: sort (min vid, max vid, triangle, local edge) and group, for the flags.
-        let mut edges: Vec<(u64, u32, u8)> = Vec::with_capacity(3 * n);
-        for (ti, v) in vids.iter().enumerate() {
-            for k in 0..3 {
-                let a = v[k];
-                let b = v[(k + 1) % 3];
-                if a == b {
-                    continue;
-                }
-                let key = ((a.min(b) as u64) << 32) | a.max(b) as u64;
-                edges.push((key, ti as u32, k as u8));
-            }
-        }
-        edges.sort_unstable();
-        let edge_normal = normals.edge;
-        let mut boundary = vec![0u8; n];
-        let mut edge_clean = vec![0u8; n];
-        let mut vertex_clean = vec![true; welded_pos.len()];
-        let mut i = 0;
-        while i < edges.len() {
-            let mut j = i;
-            while j < edges.len() && edges[j].0 == edges[i].0 {
-                j += 1;
-            }
-            // Clean: two triangles traversing the edge in opposite directions.
-            let dir = |e: &(u64, u32, u8)| vids[e.1 as usize][e.2 as usize];
-            let clean = j - i == 2 && dir(&edges[i]) != dir(&edges[i + 1]);
-            for e in &edges[i..j] {
-                if j - i == 1 {
-                    boundary[e.1 as usize] |= 1 << e.2;
-                }
-                if clean {
-                    edge_clean[e.1 as usize] |= 1 << e.2;
-                }
-            }
-            if !clean {
-                vertex_clean[(edges[i].0 >> 32) as usize] = false;
-                vertex_clean[(edges[i].0 & 0xffff_ffff) as usize] = false;
-            }
-            i = j;
-        }
+        let flags = EdgeAdjacency::of_triangles(&vids).edge_flags(&vids, welded_pos.len());
         LocalMesh {
             tris,
             vids,
             parts: mesh.parts.clone(),
-            face_normal,
-            edge_normal,
-            boundary,
-            edge_clean,
-            vertex_clean,
-            vertex_normal,
+            face_normal: normals.face,
+            edge_normal: normals.edge,
+            boundary: flags.boundary,
+            edge_clean: flags.clean,
+            vertex_clean: flags.vertex_clean,
+            vertex_normal: normals.vertex,
             bbox,
             area2,
         }

@@ -139,6 +139,33 @@ pub fn clean(
 }
 
 impl TriMesh {
+    /// The triangles in vertex ids welded by exact position (bit-identical, `+0.0` = `−0.0`),
+    /// with the welded positions numbered in order of first occurrence among `positions`: the
+    /// ids topology needs where a loader repeats a position across parts (OBJ objects, glTF
+    /// primitives). Unlike [`TriMesh::cleaned`], no triangle is dropped and parts stay apart.
+    pub fn welded_by_position(&self) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let mut first: HashMap<[u32; 3], u32> = HashMap::with_capacity(self.positions.len());
+        let mut welded = Vec::with_capacity(self.positions.len());
+        let remap: Vec<u32> = self
+            .positions
+            .iter()
+            .map(|&p| {
+                *first.entry(key(p)).or_insert_with(|| {
+                    welded.push(p);
+                    (welded.len() - 1) as u32
+                })
+            })
+            .collect();
+        let triangles = self
+            .triangles
+            .iter()
+            .map(|t| t.map(|v| remap[v as usize]))
+            .collect();
+        (welded, triangles)
+    }
+}
+
+impl TriMesh {
     /// This mesh welded and cleaned (see [`clean`]).
     ///
     /// # Errors

@@ -34,7 +34,7 @@ pub use load::{
     load_mesh_with_limits, LoadLimits, LoadedMesh, MeshFormat,
 };
 pub use mesh::{Aabb, Normalization, TriMesh};
-pub use topology::{EdgeAdjacency, Topology};
+pub use topology::{EdgeAdjacency, EdgeFlags, Topology};
 pub use union_find::UnionFind;
 
 /// The numbers `sdfmo info` reports for a mesh, in one place.

@@ -33,42 +33,121 @@ pub struct EdgeAdjacency {
     pub offsets: Vec<u32>,
     /// Incident triangle indices, grouped by edge, ascending within a group.
     pub triangles: Vec<u32>,
+    /// Per entry of `triangles`: which edge `k` of that triangle it is (`v_k → v_{k+1}`).
+    pub slots: Vec<u8>,
+}
+
+/// Per-triangle flags of the edges and vertices of a mesh (see [`EdgeAdjacency::edge_flags`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct EdgeFlags {
+    /// Bit `k` of triangle `t`: its edge `k` is a boundary edge (one incident triangle).
+    pub boundary: Vec<u8>,
+    /// Bit `k` of triangle `t`: its edge `k` is a *clean* manifold edge, exactly two incident
+    /// triangles traversing it in opposite directions (its pseudo-normal signs reliably).
+    pub clean: Vec<u8>,
+    /// Per vertex: every incident edge is clean.
+    pub vertex_clean: Vec<bool>,
 }
 
 impl EdgeAdjacency {
     /// Builds the adjacency of `mesh`. Edges of triangles with a repeated vertex are skipped
     /// (a cleaned mesh has none).
     pub fn of(mesh: &TriMesh) -> EdgeAdjacency {
-        let mut recs: Vec<(u64, u32)> = Vec::with_capacity(mesh.triangles.len() * 3);
-        for (t, tri) in mesh.triangles.iter().enumerate() {
+        EdgeAdjacency::of_triangles(&mesh.triangles)
+    }
+
+    /// Builds the adjacency of triangles given by vertex indices (for instance after welding
+    /// by position); edges with a repeated vertex are skipped.
+    pub fn of_triangles(triangles: &[[u32; 3]]) -> EdgeAdjacency {
+        let mut recs: Vec<(u64, u32, u8)> = Vec::with_capacity(triangles.len() * 3);
+        for (t, tri) in triangles.iter().enumerate() {
             for k in 0..3 {
                 let (a, b) = (tri[k], tri[(k + 1) % 3]);
                 if a == b {
                     continue;
                 }
                 let (lo, hi) = if a < b { (a, b) } else { (b, a) };
-                recs.push((((lo as u64) << 32) | hi as u64, t as u32));
+                recs.push((((lo as u64) << 32) | hi as u64, t as u32, k as u8));
             }
         }
         recs.sort_unstable();
         let mut edges = Vec::new();
         let mut offsets = Vec::new();
-        let mut triangles = Vec::with_capacity(recs.len());
+        let mut tris = Vec::with_capacity(recs.len());
+        let mut slots = Vec::with_capacity(recs.len());
         let mut prev = None;
-        for &(key, t) in &recs {
+        for &(key, t, k) in &recs {
             if prev != Some(key) {
                 edges.push([(key >> 32) as u32, key as u32]);
-                offsets.push(triangles.len() as u32);
+                offsets.push(tris.len() as u32);
                 prev = Some(key);
             }
-            triangles.push(t);
+            tris.push(t);
+            slots.push(k);
         }
-        offsets.push(triangles.len() as u32);
+        offsets.push(tris.len() as u32);
         EdgeAdjacency {
             edges,
             offsets,
-            triangles,
+            triangles: tris,
+            slots,
         }
+    }
+
+    /// Boundary and clean-edge flags per triangle edge, and clean vertices, of `triangles` (the
+    /// triangles this adjacency was built from) over `vertex_count` vertices.
+    pub fn edge_flags(&self, triangles: &[[u32; 3]], vertex_count: usize) -> EdgeFlags {
+        let mut boundary = vec![0u8; triangles.len()];
+        let mut clean = vec![0u8; triangles.len()];
+        let mut vertex_clean = vec![true; vertex_count];
+        for e in 0..self.edge_count() {
+            let range = self.offsets[e] as usize..self.offsets[e + 1] as usize;
+            let (tris, slots) = (&self.triangles[range.clone()], &self.slots[range]);
+            // The start vertex of each traversal: opposite directions start at different ends.
+            let start = |i: usize| triangles[tris[i] as usize][slots[i] as usize];
+            let is_clean = tris.len() == 2 && start(0) != start(1);
+            for (&t, &k) in tris.iter().zip(slots) {
+                if tris.len() == 1 {
+                    boundary[t as usize] |= 1 << k;
+                }
+                if is_clean {
+                    clean[t as usize] |= 1 << k;
+                }
+            }
+            if !is_clean {
+                for v in self.edges[e] {
+                    vertex_clean[v as usize] = false;
+                }
+            }
+        }
+        EdgeFlags {
+            boundary,
+            clean,
+            vertex_clean,
+        }
+    }
+
+    /// Connected components within parts: triangles of the same part (`parts[t]`) sharing an
+    /// edge are joined. Component id per triangle (numbered in order of first triangle) and the
+    /// count.
+    pub fn components_within_parts(&self, parts: &[u32]) -> (Vec<u32>, usize) {
+        let mut uf = UnionFind::new(parts.len());
+        for e in 0..self.edge_count() {
+            let tris = self.triangles_of(e);
+            for (i, &a) in tris.iter().enumerate() {
+                // The first earlier triangle of the same part: joining to it joins the part's
+                // whole row.
+                if let Some(&b) = tris[..i]
+                    .iter()
+                    .find(|&&b| parts[b as usize] == parts[a as usize])
+                {
+                    uf.union(b, a);
+                }
+            }
+        }
+        let mut ids = Vec::new();
+        let count = uf.labels_into(&mut ids);
+        (ids, count)
     }
 
     /// Number of distinct edges.
@@ -188,5 +267,42 @@ mod tests {
         assert_eq!(a.edges, vec![[0, 1], [0, 2], [1, 2], [1, 3], [2, 3]]);
         assert_eq!(a.triangles_of(2), &[0, 1]);
         assert_eq!(a.triangles_of(0), &[0]);
+        // Edge 1–2 is edge 1 of triangle 0 (1 → 2) and edge 0 of triangle 1 (2 → 1).
+        assert_eq!(
+            &a.slots[a.offsets[2] as usize..a.offsets[3] as usize],
+            &[1, 0]
+        );
+    }
+
+    #[test]
+    fn edge_flags_of_an_open_pair_and_a_flipped_pair() {
+        let tris = vec![[0, 1, 2], [2, 1, 3]];
+        let a = EdgeAdjacency::of_triangles(&tris);
+        let f = a.edge_flags(&tris, 4);
+        // The shared edge is clean (traversed both ways); the other four are boundary edges.
+        assert_eq!(f.clean, vec![0b010, 0b001]);
+        assert_eq!(f.boundary, vec![0b101, 0b110]);
+        assert_eq!(f.vertex_clean, vec![false; 4]);
+        // The second triangle flipped: the shared edge is traversed twice the same way.
+        let tris = vec![[0, 1, 2], [1, 2, 3]];
+        let f = EdgeAdjacency::of_triangles(&tris).edge_flags(&tris, 4);
+        assert_eq!(f.clean, vec![0, 0]);
+        // A closed tetrahedron: every edge clean, every vertex clean.
+        let tet = vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]];
+        let f = EdgeAdjacency::of_triangles(&tet).edge_flags(&tet, 4);
+        assert_eq!(f.clean, vec![0b111; 4]);
+        assert_eq!(f.boundary, vec![0; 4]);
+        assert_eq!(f.vertex_clean, vec![true; 4]);
+    }
+
+    #[test]
+    fn components_within_parts_split_at_part_borders() {
+        // Three fins on edge 0–1, parts 0, 1, 0: the two part-0 fins are one component even
+        // though a part-1 fin lies between them in the edge's row.
+        let m = mesh(vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]], 5);
+        let a = EdgeAdjacency::of(&m);
+        assert_eq!(a.components_within_parts(&[0, 1, 0]), (vec![0, 1, 0], 2));
+        assert_eq!(a.components_within_parts(&[0, 0, 0]), (vec![0, 0, 0], 1));
+        assert_eq!(a.components_within_parts(&[0, 1, 2]), (vec![0, 1, 2], 3));
     }
 }

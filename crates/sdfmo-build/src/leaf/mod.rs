@@ -266,7 +266,7 @@ pub fn multi_leaf(
     }
 
     // 2–3. Components and one (or two) voxels per component.
-    let k = s.components.find(mesh, global, tris);
+    let k = s.components.find(global, tris);
     split::candidate_voxels(
         p,
         mesh,

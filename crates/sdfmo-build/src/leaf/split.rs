@@ -1,7 +1,6 @@
 //! Phases 2–3: the leaf's connected components, and one voxel (or two surface voxels) each.
 
 use glam::Vec3;
-use sdfmo_mesh::UnionFind;
 
 use super::samples::Samples;
 use super::{Cand, Cell, Params};
@@ -15,8 +14,8 @@ const CANONICAL: Vec3 = Vec3::new(0.534_522_5, 0.617_213_4, 0.577_350_3);
 /// The connected components of a leaf's gathered triangles (reusable buffers).
 #[derive(Clone, Debug, Default)]
 pub(crate) struct LeafComponents {
-    pub(super) sets: UnionFind,
-    pub(super) keys: Vec<(u64, u32)>,
+    /// Global component of each leaf component, in order of first triangle.
+    pub(super) global_ids: Vec<u32>,
     /// Component id per gathered triangle, numbered in order of first triangle.
     pub of: Vec<u32>,
     /// Global triangle ids of each component (the first `count` entries are live).
@@ -28,37 +27,31 @@ pub(crate) struct LeafComponents {
 }
 
 impl LeafComponents {
-    /// Splits `tris` (global triangle ids) into components through shared welded edges of one
-    /// part, then merges back the pieces of one *global* component: a piece of a closed surface
-    /// cut out by the leaf (one face of a plate thinner than the cell, the two arms of a bend)
-    /// is not closed, and its own signed distance is a half-space that swallows its sibling
-    /// piece (measured on abc5 at depth 8: false hits along the panel's silhouette, −1.6 dB).
-    /// Thin elements are split again later, by opposing normals, into surface voxels. Returns
-    /// the number of components.
-    pub fn find(&mut self, mesh: &LocalMesh, global: &Components, tris: &[u32]) -> usize {
-        self.sets.reset(tris.len());
-        self.keys.clear();
-        for (li, &t) in tris.iter().enumerate() {
-            let v = mesh.vids[t as usize];
-            for k in 0..3 {
-                let (a, b) = (v[k], v[(k + 1) % 3]);
-                if a != b {
-                    self.keys
-                        .push((((a.min(b) as u64) << 32) | a.max(b) as u64, li as u32));
+    /// Groups `tris` (global triangle ids) by *global* component (connected through shared
+    /// welded edges of one part over the whole mesh, see the `components` module): triangles
+    /// connected inside the leaf are connected globally, and pieces of one global component are
+    /// one leaf component. A piece of a closed surface cut out by the leaf (one face of a plate
+    /// thinner than the cell, the two arms of a bend) is not closed, and its own signed
+    /// distance would be a half-space that swallows its sibling piece (measured on abc5 at
+    /// depth 8: false hits along the panel's silhouette, −1.6 dB). Thin elements are split
+    /// again later, by opposing normals, into surface voxels. Components are numbered in order
+    /// of first triangle. Returns their number.
+    pub fn find(&mut self, global: &Components, tris: &[u32]) -> usize {
+        self.global_ids.clear();
+        self.of.clear();
+        for &t in tris {
+            let g = global.of_triangle[t as usize];
+            // A leaf holds a handful of components: a linear scan beats a map.
+            let c = match self.global_ids.iter().position(|&x| x == g) {
+                Some(c) => c,
+                None => {
+                    self.global_ids.push(g);
+                    self.global_ids.len() - 1
                 }
-            }
+            };
+            self.of.push(c as u32);
         }
-        self.union_runs(|ta, tb| {
-            mesh.parts[tris[ta as usize] as usize] == mesh.parts[tris[tb as usize] as usize]
-        });
-        self.keys.clear();
-        for (li, &t) in tris.iter().enumerate() {
-            self.keys
-                .push((global.of_triangle[t as usize] as u64, li as u32));
-        }
-        self.union_runs(|_, _| true);
-
-        let k = self.sets.labels_into(&mut self.of);
+        let k = self.global_ids.len();
         while self.members.len() < k {
             self.members.push(Vec::new());
         }
@@ -70,18 +63,6 @@ impl LeafComponents {
         }
         self.count = k;
         k
-    }
-
-    /// Sorts the `(key, triangle)` records and joins consecutive triangles of equal key that
-    /// `joinable` accepts (the smaller root wins: deterministic).
-    fn union_runs(&mut self, joinable: impl Fn(u32, u32) -> bool) {
-        self.keys.sort_unstable();
-        for w in self.keys.windows(2) {
-            let ((ka, ta), (kb, tb)) = (w[0], w[1]);
-            if ka == kb && joinable(ta, tb) {
-                self.sets.union(ta, tb);
-            }
-        }
     }
 
     /// Whether some sample lies on a triangle of component `c`.
@@ -252,7 +233,7 @@ mod tests {
             let p = Params::new(3, ValueBits::Eight, 8);
             let leaf = f.leaf(&p, Vec3::new(0.1, 0.1, 0.1));
             let mut c = LeafComponents::default();
-            assert_eq!(c.find(&f.mesh, &f.global, &leaf.tris), 2);
+            assert_eq!(c.find(&f.global, &leaf.tris), 2);
             // Each component's triangles are one box's.
             for m in &c.members[..2] {
                 let x = f.mesh.tris[m[0] as usize][0].x;
@@ -274,7 +255,7 @@ mod tests {
         let p = Params::new(3, ValueBits::Eight, 8);
         let leaf = f.leaf(&p, Vec3::new(0.1, 0.12, 0.1));
         let mut c = LeafComponents::default();
-        assert_eq!(c.find(&f.mesh, &f.global, &leaf.tris), 1);
+        assert_eq!(c.find(&f.global, &leaf.tris), 1);
         assert_eq!(c.members[0].len(), leaf.tris.len());
         assert!(c.of.iter().all(|&k| k == 0));
     }

@@ -73,7 +73,7 @@ impl Leaf {
     pub fn candidates(&self, f: &Fixture, p: &Params) -> Vec<Cand> {
         let samples = self.samples(f, p);
         let mut comps = LeafComponents::default();
-        comps.find(&f.mesh, &f.global, &self.tris);
+        comps.find(&f.global, &self.tris);
         let mut out = Vec::new();
         candidate_voxels(
             p, &f.mesh, &f.global, &self.cell, &self.g, &samples, &mut comps, &mut out,
