@@ -10,8 +10,9 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
-use sdfmo_build::{build, trilinear, BuildSettings, Method};
+use sdfmo_build::{build, BuildSettings, Method};
 use sdfmo_distance::{MeshDistance, SignMode};
+use sdfmo_format::trilinear;
 use sdfmo_format::{PackedOctree, Voxel};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -60,12 +61,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         norm.triangle_count(),
         samples.len()
     );
-    let lm = sdfmo_build::LocalMesh::new(&norm);
-    let clean: u32 = lm.edge_clean.iter().map(|b| b.count_ones()).sum();
-    let bnd: u32 = lm.boundary.iter().map(|b| b.count_ones()).sum();
-    let vc = lm.vertex_clean.iter().filter(|&&b| b).count();
+    // The builder's edge flags: the mesh layer's, over vertices welded by position.
+    let (welded, vids) = norm.welded_by_position();
+    let flags = sdfmo_mesh::EdgeAdjacency::of_triangles(&vids).edge_flags(&vids, welded.len());
+    let clean: u32 = flags.clean.iter().map(|b| b.count_ones()).sum();
+    let bnd: u32 = flags.boundary.iter().map(|b| b.count_ones()).sum();
+    let vc = flags.vertex_clean.iter().filter(|&&b| b).count();
     println!("edges (per triangle side): clean {clean}, boundary {bnd}, of {}; clean vertices {vc} of {}; sign {:?}",
-        3 * lm.len(), lm.vertex_clean.len(), dist.sign_mode());
+        3 * vids.len(), welded.len(), dist.sign_mode());
     for &d in &depths {
         for method in methods() {
             let sign = match std::env::var("SIGN").as_deref() {

@@ -76,16 +76,6 @@ impl Components {
         }
     }
 
-    /// Number of components.
-    pub fn len(&self) -> usize {
-        self.members.len()
-    }
-
-    /// No components.
-    pub fn is_empty(&self) -> bool {
-        self.members.is_empty()
-    }
-
     /// Signed distance from `p` to global component `c`, starting from triangle `hint` (a
     /// global id in that component). Signed by the pseudo-normal of the closest feature when it
     /// is clean or the component is open, else by the component's winding number.

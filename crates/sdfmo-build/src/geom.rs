@@ -1,12 +1,8 @@
 //! Small geometric helpers of the builder: triangle clipping against a box and the distance of
-//! an interpolant's zero set; the closest point on a triangle and the interpolant are the
-//! layers' (re-exported here under the builder's names).
+//! an interpolant's zero set. What a voxel is (corner order, interpolant) is the format's.
 
 use glam::Vec3;
 
-/// The closest point and its feature live in the distance layer (one routine, with its needle
-/// conditioning), what a voxel is in the format (corner order, interpolant).
-pub use sdfmo_distance::{closest_point_on_triangle as closest_point_triangle, Feature};
 pub use sdfmo_format::{corner_offset, trilinear, trilinear_gradient};
 
 /// Most vertices a triangle clipped by the six planes of a box can have.
@@ -84,79 +80,6 @@ pub fn zero_set_gap(c: &[f32; 8], l: Vec3, h: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn closest_point_regions() {
-        let a = Vec3::ZERO;
-        let b = Vec3::X;
-        let c = Vec3::Y;
-        assert_eq!(
-            closest_point_triangle(Vec3::new(-1.0, -1.0, 0.0), a, b, c),
-            (a, Feature::Vertex(0))
-        );
-        assert_eq!(
-            closest_point_triangle(Vec3::new(2.0, -0.1, 0.0), a, b, c),
-            (b, Feature::Vertex(1))
-        );
-        assert_eq!(
-            closest_point_triangle(Vec3::new(-0.1, 2.0, 0.0), a, b, c),
-            (c, Feature::Vertex(2))
-        );
-        let (q, f) = closest_point_triangle(Vec3::new(0.5, -1.0, 0.3), a, b, c);
-        assert_eq!(f, Feature::Edge(0));
-        assert!((q - Vec3::new(0.5, 0.0, 0.0)).length() < 1e-6);
-        let (q, f) = closest_point_triangle(Vec3::new(1.0, 1.0, 0.0), a, b, c);
-        assert_eq!(f, Feature::Edge(1));
-        assert!((q - Vec3::new(0.5, 0.5, 0.0)).length() < 1e-6);
-        let (q, f) = closest_point_triangle(Vec3::new(-1.0, 0.5, 0.0), a, b, c);
-        assert_eq!(f, Feature::Edge(2));
-        assert!((q - Vec3::new(0.0, 0.5, 0.0)).length() < 1e-6);
-        let (q, f) = closest_point_triangle(Vec3::new(0.2, 0.2, 5.0), a, b, c);
-        assert_eq!(f, Feature::Face);
-        assert!((q - Vec3::new(0.2, 0.2, 0.0)).length() < 1e-6);
-    }
-
-    #[test]
-    fn closest_point_matches_brute_force() {
-        let tris = [
-            [
-                Vec3::new(0.1, 0.2, 0.3),
-                Vec3::new(1.0, -0.5, 0.2),
-                Vec3::new(-0.3, 0.9, 1.1),
-            ],
-            [
-                Vec3::ZERO,
-                Vec3::new(1.0, 1.0, 1.0),
-                Vec3::new(2.0, 2.0, 2.0),
-            ], // degenerate
-        ];
-        for t in tris {
-            for i in 0..200 {
-                let f = i as f32;
-                let p = Vec3::new(
-                    (f * 0.37).sin() * 2.0,
-                    (f * 0.73).cos() * 2.0,
-                    (f * 0.11).sin() * 2.0,
-                );
-                let (q, _) = closest_point_triangle(p, t[0], t[1], t[2]);
-                let mut best = f32::INFINITY;
-                let n = 200;
-                for u in 0..=n {
-                    for v in 0..=(n - u) {
-                        let s = t[0]
-                            + (t[1] - t[0]) * (u as f32 / n as f32)
-                            + (t[2] - t[0]) * (v as f32 / n as f32);
-                        best = best.min((s - p).length());
-                    }
-                }
-                let d = (q - p).length();
-                assert!(
-                    d <= best + 1e-4 && d >= best - 0.03,
-                    "p {p} d {d} brute {best}"
-                );
-            }
-        }
-    }
 
     #[test]
     fn clipping_keeps_the_inside() {

@@ -38,7 +38,7 @@ mod budget;
 mod components;
 mod error;
 mod geom;
-pub mod leaf;
+mod leaf;
 mod local;
 pub mod subdivide;
 mod tribox;
@@ -55,8 +55,7 @@ pub use budget::{
     check_memory, default_memory_budget, estimate_memory, physical_memory, MemoryEstimate,
 };
 pub use error::{BuildError, Result};
-pub use geom::{closest_point_triangle, trilinear, Feature};
-pub use local::LocalMesh;
+use local::LocalMesh;
 pub use tribox::tri_box_overlap;
 
 /// Which octree to build.

@@ -1,16 +1,13 @@
 //! The builder's own view of the normalised mesh: triangles with vertices welded by position,
 //! face and angle-weighted pseudo-normals (Bærentzen & Aanæs 2005) over the whole mesh (the
 //! distance layer's `PseudoNormals`, in f64), boundary and clean-edge flags, and brute-force
-//! signed distance to a small triangle subset (a leaf's component).
-//!
-//! The subset queries run on a handful of triangles per leaf, millions of times per build, so
-//! they are written here against flat arrays (no BVH, no allocation) rather than through the
-//! general [`sdfmo_distance::MeshDistance`] API.
+//! signed distance to a small triangle subset (a leaf's component) through the distance layer's
+//! box-pruned subset loop ([`TriangleSlices`]: flat arrays, no BVH, no allocation).
 
 use glam::Vec3;
 use sdfmo_mesh::{EdgeAdjacency, TriMesh};
 
-use crate::geom::{closest_point_triangle, Feature};
+use sdfmo_distance::{sign_by_pseudo_normal, triangle_boxes, Feature, TriangleSlices};
 
 /// Per-triangle data for the leaf-level work.
 #[derive(Clone, Debug)]
@@ -47,14 +44,13 @@ impl LocalMesh {
         // and glTF primitives may still repeat a position across parts).
         let (welded_pos, vids) = mesh.welded_by_position();
         let mut tris = Vec::with_capacity(vids.len());
-        let mut bbox = Vec::with_capacity(vids.len());
         let mut area2 = Vec::with_capacity(vids.len());
         for v in &vids {
             let p = v.map(|i| welded_pos[i as usize]);
             tris.push(p);
-            bbox.push((p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2])));
             area2.push((p[1] - p[0]).cross(p[2] - p[0]).length());
         }
+        let bbox = triangle_boxes(&tris);
         // Face, edge and vertex pseudo-normals of the welded mesh: the distance layer's (f64);
         // boundary and clean flags: the mesh layer's.
         let normals = sdfmo_distance::PseudoNormals::new(&welded_pos, &vids);
@@ -84,59 +80,33 @@ impl LocalMesh {
         self.tris.is_empty()
     }
 
+    /// The triangles as the distance layer's subset queries read them.
+    #[inline]
+    fn slices(&self) -> TriangleSlices<'_> {
+        TriangleSlices {
+            corners: &self.tris,
+            boxes: &self.bbox,
+        }
+    }
+
     /// Signed distance from `p` to the triangles `subset` (indices into this mesh), signed by the
     /// pseudo-normal of the closest feature (computed over the whole mesh). `f32::INFINITY` for an
     /// empty subset.
     #[inline]
     pub fn signed_distance_subset(&self, subset: &[u32], p: Vec3) -> f32 {
-        let mut best = f32::INFINITY;
-        let mut best_q = p;
-        let mut best_t = u32::MAX;
-        let mut best_f = Feature::Face;
-        for &t in subset {
-            let (lo, hi) = self.bbox[t as usize];
-            // Cheap lower bound: distance to the triangle's bounding box.
-            let d = (lo - p).max(p - hi).max(Vec3::ZERO).length_squared();
-            if d >= best {
-                continue;
-            }
-            let [a, b, c] = self.tris[t as usize];
-            let (q, f) = closest_point_triangle(p, a, b, c);
-            let d2 = (q - p).length_squared();
-            if d2 < best {
-                best = d2;
-                best_q = q;
-                best_t = t;
-                best_f = f;
-            }
-        }
-        if best_t == u32::MAX {
+        let c = self
+            .slices()
+            .closest_point_in_subset(subset, p, f32::INFINITY);
+        if !c.is_found() {
             return f32::INFINITY;
         }
-        let n = self.pseudo_normal(best_t as usize, best_f);
-        let d = best.sqrt();
-        if (p - best_q).dot(n) < 0.0 {
-            -d
-        } else {
-            d
-        }
+        sign_by_pseudo_normal(p, &c, self.pseudo_normal(c.triangle as usize, c.feature))
     }
 
-    /// Unsigned distance from `p` to `subset`, stopping early below `stop`.
+    /// Unsigned distance from `p` to `subset`, at most `cap`.
     #[inline]
     pub fn unsigned_distance_subset(&self, subset: &[u32], p: Vec3, cap: f32) -> f32 {
-        let mut best = cap * cap;
-        for &t in subset {
-            let (lo, hi) = self.bbox[t as usize];
-            let d = (lo - p).max(p - hi).max(Vec3::ZERO).length_squared();
-            if d >= best {
-                continue;
-            }
-            let [a, b, c] = self.tris[t as usize];
-            let (q, _) = closest_point_triangle(p, a, b, c);
-            best = best.min((q - p).length_squared());
-        }
-        best.sqrt()
+        self.slices().unsigned_distance_in_subset(subset, p, cap)
     }
 
     /// Whether feature `f` of triangle `t` has a reliable pseudo-normal: the face interior, a

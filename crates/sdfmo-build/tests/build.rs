@@ -5,7 +5,8 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 
 use glam::Vec3;
-use sdfmo_build::{build, trilinear, BuildError, BuildSettings, BuildStats, Method};
+use sdfmo_build::{build, BuildError, BuildSettings, BuildStats, Method};
+use sdfmo_format::trilinear;
 use sdfmo_format::{PackedOctree, Voxel};
 use sdfmo_mesh::{procedural, TriMesh};
 

@@ -69,6 +69,7 @@ use sdfmo_mesh::TriMesh;
 
 pub use point_triangle::{closest_point_on_triangle, Feature};
 pub use ray_triangle::WatertightRay;
+pub use subset::{sign_by_pseudo_normal, triangle_boxes, TriangleSlices};
 pub use winding::WINDING_BETA;
 
 use bvh4::Bvh4;
@@ -206,6 +207,8 @@ pub struct MeshDistance {
     leaf_ids: Vec<u32>,
     /// Triangle corners in the mesh's order (subset queries).
     tris: Vec<[Vec3; 3]>,
+    /// Their bounding boxes (subset queries).
+    tri_boxes: Vec<(Vec3, Vec3)>,
     normals: PseudoNormals,
     winding: Vec<WindingNode>,
     /// Per leaf slot: the triangle's own far-field data (centroid, (β·r)², area normal), so a
@@ -361,6 +364,7 @@ impl MeshDistance {
             leaf_tris,
             leaf_records,
             leaf_ids,
+            tri_boxes: subset::triangle_boxes(&tris),
             tris,
             normals,
             winding,

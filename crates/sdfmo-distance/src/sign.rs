@@ -70,12 +70,11 @@ impl MeshDistance {
         let Some(&idx) = self.mesh.triangles.get(c.triangle as usize) else {
             return c.distance;
         };
-        let n = self.normals.normal(c.triangle as usize, idx, c.feature);
-        if (p - c.point).dot(n) < 0.0 {
-            -c.distance
-        } else {
-            c.distance
-        }
+        sign_by_pseudo_normal(
+            p,
+            c,
+            self.normals.normal(c.triangle as usize, idx, c.feature),
+        )
     }
 
     /// Signed distances of many points, in parallel (rayon), in the same order; each value is
