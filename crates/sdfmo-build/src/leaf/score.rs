@@ -296,45 +296,18 @@ mod tests {
         let (f, p, leaf, exact, off) = face_case();
         let samples = leaf.samples(&f, &p);
         let mut s = ReachScratch::default();
-        let fit = |q: &[f32; 8]| crate::leaf::samples::svo_fit(q, &samples, &leaf.cell);
-        // Exact multi set against a shifted SVO voxel: earns it.
-        assert!(multi_earns_its_place(
-            &p,
-            &f.mesh,
-            &leaf.tris,
-            &leaf.cell,
-            &off,
-            &off,
-            &fit(&off),
-            &samples,
-            &[cand(exact, false)],
-            &mut s
-        ));
-        // The other way round: does not.
-        assert!(!multi_earns_its_place(
-            &p,
-            &f.mesh,
-            &leaf.tris,
-            &leaf.cell,
-            &exact,
-            &exact,
-            &fit(&exact),
-            &samples,
-            &[cand(off, false)],
-            &mut s
-        ));
+        // Does `multi` replace the SVO voxel `svo` (taken as exact: its own quantised corners)?
+        let mut earns = |svo: [f32; 8], multi: &[Cand]| {
+            let fit = crate::leaf::samples::svo_fit(&svo, &samples, &leaf.cell);
+            let (mesh, tris, cell) = (&f.mesh, &leaf.tris, &leaf.cell);
+            multi_earns_its_place(
+                &p, mesh, tris, cell, &svo, &svo, &fit, &samples, multi, &mut s,
+            )
+        };
+        // Exact multi set against a shifted SVO voxel: earns it; the other way round: does not.
+        assert!(earns(off, &[cand(exact, false)]));
+        assert!(!earns(exact, &[cand(off, false)]));
         // Equal sets: the voxel cost and `earn` keep the SVO voxel.
-        assert!(!multi_earns_its_place(
-            &p,
-            &f.mesh,
-            &leaf.tris,
-            &leaf.cell,
-            &exact,
-            &exact,
-            &fit(&exact),
-            &samples,
-            &[cand(exact, false), cand(exact, true)],
-            &mut s
-        ));
+        assert!(!earns(exact, &[cand(exact, false), cand(exact, true)]));
     }
 }
