@@ -1,0 +1,163 @@
+// render.wgsl: one primary ray per pixel through `sdfmo.wgsl` (concatenated before this file),
+// shaded as sdfmo-render does: mask, depth, normal or lambert (no shadows, no occlusion).
+//
+// BINDING LAYOUT (group 0):
+//   binding 0  storage, read        smo: array<u32>          the `.smo` file (see sdfmo.wgsl)
+//   binding 1  uniform              params: SmoRenderParams  camera, mode, shading (below)
+//   binding 2  storage, read_write  pixels: array<SmoPixel>  per pixel: normal, t
+//   binding 3  storage, read_write  colors: array<u32>       per pixel: 0x00BBGGRR, 8 bits each
+//   binding 4  storage, read        rays: array<vec4<f32>>   the camera's ray terms (below)
+//
+// Ray directions are rounded to f32 from the exact (f64) value, as the CPU renderer rounds its
+// own: the host passes, as double-float pairs (hi = f32(x), lo = f32(x − hi)), the column term
+// fwd + u·right of every pixel column (entries 2·px, 2·px + 1: hi.xyz, lo.xyz) and then the row
+// term v·up of every row (entries 2·width + 2·py, + 1). The kernel adds them and normalises in
+// double-float arithmetic (error-free transformations with fma) before rounding once, so a
+// direction matches the CPU's bit for bit except within ~2^-20 ulp of a rounding tie.
+// Pixels are row-major from the top-left, `y · width + x`. Dispatch ⌈width/8⌉ × ⌈height/8⌉
+// workgroups of 8 × 8.
+
+/// The render's parameters (std140-compatible: 16-byte rows).
+struct SmoRenderParams {
+    /// Eye position, normalised octree coordinates.
+    eye: vec3<f32>,
+    /// The octree's dequantisation factor (sdfmo.wgsl).
+    dequant: f32,
+    /// Unit direction toward the light.
+    light: vec3<f32>,
+    /// Intensity of the directional light.
+    light_intensity: f32,
+    /// Image width and height in pixels.
+    width: u32,
+    height: u32,
+    /// 0 mask, 1 depth, 2 normal, 3 lambert.
+    mode: u32,
+    /// Ambient term of the lambert shading.
+    ambient: f32,
+    /// Depth mode: distances mapped to 255 and to the darkest grey.
+    depth_near: f32,
+    depth_far: f32,
+    _pad0: f32,
+    _pad1: f32,
+}
+
+/// One pixel's hit: the viewer-facing unit normal (0 for the background and in the mask and
+/// depth modes) and the ray parameter (SMO_FAR for the background).
+struct SmoPixel {
+    normal: vec3<f32>,
+    t: f32,
+}
+
+@group(0) @binding(1) var<uniform> params: SmoRenderParams;
+@group(0) @binding(2) var<storage, read_write> pixels: array<SmoPixel>;
+@group(0) @binding(3) var<storage, read_write> colors: array<u32>;
+@group(0) @binding(4) var<storage, read> rays: array<vec4<f32>>;
+
+/// a + b exactly, as (sum, error) (Knuth's TwoSum).
+fn smo_two_sum(a: f32, b: f32) -> vec2<f32> {
+    let s = a + b;
+    let bb = s - a;
+    return vec2<f32>(s, (a - (s - bb)) + (b - bb));
+}
+
+/// a · b exactly, as (product, error).
+fn smo_two_prod(a: f32, b: f32) -> vec2<f32> {
+    let p = a * b;
+    return vec2<f32>(p, fma(a, b, -p));
+}
+
+/// Double-float addition (hi, lo) + (hi, lo).
+fn smo_df_add(a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
+    let s = smo_two_sum(a.x, b.x);
+    let e = s.y + a.y + b.y;
+    return smo_two_sum(s.x, e);
+}
+
+/// Double-float square of (hi, lo).
+fn smo_df_sqr(a: vec2<f32>) -> vec2<f32> {
+    let p = smo_two_prod(a.x, a.x);
+    return smo_two_sum(p.x, p.y + 2.0 * a.x * a.y);
+}
+
+/// The unit direction of pixel (px, py): normalize(column + row) in double-float, rounded once.
+fn smo_primary_dir(px: u32, py: u32) -> vec3<f32> {
+    let ch = rays[2u * px].xyz;
+    let cl = rays[2u * px + 1u].xyz;
+    let row = 2u * params.width + 2u * py;
+    let rh = rays[row].xyz;
+    let rl = rays[row + 1u].xyz;
+    var sh: vec3<f32>;
+    var sl: vec3<f32>;
+    for (var k = 0u; k < 3u; k++) {
+        let s = smo_df_add(vec2<f32>(ch[k], cl[k]), vec2<f32>(rh[k], rl[k]));
+        sh[k] = s.x;
+        sl[k] = s.y;
+    }
+    let d2 = smo_df_add(smo_df_add(smo_df_sqr(vec2<f32>(sh.x, sl.x)), smo_df_sqr(vec2<f32>(sh.y, sl.y))), smo_df_sqr(vec2<f32>(sh.z, sl.z)));
+    // len = y + (d2 − y²) / 2y, one Newton step from the f32 square root.
+    let y = sqrt(d2.x);
+    let yy = smo_two_prod(y, y);
+    let corr = (((d2.x - yy.x) - yy.y) + d2.y) / (2.0 * y);
+    var out: vec3<f32>;
+    for (var k = 0u; k < 3u; k++) {
+        // q = s / len, then one correction with the exact remainder s − q·len.
+        let q = sh[k] / y;
+        let p = smo_two_prod(q, y);
+        let rem = (((sh[k] - p.x) - p.y) + sl[k]) - q * corr;
+        out[k] = q + rem / y;
+    }
+    return out;
+}
+
+/// A value in [0, 1] (clamped) to 8 bits, rounding half away from zero as the CPU does
+/// (WGSL's round() rounds half to even).
+fn smo_to_u8(value: f32) -> u32 {
+    return u32(floor(clamp(value, 0.0, 1.0) * 255.0 + 0.5));
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn smo_render(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if gid.x >= params.width || gid.y >= params.height {
+        return;
+    }
+    let index = gid.y * params.width + gid.x;
+    let info = smo_info(params.dequant);
+    let dir = smo_primary_dir(gid.x, gid.y);
+    let ray = SmoRay(params.eye, dir);
+
+    let hit = smo_intersect(info, ray, 0.0, SMO_FAR);
+    if !hit.hit {
+        pixels[index] = SmoPixel(vec3<f32>(0.0), SMO_FAR);
+        colors[index] = 0u;
+        return;
+    }
+    var n = vec3<f32>(0.0);
+    if params.mode >= 2u {
+        n = smo_hit_normal(info, ray, hit);
+        if dot(n, dir) > 0.0 {
+            n = -n;
+        }
+    }
+    var rgb = vec3<u32>(255u);
+    switch params.mode {
+        case 1u: {
+            let span = params.depth_far - params.depth_near;
+            var g = 1.0;
+            if span > 0.0 {
+                g = (params.depth_far - hit.t) / span;
+            }
+            rgb = vec3<u32>(max(smo_to_u8(g), 1u));
+        }
+        case 2u: {
+            let c = n * 0.5 + vec3<f32>(0.5);
+            rgb = vec3<u32>(smo_to_u8(c.x), smo_to_u8(c.y), smo_to_u8(c.z));
+        }
+        case 3u: {
+            let direct = params.light_intensity * max(dot(n, params.light), 0.0);
+            rgb = vec3<u32>(smo_to_u8(params.ambient + direct));
+        }
+        default: {}
+    }
+    pixels[index] = SmoPixel(n, hit.t);
+    colors[index] = rgb.x | (rgb.y << 8u) | (rgb.z << 16u);
+}

@@ -1,0 +1,730 @@
+//! The wgpu side: a device, the compute pipeline of `render.wgsl`, octree uploads, renders.
+
+use std::sync::{mpsc, Arc, Mutex};
+use std::time::Instant;
+
+use sdfmo_format::quant::dequant_scale;
+use sdfmo_format::{PackedOctree, PackedOctreeView};
+use wgpu::util::DeviceExt;
+
+use crate::{shader_source, GpuError, Result, ENTRY_POINT, WORKGROUP_SIZE};
+
+/// What each pixel shows (the modes of `sdfmo-render`, without shadows or occlusion).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum GpuMode {
+    /// 255 where a ray hits, 0 elsewhere.
+    Mask,
+    /// Grey from the ray distance over [`Shading::depth_near`, `Shading::depth_far`].
+    Depth,
+    /// The viewer-facing unit normal as colour, `n·0.5 + 0.5`.
+    Normal,
+    /// Ambient plus one directional light on a white two-sided surface (the paper protocol).
+    #[default]
+    Lambert,
+}
+
+impl GpuMode {
+    /// The value of `SmoRenderParams::mode` in `render.wgsl`.
+    pub fn code(self) -> u32 {
+        match self {
+            GpuMode::Mask => 0,
+            GpuMode::Depth => 1,
+            GpuMode::Normal => 2,
+            GpuMode::Lambert => 3,
+        }
+    }
+}
+
+/// A pinhole camera as its orthonormal frame, in the octree's normalised coordinates, in f64 as
+/// `sdfmo_render::CameraFrame` holds it (which computes these vectors from eye, target, up hint
+/// and field of view; this crate takes them as they are, so those rules live in one place).
+/// The primary ray of pixel (`px`, `py`), `py` from the top, starts at `eye` (rounded to f32)
+/// with the direction `normalize(column + row)` rounded to f32, where
+/// `column = fwd + u·right`, `u = (2(px + 0.5)/width − 1)·tan_half·width/height` and
+/// `row = v·up`, `v = (1 − 2(py + 0.5)/height)·tan_half`, all in f64 (the Conventions of
+/// docs/architecture.md): the CPU renderer's rays exactly.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GpuCamera {
+    /// Eye position.
+    pub eye: [f64; 3],
+    /// Unit view direction.
+    pub fwd: [f64; 3],
+    /// Unit right vector.
+    pub right: [f64; 3],
+    /// Unit up vector (`right × fwd`).
+    pub up: [f64; 3],
+    /// tan(vertical field of view / 2).
+    pub tan_half: f64,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+}
+
+impl GpuCamera {
+    /// The column term `fwd + u·right` of pixel column `px`.
+    pub fn column(&self, px: u32) -> [f64; 3] {
+        let (w, h) = (f64::from(self.width), f64::from(self.height));
+        let u = (2.0 * (f64::from(px) + 0.5) / w - 1.0) * self.tan_half * w / h;
+        std::array::from_fn(|k| self.fwd[k] + u * self.right[k])
+    }
+
+    /// The row term `v·up` of pixel row `py`.
+    pub fn row(&self, py: u32) -> [f64; 3] {
+        let h = f64::from(self.height);
+        let v = (1.0 - 2.0 * (f64::from(py) + 0.5) / h) * self.tan_half;
+        self.up.map(|c| v * c)
+    }
+
+    /// The `rays` binding of `render.wgsl`: every column term, then every row term, each as a
+    /// double-float pair of vec4 rows (hi.xyz, 0), (lo.xyz, 0).
+    pub fn ray_terms(&self) -> Vec<[f32; 4]> {
+        let split = |v: [f64; 3]| {
+            let hi = v.map(|x| x as f32);
+            let lo: [f32; 3] = std::array::from_fn(|k| (v[k] - f64::from(hi[k])) as f32);
+            [[hi[0], hi[1], hi[2], 0.0], [lo[0], lo[1], lo[2], 0.0]]
+        };
+        (0..self.width)
+            .flat_map(|px| split(self.column(px)))
+            .chain((0..self.height).flat_map(|py| split(self.row(py))))
+            .collect()
+    }
+}
+
+/// Shading constants and the depth range (the values of `sdfmo_render::shading`; the default is
+/// the paper protocol's, with the depth range of a camera 3 units from the root cube's centre).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shading {
+    /// Unit direction toward the light.
+    pub light: [f32; 3],
+    /// Intensity of the directional light.
+    pub light_intensity: f32,
+    /// Ambient term.
+    pub ambient: f32,
+    /// Depth mode: the distance shown as 255.
+    pub depth_near: f32,
+    /// Depth mode: the distance shown as the darkest grey.
+    pub depth_far: f32,
+}
+
+impl Default for Shading {
+    fn default() -> Self {
+        let l = 1.0 / 3f32.sqrt();
+        let r = 3f32.sqrt();
+        Shading {
+            light: [l; 3],
+            light_intensity: 2.0 / 3.0,
+            ambient: 0.25,
+            depth_near: 3.0 - r,
+            depth_far: 3.0 + r,
+        }
+    }
+}
+
+/// How [`GpuImage::gpu_ms`] was measured.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum GpuTiming {
+    /// Timestamp queries at the start and end of the compute pass: the kernel alone.
+    Timestamps,
+    /// The adapter has no timestamp queries: wall time from submission to completion.
+    WallClock,
+}
+
+impl GpuTiming {
+    /// `"timestamps"` or `"wall"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            GpuTiming::Timestamps => "timestamps",
+            GpuTiming::WallClock => "wall",
+        }
+    }
+}
+
+/// One rendered image, read back to the host, laid out as `sdfmo_render::Rendered`'s buffers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GpuImage {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// 8-bit RGB, row-major from the top-left (3 bytes per pixel).
+    pub rgb: Vec<u8>,
+    /// Ray distance per pixel, `+∞` for the background.
+    pub depth: Vec<f32>,
+    /// Viewer-facing unit normal per pixel (normal and lambert modes; zero for the background
+    /// and in the other modes).
+    pub normals: Vec<[f32; 3]>,
+    /// Pixels whose ray hit the octree.
+    pub hits: u64,
+    /// Kernel time in milliseconds, measured as [`GpuImage::timing`] says.
+    pub gpu_ms: f64,
+    /// How `gpu_ms` was measured.
+    pub timing: GpuTiming,
+    /// Wall time from submission until the result was on the host, milliseconds.
+    pub wall_ms: f64,
+}
+
+/// An octree uploaded to the GPU: the `.smo` file's bytes, unchanged, in one storage buffer.
+#[derive(Debug)]
+pub struct GpuOctree {
+    buffer: wgpu::Buffer,
+    bytes: u64,
+    dequant: f32,
+    device_id: usize,
+}
+
+impl GpuOctree {
+    /// Bytes on the GPU (the file's length).
+    pub fn byte_size(&self) -> u64 {
+        self.bytes
+    }
+
+    /// The storage buffer holding the file (binding 0 of `sdfmo.wgsl`), for a pipeline of
+    /// your own.
+    pub fn buffer(&self) -> &wgpu::Buffer {
+        &self.buffer
+    }
+
+    /// The dequantisation factor to pass to `smo_info` (`diagonal / Q`).
+    pub fn dequant(&self) -> f32 {
+        self.dequant
+    }
+}
+
+/// `SmoRenderParams` of `render.wgsl` (64 bytes, four 16-byte rows).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct Params {
+    eye: [f32; 3],
+    dequant: f32,
+    light: [f32; 3],
+    light_intensity: f32,
+    width: u32,
+    height: u32,
+    mode: u32,
+    ambient: f32,
+    depth_near: f32,
+    depth_far: f32,
+    pad: [f32; 2],
+}
+
+const _: () = assert!(std::mem::size_of::<Params>() == 64);
+
+/// Bytes per pixel of the `pixels` binding (`SmoPixel`: normal, t).
+const PIXEL_BYTES: u64 = 16;
+/// Bytes per pixel of the `colors` binding.
+const COLOR_BYTES: u64 = 4;
+/// `SMO_FAR` of the WGSL: the background's t.
+const SMO_FAR: f32 = 3.0e38;
+
+/// Output buffers for one image size, kept between renders of the same size.
+struct Targets {
+    pixels: u64,
+    pixel_buf: wgpu::Buffer,
+    color_buf: wgpu::Buffer,
+    pixel_read: wgpu::Buffer,
+    color_read: wgpu::Buffer,
+}
+
+/// Timestamp queries, when the adapter has them.
+struct Timer {
+    queries: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    read: wgpu::Buffer,
+    period_ns: f32,
+}
+
+/// A wgpu device with the octree kernel's compute pipeline.
+///
+/// ```no_run
+/// # fn main() -> Result<(), sdfmo_gpu::GpuError> {
+/// use sdfmo_gpu::{GpuCamera, GpuMode, GpuRenderer, Shading};
+/// # let octree: sdfmo_format::PackedOctree = unimplemented!();
+/// let mut gpu = GpuRenderer::new()?; // a typed error without an adapter
+/// let on_gpu = gpu.upload(&octree)?;
+/// let camera = GpuCamera {
+///     eye: [0.0, 0.0, 3.0], fwd: [0.0, 0.0, -1.0], right: [1.0, 0.0, 0.0], up: [0.0, 1.0, 0.0],
+///     tan_half: 30f64.to_radians().tan(), width: 256, height: 256,
+/// };
+/// let image = gpu.render(&on_gpu, &camera, GpuMode::Lambert, &Shading::default())?;
+/// println!("{}: {} hits in {:.2} ms", gpu.adapter_name(), image.hits, image.gpu_ms);
+/// # Ok(()) }
+/// ```
+pub struct GpuRenderer {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    info: wgpu::AdapterInfo,
+    limits: wgpu::Limits,
+    layout: wgpu::BindGroupLayout,
+    pipeline: wgpu::ComputePipeline,
+    params: wgpu::Buffer,
+    targets: Option<Targets>,
+    timer: Option<Timer>,
+    /// Errors wgpu reports outside an error scope (recorded instead of wgpu's default panic).
+    uncaptured: Arc<Mutex<Option<String>>>,
+    device_id: usize,
+}
+
+impl std::fmt::Debug for GpuRenderer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuRenderer")
+            .field("adapter", &self.info.name)
+            .field("backend", &self.info.backend)
+            .field("timestamps", &self.timer.is_some())
+            .finish_non_exhaustive()
+    }
+}
+
+fn next_device_id() -> usize {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    static NEXT: AtomicUsize = AtomicUsize::new(1);
+    NEXT.fetch_add(1, Ordering::Relaxed)
+}
+
+impl GpuRenderer {
+    /// Opens the first suitable adapter (a high-performance one preferred; `WGPU_ADAPTER_NAME`
+    /// and `WGPU_BACKEND` select one, as in wgpu's examples) and compiles the kernel.
+    /// [`GpuError::NoAdapter`] when there is none.
+    pub fn new() -> Result<GpuRenderer> {
+        pollster::block_on(Self::new_async())
+    }
+
+    async fn new_async() -> Result<GpuRenderer> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        if std::env::var_os("WGPU_BACKEND").is_none() {
+            desc.backends = wgpu::Backends::PRIMARY;
+        }
+        let instance = wgpu::Instance::new(desc);
+        let adapter = wgpu::util::initialize_adapter_from_env_or_default(&instance, None)
+            .await
+            .map_err(|e| GpuError::NoAdapter {
+                reason: e.to_string(),
+            })?;
+        let info = adapter.get_info();
+        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let features = if timestamps {
+            wgpu::Features::TIMESTAMP_QUERY
+        } else {
+            wgpu::Features::empty()
+        };
+        // Everything the adapter offers: octrees and images beyond the WebGPU defaults (128 MiB
+        // bindings) where the hardware allows.
+        let limits = adapter.limits();
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("sdfmo-gpu"),
+                required_features: features,
+                required_limits: limits.clone(),
+                ..Default::default()
+            })
+            .await
+            .map_err(|source| GpuError::RequestDevice {
+                adapter: info.name.clone(),
+                source,
+            })?;
+        let uncaptured = Arc::new(Mutex::new(None));
+        let sink = uncaptured.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            if let Ok(mut slot) = sink.lock() {
+                slot.get_or_insert_with(|| e.to_string());
+            }
+        }));
+
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("sdfmo render.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(shader_source().into()),
+        });
+        let storage = |binding, read_only| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("sdfmo bindings"),
+            entries: &[
+                storage(0, true),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+                storage(2, false),
+                storage(3, false),
+                storage(4, true),
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("sdfmo pipeline layout"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("sdfmo render"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some(ENTRY_POINT),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        if let Some(e) = scope.pop().await {
+            return Err(GpuError::Device(e.to_string()));
+        }
+        let params = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("sdfmo params"),
+            size: std::mem::size_of::<Params>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let timer = timestamps.then(|| Timer {
+            queries: device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("sdfmo kernel time"),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2,
+            }),
+            resolve: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("sdfmo timestamps"),
+                size: 16,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            read: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("sdfmo timestamps readback"),
+                size: 16,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            period_ns: queue.get_timestamp_period(),
+        });
+        Ok(GpuRenderer {
+            device,
+            queue,
+            info,
+            limits,
+            layout,
+            pipeline,
+            params,
+            targets: None,
+            timer,
+            uncaptured,
+            device_id: next_device_id(),
+        })
+    }
+
+    /// The adapter's name (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)" for Mesa's software Vulkan).
+    pub fn adapter_name(&self) -> &str {
+        &self.info.name
+    }
+
+    /// The adapter's description from wgpu (backend, driver, device type).
+    pub fn adapter_info(&self) -> &wgpu::AdapterInfo {
+        &self.info
+    }
+
+    /// Whether kernel times come from timestamp queries ([`GpuTiming::Timestamps`]).
+    pub fn has_timestamps(&self) -> bool {
+        self.timer.is_some()
+    }
+
+    /// The device, to build pipelines of your own around `sdfmo.wgsl`.
+    pub fn device(&self) -> &wgpu::Device {
+        &self.device
+    }
+
+    /// Uploads an octree: its `.smo` bytes ([`PackedOctree::to_bytes`]), unchanged.
+    pub fn upload(&self, octree: &PackedOctree) -> Result<GpuOctree> {
+        self.upload_bytes(&octree.to_bytes())
+    }
+
+    /// Validates `.smo` file bytes ([`PackedOctreeView::new`]: the kernel trusts what it reads)
+    /// and uploads them unchanged into one storage buffer.
+    pub fn upload_bytes(&self, bytes: &[u8]) -> Result<GpuOctree> {
+        let view = PackedOctreeView::new(bytes)?;
+        let len = bytes.len() as u64;
+        let limit = self.binding_limit();
+        if len > limit {
+            return Err(GpuError::TooLarge {
+                what: "the octree",
+                needed: len,
+                limit,
+            });
+        }
+        let meta = view.meta();
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let buffer = self
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("sdfmo octree (.smo bytes)"),
+                contents: bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Device(e.to_string()));
+        }
+        Ok(GpuOctree {
+            buffer,
+            bytes: len,
+            dequant: dequant_scale(meta.depth, meta.bits),
+            device_id: self.device_id,
+        })
+    }
+
+    /// Renders one image of `octree` and reads it back.
+    pub fn render(
+        &mut self,
+        octree: &GpuOctree,
+        camera: &GpuCamera,
+        mode: GpuMode,
+        shading: &Shading,
+    ) -> Result<GpuImage> {
+        if octree.device_id != self.device_id {
+            return Err(GpuError::ForeignOctree);
+        }
+        let (w, h) = (camera.width, camera.height);
+        check_camera(camera)?;
+        let groups = (w.div_ceil(WORKGROUP_SIZE), h.div_ceil(WORKGROUP_SIZE));
+        let max_groups = self.limits.max_compute_workgroups_per_dimension;
+        if groups.0 > max_groups || groups.1 > max_groups {
+            return Err(GpuError::InvalidCamera(format!(
+                "{w}x{h} needs {}x{} workgroups, over the adapter's {max_groups} per dimension",
+                groups.0, groups.1
+            )));
+        }
+        let pixels = u64::from(w) * u64::from(h);
+        let limit = self.binding_limit();
+        if pixels * PIXEL_BYTES > limit {
+            return Err(GpuError::TooLarge {
+                what: "the pixel buffer",
+                needed: pixels * PIXEL_BYTES,
+                limit,
+            });
+        }
+        let params = Params {
+            eye: camera.eye.map(|c| c as f32),
+            dequant: octree.dequant,
+            light: shading.light,
+            light_intensity: shading.light_intensity,
+            width: w,
+            height: h,
+            mode: mode.code(),
+            ambient: shading.ambient,
+            depth_near: shading.depth_near,
+            depth_far: shading.depth_far,
+            pad: [0.0; 2],
+        };
+        let terms = camera.ray_terms();
+        self.take_uncaptured()?;
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        self.ensure_targets(pixels);
+        let t = self.targets.as_ref().expect("ensure_targets made them");
+        self.queue
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        let rays = self
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("sdfmo ray terms"),
+                contents: bytemuck::cast_slice(&terms),
+                usage: wgpu::BufferUsages::STORAGE,
+            });
+        let bind = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("sdfmo bind group"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: octree.buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: self.params.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: t.pixel_buf.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: t.color_buf.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: rays.as_entire_binding(),
+                },
+            ],
+        });
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("sdfmo render"),
+            });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("sdfmo kernel"),
+                timestamp_writes: self.timer.as_ref().map(|timer| {
+                    wgpu::ComputePassTimestampWrites {
+                        query_set: &timer.queries,
+                        beginning_of_pass_write_index: Some(0),
+                        end_of_pass_write_index: Some(1),
+                    }
+                }),
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.dispatch_workgroups(groups.0, groups.1, 1);
+        }
+        if let Some(timer) = &self.timer {
+            encoder.resolve_query_set(&timer.queries, 0..2, &timer.resolve, 0);
+            encoder.copy_buffer_to_buffer(&timer.resolve, 0, &timer.read, 0, 16);
+        }
+        encoder.copy_buffer_to_buffer(&t.pixel_buf, 0, &t.pixel_read, 0, pixels * PIXEL_BYTES);
+        encoder.copy_buffer_to_buffer(&t.color_buf, 0, &t.color_read, 0, pixels * COLOR_BYTES);
+        let start = Instant::now();
+        self.queue.submit([encoder.finish()]);
+        self.device.poll(wgpu::PollType::wait_indefinitely())?;
+        let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+        if let Some(e) = pollster::block_on(oom.pop()) {
+            drop(pollster::block_on(scope.pop()));
+            return Err(GpuError::Device(e.to_string()));
+        }
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Device(e.to_string()));
+        }
+        self.take_uncaptured()?;
+
+        let pixel_bytes = self.read_back(&t.pixel_read, pixels * PIXEL_BYTES)?;
+        let color_bytes = self.read_back(&t.color_read, pixels * COLOR_BYTES)?;
+        let (gpu_ms, timing) = match &self.timer {
+            Some(timer) => {
+                let stamps = self.read_back(&timer.read, 16)?;
+                let begin = u64::from_le_bytes(stamps[0..8].try_into().expect("8 bytes"));
+                let end = u64::from_le_bytes(stamps[8..16].try_into().expect("8 bytes"));
+                let ns = end.saturating_sub(begin) as f64 * f64::from(timer.period_ns);
+                (ns * 1e-6, GpuTiming::Timestamps)
+            }
+            None => (wall_ms, GpuTiming::WallClock),
+        };
+
+        let n = pixels as usize;
+        let mut rgb = Vec::with_capacity(n * 3);
+        for c in color_bytes.chunks_exact(4) {
+            rgb.extend_from_slice(&c[..3]);
+        }
+        let mut depth = Vec::with_capacity(n);
+        let mut normals = Vec::with_capacity(n);
+        let mut hits = 0;
+        for p in pixel_bytes.chunks_exact(16) {
+            let f = |k: usize| f32::from_le_bytes(p[4 * k..4 * k + 4].try_into().expect("4 bytes"));
+            let t = f(3);
+            if t < SMO_FAR {
+                hits += 1;
+                depth.push(t);
+            } else {
+                depth.push(f32::INFINITY);
+            }
+            normals.push([f(0), f(1), f(2)]);
+        }
+        Ok(GpuImage {
+            width: w,
+            height: h,
+            rgb,
+            depth,
+            normals,
+            hits,
+            gpu_ms,
+            timing,
+            wall_ms,
+        })
+    }
+
+    /// The largest buffer the kernel can bind.
+    fn binding_limit(&self) -> u64 {
+        self.limits
+            .max_storage_buffer_binding_size
+            .min(self.limits.max_buffer_size)
+    }
+
+    /// The output buffers for `pixels` pixels (reused when the size is unchanged).
+    fn ensure_targets(&mut self, pixels: u64) {
+        if self.targets.as_ref().is_some_and(|t| t.pixels == pixels) {
+            return;
+        }
+        let buf = |label, size, usage| {
+            self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        let read = wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST;
+        self.targets = Some(Targets {
+            pixels,
+            pixel_buf: buf("sdfmo pixels", pixels * PIXEL_BYTES, storage),
+            color_buf: buf("sdfmo colors", pixels * COLOR_BYTES, storage),
+            pixel_read: buf("sdfmo pixels readback", pixels * PIXEL_BYTES, read),
+            color_read: buf("sdfmo colors readback", pixels * COLOR_BYTES, read),
+        });
+    }
+
+    /// Maps `buffer` (a MAP_READ copy target), copies its first `len` bytes out, unmaps it.
+    fn read_back(&self, buffer: &wgpu::Buffer, len: u64) -> Result<Vec<u8>> {
+        let slice = buffer.slice(..len);
+        let (tx, rx) = mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device.poll(wgpu::PollType::wait_indefinitely())?;
+        match rx.recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => return Err(GpuError::Readback(e)),
+            Err(_) => return Err(GpuError::Device("the mapping callback never ran".into())),
+        }
+        let bytes = slice
+            .get_mapped_range()
+            .map_err(|e| GpuError::Device(e.to_string()))?
+            .to_vec();
+        buffer.unmap();
+        Ok(bytes)
+    }
+
+    /// An error wgpu reported outside any scope since the last call, as [`GpuError::Device`].
+    fn take_uncaptured(&self) -> Result<()> {
+        let taken = self.uncaptured.lock().ok().and_then(|mut slot| slot.take());
+        match taken {
+            Some(e) => Err(GpuError::Device(e)),
+            None => Ok(()),
+        }
+    }
+}
+
+fn check_camera(c: &GpuCamera) -> Result<()> {
+    if c.width == 0 || c.height == 0 {
+        return Err(GpuError::InvalidCamera(format!(
+            "image size {}x{} is empty",
+            c.width, c.height
+        )));
+    }
+    let finite = [c.eye, c.fwd, c.right, c.up]
+        .iter()
+        .flatten()
+        .chain([&c.tan_half])
+        .all(|v| v.is_finite());
+    if !finite || c.tan_half <= 0.0 {
+        return Err(GpuError::InvalidCamera(format!(
+            "the frame must be finite with tan_half > 0: {c:?}"
+        )));
+    }
+    Ok(())
+}

@@ -1,0 +1,594 @@
+// sdfmo.wgsl: ray tracing a packed SDF multi-octree (`.smo` 1.x) in WGSL.
+//
+// A port of `sdfmo-trace` (traversal.rs, ray_voxel.rs, normal.rs) with the same hit rules:
+// front-to-back traversal, first leaf with a hit; in a leaf every voxel is tested and the
+// nearest hit inside the leaf's [t_enter, t_exit] is kept; volume voxels are hit at the first
+// point inside (f < 0, the segment start when it starts inside), surface voxels at the first
+// zero crossing from either side; the normal is the interpolant's unit gradient facing the
+// viewer. Include this file in your own pipeline (WGSL has no #include: concatenate the
+// source before yours) and call `smo_info`, `smo_intersect` and `smo_hit_normal`.
+//
+// BINDING LAYOUT (one binding; change the group/binding numbers on the next line if your
+// pipeline needs that slot):
+//
+//     @group(0) @binding(0) var<storage, read> smo: array<u32>;
+//
+//   The whole `.smo` file exactly as saved (header, sections, padding, checksum: FORMAT.md in
+//   sdfmo-format), uploaded unchanged as a storage buffer read as little-endian u32 words. A
+//   file's length is always a multiple of 4 and every section starts at a multiple of 8 bytes,
+//   so every field below is word-aligned. The file must have been validated on the host first
+//   (`PackedOctreeView::new`): the kernel trusts every count and index.
+//
+// What the kernel reads, in words of the file:
+//   header word 5       depth (byte 20) and value_bits (byte 21)
+//   header words 10–12  inner_node_count I, leaf_count L, voxel_count V
+//   header words 16, 20, 24, 28  byte offsets of the nodes, leaves, surface, corners sections
+//   nodes    3 words per group of 8 inner nodes: first_child, masks of nodes 8g..8g+3 (one byte
+//            each), masks of nodes 8g+4..8g+7
+//   leaves   3 words per group of 8 leaves: first_voxel, counts of leaves 8g..8g+3, 8g+4..8g+7
+//   surface  bit v % 32 of word v / 32: voxel v is a surface voxel
+//   corners  8-bit: 2 words per voxel, corner i in byte i (i8); 16-bit: 4 words, corner i in
+//            half i (i16); value = code · dequant, dequant = diagonal / Q, passed in by the host
+//            (`sdfmo_format::quant::dequant_scale`, computed in f64 there: WGSL division is not
+//            correctly rounded, and the CPU tracer uses that exact factor).
+//
+// Differences from the CPU kernel: f32 arithmetic here may be contracted into fused
+// multiply-adds and WGSL's division and inverseSqrt are not correctly rounded, so results agree
+// to a few ulps, not bit for bit (the crate's tests bound the difference). +∞ is written as
+// SMO_FAR (WGSL has no infinity literal).
+
+@group(0) @binding(0) var<storage, read> smo: array<u32>;
+
+/// Stands for +∞ (a ray parameter no hit can reach).
+const SMO_FAR: f32 = 3.0e38;
+/// Largest finite f32.
+const SMO_MAX_FINITE: f32 = 3.40282347e38;
+/// Smallest normal f32.
+const SMO_MIN_POSITIVE: f32 = 1.17549435e-38;
+/// Direction components smaller than this are treated as this (with their sign).
+const SMO_TINY_DIR: f32 = 1e-30;
+/// Traversal stack: at most 3 pending siblings per level, 16 levels (MAX_DEPTH), plus slack;
+/// the same bound as the CPU tracer.
+const SMO_STACK_SIZE: u32 = 50u;
+/// Newton/bisection steps at most when polishing a root.
+const SMO_MAX_POLISH_STEPS: u32 = 32u;
+/// Root tolerance as a fraction of the segment.
+const SMO_REL_TOLERANCE: f32 = 1e-6;
+
+/// Counts and section offsets (in words) of the bound octree.
+struct SmoInfo {
+    depth: u32,
+    value_bits: u32,
+    inner_count: u32,
+    leaf_count: u32,
+    voxel_count: u32,
+    nodes: u32,
+    leaves: u32,
+    surface: u32,
+    corners: u32,
+    dequant: f32,
+}
+
+/// A ray `origin + t·dir`, `dir` of unit length.
+struct SmoRay {
+    origin: vec3<f32>,
+    dir: vec3<f32>,
+}
+
+/// The first hit: ray parameter, voxel index, the leaf cell (minimum corner and edge), whether
+/// the voxel is a surface voxel. `hit` is false for a miss (the other fields are then 0).
+struct SmoHit {
+    t: f32,
+    voxel: u32,
+    cell_min: vec3<f32>,
+    cell_size: f32,
+    surface: bool,
+    hit: bool,
+}
+
+/// A cubic a s³ + b s² + c s + d in the segment parameter s.
+struct SmoCubic {
+    a: f32,
+    b: f32,
+    c: f32,
+    d: f32,
+}
+
+struct SmoCell {
+    node: u32,
+    min: vec3<f32>,
+    size: f32,
+    t_enter: f32,
+    t_exit: f32,
+}
+
+/// Reads the header of the bound file. `dequant` = diagonal / Q (see the top of the file).
+fn smo_info(dequant: f32) -> SmoInfo {
+    var info: SmoInfo;
+    let w5 = smo[5];
+    info.depth = w5 & 0xffu;
+    info.value_bits = (w5 >> 8u) & 0xffu;
+    info.inner_count = smo[10];
+    info.leaf_count = smo[11];
+    info.voxel_count = smo[12];
+    info.nodes = smo[16] >> 2u;
+    info.leaves = smo[20] >> 2u;
+    info.surface = smo[24] >> 2u;
+    info.corners = smo[28] >> 2u;
+    info.dequant = dequant;
+    return info;
+}
+
+// ---- Octree access (FORMAT.md: node groups, leaf groups, surface bitmap, corners) ----
+
+/// Set bits among the low `bits` (0..=63) bits of the u64 `hi:lo`.
+fn smo_popcount_low(lo: u32, hi: u32, bits: u32) -> u32 {
+    if bits < 32u {
+        return countOneBits(lo & ((1u << bits) - 1u));
+    }
+    return countOneBits(lo) + countOneBits(hi & ((1u << (bits - 32u)) - 1u));
+}
+
+/// Byte `k` (0..8) of the u64 `hi:lo`.
+fn smo_byte(lo: u32, hi: u32, k: u32) -> u32 {
+    let w = select(lo, hi, k >= 4u);
+    return (w >> ((k & 3u) * 8u)) & 0xffu;
+}
+
+/// Child mask of a node (bit 4x + 2y + z); 0 for a leaf.
+fn smo_child_mask(info: SmoInfo, node: u32) -> u32 {
+    if node >= info.inner_count {
+        return 0u;
+    }
+    let at = info.nodes + (node >> 3u) * 3u;
+    return smo_byte(smo[at + 1u], smo[at + 2u], node & 7u);
+}
+
+/// Index of an inner node's first child.
+fn smo_first_child(info: SmoInfo, node: u32) -> u32 {
+    let at = info.nodes + (node >> 3u) * 3u;
+    return smo[at] + smo_popcount_low(smo[at + 1u], smo[at + 2u], (node & 7u) * 8u);
+}
+
+/// A leaf's voxels: (first voxel, count).
+fn smo_leaf_voxels(info: SmoInfo, node: u32) -> vec2<u32> {
+    let j = node - info.inner_count;
+    let at = info.leaves + (j >> 3u) * 3u;
+    let lo = smo[at + 1u];
+    let hi = smo[at + 2u];
+    let slot = j & 7u;
+    var start = smo[at];
+    for (var k = 0u; k < slot; k++) {
+        start += smo_byte(lo, hi, k);
+    }
+    return vec2<u32>(start, smo_byte(lo, hi, slot));
+}
+
+/// The voxel's dequantised corners (corner order 4x + 2y + z), normalised units.
+fn smo_voxel_corners(info: SmoInfo, voxel: u32) -> array<f32, 8> {
+    var c: array<f32, 8>;
+    if info.value_bits == 8u {
+        let at = info.corners + voxel * 2u;
+        for (var i = 0u; i < 8u; i++) {
+            let w = bitcast<i32>(smo[at + (i >> 2u)]);
+            c[i] = f32(extractBits(w, (i & 3u) * 8u, 8u)) * info.dequant;
+        }
+    } else {
+        let at = info.corners + voxel * 4u;
+        for (var i = 0u; i < 8u; i++) {
+            let w = bitcast<i32>(smo[at + (i >> 1u)]);
+            c[i] = f32(extractBits(w, (i & 1u) * 16u, 16u)) * info.dequant;
+        }
+    }
+    return c;
+}
+
+/// Whether the voxel is a surface (thin) voxel.
+fn smo_voxel_is_surface(info: SmoInfo, voxel: u32) -> bool {
+    return ((smo[info.surface + (voxel >> 5u)] >> (voxel & 31u)) & 1u) != 0u;
+}
+
+// ---- The interpolant (sdfmo-format interpolant.rs) ----
+
+/// Trilinear interpolation of the corners at local `l` in [0,1]³.
+fn smo_trilinear(c: array<f32, 8>, l: vec3<f32>) -> f32 {
+    let c00 = c[0] + (c[1] - c[0]) * l.z;
+    let c01 = c[2] + (c[3] - c[2]) * l.z;
+    let c10 = c[4] + (c[5] - c[4]) * l.z;
+    let c11 = c[6] + (c[7] - c[6]) * l.z;
+    let c0 = c00 + (c01 - c00) * l.y;
+    let c1 = c10 + (c11 - c10) * l.y;
+    return c0 + (c1 - c0) * l.x;
+}
+
+fn smo_lerp(a: f32, b: f32, t: f32) -> f32 {
+    return a + (b - a) * t;
+}
+
+/// Gradient of the interpolant in the local frame.
+fn smo_trilinear_gradient(c: array<f32, 8>, l: vec3<f32>) -> vec3<f32> {
+    let dx = smo_lerp(smo_lerp(c[4] - c[0], c[5] - c[1], l.z), smo_lerp(c[6] - c[2], c[7] - c[3], l.z), l.y);
+    let dy = smo_lerp(smo_lerp(c[2] - c[0], c[3] - c[1], l.z), smo_lerp(c[6] - c[4], c[7] - c[5], l.z), l.x);
+    let dz = smo_lerp(smo_lerp(c[1] - c[0], c[3] - c[2], l.y), smo_lerp(c[5] - c[4], c[7] - c[6], l.y), l.x);
+    return vec3<f32>(dx, dy, dz);
+}
+
+// ---- Ray vs one voxel (sdfmo-trace ray_voxel.rs) ----
+
+/// |x| with the sign of y (the sign bit, so −0 counts as negative, as f32::copysign).
+fn smo_copysign(x: f32, y: f32) -> f32 {
+    return select(abs(x), -abs(x), (bitcast<u32>(y) & 0x80000000u) != 0u);
+}
+
+/// The interpolant of `c` along `p + s·dir` as a cubic in s (Taylor expansion around p).
+fn smo_ray_cubic(c: array<f32, 8>, p: vec3<f32>, dir: vec3<f32>) -> SmoCubic {
+    let kx = c[4] - c[0];
+    let ky = c[2] - c[0];
+    let kz = c[1] - c[0];
+    let kxy = (c[6] - c[4]) - (c[2] - c[0]);
+    let kxz = (c[5] - c[4]) - (c[1] - c[0]);
+    let kyz = (c[3] - c[2]) - (c[1] - c[0]);
+    let kxyz = ((c[7] - c[6]) - (c[5] - c[4])) - ((c[3] - c[2]) - (c[1] - c[0]));
+    let gx = kx + kxy * p.y + kxz * p.z + kxyz * p.y * p.z;
+    let gy = ky + kxy * p.x + kyz * p.z + kxyz * p.x * p.z;
+    let gz = kz + kxz * p.x + kyz * p.y + kxyz * p.x * p.y;
+    let b = kxy * dir.x * dir.y + kxz * dir.x * dir.z + kyz * dir.y * dir.z
+        + kxyz * (p.x * dir.y * dir.z + p.y * dir.x * dir.z + p.z * dir.x * dir.y);
+    return SmoCubic(kxyz * dir.x * dir.y * dir.z, b, gx * dir.x + gy * dir.y + gz * dir.z, smo_trilinear(c, p));
+}
+
+fn smo_cubic_eval(q: SmoCubic, s: f32) -> f32 {
+    return ((q.a * s + q.b) * s + q.c) * s + q.d;
+}
+
+fn smo_cubic_derivative(q: SmoCubic, s: f32) -> f32 {
+    return (3.0 * q.a * s + 2.0 * q.b) * s + q.c;
+}
+
+/// Roots of the derivative strictly inside (0, len), ascending: (roots, count in z).
+/// The CPU version divides by zero and lets the range test drop the infinite or NaN root;
+/// here a zero divisor gives the sentinel −1, which the range test drops the same way.
+fn smo_critical_points(q: SmoCubic, len: f32) -> vec3<f32> {
+    let qa = 3.0 * q.a;
+    let qb = 2.0 * q.b;
+    let qc = q.c;
+    let disc = qb * qb - 4.0 * qa * qc;
+    var out = vec2<f32>(0.0, 0.0);
+    var n = 0u;
+    if disc >= 0.0 {
+        let qq = -0.5 * (qb + smo_copysign(sqrt(disc), qb));
+        var r0 = select(-1.0, qq / qa, qa != 0.0);
+        var r1 = select(-1.0, qc / qq, qq != 0.0);
+        if r1 < r0 {
+            let t = r0;
+            r0 = r1;
+            r1 = t;
+        }
+        if r0 > 0.0 && r0 < len {
+            out[n] = r0;
+            n += 1u;
+        }
+        if r1 > 0.0 && r1 < len && (n == 0u || r1 > out[0]) {
+            out[n] = r1;
+            n += 1u;
+        }
+    }
+    return vec3<f32>(out, f32(n));
+}
+
+/// The root of `q` in [lo, hi], on which it is monotone with g(lo) = glo, g(hi) = ghi of
+/// opposite signs: Newton steps, bisection when they leave the bracket.
+fn smo_polish(q: SmoCubic, lo_in: f32, hi_in: f32, glo: f32, ghi: f32, tol: f32) -> f32 {
+    var lo = lo_in;
+    var hi = hi_in;
+    if glo == 0.0 {
+        return lo;
+    }
+    if ghi == 0.0 {
+        return hi;
+    }
+    let lo_positive = glo > 0.0;
+    var s = lo + (hi - lo) * (glo / (glo - ghi));
+    if !(s > lo && s < hi) {
+        s = 0.5 * (lo + hi);
+    }
+    for (var i = 0u; i < SMO_MAX_POLISH_STEPS; i++) {
+        let gs = smo_cubic_eval(q, s);
+        if gs == 0.0 {
+            return s;
+        }
+        if (gs > 0.0) == lo_positive {
+            lo = s;
+        } else {
+            hi = s;
+        }
+        // The CPU's gs / 0 is ±∞, outside the bracket: bisect. WGSL leaves x / 0
+        // indeterminate, so the zero derivative is tested first.
+        let slope = smo_cubic_derivative(q, s);
+        var next = 0.5 * (lo + hi);
+        if slope != 0.0 {
+            let newton = s - gs / slope;
+            if newton > lo && newton < hi {
+                next = newton;
+            }
+        }
+        if abs(next - s) <= tol || hi - lo <= tol {
+            return next;
+        }
+        s = next;
+    }
+    return s;
+}
+
+/// The first root in [0, len] of a cubic (volume: first point inside; surface: first zero from
+/// either side), or −1 for none.
+fn smo_first_root(q: SmoCubic, len: f32, surface: bool) -> f32 {
+    let g0 = q.d;
+    if (g0 < 0.0 && !surface) || (g0 == 0.0 && surface) {
+        return 0.0;
+    }
+    if g0 == 0.0 && q.a == 0.0 && q.b == 0.0 && q.c == 0.0 {
+        return 0.0;
+    }
+    if !(len >= 0.0) || g0 != g0 {
+        return -1.0;
+    }
+    let crit = smo_critical_points(q, len);
+    let n = u32(crit.z);
+    var sa = 0.0;
+    var ga = g0;
+    for (var i = 0u; i <= n; i++) {
+        var sb = len;
+        if i < n {
+            sb = crit[i];
+        }
+        let gb = smo_cubic_eval(q, sb);
+        var crosses = gb < 0.0;
+        if surface {
+            crosses = (ga > 0.0 && gb <= 0.0) || (ga < 0.0 && gb >= 0.0);
+        }
+        if crosses {
+            return smo_polish(q, sa, sb, ga, gb, len * SMO_REL_TOLERANCE);
+        }
+        sa = sb;
+        ga = gb;
+    }
+    return -1.0;
+}
+
+/// The kernel on one voxel in its local frame [0,1]³: the first root in [t0, t1] with
+/// t0 ≥ 0, or −1 for none (sdfmo_trace::intersect_voxel).
+fn smo_intersect_voxel(c: array<f32, 8>, origin: vec3<f32>, dir: vec3<f32>, t0: f32, t1: f32, surface: bool) -> f32 {
+    let len = t1 - t0;
+    if !(len >= 0.0 && len < SMO_FAR) {
+        return -1.0;
+    }
+    let lo = min(min(min(c[0], c[1]), min(c[2], c[3])), min(min(c[4], c[5]), min(c[6], c[7])));
+    let hi = max(max(max(c[0], c[1]), max(c[2], c[3])), max(max(c[4], c[5]), max(c[6], c[7])));
+    // A trilinear interpolant is a convex combination of its corners inside the cube.
+    if lo > 0.0 {
+        return -1.0;
+    }
+    if hi < 0.0 {
+        return select(t0, -1.0, surface);
+    }
+    let m = max(hi, -lo);
+    if !(m >= SMO_MIN_POSITIVE) {
+        return -1.0;
+    }
+    let inv = 1.0 / m;
+    var scaled: array<f32, 8>;
+    for (var i = 0u; i < 8u; i++) {
+        scaled[i] = c[i] * inv;
+    }
+    let cubic = smo_ray_cubic(scaled, origin + dir * t0, dir * len);
+    let u = smo_first_root(cubic, 1.0, surface);
+    if u < 0.0 {
+        return -1.0;
+    }
+    return min(t0 + u * len, t1);
+}
+
+// ---- Traversal (sdfmo-trace traversal.rs) ----
+
+fn smo_safe_inv(d: f32) -> f32 {
+    if abs(d) < SMO_TINY_DIR {
+        return 1.0 / smo_copysign(SMO_TINY_DIR, d);
+    }
+    return 1.0 / d;
+}
+
+/// 1 / size for a cell edge size = 2^k (exact, unlike WGSL's division).
+fn smo_inv_pow2(size: f32) -> f32 {
+    return ldexp(1.0, 1 - frexp(size).exp);
+}
+
+/// The nearest hit of the leaf's voxels inside the cell's [t_enter, t_exit].
+fn smo_leaf_hit(info: SmoInfo, cell: SmoCell, o: vec3<f32>, d: vec3<f32>) -> SmoHit {
+    let inv_size = smo_inv_pow2(cell.size);
+    let local_o = (o + d * cell.t_enter - cell.min) * inv_size;
+    let local_d = d * inv_size;
+    var best_s = cell.t_exit - cell.t_enter;
+    var hit: SmoHit;
+    hit.hit = false;
+    let range = smo_leaf_voxels(info, cell.node);
+    for (var v = range.x; v < range.x + range.y; v++) {
+        let corners = smo_voxel_corners(info, v);
+        let surface = smo_voxel_is_surface(info, v);
+        let s = smo_intersect_voxel(corners, local_o, local_d, 0.0, best_s, surface);
+        if s >= 0.0 && (!hit.hit || s < best_s) {
+            best_s = s;
+            hit.hit = true;
+            hit.voxel = v;
+            hit.surface = surface;
+        }
+    }
+    if hit.hit {
+        hit.t = min(cell.t_enter + best_s, cell.t_exit);
+        hit.cell_min = cell.min;
+        hit.cell_size = cell.size;
+    }
+    return hit;
+}
+
+/// The first hit along the ray in [t_min, t_max] (sdfmo_trace::intersect). Pass SMO_FAR for
+/// an unbounded ray.
+fn smo_intersect(info: SmoInfo, ray: SmoRay, t_min: f32, t_max: f32) -> SmoHit {
+    var none: SmoHit;
+    none.hit = false;
+    if info.leaf_count == 0u || !(t_min <= t_max) {
+        return none;
+    }
+    let o = ray.origin;
+    let d = ray.dir;
+    let inv = vec3<f32>(smo_safe_inv(d.x), smo_safe_inv(d.y), smo_safe_inv(d.z));
+    let ta = (vec3<f32>(-1.0) - o) * inv;
+    let tb = (vec3<f32>(1.0) - o) * inv;
+    let lo = min(ta, tb);
+    let hi = max(ta, tb);
+    let t_enter = max(max(max(lo.x, lo.y), lo.z), t_min);
+    let t_exit = min(min(min(hi.x, hi.y), hi.z), t_max);
+    if !(t_enter <= t_exit) {
+        return none;
+    }
+    let positive = inv > vec3<f32>(0.0);
+
+    var stack: array<SmoCell, SMO_STACK_SIZE>;
+    var sp = 0u;
+    var cell = SmoCell(0u, vec3<f32>(-1.0), 2.0, t_enter, t_exit);
+    loop {
+        var has_next = false;
+        var next: SmoCell;
+        if cell.node >= info.inner_count {
+            let hit = smo_leaf_hit(info, cell, o, d);
+            if hit.hit {
+                return hit;
+            }
+        } else {
+            let half = 0.5 * cell.size;
+            let mid = cell.min + vec3<f32>(half);
+            let tm = (mid - o) * inv;
+            let te = cell.t_enter;
+            let tx = cell.t_exit;
+            // The octant the ray enters first, and the mid-planes it crosses inside the cell.
+            var octant = 0u;
+            var pt = vec3<f32>(SMO_MAX_FINITE);
+            var pb = vec3<u32>(0u);
+            for (var k = 0u; k < 3u; k++) {
+                let bit = 4u >> k;
+                let t = tm[k];
+                var upper = t > te;
+                if positive[k] {
+                    upper = t <= te;
+                }
+                if upper {
+                    octant |= bit;
+                }
+                if t > te && t < tx {
+                    pt[k] = t;
+                    pb[k] = bit;
+                }
+            }
+            // Sort the three planes by t (a 3-element network, as the CPU version).
+            if pt.y < pt.x {
+                pt = pt.yxz;
+                pb = pb.yxz;
+            }
+            if pt.z < pt.y {
+                pt = pt.xzy;
+                pb = pb.xzy;
+            }
+            if pt.y < pt.x {
+                pt = pt.yxz;
+                pb = pb.yxz;
+            }
+            let mask = smo_child_mask(info, cell.node);
+            var ch_oct: array<u32, 4>;
+            var ch_a: array<f32, 4>;
+            var ch_b: array<f32, 4>;
+            var n = 0u;
+            var t_a = te;
+            for (var i = 0u; i < 3u; i++) {
+                if pb[i] == 0u {
+                    break;
+                }
+                if ((mask >> octant) & 1u) != 0u {
+                    ch_oct[n] = octant;
+                    ch_a[n] = t_a;
+                    ch_b[n] = pt[i];
+                    n += 1u;
+                }
+                octant ^= pb[i];
+                t_a = pt[i];
+            }
+            if ((mask >> octant) & 1u) != 0u {
+                ch_oct[n] = octant;
+                ch_a[n] = t_a;
+                ch_b[n] = tx;
+                n += 1u;
+            }
+            var first = 0u;
+            if n > 0u {
+                first = smo_first_child(info, cell.node);
+            }
+            // Push the later children (farthest first), continue with the nearest.
+            for (var j = i32(n) - 1; j >= 0; j--) {
+                let oct = ch_oct[j];
+                let child = first + countOneBits(mask & ((1u << oct) - 1u));
+                let offset = vec3<f32>(f32(oct >> 2u), f32((oct >> 1u) & 1u), f32(oct & 1u));
+                let c = SmoCell(child, cell.min + offset * half, half, ch_a[j], ch_b[j]);
+                if j == 0 {
+                    next = c;
+                    has_next = true;
+                } else if sp < SMO_STACK_SIZE {
+                    stack[sp] = c;
+                    sp += 1u;
+                }
+            }
+        }
+        if has_next {
+            cell = next;
+        } else if sp > 0u {
+            sp -= 1u;
+            cell = stack[sp];
+        } else {
+            return none;
+        }
+    }
+    return none;
+}
+
+/// `v` scaled to unit length if its length is a positive finite number with a finite
+/// reciprocal (glam's try_normalize), else `fallback`.
+fn smo_try_normalize(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
+    // Tested before dividing: WGSL leaves x / 0 indeterminate.
+    let l = length(v);
+    if l > 0.0 && l <= SMO_MAX_FINITE {
+        let rcp = 1.0 / l;
+        if rcp <= SMO_MAX_FINITE {
+            return v * rcp;
+        }
+    }
+    return fallback;
+}
+
+/// Unit gradient of the hit voxel's interpolant at the hit, flipped so dot(n, dir) ≤ 0
+/// (sdfmo_trace::hit_normal); −dir where the gradient vanishes.
+fn smo_hit_normal(info: SmoInfo, ray: SmoRay, hit: SmoHit) -> vec3<f32> {
+    let facing = smo_try_normalize(-ray.dir, vec3<f32>(0.0, 0.0, 1.0));
+    if hit.voxel >= info.voxel_count || !(hit.cell_size > 0.0) {
+        return facing;
+    }
+    let corners = smo_voxel_corners(info, hit.voxel);
+    let p = ray.origin + ray.dir * hit.t;
+    let local = clamp((p - hit.cell_min) * smo_inv_pow2(hit.cell_size), vec3<f32>(0.0), vec3<f32>(1.0));
+    let g = smo_trilinear_gradient(corners, local);
+    let n = smo_try_normalize(g, vec3<f32>(0.0));
+    if all(n == vec3<f32>(0.0)) {
+        return facing;
+    }
+    if dot(n, ray.dir) > 0.0 {
+        return -n;
+    }
+    return n;
+}

@@ -1,0 +1,298 @@
+//! The GPU image against the CPU image (`sdfmo-render` over `sdfmo-trace`), on any adapter,
+//! Mesa's software Vulkan (lavapipe) included.
+//!
+//! Without an adapter these tests print why and pass without checking, unless
+//! `SDFMO_REQUIRE_GPU=1` (CI sets it): then they fail. The comparison, per paper view:
+//!
+//! - **mask** identical, except on pixels whose hit (the CPU's, or the GPU's where only it
+//!   hits) lies within [`BOUNDARY_VOXELS`] of a voxel boundary: there the two kernels, whose
+//!   f32 arithmetic differs by a few ulps (fused multiply-adds, WGSL's division), may enter a
+//!   different leaf first;
+//! - **depth** within [`DEPTH_VOXELS`] of the voxel size wherever both hit (the same boundary
+//!   pixels excepted), or within [`DEPTH_ULPS`] ulps of t where that is larger: the issue asks
+//!   for 1e-4 voxel, but at depth 9 the paper views' hits lie at t ≈ 2.5–3.8, where one ulp of
+//!   an f32 t is 2.4e-7 = 0.6e-4 voxel, and two evaluation orders of the same f32 formulas
+//!   (the CPU's, and the GPU's with fused multiply-adds) differ by a few ulps. The pixels
+//!   that need the ulp allowance are counted (`ulp_allowance`);
+//! - **lambert** PSNR ≥ [`MIN_PSNR`] dB against the CPU's lambert image.
+//!
+//! One more class of pixel is excused, and counted: where the CPU's own answer is
+//! **ill-conditioned**, i.e. changing one component of the ray direction by one ulp changes the
+//! CPU's mask or moves its hit by more than the depth tolerance (a ray nearly tangent to the
+//! surface, where the cubic's root moves like √ε). There the GPU must still agree to within
+//! the tolerance plus twice that one-ulp spread, and such pixels must stay rare
+//! ([`MAX_ILL_CONDITIONED`] of the hits). Measured on lavapipe: depth-6 demo part, view 0, pixel
+//! (169, 35): one ulp of dir.y moves the CPU's own t by 3.3e-6 (1.07e-4 voxel); the GPU's t
+//! differs by 3.4e-6.
+//!
+//! Resolution [`SIZE`]² (lavapipe runs the kernel on the CPU; a 256² paper view is 65k rays),
+//! each octree built once and rendered in both modes on all four views.
+
+use std::path::PathBuf;
+
+use glam::Vec3;
+use sdfmo_build::{build, BuildSettings, Method};
+use sdfmo_format::PackedOctree;
+use sdfmo_gpu::{GpuCamera, GpuImage, GpuMode, GpuRenderer, Shading};
+use sdfmo_mesh::TriMesh;
+use sdfmo_render::shading::{light_dir, DepthRange, AMBIENT, LIGHT_INTENSITY};
+use sdfmo_render::{render, Camera, Mode, OctreeScene, RenderSettings, Rendered};
+use sdfmo_trace::{intersect, Ray};
+
+/// Image side of the comparisons.
+const SIZE: u32 = 256;
+/// Pixels whose hit is this close to a voxel boundary (in voxel edges) may differ in the mask.
+const BOUNDARY_VOXELS: f32 = 1e-4;
+/// Depth agreement, in voxel edges.
+const DEPTH_VOXELS: f32 = 1e-4;
+/// ... or in ulps of t, whichever is larger (see the module docs: at depth 9 and t ≈ 3,
+/// 1e-4 voxel is 1.6 ulps of t).
+const DEPTH_ULPS: f32 = 4.0;
+/// Lambert PSNR floor, dB.
+const MIN_PSNR: f64 = 45.0;
+/// Ill-conditioned pixels (see the module docs) allowed, as a fraction of the hits.
+const MAX_ILL_CONDITIONED: f64 = 0.002;
+
+/// The renderer, or `None` (with a message) when there is no adapter and none is required.
+fn gpu() -> Option<GpuRenderer> {
+    match GpuRenderer::new() {
+        Ok(g) => Some(g),
+        Err(e) if std::env::var("SDFMO_REQUIRE_GPU").as_deref() == Ok("1") => {
+            panic!("SDFMO_REQUIRE_GPU=1 but no GPU renderer: {e}")
+        }
+        Err(e) => {
+            eprintln!("skipped: no GPU adapter ({e}); set SDFMO_REQUIRE_GPU=1 to fail instead");
+            None
+        }
+    }
+}
+
+/// The GPU camera of a CPU camera: its f64 frame.
+fn gpu_camera(cam: &Camera) -> GpuCamera {
+    let f = cam.frame().expect("valid camera");
+    GpuCamera {
+        eye: f.eye.to_array(),
+        fwd: f.fwd.to_array(),
+        right: f.right.to_array(),
+        up: f.up.to_array(),
+        tan_half: f.tan_half,
+        width: f.width,
+        height: f.height,
+    }
+}
+
+/// The CPU renderer's shading for this camera (octree bounds: the root cube).
+fn shading(cam: &Camera) -> Shading {
+    let range = DepthRange::new(cam.eye, Vec3::splat(-1.0), Vec3::ONE);
+    Shading {
+        light: light_dir().to_array(),
+        light_intensity: LIGHT_INTENSITY,
+        ambient: AMBIENT,
+        depth_near: range.near,
+        depth_far: range.far,
+    }
+}
+
+fn cpu(octree: &PackedOctree, cam: &Camera, mode: Mode) -> Rendered {
+    let settings = RenderSettings {
+        mode,
+        shadows: false,
+        ao_samples: 0,
+        threads: None,
+    };
+    render(&OctreeScene(octree), cam, &settings).expect("CPU render")
+}
+
+/// Distance of `p` (normalised coordinates) to the nearest voxel boundary plane, in voxel edges.
+fn boundary_distance(p: Vec3, depth: u8) -> f32 {
+    let q = (p + Vec3::ONE) * (f32::from(1u16 << depth) * 0.5);
+    (q - q.round()).abs().min_element()
+}
+
+/// How much the CPU's own first hit (`t`, +∞ for a miss) changes when one component of the
+/// ray direction moves by one ulp: (whether hit/miss flips, the largest |Δt|).
+fn one_ulp_spread(octree: &PackedOctree, o: Vec3, d: Vec3, t: f32) -> (bool, f32) {
+    let mut flips = false;
+    let mut spread = 0.0f32;
+    for k in 0..3 {
+        for step in [-1i32, 1] {
+            let mut dir = d.to_array();
+            dir[k] = f32::from_bits(dir[k].to_bits().wrapping_add_signed(step));
+            let ray = Ray {
+                origin: o,
+                dir: Vec3::from_array(dir),
+            };
+            match intersect(octree, &ray, 0.0, f32::INFINITY) {
+                Some(h) if t.is_finite() => spread = spread.max((h.t - t).abs()),
+                Some(_) => flips = true,
+                None => flips |= t.is_finite(),
+            }
+        }
+    }
+    (flips, spread)
+}
+
+fn psnr(a: &[u8], b: &[u8], size: u32) -> f64 {
+    let img = |v: &[u8]| image::RgbImage::from_raw(size, size, v.to_vec()).expect("size");
+    sdfmo_metrics::psnr(&img(a), &img(b)).expect("same size")
+}
+
+/// What one octree's comparison found, over its four views.
+#[derive(Debug, Default)]
+struct Stats {
+    hits: u64,
+    mask_diffs: u64,
+    depth_diffs: u64,
+    ulp_allowance: u64,
+    boundary_excused: u64,
+    ill_conditioned: u64,
+    max_depth_err_voxels: f32,
+    min_psnr: f64,
+}
+
+fn compare(gpu: &mut GpuRenderer, octree: &PackedOctree, label: &str) -> Stats {
+    let on_gpu = gpu.upload(octree).expect("upload");
+    let depth = octree.depth();
+    let voxel = 2.0 / f32::from(1u16 << depth);
+    let mut stats = Stats {
+        min_psnr: f64::INFINITY,
+        ..Stats::default()
+    };
+    let mut failures = Vec::new();
+    for (view, cam) in Camera::paper_views(SIZE, SIZE).iter().enumerate() {
+        let gcam = gpu_camera(cam);
+        let shade = shading(cam);
+        let c: Rendered = cpu(octree, cam, Mode::Depth);
+        let g: GpuImage = gpu
+            .render(&on_gpu, &gcam, GpuMode::Depth, &shade)
+            .expect("GPU render");
+        let cd = c.depth.as_ref().expect("depth mode keeps depth");
+        for (i, (&tc, &tg)) in cd.iter().zip(&g.depth).enumerate() {
+            let (px, py) = (i as u32 % SIZE, i as u32 / SIZE);
+            let (o, d) = cam.primary_ray(px, py);
+            stats.hits += u64::from(tc.is_finite());
+            let mask_differs = tc.is_finite() != tg.is_finite();
+            let err = if mask_differs || !tc.is_finite() {
+                0.0
+            } else {
+                (tc - tg).abs() / voxel
+            };
+            if !mask_differs && err <= DEPTH_VOXELS {
+                stats.max_depth_err_voxels = stats.max_depth_err_voxels.max(err);
+                continue;
+            }
+            let ulp = f32::from_bits(tc.to_bits() + 1) - tc;
+            if !mask_differs && (tc - tg).abs() <= DEPTH_ULPS * ulp {
+                stats.ulp_allowance += 1;
+                continue;
+            }
+            if mask_differs {
+                stats.mask_diffs += 1;
+            } else {
+                stats.depth_diffs += 1;
+            }
+            let t = if tc.is_finite() { tc } else { tg };
+            if boundary_distance(o + d * t, depth) < BOUNDARY_VOXELS {
+                stats.boundary_excused += 1;
+                continue;
+            }
+            let (flips, spread) = one_ulp_spread(octree, o, d, tc);
+            let conditioned = if mask_differs {
+                flips
+            } else {
+                flips || err <= DEPTH_VOXELS + 2.0 * spread / voxel
+            };
+            if (flips || spread / voxel > DEPTH_VOXELS) && conditioned {
+                stats.ill_conditioned += 1;
+            } else {
+                failures.push(format!(
+                    "{label} view {view} pixel ({px}, {py}): CPU t {tc}, GPU t {tg} ({err} voxel; \
+                     a one-ulp ray change moves the CPU by {} voxel, flips: {flips})",
+                    spread / voxel
+                ));
+            }
+        }
+        assert_eq!(c.rgb.len(), g.rgb.len());
+        let cl = cpu(octree, cam, Mode::Lambert);
+        let gl = gpu
+            .render(&on_gpu, &gcam, GpuMode::Lambert, &shade)
+            .expect("GPU render");
+        let p = psnr(&cl.rgb, &gl.rgb, SIZE);
+        stats.min_psnr = stats.min_psnr.min(p);
+        if p < MIN_PSNR {
+            failures.push(format!(
+                "{label} view {view}: lambert PSNR {p:.1} dB < {MIN_PSNR}"
+            ));
+        }
+    }
+    eprintln!("{label}: {stats:?}");
+    assert!(
+        stats.hits > 0,
+        "{label}: nothing hit, the comparison is empty"
+    );
+    assert!(
+        stats.ill_conditioned as f64 <= MAX_ILL_CONDITIONED * stats.hits as f64,
+        "{label}: {} ill-conditioned pixels of {} hits",
+        stats.ill_conditioned,
+        stats.hits
+    );
+    assert!(
+        failures.is_empty(),
+        "{} failures:\n{}",
+        failures.len(),
+        failures[..failures.len().min(20)].join("\n")
+    );
+    stats
+}
+
+fn build_octree(mesh: &TriMesh, depth: u8, method: Method) -> PackedOctree {
+    let settings = BuildSettings {
+        depth,
+        method,
+        ..BuildSettings::default()
+    };
+    build(mesh, &settings, None).expect("build").0
+}
+
+fn methods() -> [(Method, &'static str); 2] {
+    [
+        (Method::Svo, "svo"),
+        (Method::Multi { max_voxels: 8 }, "multi"),
+    ]
+}
+
+fn match_model(name: &str, mesh: &TriMesh, depths: &[u8]) {
+    let Some(mut gpu) = gpu() else { return };
+    eprintln!("adapter: {}", gpu.adapter_name());
+    for &depth in depths {
+        for (method, m) in methods() {
+            let octree = build_octree(mesh, depth, method);
+            compare(&mut gpu, &octree, &format!("{name} {m} d{depth}"));
+        }
+    }
+}
+
+fn data(name: &str) -> PathBuf {
+    PathBuf::from(env!("SDFMO_TEST_DATA_DIR")).join(name)
+}
+
+fn load(name: &str) -> TriMesh {
+    sdfmo_mesh::load_mesh(&data(name)).expect("test mesh").mesh
+}
+
+#[test]
+fn demo_part_matches_cpu() {
+    match_model("demo", &sdfmo_mesh::procedural::demo_part(), &[6, 7, 8, 9]);
+}
+
+#[test]
+#[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
+fn abc5_matches_cpu() {
+    match_model("abc5", &load("abc5.stl"), &[6, 7, 8, 9]);
+}
+
+#[test]
+#[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
+fn teapot_matches_cpu() {
+    match_model("teapot", &load("teapot.obj"), &[6, 7, 8, 9]);
+}
