@@ -156,6 +156,17 @@ pub enum ModeArg {
     Lambert,
 }
 
+/// Where `sdfmo render` traces its rays.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum DeviceArg {
+    /// The CPU kernel (sdfmo-trace), on `--threads` threads.
+    #[default]
+    Cpu,
+    /// The WGSL kernel (sdfmo-gpu) on the first GPU adapter wgpu finds (`WGPU_ADAPTER_NAME`
+    /// picks one); no shadows or ambient occlusion.
+    Gpu,
+}
+
 /// A list of predefined cameras.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum ViewsArg {
@@ -212,6 +223,9 @@ pub struct RenderOptions {
 pub struct RenderArgs {
     /// Octree file written by `sdfmo build`.
     pub octree: PathBuf,
+    /// Trace on the CPU or on a GPU (the same images; `--json` adds `device` and `gpu_ms`).
+    #[arg(long, value_enum, default_value_t = DeviceArg::Cpu)]
+    pub device: DeviceArg,
     /// Camera, mode and outputs.
     #[command(flatten)]
     pub opts: RenderOptions,

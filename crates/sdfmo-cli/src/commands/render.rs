@@ -7,30 +7,125 @@ use anyhow::Context;
 use glam::Vec3;
 use sdf_multioctree::distance::{MeshDistance, SignMode};
 use sdf_multioctree::format::PackedOctree;
+use sdf_multioctree::render::shading::{light_dir, DepthRange, AMBIENT, LIGHT_INTENSITY};
 use sdf_multioctree::render::{
-    self, Camera, Counters, MeshScene, Mode, OctreeScene, RenderSettings, Rendered, Traceable,
+    self, Camera, Counters, MeshScene, Mode, OctreeScene, RenderPlan, RenderSettings, Rendered,
+    Traceable,
 };
+use sdfmo_gpu::{GpuCamera, GpuMode, GpuRenderer, Shading};
 use serde_json::json;
 
-use crate::args::{ModeArg, RenderArgs, RenderMeshArgs, RenderOptions, ViewsArg};
+use crate::args::{DeviceArg, ModeArg, RenderArgs, RenderMeshArgs, RenderOptions, ViewsArg};
 use crate::commands::load_input;
 use crate::output::{check_output, ensure_parent, indexed_path, print_json, print_text};
 use crate::progress;
 
-/// Renders a `.smo` octree.
+/// Renders a `.smo` octree, on the CPU or on a GPU.
 pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
     let outputs = check_options(&args.opts)?;
+    if args.device == DeviceArg::Gpu {
+        check_gpu_options(&args.opts)?;
+    }
     let octree = PackedOctree::load(&args.octree).map_err(|e| match e {
         // I/O errors name the file already; format errors do not.
         sdf_multioctree::format::FormatError::Io(io) => anyhow::Error::new(io),
         e => anyhow::Error::new(e).context(format!("cannot load octree {}", args.octree.display())),
     })?;
-    render_all(
-        &OctreeScene(&octree),
-        &args.octree.display().to_string(),
-        &args.opts,
-        &outputs,
-    )
+    let source = args.octree.display().to_string();
+    match args.device {
+        DeviceArg::Cpu => {
+            let scene = OctreeScene(&octree);
+            let mut view = cpu_views(&scene, &args.opts, &source);
+            render_all(&mut view, &source, "cpu", &args.opts, &outputs)
+        }
+        DeviceArg::Gpu => {
+            let mut gpu = GpuRenderer::new().context("cannot render on a GPU")?;
+            let on_gpu = gpu
+                .upload(&octree)
+                .with_context(|| format!("cannot upload {source} to the GPU"))?;
+            let device = gpu.adapter_name().to_owned();
+            let plan = RenderPlan::new(&settings(&args.opts))?;
+            let mode = gpu_mode(args.opts.mode);
+            let mut view = |cam: &Camera| -> anyhow::Result<ViewRender> {
+                let frame = cam.frame()?;
+                let gcam = GpuCamera {
+                    eye: frame.eye.to_array(),
+                    fwd: frame.fwd.to_array(),
+                    right: frame.right.to_array(),
+                    up: frame.up.to_array(),
+                    tan_half: frame.tan_half,
+                    width: frame.width,
+                    height: frame.height,
+                };
+                // The octree's bounds are the root cube (as `OctreeScene::bounds`).
+                let range = DepthRange::new(cam.eye, Vec3::splat(-1.0), Vec3::ONE);
+                let shading = Shading {
+                    light: light_dir().to_array(),
+                    light_intensity: LIGHT_INTENSITY,
+                    ambient: AMBIENT,
+                    depth_near: range.near,
+                    depth_far: range.far,
+                };
+                let img = gpu
+                    .render(&on_gpu, &gcam, mode, &shading)
+                    .with_context(|| format!("cannot render {source} on {}", gpu.adapter_name()))?;
+                let counters = Counters {
+                    rays: u64::from(img.width) * u64::from(img.height),
+                    hits: img.hits,
+                    normal_evals: if plan.normals { img.hits } else { 0 },
+                    ..Counters::default()
+                };
+                let r = Rendered {
+                    width: img.width,
+                    height: img.height,
+                    rgb: img.rgb,
+                    depth: plan.keep_depth.then_some(img.depth),
+                    normals: plan
+                        .keep_normals
+                        .then(|| img.normals.into_iter().map(Vec3::from_array).collect()),
+                    counters,
+                    render_ms: img.wall_ms,
+                };
+                Ok((r, Some(img.gpu_ms)))
+            };
+            render_all(&mut view, &source, &device, &args.opts, &outputs)
+        }
+    }
+}
+
+/// The GPU kernel renders the primary rays only: shadows, occlusion and a thread count are
+/// CPU options.
+fn check_gpu_options(opts: &RenderOptions) -> anyhow::Result<()> {
+    if opts.shadows || opts.ao > 0 {
+        anyhow::bail!("--shadows and --ao are not available with --device gpu (primary rays only); use --device cpu");
+    }
+    if opts.threads.is_some() {
+        anyhow::bail!("--threads applies to --device cpu only");
+    }
+    Ok(())
+}
+
+fn gpu_mode(mode: ModeArg) -> GpuMode {
+    match mode {
+        ModeArg::Mask => GpuMode::Mask,
+        ModeArg::Depth => GpuMode::Depth,
+        ModeArg::Normal => GpuMode::Normal,
+        ModeArg::Lambert => GpuMode::Lambert,
+    }
+}
+
+/// One CPU render per camera (no GPU time).
+fn cpu_views<'a, T: Traceable>(
+    scene: &'a T,
+    opts: &'a RenderOptions,
+    source: &'a str,
+) -> impl FnMut(&Camera) -> anyhow::Result<ViewRender> + 'a {
+    let settings = settings(opts);
+    move |cam| {
+        let r = render::render(scene, cam, &settings)
+            .with_context(|| format!("cannot render {source}"))?;
+        Ok((r, None))
+    }
 }
 
 /// Renders the source mesh, normalised exactly as the builder does, so the images line up with
@@ -41,8 +136,13 @@ pub fn run_mesh(args: &RenderMeshArgs) -> anyhow::Result<()> {
     let (normalized, _) = input.mesh.normalized(sdf_multioctree::DEFAULT_MARGIN);
     let dist = MeshDistance::new(&normalized, SignMode::Auto)
         .with_context(|| format!("cannot prepare ray queries on {}", input.source))?;
-    render_all(&MeshScene(&dist), &input.source, &args.opts, &outputs)
+    let scene = MeshScene(&dist);
+    let mut view = cpu_views(&scene, &args.opts, &input.source);
+    render_all(&mut view, &input.source, "cpu", &args.opts, &outputs)
 }
+
+/// One view's image and, on a GPU, the kernel's time in milliseconds.
+type ViewRender = (Rendered, Option<f64>);
 
 /// The files one view writes: the PNG and, when asked, the EXR.
 type ViewOutputs = (PathBuf, Option<PathBuf>);
@@ -146,15 +246,18 @@ pub fn counters_json(c: &Counters) -> serde_json::Value {
     })
 }
 
-/// Renders every camera, writes the PNGs (and EXRs) all or none, prints times and counters.
-fn render_all<T: Traceable>(
-    scene: &T,
+/// Renders every camera with `render_view` (the image and, on a GPU, the kernel's time), writes
+/// the PNGs (and EXRs) all or none, prints times and counters. `source` names the input,
+/// `device` where the rays
+/// were traced ("cpu" or the GPU adapter's name).
+fn render_all(
+    render_view: &mut dyn FnMut(&Camera) -> anyhow::Result<ViewRender>,
     source: &str,
+    device: &str,
     opts: &RenderOptions,
     outputs: &[ViewOutputs],
 ) -> anyhow::Result<()> {
     let cams = cameras(opts);
-    let settings = settings(opts);
     ensure_parent(&opts.output)?;
     if let Some(exr) = &opts.exr {
         ensure_parent(exr)?;
@@ -164,19 +267,22 @@ fn render_all<T: Traceable>(
     let mut views = Vec::new();
     let mut total = Counters::default();
     let mut total_ms = 0.0;
+    let mut total_gpu_ms: Option<f64> = None;
     // Every image is encoded and staged (written to a synced temporary) before the first is
     // renamed into place: an encoding error or a full disk leaves every destination as it was.
     let mut batch = sdf_multioctree::io::OutputBatch::new();
     for (cam, (png, exr)) in cams.iter().zip(outputs) {
-        let r: Rendered = render::render(scene, cam, &settings)
-            .with_context(|| format!("cannot render {source}"))?;
+        let (r, gpu_ms) = render_view(cam)?;
         batch.stage(png, &render::encode_png(&r, png)?)?;
         if let Some(p) = exr {
             batch.stage(p, &render::encode_exr(&r, p)?)?;
         }
         total += r.counters;
         total_ms += r.render_ms;
-        views.push((png.clone(), exr.clone(), r.render_ms, r.counters));
+        if let Some(g) = gpu_ms {
+            *total_gpu_ms.get_or_insert(0.0) += g;
+        }
+        views.push((png.clone(), exr.clone(), r.render_ms, gpu_ms, r.counters));
         bar.inc(1);
     }
     batch.commit()?;
@@ -186,11 +292,12 @@ fn render_all<T: Traceable>(
     if opts.json {
         let per_view: Vec<_> = views
             .iter()
-            .map(|(png, exr, ms, c)| {
+            .map(|(png, exr, ms, gpu_ms, c)| {
                 json!({
                     "output": png.display().to_string(),
                     "exr": exr.as_ref().map(|p| p.display().to_string()),
                     "render_ms": ms,
+                    "gpu_ms": gpu_ms,
                     "counters": counters_json(c),
                 })
             })
@@ -200,20 +307,26 @@ fn render_all<T: Traceable>(
             "mode": opts.mode.name(),
             "width": w,
             "height": h,
+            "device": device,
             "views": per_view,
             "render_ms": total_ms,
+            "gpu_ms": total_gpu_ms,
             "counters": counters_json(&total),
         }));
     }
     let mut s = String::new();
-    for (png, exr, ms, c) in &views {
+    for (png, exr, ms, gpu_ms, c) in &views {
         let _ = write!(s, "{} ({}x{} {}", png.display(), w, h, opts.mode.name());
         if let Some(e) = exr {
             let _ = write!(s, ", {}", e.display());
         }
+        let _ = write!(s, "): {ms:.1} ms");
+        if let Some(g) = gpu_ms {
+            let _ = write!(s, " ({g:.2} ms kernel on {device})");
+        }
         let _ = writeln!(
             s,
-            "): {ms:.1} ms, {} rays ({} hits), {} normals, {} shadow rays, {} AO rays",
+            ", {} rays ({} hits), {} normals, {} shadow rays, {} AO rays",
             c.rays, c.hits, c.normal_evals, c.shadow_rays, c.ao_rays
         );
     }
