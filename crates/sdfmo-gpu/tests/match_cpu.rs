@@ -32,7 +32,7 @@ use std::path::PathBuf;
 
 use glam::Vec3;
 use sdfmo_build::{build, BuildSettings, Method};
-use sdfmo_format::PackedOctree;
+use sdfmo_format::{PackedOctree, ValueBits};
 use sdfmo_gpu::{GpuCamera, GpuImage, GpuMode, GpuRenderer, Shading};
 use sdfmo_mesh::TriMesh;
 use sdfmo_render::shading::{light_dir, DepthRange, AMBIENT, LIGHT_INTENSITY};
@@ -245,10 +245,11 @@ fn compare(gpu: &mut GpuRenderer, octree: &PackedOctree, label: &str) -> Stats {
     stats
 }
 
-fn build_octree(mesh: &TriMesh, depth: u8, method: Method) -> PackedOctree {
+fn build_octree(mesh: &TriMesh, depth: u8, method: Method, bits: ValueBits) -> PackedOctree {
     let settings = BuildSettings {
         depth,
         method,
+        bits,
         ..BuildSettings::default()
     };
     build(mesh, &settings, None).expect("build").0
@@ -266,7 +267,7 @@ fn match_model(name: &str, mesh: &TriMesh, depths: &[u8]) {
     eprintln!("adapter: {}", gpu.adapter_name());
     for &depth in depths {
         for (method, m) in methods() {
-            let octree = build_octree(mesh, depth, method);
+            let octree = build_octree(mesh, depth, method, ValueBits::Eight);
             compare(&mut gpu, &octree, &format!("{name} {m} d{depth}"));
         }
     }
@@ -282,7 +283,14 @@ fn load(name: &str) -> TriMesh {
 
 #[test]
 fn demo_part_matches_cpu() {
-    match_model("demo", &sdfmo_mesh::procedural::demo_part(), &[6, 7, 8, 9]);
+    let demo = sdfmo_mesh::procedural::demo_part();
+    match_model("demo", &demo, &[6, 7, 8, 9]);
+    // The 16-bit corner decoding (the other tests use the default 8 bits).
+    let Some(mut gpu) = gpu() else { return };
+    for (method, m) in methods() {
+        let octree = build_octree(&demo, 8, method, ValueBits::Sixteen);
+        compare(&mut gpu, &octree, &format!("demo {m} d8 16-bit"));
+    }
 }
 
 #[test]

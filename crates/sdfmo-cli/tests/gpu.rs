@@ -1,0 +1,160 @@
+//! `sdfmo render --device gpu`: the CPU's images and JSON keys plus `device` and `gpu_ms`, and
+//! clear errors for what the GPU path does not do. Without an adapter the rendering test says so
+//! and passes without checking, unless `SDFMO_REQUIRE_GPU=1` (CI).
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+const SDFMO: &str = env!("CARGO_BIN_EXE_sdfmo");
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("sdfmo-gpu-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn sdfmo(args: &[&str], env: &[(&str, &str)]) -> Output {
+    Command::new(SDFMO)
+        .args(args)
+        .envs(env.iter().copied())
+        .output()
+        .expect("cannot run sdfmo")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Exit 2, the message on one line, no panic, nothing on stdout.
+fn fails_cleanly(o: &Output, needle: &str) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(
+        err.trim_end().lines().count(),
+        1,
+        "one line expected: {err}"
+    );
+    assert!(err.contains(needle), "{needle:?} not in {err:?}");
+    assert!(o.stdout.is_empty());
+}
+
+/// A depth-6 multi-octree of the built-in demo part.
+fn demo_octree(dir: &std::path::Path) -> String {
+    let smo = dir.join("demo.smo").display().to_string();
+    let o = sdfmo(&["build", "-d", "6", "--method", "multi", "-o", &smo], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    smo
+}
+
+#[test]
+fn gpu_render_matches_cpu_and_adds_device_keys() {
+    let dir = tmp("match");
+    let smo = demo_octree(&dir);
+    let render = |device: &str| {
+        let png = dir.join(format!("{device}.png")).display().to_string();
+        let o = sdfmo(
+            &[
+                "render", &smo, "--device", device, "--size", "96x64", "--mode", "lambert", "-o",
+                &png, "--json",
+            ],
+            &[],
+        );
+        (o, png)
+    };
+    let (o, gpu_png) = render("gpu");
+    if !o.status.success() && stderr(&o).contains("no GPU adapter") {
+        assert_ne!(
+            std::env::var("SDFMO_REQUIRE_GPU").as_deref(),
+            Ok("1"),
+            "SDFMO_REQUIRE_GPU=1 but: {}",
+            stderr(&o)
+        );
+        eprintln!("skipped: {}", stderr(&o).trim());
+        return;
+    }
+    assert!(o.status.success(), "{}", stderr(&o));
+    let gpu: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let (o, cpu_png) = render("cpu");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let cpu: Value = serde_json::from_slice(&o.stdout).unwrap();
+    for key in [
+        "source",
+        "mode",
+        "width",
+        "height",
+        "views",
+        "render_ms",
+        "counters",
+        "device",
+        "gpu_ms",
+    ] {
+        assert!(gpu.get(key).is_some(), "GPU JSON lacks {key}: {gpu}");
+        assert!(cpu.get(key).is_some(), "CPU JSON lacks {key}: {cpu}");
+    }
+    assert_eq!(cpu["device"], "cpu");
+    assert!(cpu["gpu_ms"].is_null());
+    assert!(gpu["device"]
+        .as_str()
+        .is_some_and(|d| !d.is_empty() && d != "cpu"));
+    assert!(gpu["gpu_ms"].as_f64().is_some_and(|ms| ms > 0.0), "{gpu}");
+    assert_eq!(gpu["counters"]["hits"], cpu["counters"]["hits"]);
+    assert!(gpu["counters"]["hits"].as_u64().unwrap() > 0);
+    let o = sdfmo(&["compare", &cpu_png, &gpu_png, "--json"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let cmp: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let identical = cmp["identical"] == true;
+    assert!(
+        identical || cmp["psnr"].as_f64().is_some_and(|p| p >= 45.0),
+        "{cmp}"
+    );
+}
+
+#[test]
+fn gpu_refuses_what_it_does_not_render() {
+    let dir = tmp("refuse");
+    let smo = demo_octree(&dir);
+    let png = dir.join("x.png").display().to_string();
+    let o = sdfmo(
+        &["render", &smo, "--device", "gpu", "--shadows", "-o", &png],
+        &[],
+    );
+    fails_cleanly(&o, "--shadows and --ao are not available with --device gpu");
+    let o = sdfmo(
+        &["render", &smo, "--device", "gpu", "--ao", "4", "-o", &png],
+        &[],
+    );
+    fails_cleanly(&o, "--device gpu");
+    let o = sdfmo(
+        &[
+            "render",
+            &smo,
+            "--device",
+            "gpu",
+            "--threads",
+            "2",
+            "-o",
+            &png,
+        ],
+        &[],
+    );
+    fails_cleanly(&o, "--threads applies to --device cpu only");
+    assert!(!std::path::Path::new(&png).exists());
+}
+
+#[test]
+fn no_adapter_is_one_line_error() {
+    // wgpu is built without its GL backend: asking for it alone finds no adapter anywhere.
+    let dir = tmp("none");
+    let smo = demo_octree(&dir);
+    let png = dir.join("x.png").display().to_string();
+    let o = sdfmo(
+        &["render", &smo, "--device", "gpu", "-o", &png],
+        &[("WGPU_BACKEND", "gl")],
+    );
+    fails_cleanly(&o, "no GPU adapter found");
+    assert!(!std::path::Path::new(&png).exists());
+}
