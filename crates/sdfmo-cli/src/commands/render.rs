@@ -12,7 +12,7 @@ use sdf_multioctree::render::{
     self, Camera, Counters, MeshScene, Mode, OctreeScene, RenderPlan, RenderSettings, Rendered,
     Traceable,
 };
-use sdfmo_gpu::{GpuCamera, GpuMode, GpuRenderer, Shading};
+use sdfmo_gpu::{GpuCamera, GpuMode, GpuRenderer, GpuTiming, Shading};
 use serde_json::json;
 
 use crate::args::{DeviceArg, ModeArg, RenderArgs, RenderMeshArgs, RenderOptions, ViewsArg};
@@ -36,7 +36,7 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
         DeviceArg::Cpu => {
             let scene = OctreeScene(&octree);
             let mut view = cpu_views(&scene, &args.opts, &source);
-            render_all(&mut view, &source, "cpu", &args.opts, &outputs)
+            render_all(&mut view, &source, "cpu", None, &args.opts, &outputs)
         }
         DeviceArg::Gpu => {
             let mut gpu = GpuRenderer::new().context("cannot render on a GPU")?;
@@ -44,6 +44,11 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
                 .upload(&octree)
                 .with_context(|| format!("cannot upload {source} to the GPU"))?;
             let device = gpu.adapter_name().to_owned();
+            let timing = Some(if gpu.has_timestamps() {
+                GpuTiming::Timestamps.name()
+            } else {
+                GpuTiming::WallClock.name()
+            });
             let plan = RenderPlan::new(&settings(&args.opts))?;
             let mode = gpu_mode(args.opts.mode);
             let mut view = |cam: &Camera| -> anyhow::Result<ViewRender> {
@@ -88,7 +93,7 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
                 };
                 Ok((r, Some(img.gpu_ms)))
             };
-            render_all(&mut view, &source, &device, &args.opts, &outputs)
+            render_all(&mut view, &source, &device, timing, &args.opts, &outputs)
         }
     }
 }
@@ -138,11 +143,14 @@ pub fn run_mesh(args: &RenderMeshArgs) -> anyhow::Result<()> {
         .with_context(|| format!("cannot prepare ray queries on {}", input.source))?;
     let scene = MeshScene(&dist);
     let mut view = cpu_views(&scene, &args.opts, &input.source);
-    render_all(&mut view, &input.source, "cpu", &args.opts, &outputs)
+    render_all(&mut view, &input.source, "cpu", None, &args.opts, &outputs)
 }
 
 /// One view's image and, on a GPU, the kernel's time in milliseconds.
 type ViewRender = (Rendered, Option<f64>);
+
+/// How a GPU measured its kernel time (`timestamps` or `wall`); `None` on the CPU.
+type Timing = Option<&'static str>;
 
 /// The files one view writes: the PNG and, when asked, the EXR.
 type ViewOutputs = (PathBuf, Option<PathBuf>);
@@ -248,12 +256,13 @@ pub fn counters_json(c: &Counters) -> serde_json::Value {
 
 /// Renders every camera with `render_view` (the image and, on a GPU, the kernel's time), writes
 /// the PNGs (and EXRs) all or none, prints times and counters. `source` names the input,
-/// `device` where the rays
-/// were traced ("cpu" or the GPU adapter's name).
+/// `device` where the rays were traced ("cpu" or the GPU adapter's name), `timing` how a GPU
+/// timed its kernel.
 fn render_all(
     render_view: &mut dyn FnMut(&Camera) -> anyhow::Result<ViewRender>,
     source: &str,
     device: &str,
+    timing: Timing,
     opts: &RenderOptions,
     outputs: &[ViewOutputs],
 ) -> anyhow::Result<()> {
@@ -311,6 +320,7 @@ fn render_all(
             "views": per_view,
             "render_ms": total_ms,
             "gpu_ms": total_gpu_ms,
+            "gpu_timing": timing,
             "counters": counters_json(&total),
         }));
     }
