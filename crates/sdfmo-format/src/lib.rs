@@ -41,7 +41,6 @@
 
 #![deny(missing_docs)]
 
-mod access;
 mod crc32;
 mod error;
 mod file;
@@ -49,11 +48,10 @@ mod interpolant;
 mod morton;
 mod octree;
 pub mod quant;
-mod view;
+mod validate;
 
 use glam::Vec3;
 
-pub use access::OctreeAccess;
 pub use crc32::crc32;
 pub use error::{FormatError, Result};
 pub use file::{
@@ -61,8 +59,7 @@ pub use file::{
     FORMAT_VERSION_MAJOR, FORMAT_VERSION_MINOR, HEADER_FIELDS, HEADER_SIZE, KNOWN_FLAGS, MAGIC,
 };
 pub use interpolant::{corner_offset, trilinear, trilinear_gradient};
-pub use octree::{NodeRef, PackedOctree};
-pub use view::PackedOctreeView;
+pub use octree::{NodeRef, Octree, PackedOctree, PackedOctreeView};
 
 /// Deepest supported octree (leaf coordinates up to 2^16 per axis).
 pub const MAX_DEPTH: u8 = 16;
