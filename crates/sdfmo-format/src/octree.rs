@@ -526,8 +526,17 @@ impl<B: AsRef<[u8]>> Octree<B> {
     /// Panics if `voxel` is out of range.
     #[inline]
     pub fn voxel_corners(&self, voxel: u32) -> [f32; 8] {
-        let s = self.dequant;
-        self.voxel_codes(voxel).map(|q| f32::from(q) * s)
+        assert!(voxel < self.counts.voxels, "voxel {voxel} out of range");
+        let (b, s, v) = (self.as_bytes(), self.dequant, voxel as usize);
+        match self.meta.bits {
+            ValueBits::Eight => {
+                bytes_at::<8>(b, self.sections.corners + v * 8).map(|c| f32::from(c as i8) * s)
+            }
+            ValueBits::Sixteen => {
+                let c = bytes_at::<16>(b, self.sections.corners + v * 16);
+                std::array::from_fn(|i| f32::from(i16::from_le_bytes([c[2 * i], c[2 * i + 1]])) * s)
+            }
+        }
     }
 
     /// The voxel's stored integer codes (−Q..=Q); `value = code · dequant_scale()`.
