@@ -251,7 +251,7 @@ impl PackedOctree {
                 masks = [0; 8];
             }
         }
-        if inner_count % 8 != 0 {
+        if !inner_count.is_multiple_of(8) {
             put_group(&mut out, at, base, masks);
         }
 
@@ -293,7 +293,7 @@ impl PackedOctree {
                 counts8 = [0; 8];
             }
         }
-        if leaves.len() % 8 != 0 {
+        if !leaves.len().is_multiple_of(8) {
             put_group(&mut out, at, base, counts8);
         }
 
@@ -813,7 +813,7 @@ mod tests {
     fn a_node_past_the_end_panics() {
         let o = PackedOctree::from_leaves(meta(3), vec![leaf([5, 2, 7], 2)]).unwrap();
         // A padding slot of the last leaf group: still a panic.
-        assert!(o.leaf_count() % 8 != 0);
+        assert!(!o.leaf_count().is_multiple_of(8));
         o.leaf_voxels(NodeRef(o.node_count() as u32));
     }
 
