@@ -5,8 +5,8 @@
 //! last four bytes replaced by the CRC of the rest): that lets the fuzzer reach the structural
 //! validation behind the checksum, where a hostile file would attack.
 //!
-//! Properties checked on every accepted input: the zero-copy view accepts it too and decodes to
-//! the same octree; a full walk through the traversal accessors touches exactly `leaf_count`
+//! Properties checked on every accepted input: the borrowed form (`PackedOctreeView`, the bytes
+//! read in place) accepts it too, its owned copy is the octree `from_bytes` gives; a full walk through the traversal accessors touches exactly `leaf_count`
 //! leaves and every voxel once; writing it back and reading again round-trips.
 //!
 //! Seeds (small valid files, regenerated deterministically; `*.smo` is git-ignored):
@@ -19,9 +19,10 @@ use sdfmo_format::{crc32, PackedOctree, PackedOctreeView};
 fn check(bytes: &[u8]) {
     let owned = PackedOctree::from_bytes(bytes);
     let view = PackedOctreeView::new(bytes);
-    assert_eq!(owned.is_ok(), view.is_ok(), "owned and view readers disagree");
+    assert_eq!(owned.is_ok(), view.is_ok(), "owned and borrowed forms disagree");
     let (Ok(o), Ok(v)) = (owned, view) else { return };
     assert!(v.to_octree() == o);
+    assert!(v.as_bytes() == bytes);
 
     let mut leaves = 0usize;
     let mut next_voxel = 0u32;

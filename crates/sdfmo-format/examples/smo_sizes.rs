@@ -10,7 +10,7 @@
 //! ```
 //! `--write DIR` also saves each octree as `DIR/<shape>_d<depth>_<bits>.smo`; `--time` also
 //! prints the best of 5 timings of `from_leaves`, `to_bytes`, `from_bytes` (validate + copy)
-//! and `PackedOctreeView::new` (validate only) — run it with `--release` for that.
+//! and `PackedOctreeView::new` (validate only, read in place) — run it with `--release` for that.
 //! `--load FILE…` instead reports the sections and the load time of existing `.smo` files.
 
 use std::path::PathBuf;

@@ -5,11 +5,9 @@
 
 use std::path::Path;
 
-use crate::crc32::crc32;
 use crate::error::Result;
-use crate::octree::{Corners, PackedOctree};
-use crate::view::PackedOctreeView;
-use crate::{ValueBits, MAX_FILE_SIZE};
+use crate::octree::{Octree, PackedOctree, PackedOctreeView};
+use crate::{OctreeMeta, ValueBits, MAX_FILE_SIZE};
 
 /// The eight magic bytes, hex `89 53 4D 4F 0D 0A 1A 0A`: `\x89 S M O \r \n \x1a \n`
 /// (PNG's trick: a high byte, the name, and the line endings and EOF character that text-mode
@@ -90,13 +88,13 @@ const _: () = {
     assert!(last.offset + last.size == HEADER_SIZE);
 };
 
-/// Offset of a header field by name (compile-time table lookup).
-pub(crate) const fn offset_of(name: &str) -> usize {
+/// The table entry named `name` (compile-time lookup; panics on an unknown name).
+const fn field_named(name: &str) -> HeaderField {
     let mut i = 0;
     while i < HEADER_FIELDS.len() {
         let f = HEADER_FIELDS[i];
         if str_eq(f.name, name) {
-            return f.offset;
+            return f;
         }
         i += 1;
     }
@@ -118,6 +116,205 @@ const fn str_eq(a: &str, b: &str) -> bool {
     true
 }
 
+/// A header value as the zero-extended little-endian bits of its field.
+trait FieldBits: Copy {
+    fn to_bits(self) -> u64;
+    fn from_bits(bits: u64) -> Self;
+}
+
+macro_rules! field_bits_int {
+    ($($t:ty),*) => {$(
+        impl FieldBits for $t {
+            #[inline]
+            fn to_bits(self) -> u64 {
+                u64::from(self)
+            }
+            #[inline]
+            fn from_bits(bits: u64) -> Self {
+                // The reader passes only the field's own bytes, so nothing is cut off.
+                bits as $t
+            }
+        }
+    )*};
+}
+field_bits_int!(u8, u16, u32, u64);
+
+impl FieldBits for f32 {
+    fn to_bits(self) -> u64 {
+        u64::from(f32::to_bits(self))
+    }
+    fn from_bits(bits: u64) -> Self {
+        f32::from_bits(bits as u32)
+    }
+}
+
+impl FieldBits for [u8; 8] {
+    fn to_bits(self) -> u64 {
+        u64::from_le_bytes(self)
+    }
+    fn from_bits(bits: u64) -> Self {
+        bits.to_le_bytes()
+    }
+}
+
+/// Declares [`Header`]: one struct field per entry of [`HEADER_FIELDS`], with the same name.
+/// The table alone says where each field sits: [`Header::read`] and [`Header::write`] walk it
+/// and look each value up by name, so the order of the fields is written down once. Checked at
+/// compile time: every struct field is in the table with the size of its type, and the table
+/// has no other field.
+macro_rules! header_values {
+    ($($name:ident: $ty:ty,)*) => {
+        /// The values of a `.smo` header, one per [`HEADER_FIELDS`] entry of the same name.
+        #[derive(Clone, Copy, Debug, Default, PartialEq)]
+        pub(crate) struct Header {
+            $(pub(crate) $name: $ty,)*
+        }
+
+        const _: () = {
+            $(assert!(field_named(stringify!($name)).size == std::mem::size_of::<$ty>());)*
+            assert!([$(stringify!($name)),*].len() == HEADER_FIELDS.len());
+        };
+
+        impl Header {
+            /// The bits of the field `name`.
+            fn get(&self, name: &str) -> u64 {
+                match name {
+                    $(stringify!($name) => FieldBits::to_bits(self.$name),)*
+                    _ => unreachable!("header field {name} has no value"),
+                }
+            }
+
+            /// Sets the field `name` from its bits.
+            fn set(&mut self, name: &str, bits: u64) {
+                match name {
+                    $(stringify!($name) => self.$name = FieldBits::from_bits(bits),)*
+                    _ => unreachable!("header field {name} has no value"),
+                }
+            }
+        }
+    };
+}
+
+header_values! {
+    magic: [u8; 8],
+    version_major: u16,
+    version_minor: u16,
+    header_size: u32,
+    flags: u32,
+    depth: u8,
+    value_bits: u8,
+    reserved: u16,
+    center_x: f32,
+    center_y: f32,
+    center_z: f32,
+    scale: f32,
+    inner_node_count: u32,
+    leaf_count: u32,
+    voxel_count: u32,
+    surface_voxel_count: u32,
+    file_size: u64,
+    nodes_offset: u64,
+    nodes_size: u64,
+    leaves_offset: u64,
+    leaves_size: u64,
+    surface_offset: u64,
+    surface_size: u64,
+    corners_offset: u64,
+    corners_size: u64,
+}
+
+impl Header {
+    /// The header the writer puts in front of an octree with these counts: version 1.0, a
+    /// [`HEADER_SIZE`]-byte header and the sections where [`Layout`] puts them.
+    pub(crate) fn canonical(meta: &OctreeMeta, counts: Counts) -> Header {
+        let layout = Layout::new(HEADER_SIZE as u64, counts, meta.bits);
+        Header {
+            magic: MAGIC,
+            version_major: FORMAT_VERSION_MAJOR,
+            version_minor: FORMAT_VERSION_MINOR,
+            header_size: HEADER_SIZE as u32,
+            flags: counts.flags(),
+            depth: meta.depth,
+            value_bits: meta.bits.bits(),
+            reserved: 0,
+            center_x: meta.center.x,
+            center_y: meta.center.y,
+            center_z: meta.center.z,
+            scale: meta.scale,
+            inner_node_count: counts.inner,
+            leaf_count: counts.leaves,
+            voxel_count: counts.voxels,
+            surface_voxel_count: counts.surface,
+            file_size: layout.file_size,
+            nodes_offset: layout.nodes.0,
+            nodes_size: layout.nodes.1,
+            leaves_offset: layout.leaves.0,
+            leaves_size: layout.leaves.1,
+            surface_offset: layout.surface.0,
+            surface_size: layout.surface.1,
+            corners_offset: layout.corners.0,
+            corners_size: layout.corners.1,
+        }
+    }
+
+    /// Reads every field of [`HEADER_FIELDS`] from the first [`HEADER_SIZE`] bytes of `bytes`
+    /// (panics if shorter: the caller checks the length). Nothing is validated.
+    pub(crate) fn read(bytes: &[u8]) -> Header {
+        let mut header = Header::default();
+        for f in &HEADER_FIELDS {
+            let mut le = [0u8; 8];
+            le[..f.size].copy_from_slice(&bytes[f.offset..f.offset + f.size]);
+            header.set(f.name, u64::from_le_bytes(le));
+        }
+        header
+    }
+
+    /// Writes every field of [`HEADER_FIELDS`] into the first [`HEADER_SIZE`] bytes of `out`.
+    pub(crate) fn write(&self, out: &mut [u8]) {
+        for f in &HEADER_FIELDS {
+            out[f.offset..f.offset + f.size]
+                .copy_from_slice(&self.get(f.name).to_le_bytes()[..f.size]);
+        }
+    }
+
+    /// The counts the header declares.
+    pub(crate) fn counts(&self) -> Counts {
+        Counts {
+            inner: self.inner_node_count,
+            leaves: self.leaf_count,
+            voxels: self.voxel_count,
+            surface: self.surface_voxel_count,
+        }
+    }
+}
+
+/// What the layout of a file follows from: its four counts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct Counts {
+    /// Inner nodes `I`.
+    pub(crate) inner: u32,
+    /// Leaves `L`.
+    pub(crate) leaves: u32,
+    /// Voxels `V`.
+    pub(crate) voxels: u32,
+    /// Surface voxels `S`.
+    pub(crate) surface: u32,
+}
+
+impl Counts {
+    /// The header flags these counts imply.
+    pub(crate) fn flags(self) -> u32 {
+        let mut flags = 0;
+        if self.voxels > self.leaves {
+            flags |= FLAG_MULTI_VOXEL;
+        }
+        if self.surface > 0 {
+            flags |= FLAG_SURFACE_VOXELS;
+        }
+        flags
+    }
+}
+
 /// Rounds up to a multiple of 8.
 #[inline]
 pub(crate) fn align8(x: u64) -> u64 {
@@ -136,17 +333,11 @@ pub(crate) struct Layout {
 }
 
 impl Layout {
-    pub(crate) fn new(
-        header_size: u64,
-        inner: u32,
-        leaves: u32,
-        voxels: u32,
-        bits: ValueBits,
-    ) -> Layout {
-        let nodes_size = u64::from(inner).div_ceil(8) * 12;
-        let leaves_size = u64::from(leaves).div_ceil(8) * 12;
-        let surface_size = u64::from(voxels).div_ceil(64) * 8;
-        let corners_size = u64::from(voxels) * 8 * bits.bytes() as u64;
+    pub(crate) fn new(header_size: u64, counts: Counts, bits: ValueBits) -> Layout {
+        let nodes_size = u64::from(counts.inner).div_ceil(8) * 12;
+        let leaves_size = u64::from(counts.leaves).div_ceil(8) * 12;
+        let surface_size = u64::from(counts.voxels).div_ceil(64) * 8;
+        let corners_size = u64::from(counts.voxels) * 8 * bits.bytes() as u64;
         let n = align8(header_size);
         let l = align8(n + nodes_size);
         let s = align8(l + leaves_size);
@@ -195,28 +386,21 @@ impl SectionSizes {
     }
 }
 
-impl PackedOctree {
-    fn layout(&self) -> Layout {
-        Layout::new(
-            HEADER_SIZE as u64,
-            self.inner_count,
-            self.leaf_count,
-            self.voxel_count,
-            self.meta.bits,
-        )
-    }
-
+impl<B: AsRef<[u8]>> Octree<B> {
     /// Bytes of the saved file.
     pub fn byte_size(&self) -> usize {
-        self.layout().file_size as usize
+        self.as_bytes().len()
     }
 
-    /// Bytes of each part of the saved file.
+    /// Bytes of each part of the file (the sections a 1.0 writer writes; for a view over a file
+    /// with a longer header, `header` is that header's size).
     pub fn section_sizes(&self) -> SectionSizes {
-        let l = self.layout();
-        let used = HEADER_SIZE as u64 + l.nodes.1 + l.leaves.1 + l.surface.1 + l.corners.1;
+        // The header size is a multiple of 8, so the node section starts right after it.
+        let header = self.sections.nodes;
+        let l = Layout::new(header as u64, self.counts, self.meta.bits);
+        let used = header as u64 + l.nodes.1 + l.leaves.1 + l.surface.1 + l.corners.1;
         SectionSizes {
-            header: HEADER_SIZE,
+            header,
             nodes: l.nodes.1 as usize,
             leaves: l.leaves.1 as usize,
             surface: l.surface.1 as usize,
@@ -229,94 +413,28 @@ impl PackedOctree {
 
     /// Header flags: [`FLAG_MULTI_VOXEL`], [`FLAG_SURFACE_VOXELS`].
     pub fn flags(&self) -> u32 {
-        let mut flags = 0;
-        if self.voxel_count > self.leaf_count {
-            flags |= FLAG_MULTI_VOXEL;
-        }
-        if self.surface_count > 0 {
-            flags |= FLAG_SURFACE_VOXELS;
-        }
-        flags
+        self.counts.flags()
     }
 
-    /// The `.smo` file as bytes (specified in the crate's `FORMAT.md`).
+    /// The `.smo` file (specified in the crate's `FORMAT.md`): a copy of [`Octree::as_bytes`].
     pub fn to_bytes(&self) -> Vec<u8> {
-        let l = self.layout();
-        let mut out = Vec::with_capacity(l.file_size as usize);
-        let m = &self.meta;
-        out.extend_from_slice(&MAGIC);
-        out.extend_from_slice(&FORMAT_VERSION_MAJOR.to_le_bytes());
-        out.extend_from_slice(&FORMAT_VERSION_MINOR.to_le_bytes());
-        out.extend_from_slice(&(HEADER_SIZE as u32).to_le_bytes());
-        out.extend_from_slice(&self.flags().to_le_bytes());
-        out.push(m.depth);
-        out.push(m.bits.bits());
-        out.extend_from_slice(&0u16.to_le_bytes());
-        for v in [m.center.x, m.center.y, m.center.z, m.scale] {
-            out.extend_from_slice(&v.to_le_bytes());
-        }
-        for c in [
-            self.inner_count,
-            self.leaf_count,
-            self.voxel_count,
-            self.surface_count,
-        ] {
-            out.extend_from_slice(&c.to_le_bytes());
-        }
-        out.extend_from_slice(&l.file_size.to_le_bytes());
-        for (offset, size) in [l.nodes, l.leaves, l.surface, l.corners] {
-            out.extend_from_slice(&offset.to_le_bytes());
-            out.extend_from_slice(&size.to_le_bytes());
-        }
-        debug_assert_eq!(out.len(), HEADER_SIZE);
-
-        out.resize(l.nodes.0 as usize, 0);
-        for g in &self.nodes {
-            out.extend_from_slice(&g.first_child.to_le_bytes());
-            out.extend_from_slice(&g.masks);
-        }
-        out.resize(l.leaves.0 as usize, 0);
-        for g in &self.leaves {
-            out.extend_from_slice(&g.first_voxel.to_le_bytes());
-            out.extend_from_slice(&g.counts);
-        }
-        out.resize(l.surface.0 as usize, 0);
-        for w in &self.surface {
-            out.extend_from_slice(&w.to_le_bytes());
-        }
-        out.resize(l.corners.0 as usize, 0);
-        match &self.corners {
-            Corners::Eight(c) => {
-                for v in c {
-                    out.extend(v.iter().map(|&q| q as u8));
-                }
-            }
-            Corners::Sixteen(c) => {
-                for v in c {
-                    for q in v {
-                        out.extend_from_slice(&q.to_le_bytes());
-                    }
-                }
-            }
-        }
-        out.resize(l.checksum_offset as usize, 0);
-        let crc = crc32(&out);
-        out.extend_from_slice(&crc.to_le_bytes());
-        debug_assert_eq!(out.len() as u64, l.file_size);
-        out
+        self.as_bytes().to_vec()
     }
 
-    /// Reads a `.smo` file from bytes, validating everything first (see [`PackedOctreeView::new`]).
-    /// Time and memory O(bytes.len()).
+    /// Writes [`Octree::as_bytes`] atomically ([`sdfmo_io::write_atomic`]): a fresh temporary
+    /// file in the same directory, fsync, rename. A destination that is a directory, a device or
+    /// a FIFO is refused; a symbolic link is followed (its target is replaced).
+    pub fn save(&self, path: &Path) -> Result<()> {
+        Ok(sdfmo_io::write_atomic(path, self.as_bytes())?)
+    }
+}
+
+impl PackedOctree {
+    /// Reads a `.smo` file from bytes, validating everything first (see [`Octree::new`]), into
+    /// an owned octree in the canonical encoding (version 1.0, 128-byte header). Time and memory
+    /// O(bytes.len()).
     pub fn from_bytes(bytes: &[u8]) -> Result<PackedOctree> {
         Ok(PackedOctreeView::new(bytes)?.to_octree())
-    }
-
-    /// Writes the file atomically ([`sdfmo_io::write_atomic`]): a fresh temporary file in the
-    /// same directory, fsync, rename. A destination that is a directory, a device or a FIFO is
-    /// refused; a symbolic link is followed (its target is replaced).
-    pub fn save(&self, path: &Path) -> Result<()> {
-        Ok(sdfmo_io::write_atomic(path, self.to_bytes())?)
     }
 
     /// Reads and validates a `.smo` file of at most [`MAX_FILE_SIZE`] bytes (a regular file:
@@ -326,15 +444,18 @@ impl PackedOctree {
     }
 
     /// [`PackedOctree::load`] with an explicit size limit in bytes, checked before reading.
+    /// The bytes read become the octree's buffer (no second copy) when they are already in the
+    /// canonical encoding, as every file this crate writes is.
     pub fn load_with_limit(path: &Path, max_bytes: u64) -> Result<PackedOctree> {
         let bytes = sdfmo_io::read_regular(path, max_bytes)?;
-        PackedOctree::from_bytes(&bytes)
+        Ok(PackedOctree::new(bytes)?.into_canonical())
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::crc32::crc32;
     use crate::error::FormatError;
     use crate::{LeafInput, OctreeMeta, Voxel};
     use glam::Vec3;
@@ -463,6 +584,24 @@ mod tests {
             u32::from_le_bytes(b[crc_at..].try_into().unwrap()),
             crc32(&b[..crc_at])
         );
+    }
+
+    #[test]
+    fn header_is_written_and_read_through_the_table() {
+        let o = PackedOctree::from_leaves(meta(4, ValueBits::Sixteen), sphere_leaves(4)).unwrap();
+        let h = Header::read(o.as_bytes());
+        assert_eq!(h, Header::canonical(o.meta(), o.counts));
+        let mut out = [0xAAu8; HEADER_SIZE];
+        h.write(&mut out);
+        assert_eq!(&out[..], &o.as_bytes()[..HEADER_SIZE]);
+        // Every field is written: a header of distinct values reads back field by field.
+        let mut distinct = [0u8; HEADER_SIZE];
+        for (i, b) in distinct.iter_mut().enumerate() {
+            *b = i as u8 ^ 0x5A;
+        }
+        let mut again = [0u8; HEADER_SIZE];
+        Header::read(&distinct).write(&mut again);
+        assert_eq!(again, distinct);
     }
 
     #[test]

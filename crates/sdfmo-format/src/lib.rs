@@ -4,10 +4,21 @@
 //! target depth and its voxels, each 8 corner signed distances plus a *surface* flag) with
 //! [`PackedOctree::from_leaves`], saved with [`PackedOctree::save`] / [`PackedOctree::to_bytes`]
 //! and read back with [`PackedOctree::load`] / [`PackedOctree::from_bytes`], which validate every
-//! count, offset and index, and the CRC-32, before using anything. [`PackedOctreeView`] reads the
-//! same bytes in place (zero copy).
+//! count, offset and index, and the CRC-32, before using anything.
 //!
-//! # Layout (also the file's payload; the crate's `FORMAT.md` specifies it byte by byte)
+//! # One reader: the octree is its file
+//!
+//! There is one octree type, [`Octree<B>`](Octree), over any buffer `B: AsRef<[u8]>` holding a
+//! validated `.smo` file, with one set of accessors that read its little-endian bytes in place
+//! (as NanoVDB's grid is its buffer). [`PackedOctree`] = `Octree<Vec<u8>>` owns the bytes
+//! ([`Octree::as_bytes`] is the file; `to_bytes` copies it, `save` writes it);
+//! [`PackedOctreeView`] = `Octree<&[u8]>` borrows them (zero copy, e.g. a memory-mapped file or a
+//! buffer shared with a GPU). An octree is made only by [`PackedOctree::from_leaves`], which
+//! writes the file straight into its buffer, or by [`Octree::new`], which validates bytes once;
+//! code generic over the buffer takes `&Octree<B>` (static dispatch). The header is read and
+//! written through one table, [`HEADER_FIELDS`], so the field order is written down once.
+//!
+//! # Layout (the crate's `FORMAT.md` specifies it byte by byte)
 //!
 //! Nodes are numbered breadth first: the root is node 0, and the children of every node follow
 //! in order, so the children of one node are contiguous and, because a child's octant is
@@ -18,7 +29,7 @@
 //!   masks (bit `i` set = a child in octant `i = 4x + 2y + z`) and the node index of the first
 //!   child of the group's first node. The first child of any node is that base plus the popcount
 //!   of the masks before it in the group, and its child in octant `o` adds the popcount of its own
-//!   mask below bit `o`: one 64-bit popcount in all ([`PackedOctree::child`]). 1.5 bytes per
+//!   mask below bit `o`: one 64-bit popcount in all ([`Octree::child`]). 1.5 bytes per
 //!   inner node.
 //! * **Leaves** are not nodes with records of their own: they are stored in groups of eight
 //!   (a 12-byte record): the eight voxel counts (1..=255) and the index of the first voxel
@@ -33,15 +44,14 @@
 //!
 //! # Traversal access
 //!
-//! The tracer walks the octree with [`PackedOctree::root`], [`PackedOctree::child_mask`],
-//! [`PackedOctree::child`], [`PackedOctree::is_leaf`], [`PackedOctree::leaf_voxels`],
-//! [`PackedOctree::voxel_corners`] and [`PackedOctree::voxel_is_surface`]: `#[inline]`,
-//! allocation-free, a couple of loads each. A [`NodeRef`] is a `Copy` node index. The same
-//! accessors exist on [`PackedOctreeView`], and the [`OctreeAccess`] trait covers both.
+//! The tracer walks the octree with [`Octree::root`], [`Octree::child_mask`],
+//! [`Octree::child`], [`Octree::first_child_index`], [`Octree::is_leaf`],
+//! [`Octree::leaf_voxels`], [`Octree::voxel_corners`] and [`Octree::voxel_is_surface`]:
+//! `#[inline]`, allocation-free, a couple of fixed-size unaligned loads each, bounds-checked (an
+//! index from another octree panics). A [`NodeRef`] is a `Copy` node index.
 
 #![deny(missing_docs)]
 
-mod access;
 mod crc32;
 mod error;
 mod file;
@@ -49,11 +59,10 @@ mod interpolant;
 mod morton;
 mod octree;
 pub mod quant;
-mod view;
+mod validate;
 
 use glam::Vec3;
 
-pub use access::OctreeAccess;
 pub use crc32::crc32;
 pub use error::{FormatError, Result};
 pub use file::{
@@ -61,8 +70,7 @@ pub use file::{
     FORMAT_VERSION_MAJOR, FORMAT_VERSION_MINOR, HEADER_FIELDS, HEADER_SIZE, KNOWN_FLAGS, MAGIC,
 };
 pub use interpolant::{corner_offset, trilinear, trilinear_gradient};
-pub use octree::{NodeRef, PackedOctree};
-pub use view::PackedOctreeView;
+pub use octree::{NodeRef, Octree, PackedOctree, PackedOctreeView};
 
 /// Deepest supported octree (leaf coordinates up to 2^16 per axis).
 pub const MAX_DEPTH: u8 = 16;

@@ -1,55 +1,16 @@
-//! The in-memory packed octree: construction from leaves and the traversal accessors.
+//! The octree: one type over the `.smo` bytes, owned or borrowed, built from leaves by writing
+//! the file straight into its buffer, and the traversal accessors that read it.
 
+use std::fmt;
 use std::ops::Range;
 
+use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
+use crate::file::{Counts, Header, Layout, CHECKSUM_SIZE, HEADER_SIZE};
 use crate::quant::{self, dequant_scale, quantize};
 use crate::{morton, LeafInput, OctreeMeta, ValueBits, Voxel, MAX_VOXELS_PER_LEAF};
 
-/// Eight consecutive inner nodes (breadth-first order): 12 bytes, the record of the node section.
-///
-/// `masks[s]` is the child mask of node `8g + s` (bit `i` = a child in octant `i = 4x + 2y + z`);
-/// `first_child` is the node index of the first child of node `8g` (or, if it has none, of the
-/// first node after it that has children). Node `8g + s`'s child in octant `o` is
-/// `first_child + popcount(masks_as_u64_le & ((1 << (8s + o)) − 1))`. Example: masks
-/// `[0b1001_0000, 0b0000_0110, …]`, `first_child = 9`: node `8g + 1`'s child in octant 2 is
-/// `9 + popcount(0b1001_0000) + popcount(0b0000_0110 & 0b11) = 9 + 2 + 1 = 12`.
-/// Masks of the slots past the last inner node are 0.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub(crate) struct NodeGroup {
-    /// Node index of the first child of the group's nodes.
-    pub(crate) first_child: u32,
-    /// Child masks of the group's eight nodes.
-    pub(crate) masks: [u8; 8],
-}
-const _: () = assert!(std::mem::size_of::<NodeGroup>() == 12);
-
-/// Eight consecutive leaves (Morton order): 12 bytes, the record of the leaf section.
-///
-/// `counts[s]` is the voxel count (1..=255) of leaf `8g + s`; `first_voxel` the index of the
-/// first voxel of leaf `8g`. Leaf `8g + s`'s voxels are `first_voxel + Σ counts[..s]` onwards.
-/// Counts past the last leaf are 0.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub(crate) struct LeafGroup {
-    /// Index of the first voxel of the group's first leaf.
-    pub(crate) first_voxel: u32,
-    /// Voxel counts of the group's eight leaves.
-    pub(crate) counts: [u8; 8],
-}
-const _: () = assert!(std::mem::size_of::<LeafGroup>() == 12);
-
-/// Quantised corner codes, 8 per voxel.
-#[derive(Clone, Debug, PartialEq)]
-pub(crate) enum Corners {
-    /// 8-bit codes in −127..=127.
-    Eight(Vec<[i8; 8]>),
-    /// 16-bit codes in −32767..=32767.
-    Sixteen(Vec<[i16; 8]>),
-}
-
-/// A node of a [`PackedOctree`]: its breadth-first index (root = 0). Cheap to copy.
+/// A node of an [`Octree`]: its breadth-first index (root = 0). Cheap to copy.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct NodeRef(pub(crate) u32);
 
@@ -68,21 +29,58 @@ impl NodeRef {
     }
 }
 
-/// The packed sparse multi-octree (see the crate docs for the layout).
-#[derive(Clone, Debug, PartialEq)]
-pub struct PackedOctree {
-    pub(crate) meta: OctreeMeta,
-    pub(crate) inner_count: u32,
-    pub(crate) leaf_count: u32,
-    pub(crate) voxel_count: u32,
-    pub(crate) surface_count: u32,
-    pub(crate) nodes: Vec<NodeGroup>,
-    pub(crate) leaves: Vec<LeafGroup>,
-    pub(crate) surface: Vec<u64>,
-    pub(crate) corners: Corners,
-    /// `dmax / Q`: code → distance.
-    pub(crate) dequant: f32,
+/// Byte offsets of the four sections in the buffer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Sections {
+    /// Node groups: 12 bytes per 8 inner nodes (`first_child` u32, then 8 masks).
+    pub(crate) nodes: usize,
+    /// Leaf groups: 12 bytes per 8 leaves (`first_voxel` u32, then 8 counts).
+    pub(crate) leaves: usize,
+    /// Surface bitmap: bit `v % 8` of byte `v / 8`.
+    pub(crate) surface: usize,
+    /// Corner codes: `8 · value_bits / 8` bytes per voxel.
+    pub(crate) corners: usize,
 }
+
+impl Sections {
+    pub(crate) fn of(layout: &Layout) -> Sections {
+        // Every offset is ≤ the file size, which is the length of a buffer in memory.
+        Sections {
+            nodes: layout.nodes.0 as usize,
+            leaves: layout.leaves.0 as usize,
+            surface: layout.surface.0 as usize,
+            corners: layout.corners.0 as usize,
+        }
+    }
+}
+
+/// The packed sparse multi-octree: a validated `.smo` file (see the crate docs for the layout
+/// and `FORMAT.md` for the bytes) in a buffer `B`, read in place by one set of accessors.
+///
+/// The octree *is* its file: [`PackedOctree`] (`Octree<Vec<u8>>`) owns the bytes,
+/// [`PackedOctreeView`] (`Octree<&[u8]>`) borrows them (e.g. a memory-mapped file), and any
+/// other `B: AsRef<[u8]>` works the same. An octree is only made by [`Octree::from_leaves`]
+/// (which writes the file into a new buffer) or by [`Octree::new`] (which validates bytes first),
+/// so every index a traversal computes from it is in bounds; the accessors still bounds-check,
+/// and panic on a [`NodeRef`] or voxel index from another octree.
+///
+/// Two octrees are equal when their bytes are.
+#[derive(Clone, Copy)]
+pub struct Octree<B = Vec<u8>> {
+    bytes: B,
+    pub(crate) meta: OctreeMeta,
+    pub(crate) counts: Counts,
+    pub(crate) sections: Sections,
+    /// `dmax / Q`: code → distance.
+    dequant: f32,
+}
+
+/// The owned octree: its buffer is the `.smo` file, always in the canonical encoding (what
+/// [`Octree::from_leaves`] writes: version 1.0, a 128-byte header).
+pub type PackedOctree = Octree<Vec<u8>>;
+
+/// The octree over borrowed bytes: zero copy, the file as given (any 1.x version).
+pub type PackedOctreeView<'a> = Octree<&'a [u8]>;
 
 /// Sum of the eight bytes of `x` (each ≤ 255; the sum fits easily).
 #[inline]
@@ -103,10 +101,42 @@ pub(crate) fn to_u32(count: u64, what: &'static str) -> Result<u32> {
     u32::try_from(count).map_err(|_| FormatError::TooLarge { what, count })
 }
 
+/// The `N` bytes at `at` (one bounds check; the copy compiles to a single unaligned load).
+#[inline]
+pub(crate) fn bytes_at<const N: usize>(b: &[u8], at: usize) -> [u8; N] {
+    match b[at..].first_chunk::<N>() {
+        Some(a) => *a,
+        None => panic!(
+            "read of {N} bytes at {at} past the end of {} bytes",
+            b.len()
+        ),
+    }
+}
+
+/// A 12-byte group record at `at`: its u32 base and its eight bytes as one little-endian u64.
+#[inline]
+fn group_at(b: &[u8], at: usize) -> (u32, u64) {
+    let r = bytes_at::<12>(b, at);
+    let (base, bytes) = r.split_at(4);
+    (
+        u32::from_le_bytes([base[0], base[1], base[2], base[3]]),
+        u64::from_le_bytes([
+            bytes[0], bytes[1], bytes[2], bytes[3], bytes[4], bytes[5], bytes[6], bytes[7],
+        ]),
+    )
+}
+
+/// Writes a 12-byte group record (base, eight bytes) at `at`.
+fn put_group(out: &mut [u8], at: usize, base: u32, bytes: [u8; 8]) {
+    out[at..at + 4].copy_from_slice(&base.to_le_bytes());
+    out[at + 4..at + 12].copy_from_slice(&bytes);
+}
+
 impl PackedOctree {
     /// Builds the inner nodes; deterministic whatever the order of `leaves` (sorted by Morton
     /// code; the voxels of a leaf keep their order). Corners are quantised over ± the voxel
-    /// diagonal (clamped), rounding to nearest.
+    /// diagonal (clamped), rounding to nearest. The `.smo` file is written straight into the
+    /// octree's buffer.
     ///
     /// Errors: depth above [`MAX_DEPTH`](crate::MAX_DEPTH), a bad transform, a coordinate
     /// outside `[0, 2^depth)`, two leaves with the same coordinate, a leaf with 0 or more than 255
@@ -116,6 +146,7 @@ impl PackedOctree {
         let depth = meta.depth;
         let side = 1u64 << depth;
         let mut total_voxels = 0u64;
+        let mut total_surface = 0u64;
         let mut keyed = Vec::with_capacity(leaves.len());
         for (index, leaf) in leaves.iter().enumerate() {
             if leaf.coord.iter().any(|&c| u64::from(c) >= side) {
@@ -143,6 +174,7 @@ impl PackedOctree {
                         value: voxel.corners[corner],
                     });
                 }
+                total_surface += u64::from(voxel.surface);
             }
             total_voxels += count as u64;
             keyed.push((morton::encode(leaf.coord), index));
@@ -183,79 +215,180 @@ impl PackedOctree {
         let inner_count = to_u32(inner_total, "inner nodes")?;
         to_u32(inner_total + u64::from(leaf_count), "nodes")?;
 
-        let mut nodes = Vec::with_capacity(levels.iter().map(Vec::len).sum::<usize>().div_ceil(8));
+        let counts = Counts {
+            inner: inner_count,
+            leaves: leaf_count,
+            voxels: voxel_count,
+            // ≤ voxel_count, which fits.
+            surface: total_surface as u32,
+        };
+        let header = Header::canonical(&meta, counts);
+        let layout = Layout::new(HEADER_SIZE as u64, counts, meta.bits);
+        let file_size = usize::try_from(layout.file_size).map_err(|_| FormatError::TooLarge {
+            what: "file bytes",
+            count: layout.file_size,
+        })?;
+        let sections = Sections::of(&layout);
+        // Zeroed: the padding (between sections and in the last groups) stays 0.
+        let mut out = vec![0u8; file_size];
+        header.write(&mut out);
+
+        // Node groups: the base of group g is the first child of node 8g.
         let mut next_child = 1u32;
-        let mut group = NodeGroup::default();
-        let mut slot = 0;
-        for &mask in levels.iter().flatten() {
+        let mut masks = [0u8; 8];
+        let mut base = next_child;
+        let mut at = sections.nodes;
+        for (k, &mask) in levels.iter().flatten().enumerate() {
+            let slot = k % 8;
             if slot == 0 {
-                group.first_child = next_child;
+                base = next_child;
             }
-            group.masks[slot] = mask;
+            masks[slot] = mask;
             next_child += mask.count_ones();
-            slot += 1;
-            if slot == 8 {
-                nodes.push(group);
-                group = NodeGroup::default();
-                slot = 0;
+            if slot == 7 {
+                put_group(&mut out, at, base, masks);
+                at += 12;
+                masks = [0; 8];
             }
         }
-        if slot != 0 {
-            nodes.push(group);
+        if !inner_count.is_multiple_of(8) {
+            put_group(&mut out, at, base, masks);
         }
 
+        // Leaf groups, surface bits and corner codes, leaf by leaf in Morton order.
         let dmax = meta.dmax();
         let bits = meta.bits;
-        let mut leaf_groups = Vec::with_capacity(leaves.len().div_ceil(8));
-        let mut surface = vec![0u64; (voxel_count as usize).div_ceil(64)];
-        let mut corners = match bits {
-            ValueBits::Eight => Corners::Eight(Vec::with_capacity(voxel_count as usize)),
-            ValueBits::Sixteen => Corners::Sixteen(Vec::with_capacity(voxel_count as usize)),
-        };
-        let mut surface_count = 0u32;
-        let mut voxel = 0u32;
-        let mut group = LeafGroup::default();
+        let code_bytes = bits.bytes();
+        let mut voxel = 0usize;
+        let mut counts8 = [0u8; 8];
+        let mut base = 0u32;
+        let mut at = sections.leaves;
         for (j, &(_, index)) in keyed.iter().enumerate() {
             let slot = j % 8;
             if slot == 0 {
-                group.first_voxel = voxel;
+                base = voxel as u32; // ≤ voxel_count, which fits
             }
             let leaf = &leaves[index];
-            group.counts[slot] = leaf.voxels.len() as u8; // 1..=255, checked above
+            counts8[slot] = leaf.voxels.len() as u8; // 1..=255, checked above
             for vx in &leaf.voxels {
                 if vx.surface {
-                    surface[voxel as usize / 64] |= 1 << (voxel % 64);
-                    surface_count += 1;
+                    out[sections.surface + voxel / 8] |= 1 << (voxel % 8);
                 }
-                match &mut corners {
-                    Corners::Eight(c) => c.push(vx.corners.map(|v| quantize(v, dmax, bits) as i8)),
-                    Corners::Sixteen(c) => {
-                        c.push(vx.corners.map(|v| quantize(v, dmax, bits) as i16))
+                let codes_at = sections.corners + voxel * 8 * code_bytes;
+                for (i, &v) in vx.corners.iter().enumerate() {
+                    let q = quantize(v, dmax, bits);
+                    let c = codes_at + i * code_bytes;
+                    match bits {
+                        ValueBits::Eight => out[c] = q as i8 as u8,
+                        ValueBits::Sixteen => {
+                            out[c..c + 2].copy_from_slice(&(q as i16).to_le_bytes())
+                        }
                     }
                 }
                 voxel += 1;
             }
             if slot == 7 {
-                leaf_groups.push(group);
-                group = LeafGroup::default();
+                put_group(&mut out, at, base, counts8);
+                at += 12;
+                counts8 = [0; 8];
             }
         }
-        if leaves.len() & 7 != 0 {
-            leaf_groups.push(group);
+        if !leaves.len().is_multiple_of(8) {
+            put_group(&mut out, at, base, counts8);
         }
 
-        Ok(PackedOctree {
+        let crc_at = file_size - CHECKSUM_SIZE;
+        let crc = crc32(&out[..crc_at]);
+        out[crc_at..].copy_from_slice(&crc.to_le_bytes());
+        Ok(Octree::from_parts(out, meta, counts, sections))
+    }
+
+    /// This octree in the canonical encoding: itself when it already is (every octree this
+    /// crate writes), else the same sections re-written behind a 1.0 header.
+    pub(crate) fn into_canonical(self) -> PackedOctree {
+        if self.is_canonical() {
+            self
+        } else {
+            self.as_view().to_octree()
+        }
+    }
+}
+
+impl<B> Octree<B> {
+    /// Assembles an octree from a buffer whose header and sections have been written or
+    /// validated (the caller's guarantee: every accessor then reads in bounds).
+    pub(crate) fn from_parts(
+        bytes: B,
+        meta: OctreeMeta,
+        counts: Counts,
+        sections: Sections,
+    ) -> Octree<B> {
+        Octree {
+            bytes,
             meta,
-            inner_count,
-            leaf_count,
-            voxel_count,
-            surface_count,
-            nodes,
-            leaves: leaf_groups,
-            surface,
-            corners,
-            dequant: dequant_scale(depth, bits),
-        })
+            counts,
+            sections,
+            dequant: dequant_scale(meta.depth, meta.bits),
+        }
+    }
+
+    /// The buffer back (the `.smo` file).
+    pub fn into_bytes(self) -> B {
+        self.bytes
+    }
+}
+
+impl<B: AsRef<[u8]>> Octree<B> {
+    /// The whole `.smo` file, header to checksum.
+    #[inline]
+    pub fn as_bytes(&self) -> &[u8] {
+        self.bytes.as_ref()
+    }
+
+    /// The same octree over borrowed bytes (no copy, no validation).
+    #[inline]
+    pub fn as_view(&self) -> PackedOctreeView<'_> {
+        Octree {
+            bytes: self.as_bytes(),
+            meta: self.meta,
+            counts: self.counts,
+            sections: self.sections,
+            dequant: self.dequant,
+        }
+    }
+
+    /// Whether the bytes are what [`Octree::from_leaves`] would write for this octree:
+    /// version 1.0 with a 128-byte header (validation has checked everything else).
+    pub(crate) fn is_canonical(&self) -> bool {
+        let h = Header::read(self.as_bytes());
+        h.version_minor == crate::FORMAT_VERSION_MINOR && h.header_size as usize == HEADER_SIZE
+    }
+
+    /// An owned copy in the canonical encoding (version 1.0, 128-byte header): the bytes
+    /// themselves when they already are, else the sections re-written behind a new header.
+    /// O(size).
+    pub fn to_octree(&self) -> PackedOctree {
+        let bytes = self.as_bytes();
+        if self.is_canonical() {
+            return Octree::from_parts(bytes.to_vec(), self.meta, self.counts, self.sections);
+        }
+        let layout = Layout::new(HEADER_SIZE as u64, self.counts, self.meta.bits);
+        let from = Layout::new(self.sections.nodes as u64, self.counts, self.meta.bits);
+        let mut out = vec![0u8; layout.file_size as usize];
+        Header::canonical(&self.meta, self.counts).write(&mut out);
+        for (to, from) in [
+            (layout.nodes, from.nodes),
+            (layout.leaves, from.leaves),
+            (layout.surface, from.surface),
+            (layout.corners, from.corners),
+        ] {
+            let (to, from, size) = (to.0 as usize, from.0 as usize, from.1 as usize);
+            out[to..to + size].copy_from_slice(&bytes[from..from + size]);
+        }
+        let crc_at = out.len() - CHECKSUM_SIZE;
+        let crc = crc32(&out[..crc_at]);
+        out[crc_at..].copy_from_slice(&crc.to_le_bytes());
+        Octree::from_parts(out, self.meta, self.counts, Sections::of(&layout))
     }
 
     /// Depth, quantisation and normalisation transform.
@@ -273,31 +406,31 @@ impl PackedOctree {
     /// Inner nodes plus leaves.
     #[inline]
     pub fn node_count(&self) -> usize {
-        self.inner_count as usize + self.leaf_count as usize
+        self.counts.inner as usize + self.counts.leaves as usize
     }
 
     /// Inner nodes only (levels `0..depth`).
     #[inline]
     pub fn inner_node_count(&self) -> usize {
-        self.inner_count as usize
+        self.counts.inner as usize
     }
 
     /// Leaves (level `depth`).
     #[inline]
     pub fn leaf_count(&self) -> usize {
-        self.leaf_count as usize
+        self.counts.leaves as usize
     }
 
     /// Voxels in all leaves.
     #[inline]
     pub fn voxel_count(&self) -> usize {
-        self.voxel_count as usize
+        self.counts.voxels as usize
     }
 
     /// Voxels flagged surface (thin).
     #[inline]
     pub fn surface_voxel_count(&self) -> usize {
-        self.surface_count as usize
+        self.counts.surface as usize
     }
 
     /// `dmax / Q`: multiply a stored code by this to get a distance in normalised units.
@@ -307,41 +440,44 @@ impl PackedOctree {
     }
 
     // ---- Traversal access (sdfmo-trace) -------------------------------------------------
+    //
+    // Each accessor reads the little-endian bytes in place with fixed-size loads. An index
+    // that validation (or the writer) allows is in bounds; an index from another octree fails
+    // an explicit check or the slice's bounds check and panics.
 
     /// The root node; `None` for an empty octree (no leaves).
     #[inline]
     pub fn root(&self) -> Option<NodeRef> {
-        (self.leaf_count > 0).then_some(NodeRef(0))
+        (self.counts.leaves > 0).then_some(NodeRef(0))
+    }
+
+    /// Byte offset of the group record of inner node `k` (`k < inner_count`).
+    #[inline]
+    fn node_group_at(&self, k: u32) -> usize {
+        self.sections.nodes + (k as usize >> 3) * 12
     }
 
     /// Child mask of `node`: bit `i` set = a child in octant `i = 4x + 2y + z`; 0 for a leaf.
-    ///
-    /// Panics if `node` does not belong to this octree (index out of range).
     #[inline]
     pub fn child_mask(&self, node: NodeRef) -> u8 {
-        if node.0 >= self.inner_count {
+        if node.0 >= self.counts.inner {
             return 0;
         }
-        self.nodes[(node.0 >> 3) as usize].masks[(node.0 & 7) as usize]
+        self.as_bytes()[self.node_group_at(node.0) + 4 + (node.0 as usize & 7)]
     }
 
     /// The child of `node` in `octant` (`4x + 2y + z`, 0..8), if there is one.
-    ///
-    /// Panics if `node` does not belong to this octree (index out of range).
     #[inline]
     pub fn child(&self, node: NodeRef, octant: u8) -> Option<NodeRef> {
-        if node.0 >= self.inner_count || octant > 7 {
+        if node.0 >= self.counts.inner || octant > 7 {
             return None;
         }
-        let group = &self.nodes[(node.0 >> 3) as usize];
-        let masks = u64::from_le_bytes(group.masks);
+        let (first_child, masks) = group_at(self.as_bytes(), self.node_group_at(node.0));
         let bit = (node.0 & 7) * 8 + u32::from(octant);
         if masks >> bit & 1 == 0 {
             return None;
         }
-        Some(NodeRef(
-            group.first_child + low_bits(masks, bit).count_ones(),
-        ))
+        Some(NodeRef(first_child + low_bits(masks, bit).count_ones()))
     }
 
     /// Index of the first child of an inner node: its children (in octant order) are
@@ -352,22 +488,21 @@ impl PackedOctree {
     /// Panics if `node` is not an inner node of this octree.
     #[inline]
     pub fn first_child_index(&self, node: NodeRef) -> u32 {
-        assert!(node.0 < self.inner_count, "not an inner node");
-        let group = &self.nodes[(node.0 >> 3) as usize];
-        let masks = u64::from_le_bytes(group.masks);
-        group.first_child + low_bits(masks, (node.0 & 7) * 8).count_ones()
+        assert!(node.0 < self.counts.inner, "not an inner node");
+        let (first_child, masks) = group_at(self.as_bytes(), self.node_group_at(node.0));
+        first_child + low_bits(masks, (node.0 & 7) * 8).count_ones()
     }
 
     /// Whether `node` is a leaf (leaves sit at level == depth).
     #[inline]
     pub fn is_leaf(&self, node: NodeRef) -> bool {
-        node.0 >= self.inner_count
+        node.0 >= self.counts.inner
     }
 
     /// Leaf number of `node` in Morton order (`node − inner_node_count`), `None` for an inner node.
     #[inline]
     pub fn leaf_index(&self, node: NodeRef) -> Option<u32> {
-        node.0.checked_sub(self.inner_count)
+        node.0.checked_sub(self.counts.inner)
     }
 
     /// The voxel indices of a leaf (empty for an inner node).
@@ -378,11 +513,12 @@ impl PackedOctree {
         let Some(j) = self.leaf_index(leaf) else {
             return 0..0;
         };
-        let group = &self.leaves[(j >> 3) as usize];
-        let slot = j & 7;
-        let start =
-            group.first_voxel + byte_sum(low_bits(u64::from_le_bytes(group.counts), slot * 8));
-        start..start + u32::from(group.counts[slot as usize])
+        assert!(j < self.counts.leaves, "node {} out of range", leaf.0);
+        let at = self.sections.leaves + (j as usize >> 3) * 12;
+        let (first_voxel, counts) = group_at(self.as_bytes(), at);
+        let shift = (j & 7) * 8;
+        let start = first_voxel + byte_sum(low_bits(counts, shift));
+        start..start + (counts >> shift & 0xff) as u32
     }
 
     /// The voxel's 8 corner distances (`4x + 2y + z`), dequantised, in normalised units.
@@ -390,10 +526,16 @@ impl PackedOctree {
     /// Panics if `voxel` is out of range.
     #[inline]
     pub fn voxel_corners(&self, voxel: u32) -> [f32; 8] {
-        let s = self.dequant;
-        match &self.corners {
-            Corners::Eight(c) => c[voxel as usize].map(|q| f32::from(q) * s),
-            Corners::Sixteen(c) => c[voxel as usize].map(|q| f32::from(q) * s),
+        assert!(voxel < self.counts.voxels, "voxel {voxel} out of range");
+        let (b, s, v) = (self.as_bytes(), self.dequant, voxel as usize);
+        match self.meta.bits {
+            ValueBits::Eight => {
+                bytes_at::<8>(b, self.sections.corners + v * 8).map(|c| f32::from(c as i8) * s)
+            }
+            ValueBits::Sixteen => {
+                let c = bytes_at::<16>(b, self.sections.corners + v * 16);
+                std::array::from_fn(|i| f32::from(i16::from_le_bytes([c[2 * i], c[2 * i + 1]])) * s)
+            }
         }
     }
 
@@ -402,9 +544,17 @@ impl PackedOctree {
     /// Panics if `voxel` is out of range.
     #[inline]
     pub fn voxel_codes(&self, voxel: u32) -> [i16; 8] {
-        match &self.corners {
-            Corners::Eight(c) => c[voxel as usize].map(i16::from),
-            Corners::Sixteen(c) => c[voxel as usize],
+        assert!(voxel < self.counts.voxels, "voxel {voxel} out of range");
+        let b = self.as_bytes();
+        let v = voxel as usize;
+        match self.meta.bits {
+            ValueBits::Eight => {
+                bytes_at::<8>(b, self.sections.corners + v * 8).map(|c| i16::from(c as i8))
+            }
+            ValueBits::Sixteen => {
+                let c = bytes_at::<16>(b, self.sections.corners + v * 16);
+                std::array::from_fn(|i| i16::from_le_bytes([c[2 * i], c[2 * i + 1]]))
+            }
         }
     }
 
@@ -413,7 +563,8 @@ impl PackedOctree {
     /// Panics if `voxel` is out of range.
     #[inline]
     pub fn voxel_is_surface(&self, voxel: u32) -> bool {
-        self.surface[(voxel >> 6) as usize] >> (voxel & 63) & 1 != 0
+        assert!(voxel < self.counts.voxels, "voxel {voxel} out of range");
+        self.as_bytes()[self.sections.surface + (voxel as usize >> 3)] >> (voxel & 7) & 1 != 0
     }
 
     // ---- Whole-octree helpers -----------------------------------------------------------
@@ -421,12 +572,12 @@ impl PackedOctree {
     /// Cell coordinates of every leaf, in Morton (storage) order. Allocates; for tools.
     pub fn leaf_coords(&self) -> Vec<[u32; 3]> {
         let mut coords: Vec<[u32; 3]> = Vec::with_capacity(self.node_count());
-        if self.leaf_count == 0 {
+        if self.counts.leaves == 0 {
             return coords;
         }
         coords.push([0, 0, 0]);
         // Breadth first: appending each node's children in order reproduces the node numbering.
-        for k in 0..self.inner_count {
+        for k in 0..self.counts.inner {
             let [x, y, z] = coords[k as usize];
             let mask = self.child_mask(NodeRef(k));
             for o in 0..8u32 {
@@ -435,7 +586,7 @@ impl PackedOctree {
                 }
             }
         }
-        coords.drain(..self.inner_count as usize);
+        coords.drain(..self.counts.inner as usize);
         coords
     }
 
@@ -443,7 +594,7 @@ impl PackedOctree {
     pub fn leaves(&self) -> impl Iterator<Item = ([u32; 3], Vec<Voxel>)> + '_ {
         let coords = self.leaf_coords();
         coords.into_iter().enumerate().map(move |(j, coord)| {
-            let range = self.leaf_voxels(NodeRef(self.inner_count + j as u32));
+            let range = self.leaf_voxels(NodeRef(self.counts.inner + j as u32));
             let voxels = range
                 .map(|v| Voxel {
                     corners: self.voxel_corners(v),
@@ -458,6 +609,38 @@ impl PackedOctree {
     #[inline]
     pub fn dmax(&self) -> f32 {
         quant::voxel_diagonal(self.meta.depth)
+    }
+}
+
+impl<A: AsRef<[u8]>, B: AsRef<[u8]>> PartialEq<Octree<B>> for Octree<A> {
+    /// Equal bytes (the rest is derived from them).
+    fn eq(&self, other: &Octree<B>) -> bool {
+        self.as_bytes() == other.as_bytes()
+    }
+}
+
+impl<B: AsRef<[u8]>> Eq for Octree<B> {}
+
+impl<B: AsRef<[u8]>> fmt::Debug for Octree<B> {
+    /// The header's content, not the bytes.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Octree")
+            .field("meta", &self.meta)
+            .field("inner_nodes", &self.counts.inner)
+            .field("leaves", &self.counts.leaves)
+            .field("voxels", &self.counts.voxels)
+            .field("surface_voxels", &self.counts.surface)
+            .field("bytes", &self.as_bytes().len())
+            .field("crc32", &format_args!("{:#010x}", self.stored_crc()))
+            .finish()
+    }
+}
+
+impl<B: AsRef<[u8]>> Octree<B> {
+    /// The CRC-32 stored in the last four bytes.
+    fn stored_crc(&self) -> u32 {
+        let b = self.as_bytes();
+        u32::from_le_bytes(bytes_at::<4>(b, b.len() - CHECKSUM_SIZE))
     }
 }
 
@@ -485,6 +668,153 @@ mod tests {
                 })
                 .collect(),
         }
+    }
+
+    /// A generic depth-first walk: (leaf coord, Σ corners, surface count) per leaf.
+    fn summary<B: AsRef<[u8]>>(o: &Octree<B>) -> Vec<([u32; 3], f32, usize)> {
+        let mut out = Vec::new();
+        let mut stack: Vec<(NodeRef, [u32; 3])> =
+            o.root().map(|r| (r, [0; 3])).into_iter().collect();
+        while let Some((n, c)) = stack.pop() {
+            if o.is_leaf(n) {
+                let r = o.leaf_voxels(n);
+                let sum = r
+                    .clone()
+                    .map(|v| o.voxel_corners(v).iter().sum::<f32>())
+                    .sum();
+                let surf = r.filter(|&v| o.voxel_is_surface(v)).count();
+                out.push((c, sum, surf));
+                continue;
+            }
+            for oct in 0..8u8 {
+                if let Some(ch) = o.child(n, oct) {
+                    let k = u32::from(oct);
+                    stack.push((
+                        ch,
+                        [
+                            2 * c[0] + (k >> 2),
+                            2 * c[1] + (k >> 1 & 1),
+                            2 * c[2] + (k & 1),
+                        ],
+                    ));
+                }
+            }
+        }
+        out
+    }
+
+    fn mixed_octree(bits: ValueBits) -> PackedOctree {
+        let leaves: Vec<LeafInput> = (0..40u32)
+            .map(|i| LeafInput {
+                coord: [i % 8, i / 8, (i * 3) % 8],
+                voxels: (0..1 + i as usize % 3)
+                    .map(|k| Voxel {
+                        corners: [0.05 * k as f32 - 0.04; 8],
+                        surface: k == 2,
+                    })
+                    .collect(),
+            })
+            .collect();
+        let meta = OctreeMeta {
+            depth: 3,
+            bits,
+            center: Vec3::ZERO,
+            scale: 1.0,
+        };
+        PackedOctree::from_leaves(meta, leaves).unwrap()
+    }
+
+    #[test]
+    fn owned_and_borrowed_walk_identically() {
+        let o = mixed_octree(ValueBits::Sixteen);
+        let bytes = o.to_bytes();
+        let v = PackedOctreeView::new(&bytes).unwrap();
+        let a = summary(&o);
+        assert_eq!(a.len(), o.leaf_count());
+        assert!(a.iter().any(|&(_, _, s)| s > 0));
+        assert_eq!(a, summary(&v));
+        assert_eq!(a, summary(&o.as_view()));
+        assert_eq!(v.voxel_count(), o.voxel_count());
+        assert_eq!(v.meta(), o.meta());
+        assert_eq!(v, o);
+        assert_eq!(v.as_bytes(), o.as_bytes());
+        // An owned octree over bytes it was handed (no copy) is the same octree.
+        let w = PackedOctree::new(bytes.clone()).unwrap();
+        assert_eq!(w, o);
+        assert_eq!(w.into_bytes(), bytes);
+    }
+
+    /// `bytes` with the 1.0 header grown by `extra` zero bytes (a later 1.x writer's fields)
+    /// and the minor version set to `minor`, resealed.
+    fn newer_file(bytes: &[u8], extra: usize, minor: u16) -> Vec<u8> {
+        let mut h = Header::read(bytes);
+        h.version_minor = minor;
+        h.header_size += extra as u32;
+        h.file_size += extra as u64;
+        for off in [
+            &mut h.nodes_offset,
+            &mut h.leaves_offset,
+            &mut h.surface_offset,
+            &mut h.corners_offset,
+        ] {
+            *off += extra as u64;
+        }
+        let mut out = vec![0u8; HEADER_SIZE + extra];
+        h.write(&mut out);
+        out.extend_from_slice(&bytes[HEADER_SIZE..]);
+        let crc_at = out.len() - CHECKSUM_SIZE;
+        let crc = crc32(&out[..crc_at]);
+        out[crc_at..].copy_from_slice(&crc.to_le_bytes());
+        out
+    }
+
+    #[test]
+    fn a_later_minor_version_is_read_in_place_and_copied_canonically() {
+        for bits in [ValueBits::Eight, ValueBits::Sixteen] {
+            let o = mixed_octree(bits);
+            for (extra, minor) in [(0, 1), (8, 1), (64, 7)] {
+                let newer = newer_file(o.as_bytes(), extra, minor);
+                let v = PackedOctreeView::new(&newer).unwrap();
+                // Read in place: the same octree, from other bytes.
+                assert_eq!(v.as_bytes(), &newer[..]);
+                assert_eq!(summary(&v), summary(&o));
+                assert_eq!(v.leaf_coords(), o.leaf_coords());
+                assert_eq!(v.section_sizes().header, HEADER_SIZE + extra);
+                assert_eq!(v.section_sizes().total, newer.len());
+                // Owned forms are canonical: what the writer writes.
+                assert_eq!(v.to_octree(), o);
+                assert_eq!(PackedOctree::from_bytes(&newer).unwrap(), o);
+                assert_eq!(
+                    PackedOctree::new(newer.clone()).unwrap().into_canonical(),
+                    o
+                );
+            }
+        }
+    }
+
+    #[test]
+    #[should_panic(expected = "out of range")]
+    fn a_voxel_past_the_end_panics() {
+        let o = mixed_octree(ValueBits::Eight);
+        // The corner section is followed by padding and the checksum: still a panic.
+        o.voxel_corners(o.voxel_count() as u32);
+    }
+
+    #[test]
+    #[should_panic(expected = "out of range")]
+    fn a_surface_bit_past_the_end_panics() {
+        let o = mixed_octree(ValueBits::Eight);
+        // Bits after the last voxel share its byte: still a panic.
+        o.voxel_is_surface(o.voxel_count() as u32);
+    }
+
+    #[test]
+    #[should_panic(expected = "out of range")]
+    fn a_node_past_the_end_panics() {
+        let o = PackedOctree::from_leaves(meta(3), vec![leaf([5, 2, 7], 2)]).unwrap();
+        // A padding slot of the last leaf group: still a panic.
+        assert!(!o.leaf_count().is_multiple_of(8));
+        o.leaf_voxels(NodeRef(o.node_count() as u32));
     }
 
     #[test]

@@ -15,7 +15,7 @@ fn real_file(bits: ValueBits) -> Vec<u8> {
     o.to_bytes()
 }
 
-/// Accepting bytes means: both readers agree, the whole tree can be walked without panicking,
+/// Accepting bytes means: the borrowed and owned forms agree, the whole tree can be walked without panicking,
 /// and writing it back gives the very same bytes (the encoding is canonical).
 fn check_accepted(bytes: &[u8], o: &PackedOctree) {
     let view = PackedOctreeView::new(bytes).expect("view accepts what from_bytes accepts");

@@ -120,8 +120,10 @@ fn leaves_iterator_matches_sorted_input() {
     }
 }
 
+/// The borrowed form (over the file's bytes) and the owned form of the one octree type answer
+/// every accessor alike, and copying the borrowed one gives the owned one.
 #[test]
-fn view_agrees_with_owned_octree() {
+fn borrowed_and_owned_forms_agree() {
     let o = PackedOctree::from_leaves(meta(6, ValueBits::Eight), shell_leaves(6)).unwrap();
     let bytes = o.to_bytes();
     let v = PackedOctreeView::new(&bytes).unwrap();
@@ -157,6 +159,8 @@ fn view_agrees_with_owned_octree() {
         assert_eq!(v.voxel_is_surface(voxel), o.voxel_is_surface(voxel));
     }
     assert_eq!(v.to_octree(), o);
+    assert_eq!(v.as_bytes(), o.as_bytes());
+    assert_eq!(v.section_sizes(), o.section_sizes());
 }
 
 fn arb_leaves() -> impl Strategy<Value = (u8, Vec<LeafInput>)> {

@@ -31,7 +31,7 @@
 //! In a multi-octree leaf each voxel stores the distance to one connected component; the value
 //! returned is their union (the minimum), so the bound holds per component.
 use glam::Vec3;
-use sdfmo_format::OctreeAccess;
+use sdfmo_format::Octree;
 
 use crate::normal::trilinear_gradient;
 use crate::ray_voxel::trilinear;
@@ -46,7 +46,7 @@ pub struct DistanceSample {
     /// the chosen voxel's interpolant; about unit length where the field is a distance, and
     /// pointing away from the surface; zero at a saddle). The same direction in model units.
     pub gradient: Vec3,
-    /// The voxel that gave the value (for [`OctreeAccess::voxel_corners`]).
+    /// The voxel that gave the value (for [`Octree::voxel_corners`]).
     pub voxel: u32,
     /// Whether that voxel is a surface (thin) voxel.
     pub surface: bool,
@@ -68,7 +68,7 @@ pub struct DistanceSample {
 /// `None` means the stored field has no zero in that cell (no contact there). Its sign and
 /// magnitude are then unknown; `occupied_bounds` and the ray functions answer coarser
 /// questions. Accuracy where it answers: see the [module docs](self).
-pub fn distance_at<O: OctreeAccess + ?Sized>(octree: &O, p: Vec3) -> Option<DistanceSample> {
+pub fn distance_at<B: AsRef<[u8]>>(octree: &Octree<B>, p: Vec3) -> Option<DistanceSample> {
     if !p.is_finite() || p.abs().max_element() > 1.0 {
         return None;
     }

@@ -3,14 +3,14 @@
 use glam::Vec3;
 /// The interpolant's gradient (owned by the format, re-exported here).
 pub use sdfmo_format::trilinear_gradient;
-use sdfmo_format::OctreeAccess;
+use sdfmo_format::Octree;
 
 use crate::traversal::{Hit, Ray};
 
 /// Unit gradient of the voxel's interpolant at the hit, flipped so `dot(n, ray.dir) ≤ 0`
 /// (two-sided, facing the viewer). Where the gradient vanishes (a saddle, or a hit that does not
 /// belong to this octree) the normal is `−dir`. Never NaN for a finite ray.
-pub fn hit_normal<O: OctreeAccess + ?Sized>(octree: &O, ray: &Ray, hit: &Hit) -> Vec3 {
+pub fn hit_normal<B: AsRef<[u8]>>(octree: &Octree<B>, ray: &Ray, hit: &Hit) -> Vec3 {
     let facing = (-ray.dir).try_normalize().unwrap_or(Vec3::Z);
     if (hit.voxel as usize) >= octree.voxel_count()
         || hit.cell_size.is_nan()

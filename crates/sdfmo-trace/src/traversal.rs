@@ -18,7 +18,7 @@
 use core::mem::MaybeUninit;
 
 use glam::Vec3;
-use sdfmo_format::{NodeRef, OctreeAccess, MAX_DEPTH};
+use sdfmo_format::{NodeRef, Octree, MAX_DEPTH};
 
 use crate::ray_voxel::intersect_voxel;
 
@@ -36,7 +36,7 @@ pub struct Ray {
 pub struct Hit {
     /// Ray parameter of the hit.
     pub t: f32,
-    /// Index of the voxel hit (for [`OctreeAccess::voxel_corners`]).
+    /// Index of the voxel hit (for [`Octree::voxel_corners`]).
     pub voxel: u32,
     /// Minimum corner of the leaf cell, normalised coordinates.
     pub cell_min: Vec3,
@@ -66,27 +66,28 @@ struct Cell {
 /// The ray's first hit in `[t_min, t_max]`: in the first leaf along the ray that has one, the
 /// nearest hit among its voxels. `None` for an empty octree, a miss, or NaN input.
 ///
-/// Generic over [`OctreeAccess`], so it traces a [`PackedOctree`](sdfmo_format::PackedOctree)
-/// or a zero-copy [`PackedOctreeView`](sdfmo_format::PackedOctreeView) alike (static dispatch).
-pub fn intersect<O: OctreeAccess + ?Sized>(
-    octree: &O,
+/// Generic over the octree's buffer, so it traces a [`PackedOctree`](sdfmo_format::PackedOctree)
+/// (owned bytes) or a zero-copy [`PackedOctreeView`](sdfmo_format::PackedOctreeView) alike
+/// (static dispatch: one accessor implementation, monomorphised per buffer type).
+pub fn intersect<B: AsRef<[u8]>>(
+    octree: &Octree<B>,
     ray: &Ray,
     t_min: f32,
     t_max: f32,
 ) -> Option<Hit> {
-    traverse::<O, false>(octree, ray, t_min, t_max)
+    traverse::<B, false>(octree, ray, t_min, t_max)
 }
 
 /// Whether anything is hit in `[t_min, t_max]` (stops at the first voxel hit, not the nearest).
-pub fn occluded<O: OctreeAccess + ?Sized>(octree: &O, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-    traverse::<O, true>(octree, ray, t_min, t_max).is_some()
+pub fn occluded<B: AsRef<[u8]>>(octree: &Octree<B>, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    traverse::<B, true>(octree, ray, t_min, t_max).is_some()
 }
 
 /// A box containing every leaf of the octree, `(min, max)` in normalised coordinates: the union
 /// of the occupied cells `levels` below the root (of the leaves, where they are shallower).
 /// `None` for an empty octree. Costs one visit per occupied node down to `levels`; a ray that
 /// misses this box hits nothing, so renderers reject it before [`intersect`].
-pub fn occupied_bounds<O: OctreeAccess + ?Sized>(octree: &O, levels: u8) -> Option<(Vec3, Vec3)> {
+pub fn occupied_bounds<B: AsRef<[u8]>>(octree: &Octree<B>, levels: u8) -> Option<(Vec3, Vec3)> {
     let root = octree.root()?;
     let mut lo = Vec3::splat(f32::INFINITY);
     let mut hi = Vec3::splat(f32::NEG_INFINITY);
@@ -166,8 +167,8 @@ fn box_span(min: Vec3, size: f32, origin: Vec3, inv: Vec3, t_min: f32, t_max: f3
 }
 
 #[inline(always)]
-fn traverse<O: OctreeAccess + ?Sized, const ANY: bool>(
-    octree: &O,
+fn traverse<B: AsRef<[u8]>, const ANY: bool>(
+    octree: &Octree<B>,
     ray: &Ray,
     t_min: f32,
     t_max: f32,
@@ -205,7 +206,7 @@ fn traverse<O: OctreeAccess + ?Sized, const ANY: bool>(
         // trip through the stack), the others are pushed farthest first.
         let mut next = None;
         if octree.is_leaf(cell.node) {
-            if let Some(hit) = leaf_hit::<O, ANY>(octree, &cell, o, d) {
+            if let Some(hit) = leaf_hit::<B, ANY>(octree, &cell, o, d) {
                 return Some(hit);
             }
         } else {
@@ -302,8 +303,8 @@ fn traverse<O: OctreeAccess + ?Sized, const ANY: bool>(
 
 /// The nearest voxel hit inside a leaf's span (any hit when `ANY`).
 #[inline(always)]
-fn leaf_hit<O: OctreeAccess + ?Sized, const ANY: bool>(
-    octree: &O,
+fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(
+    octree: &Octree<B>,
     cell: &Cell,
     o: Vec3,
     d: Vec3,

@@ -1,0 +1,411 @@
+//! Validation of `.smo` bytes: the one constructor of an [`Octree`] from bytes.
+
+use glam::Vec3;
+
+use crate::crc32::crc32;
+use crate::error::{FormatError, Result};
+use crate::file::{
+    Counts, Header, Layout, CHECKSUM_SIZE, FLAG_MULTI_VOXEL, FLAG_SURFACE_VOXELS,
+    FORMAT_VERSION_MAJOR, HEADER_SIZE, KNOWN_FLAGS, MAGIC,
+};
+use crate::octree::{bytes_at, low_bits, Octree, Sections};
+use crate::quant::max_code;
+use crate::{OctreeMeta, ValueBits, MAX_DEPTH};
+
+fn corrupt<T>(field: &'static str, reason: impl Into<String>) -> Result<T> {
+    Err(FormatError::corrupt(field, reason))
+}
+
+#[inline]
+fn u32_at(b: &[u8], at: usize) -> u32 {
+    u32::from_le_bytes(bytes_at::<4>(b, at))
+}
+
+impl<B: AsRef<[u8]>> Octree<B> {
+    /// Validates `bytes` as a `.smo` file and reads it in place: the only way from bytes to an
+    /// octree (for a `&[u8]`, [`PackedOctreeView::new`](crate::PackedOctreeView); the bytes are
+    /// used as given, any 1.x version). Checked before anything is used,
+    /// in this order: magic, major version, header size, declared file size against the length,
+    /// the CRC-32, flags, depth, value bits, reserved bytes, transform, counts, every section's
+    /// offset and size against those the counts imply (and zero padding), the node groups
+    /// (first-child bases, a breadth-first walk proving every level is complete and the leaves
+    /// sit exactly at `depth`), the leaf groups (counts 1..=255, first-voxel bases, total), the
+    /// surface bitmap (popcount, padding bits), the corner codes (−Q..=Q). O(len), no allocation
+    /// (except for the message of an error).
+    pub fn new(buffer: B) -> Result<Octree<B>> {
+        let (meta, counts, sections) = validate(buffer.as_ref())?;
+        Ok(Octree::from_parts(buffer, meta, counts, sections))
+    }
+}
+
+/// The checks of [`Octree::new`], in order; on success the octree's description.
+fn validate(bytes: &[u8]) -> Result<(OctreeMeta, Counts, Sections)> {
+    let len = bytes.len();
+    if len < MAGIC.len() {
+        return Err(FormatError::Truncated {
+            len,
+            needed: HEADER_SIZE as u64,
+        });
+    }
+    if bytes[..8] != MAGIC {
+        let mut found = [0u8; 8];
+        found.copy_from_slice(&bytes[..8]);
+        return Err(FormatError::BadMagic { found });
+    }
+    if len < HEADER_SIZE {
+        return Err(FormatError::Truncated {
+            len,
+            needed: HEADER_SIZE as u64,
+        });
+    }
+    let h = Header::read(bytes);
+    let (major, minor) = (h.version_major, h.version_minor);
+    if major != FORMAT_VERSION_MAJOR {
+        return Err(FormatError::UnsupportedVersion {
+            major,
+            minor,
+            supported: FORMAT_VERSION_MAJOR,
+        });
+    }
+    let header_size = u64::from(h.header_size);
+    if header_size < HEADER_SIZE as u64 || header_size % 8 != 0 {
+        return corrupt(
+            "header_size",
+            format!("{header_size} (must be a multiple of 8, at least {HEADER_SIZE})"),
+        );
+    }
+    let file_size = h.file_size;
+    if file_size > len as u64 {
+        return Err(FormatError::Truncated {
+            len,
+            needed: file_size,
+        });
+    }
+    if file_size < len as u64 {
+        return corrupt("file_size", format!("{file_size}, but {len} bytes follow"));
+    }
+    if len < HEADER_SIZE + CHECKSUM_SIZE {
+        return corrupt(
+            "file_size",
+            format!("{len} is smaller than header + checksum"),
+        );
+    }
+    let crc_at = len - CHECKSUM_SIZE;
+    let stored = u32_at(bytes, crc_at);
+    let computed = crc32(&bytes[..crc_at]);
+    if stored != computed {
+        return Err(FormatError::ChecksumMismatch { stored, computed });
+    }
+
+    // ---- Header fields (the checksum is right; is the content consistent?) ----
+    let flags = h.flags;
+    if flags & !KNOWN_FLAGS != 0 {
+        return corrupt("flags", format!("unknown bits {:#x}", flags & !KNOWN_FLAGS));
+    }
+    let depth = h.depth;
+    if depth > MAX_DEPTH {
+        return corrupt("depth", format!("{depth} > {MAX_DEPTH}"));
+    }
+    let raw_bits = h.value_bits;
+    let Some(bits) = ValueBits::from_bits(raw_bits) else {
+        return corrupt("value_bits", format!("{raw_bits} (must be 8 or 16)"));
+    };
+    let reserved = h.reserved;
+    if reserved != 0 {
+        return corrupt("reserved", format!("{reserved:#x} (must be 0)"));
+    }
+    let center = Vec3::new(h.center_x, h.center_y, h.center_z);
+    let scale = h.scale;
+    let meta = OctreeMeta {
+        depth,
+        bits,
+        center,
+        scale,
+    };
+    if !center.is_finite() {
+        return corrupt("center", format!("{center:?} is not finite"));
+    }
+    if !scale.is_finite() || scale <= 0.0 {
+        return corrupt("scale", format!("{scale} (must be finite and > 0)"));
+    }
+    let counts = h.counts();
+    let Counts {
+        inner,
+        leaves,
+        voxels,
+        surface: surface_count,
+    } = counts;
+    if u64::from(inner) + u64::from(leaves) > u64::from(u32::MAX) {
+        return corrupt("inner_node_count", "nodes exceed 2^32 - 1");
+    }
+    if surface_count > voxels {
+        return corrupt(
+            "surface_voxel_count",
+            format!("{surface_count} > voxel_count {voxels}"),
+        );
+    }
+    if voxels < leaves || u64::from(voxels) > 255 * u64::from(leaves) {
+        return corrupt(
+            "voxel_count",
+            format!("{voxels} voxels in {leaves} leaves (each must hold 1..=255)"),
+        );
+    }
+    if depth == 0 && (inner != 0 || leaves > 1) {
+        return corrupt(
+            "leaf_count",
+            format!("depth 0 holds at most the root leaf ({inner} inner, {leaves} leaves)"),
+        );
+    }
+    if (inner == 0) != (leaves == 0) && depth > 0 {
+        return corrupt(
+            "inner_node_count",
+            format!("{inner} inner nodes for {leaves} leaves"),
+        );
+    }
+    let multi = voxels > leaves;
+    if (flags & FLAG_MULTI_VOXEL != 0) != multi {
+        return corrupt("flags", "multi-voxel bit disagrees with the counts");
+    }
+    if (flags & FLAG_SURFACE_VOXELS != 0) != (surface_count > 0) {
+        return corrupt("flags", "surface bit disagrees with surface_voxel_count");
+    }
+
+    // ---- Sections: exactly where the counts put them ----
+    let layout = Layout::new(header_size, counts, bits);
+    if layout.file_size != file_size {
+        return corrupt(
+            "file_size",
+            format!("{file_size}, but the counts imply {}", layout.file_size),
+        );
+    }
+    let table = [
+        (
+            "nodes_offset",
+            h.nodes_offset,
+            "nodes_size",
+            h.nodes_size,
+            layout.nodes,
+        ),
+        (
+            "leaves_offset",
+            h.leaves_offset,
+            "leaves_size",
+            h.leaves_size,
+            layout.leaves,
+        ),
+        (
+            "surface_offset",
+            h.surface_offset,
+            "surface_size",
+            h.surface_size,
+            layout.surface,
+        ),
+        (
+            "corners_offset",
+            h.corners_offset,
+            "corners_size",
+            h.corners_size,
+            layout.corners,
+        ),
+    ];
+    for (off_name, stored_off, size_name, stored_size, (off, size)) in table {
+        if stored_off != off {
+            return corrupt(off_name, format!("{stored_off}, expected {off}"));
+        }
+        if stored_size != size {
+            return corrupt(size_name, format!("{stored_size}, expected {size}"));
+        }
+    }
+    // All offsets are ≤ file_size == len here, so these casts and slices are in bounds.
+    let section = |(off, size): (u64, u64)| &bytes[off as usize..(off + size) as usize];
+    let gaps = [
+        (header_size, layout.nodes.0),
+        (layout.nodes.0 + layout.nodes.1, layout.leaves.0),
+        (layout.leaves.0 + layout.leaves.1, layout.surface.0),
+        (layout.surface.0 + layout.surface.1, layout.corners.0),
+        (layout.corners.0 + layout.corners.1, layout.checksum_offset),
+    ];
+    for (from, to) in gaps {
+        if bytes[from as usize..to as usize].iter().any(|&b| b != 0) {
+            return corrupt("padding", format!("non-zero byte in {from}..{to}"));
+        }
+    }
+    let s = SectionBytes {
+        meta,
+        counts,
+        nodes: section(layout.nodes),
+        leaves: section(layout.leaves),
+        surface: section(layout.surface),
+        corners: section(layout.corners),
+    };
+    s.validate_nodes()?;
+    s.validate_leaves()?;
+    s.validate_surface()?;
+    s.validate_corners()?;
+    Ok((meta, counts, Sections::of(&layout)))
+}
+
+/// The four sections of a file whose header has been checked.
+struct SectionBytes<'a> {
+    meta: OctreeMeta,
+    counts: Counts,
+    nodes: &'a [u8],
+    leaves: &'a [u8],
+    surface: &'a [u8],
+    corners: &'a [u8],
+}
+
+impl SectionBytes<'_> {
+    #[inline]
+    fn mask_at(&self, k: u32) -> u8 {
+        self.nodes[(k as usize >> 3) * 12 + 4 + (k as usize & 7)]
+    }
+
+    fn validate_nodes(&self) -> Result<()> {
+        // Bases: group g's first child is 1 + the popcount of every mask before node 8g.
+        let mut next = 1u64;
+        for (g, rec) in self.nodes.chunks_exact(12).enumerate() {
+            let base = u32_at(rec, 0);
+            if u64::from(base) != next {
+                return corrupt(
+                    "nodes",
+                    format!("group {g} first_child {base}, expected {next}"),
+                );
+            }
+            for (s, &m) in rec[4..].iter().enumerate() {
+                let k = g as u64 * 8 + s as u64;
+                if k >= u64::from(self.counts.inner) && m != 0 {
+                    return corrupt("nodes", format!("padding mask of slot {k} is {m:#x}"));
+                }
+                next += u64::from(m.count_ones());
+            }
+        }
+        if self.counts.inner == 0 {
+            return Ok(());
+        }
+        // Breadth-first walk: level ℓ is the node range [start, end); its children are the next
+        // `Σ popcount` nodes. Levels above depth − 1 must stay among the inner nodes; the last
+        // inner level must end exactly at inner_count and have exactly leaf_count children.
+        let depth = self.meta.depth;
+        let (mut start, mut end) = (0u64, 1u64);
+        for level in 0..depth {
+            let mut children = 0u64;
+            for k in start..end {
+                let m = self.mask_at(k as u32);
+                if m == 0 {
+                    return corrupt(
+                        "nodes",
+                        format!("inner node {k} at level {level} has no child"),
+                    );
+                }
+                children += u64::from(m.count_ones());
+            }
+            if level + 1 < depth {
+                if end + children > u64::from(self.counts.inner) {
+                    return corrupt(
+                        "nodes",
+                        format!(
+                            "level {} would end at node {}, past the {} inner nodes",
+                            level + 1,
+                            end + children,
+                            self.counts.inner
+                        ),
+                    );
+                }
+            } else if end != u64::from(self.counts.inner)
+                || children != u64::from(self.counts.leaves)
+            {
+                return corrupt(
+                    "nodes",
+                    format!(
+                        "the tree has {end} inner nodes and {children} leaves, header says {} and {}",
+                        self.counts.inner, self.counts.leaves
+                    ),
+                );
+            }
+            (start, end) = (end, end + children);
+        }
+        Ok(())
+    }
+
+    fn validate_leaves(&self) -> Result<()> {
+        let mut next = 0u64;
+        for (g, rec) in self.leaves.chunks_exact(12).enumerate() {
+            let base = u32_at(rec, 0);
+            if u64::from(base) != next {
+                return corrupt(
+                    "leaves",
+                    format!("group {g} first_voxel {base}, expected {next}"),
+                );
+            }
+            for (s, &c) in rec[4..].iter().enumerate() {
+                let j = g as u64 * 8 + s as u64;
+                let real = j < u64::from(self.counts.leaves);
+                if real && c == 0 {
+                    return corrupt("leaves", format!("leaf {j} has no voxel"));
+                }
+                if !real && c != 0 {
+                    return corrupt("leaves", format!("padding count of slot {j} is {c}"));
+                }
+                next += u64::from(c);
+            }
+        }
+        if next != u64::from(self.counts.voxels) {
+            return corrupt(
+                "leaves",
+                format!(
+                    "counts sum to {next}, voxel_count is {}",
+                    self.counts.voxels
+                ),
+            );
+        }
+        Ok(())
+    }
+
+    fn validate_surface(&self) -> Result<()> {
+        let mut ones = 0u64;
+        for (w, word) in self.surface.chunks_exact(8).enumerate() {
+            let mut x = u64::from_le_bytes(bytes_at::<8>(word, 0));
+            let first = w as u64 * 64;
+            let valid = u64::from(self.counts.voxels).saturating_sub(first).min(64);
+            if valid < 64 {
+                if x >> valid != 0 {
+                    return corrupt("surface", format!("padding bits set in word {w}"));
+                }
+                x = low_bits(x, valid as u32);
+            }
+            ones += u64::from(x.count_ones());
+        }
+        if ones != u64::from(self.counts.surface) {
+            return corrupt(
+                "surface",
+                format!(
+                    "{ones} bits set, surface_voxel_count is {}",
+                    self.counts.surface
+                ),
+            );
+        }
+        Ok(())
+    }
+
+    fn validate_corners(&self) -> Result<()> {
+        let bad = match self.meta.bits {
+            ValueBits::Eight => self.corners.iter().position(|&b| b as i8 == i8::MIN),
+            ValueBits::Sixteen => self
+                .corners
+                .chunks_exact(2)
+                .position(|c| i16::from_le_bytes([c[0], c[1]]) == i16::MIN),
+        };
+        if let Some(i) = bad {
+            return corrupt(
+                "corners",
+                format!(
+                    "code {} at value {i} is outside ±{}",
+                    -max_code(self.meta.bits) - 1,
+                    max_code(self.meta.bits)
+                ),
+            );
+        }
+        Ok(())
+    }
+}
