@@ -59,12 +59,13 @@ impl Sections {
 ///
 /// The octree *is* its file: [`PackedOctree`] (`Octree<Vec<u8>>`) owns the bytes,
 /// [`PackedOctreeView`] (`Octree<&[u8]>`) borrows them (e.g. a memory-mapped file), and any
-/// other `B: AsRef<[u8]>` works the same. An octree is only made by [`Octree::from_leaves`]
+/// other `B: AsRef<[u8]>` works the same. An octree is only made by [`PackedOctree::from_leaves`]
 /// (which writes the file into a new buffer) or by [`Octree::new`] (which validates bytes first),
 /// so every index a traversal computes from it is in bounds; the accessors still bounds-check,
 /// and panic on a [`NodeRef`] or voxel index from another octree.
 ///
-/// Two octrees are equal when their bytes are.
+/// `B::as_ref` must give the same bytes every time (as `Vec`, slices, `Box<[u8]>`, `Arc<[u8]>`
+/// and memory maps do): validation reads them once. Two octrees are equal when their bytes are.
 #[derive(Clone, Copy)]
 pub struct Octree<B = Vec<u8>> {
     bytes: B,
@@ -75,8 +76,10 @@ pub struct Octree<B = Vec<u8>> {
     dequant: f32,
 }
 
-/// The owned octree: its buffer is the `.smo` file, always in the canonical encoding (what
-/// [`Octree::from_leaves`] writes: version 1.0, a 128-byte header).
+/// The owned octree: its buffer is the `.smo` file. Made by [`PackedOctree::from_leaves`],
+/// [`PackedOctree::from_bytes`], [`PackedOctree::load`] or [`Octree::to_octree`] it is in the canonical
+/// encoding (what the writer writes: version 1.0, a 128-byte header); `PackedOctree::new(bytes)`
+/// keeps the bytes it is given, as every [`Octree::new`] does.
 pub type PackedOctree = Octree<Vec<u8>>;
 
 /// The octree over borrowed bytes: zero copy, the file as given (any 1.x version).
@@ -357,7 +360,7 @@ impl<B: AsRef<[u8]>> Octree<B> {
         }
     }
 
-    /// Whether the bytes are what [`Octree::from_leaves`] would write for this octree:
+    /// Whether the bytes are what [`PackedOctree::from_leaves`] would write for this octree:
     /// version 1.0 with a 128-byte header (validation has checked everything else).
     pub(crate) fn is_canonical(&self) -> bool {
         let h = Header::read(self.as_bytes());
