@@ -239,7 +239,7 @@ struct Timer {
 /// ```no_run
 /// # fn main() -> Result<(), sdfmo_gpu::GpuError> {
 /// use sdfmo_gpu::{GpuCamera, GpuMode, GpuRenderer, Shading};
-/// # let octree: sdfmo_format::PackedOctree = unimplemented!();
+/// let octree = sdfmo_format::PackedOctree::load(std::path::Path::new("part.smo"))?;
 /// let mut gpu = GpuRenderer::new()?; // a typed error without an adapter
 /// let on_gpu = gpu.upload(&octree)?;
 /// let camera = GpuCamera {
