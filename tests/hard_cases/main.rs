@@ -4,6 +4,7 @@
 mod bad_input;
 mod common;
 mod degenerate;
+mod gaps;
 mod grazing;
 mod open_nonmanifold;
 mod scale;

@@ -103,6 +103,26 @@ impl LocalMesh {
         sign_by_pseudo_normal(p, &c, self.pseudo_normal(c.triangle as usize, c.feature))
     }
 
+    /// The closest point to `p` on the triangles `subset` nearer than `cap`, if any.
+    #[inline]
+    pub fn closest_point_subset(&self, subset: &[u32], p: Vec3, cap: f32) -> Option<Vec3> {
+        let c = self.slices().closest_point_in_subset(subset, p, cap);
+        c.is_found().then_some(c.point)
+    }
+
+    /// Signed distance from `p` to `subset` when its closest point lies nearer than `reach`
+    /// and on a clean feature (whose pseudo-normal signs reliably); `None` otherwise. With
+    /// `subset` a leaf's gathered triangles of one component and `reach` the gather margin,
+    /// the answer is the distance to the whole component: every triangle not gathered is
+    /// farther from the cell than that.
+    #[inline]
+    pub fn signed_distance_near(&self, subset: &[u32], p: Vec3, reach: f32) -> Option<f32> {
+        let c = self.slices().closest_point_in_subset(subset, p, reach);
+        (c.is_found() && self.feature_is_clean(c.triangle as usize, c.feature)).then(|| {
+            sign_by_pseudo_normal(p, &c, self.pseudo_normal(c.triangle as usize, c.feature))
+        })
+    }
+
     /// Unsigned distance from `p` to `subset`, at most `cap`.
     #[inline]
     pub fn unsigned_distance_subset(&self, subset: &[u32], p: Vec3, cap: f32) -> f32 {

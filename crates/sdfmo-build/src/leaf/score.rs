@@ -16,12 +16,47 @@ pub(crate) struct ReachScratch {
     zeros: Vec<Vec3>,
 }
 
+/// The gap the SVO voxel closes (points of the free space between the leaf's components that
+/// it calls *inside*, see the `gaps` module; 0 when it has no zero set in the cell and the leaf
+/// would be dropped), and how many of those points the multi set's volume voxels close too.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct GapCounts {
+    /// Gap points the SVO voxel closes.
+    pub svo: usize,
+    /// How many of them the multi set closes too.
+    pub multi: usize,
+}
+
+impl GapCounts {
+    /// Score term of the SVO voxel: [`Params::gap_weight`] where it closes a gap.
+    fn svo_term(&self, p: &Params) -> f32 {
+        self.term(p, self.svo)
+    }
+
+    /// Score term of the multi set: the weight × the fraction of the gap it closes too.
+    fn multi_term(&self, p: &Params) -> f32 {
+        self.term(p, self.multi)
+    }
+
+    fn term(&self, p: &Params, closed: usize) -> f32 {
+        if self.svo == 0 {
+            0.0
+        } else {
+            p.gap_weight * closed as f32 / self.svo as f32
+        }
+    }
+}
+
 /// Whether the candidate set `cands` should replace the SVO voxel (global corners `g`,
 /// quantised `gq`, its fit `svo`). The score of a set is its mean error at the samples
 /// (`max(min_v |f_v|, buried depth inside a volume voxel)`), plus its false-surface term
 /// ([`false_surface`]), plus [`Params::voxel_cost`] per voxel beyond the first; the multi set
 /// must score better by [`Params::earn`] *and* its visible zero set must reach no farther
 /// from the mesh than the SVO voxel's plus [`Params::reach_tol`] ([`zero_reach`]).
+///
+/// Both scores count the inside/outside errors in the free space between components
+/// ([`GapCounts`], weighted by [`Params::gap_weight`]); a multi set that keeps open more of a
+/// gap than the SVO voxel may reach up to [`Params::gap_reach_tol`] instead.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn multi_earns_its_place(
     p: &Params,
@@ -32,23 +67,27 @@ pub(crate) fn multi_earns_its_place(
     gq: &[f32; 8],
     svo: &SvoFit,
     samples: &Samples,
+    gaps: GapCounts,
     cands: &[Cand],
     s: &mut ReachScratch,
 ) -> bool {
     let svo_crosses = p.crosses(g);
     let (false_m, false_s) = false_surface(p, mesh, tris, cell, cands, svo_crosses.then_some(gq));
     let svo_score = if svo_crosses {
-        svo.mean_error + false_s
+        svo.mean_error + false_s + gaps.svo_term(p)
     } else {
         1.0
     };
-    let multi_score =
-        sample_error(samples, cands, cell) + false_m + p.voxel_cost * (cands.len() as f32 - 1.0);
+    let multi_score = sample_error(samples, cands, cell)
+        + false_m
+        + p.voxel_cost * (cands.len() as f32 - 1.0)
+        + gaps.multi_term(p);
     // A NaN score (never expected) keeps the SVO voxel.
     let better = multi_score + p.earn < svo_score;
     if !better {
         return false;
     }
+
     let reach_s = if svo_crosses {
         zero_reach(
             p,
@@ -69,7 +108,15 @@ pub(crate) fn multi_earns_its_place(
         s.surf.push(c.surface);
     }
     let reach_m = zero_reach(p, mesh, tris, cell, &s.qs, &s.surf, &mut s.zeros);
-    reach_m <= reach_s + p.reach_tol * cell.h
+    // Keeping open a gap that the SVO voxel closes is worth some reach: one closed leaf shuts
+    // the gap for every ray along it, while the reach it costs is where each part's own voxel
+    // rounds the part's sharp end.
+    let tol = if gaps.multi < gaps.svo {
+        p.gap_reach_tol
+    } else {
+        p.reach_tol
+    };
+    reach_m <= reach_s + tol * cell.h
 }
 
 /// Mean error of the set at the samples (cell edges, each capped at 1): the distance to the
@@ -297,17 +344,50 @@ mod tests {
         let samples = leaf.samples(&f, &p);
         let mut s = ReachScratch::default();
         // Does `multi` replace the SVO voxel `svo` (taken as exact: its own quantised corners)?
-        let mut earns = |svo: [f32; 8], multi: &[Cand]| {
+        let mut earns_with = |svo: [f32; 8], multi: &[Cand], gaps: GapCounts| {
             let fit = crate::leaf::samples::svo_fit(&svo, &samples, &leaf.cell);
             let (mesh, tris, cell) = (&f.mesh, &leaf.tris, &leaf.cell);
             multi_earns_its_place(
-                &p, mesh, tris, cell, &svo, &svo, &fit, &samples, multi, &mut s,
+                &p, mesh, tris, cell, &svo, &svo, &fit, &samples, gaps, multi, &mut s,
             )
         };
+        let none = GapCounts::default();
         // Exact multi set against a shifted SVO voxel: earns it; the other way round: does not.
-        assert!(earns(off, &[cand(exact, false)]));
-        assert!(!earns(exact, &[cand(off, false)]));
+        assert!(earns_with(off, &[cand(exact, false)], none));
+        assert!(!earns_with(exact, &[cand(off, false)], none));
         // Equal sets: the voxel cost and `earn` keep the SVO voxel.
-        assert!(!earns(exact, &[cand(exact, false), cand(exact, true)]));
+        assert!(!earns_with(
+            exact,
+            &[cand(exact, false), cand(exact, true)],
+            none
+        ));
+        // Closed gap points between components weigh in the score: a worse multi set that
+        // keeps open a gap the SVO voxel closes earns its place as long as it reaches no
+        // farther than `gap_reach_tol` (the shifted voxel is 0.4 h off); when both close it,
+        // the samples decide.
+        let gaps = |svo, multi| GapCounts { svo, multi };
+        let mut lenient = p;
+        lenient.gap_reach_tol = 0.5;
+        let fit = crate::leaf::samples::svo_fit(&exact, &samples, &leaf.cell);
+        let (mesh, tris, cell) = (&f.mesh, &leaf.tris, &leaf.cell);
+        let multi = [cand(off, false)];
+        for (q, earns) in [(&lenient, true), (&p, false)] {
+            let r = multi_earns_its_place(
+                q,
+                mesh,
+                tris,
+                cell,
+                &exact,
+                &exact,
+                &fit,
+                &samples,
+                gaps(4, 0),
+                &multi,
+                &mut ReachScratch::default(),
+            );
+            assert_eq!(r, earns, "gap_reach_tol {}", q.gap_reach_tol);
+        }
+        assert!(earns_with(off, &[cand(exact, false)], gaps(4, 4)));
+        assert!(!earns_with(exact, &[cand(off, false)], gaps(4, 4)));
     }
 }
