@@ -146,6 +146,7 @@ mod tests {
         Voxel {
             corners: core::array::from_fn(|i| 0.5 - (i >> 2) as f32),
             surface: false,
+            clip: false,
         }
     }
 
@@ -180,6 +181,7 @@ mod tests {
         let sheet = Voxel {
             corners: core::array::from_fn(|i| 0.25 - (i & 1) as f32),
             surface: true,
+            clip: false,
         };
         let o = one_leaf(vec![plane(), sheet]);
         // Near the sheet, above it: |F| = z − 0.25 < 0.5 − x.

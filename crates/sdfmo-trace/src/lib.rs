@@ -15,7 +15,7 @@
 //!
 //! // One leaf at depth 1 (cell [0,1]³) holding the plane x = 0.5 (inside x > 0.5).
 //! let corners = core::array::from_fn(|i| 0.5 - (i >> 2) as f32);
-//! let leaf = LeafInput { coord: [1, 1, 1], voxels: vec![Voxel { corners, surface: false }] };
+//! let leaf = LeafInput { coord: [1, 1, 1], voxels: vec![Voxel { corners, surface: false, clip: false }] };
 //! let meta = OctreeMeta { depth: 1, bits: ValueBits::Sixteen, center: Vec3::ZERO, scale: 1.0 };
 //! let octree = PackedOctree::from_leaves(meta, vec![leaf]).unwrap();
 //! let ray = Ray { origin: Vec3::new(-3.0, 0.5, 0.5), dir: Vec3::X };

@@ -384,7 +384,11 @@ mod tests {
                                 Vec3::new((i >> 2) as f32, ((i >> 1) & 1) as f32, (i & 1) as f32);
                             sdf(min + c * h)
                         });
-                        voxels.push(Voxel { corners, surface });
+                        voxels.push(Voxel {
+                            corners,
+                            surface,
+                            clip: false,
+                        });
                     }
                     if !voxels.is_empty() {
                         leaves.push(LeafInput {
@@ -712,6 +716,7 @@ mod tests {
             voxels: vec![Voxel {
                 corners,
                 surface: true,
+                clip: false,
             }],
         };
         let octree = PackedOctree::from_leaves(meta(0), vec![leaf]).unwrap();
