@@ -7,14 +7,17 @@
 //!
 //! Properties checked on every accepted input: the borrowed form (`PackedOctreeView`, the bytes
 //! read in place) accepts it too, its owned copy is the octree `from_bytes` gives; a full walk through the traversal accessors touches exactly `leaf_count`
-//! leaves and every voxel once; writing it back and reading again round-trips.
+//! leaves and every voxel once, and the surface and clip bits read alike in both forms; no leaf
+//! holds clip-only voxels alone; writing it back and reading again round-trips; decoding the
+//! leaves and building them again (`from_leaves`) keeps every voxel's surface and clip bits, the
+//! clip count and the version (1.1 iff there are clip voxels).
 //!
 //! Seeds (small valid files, regenerated deterministically; `*.smo` is git-ignored):
 //! `cargo run -p sdfmo-format --example smo_sizes -- --max-depth 4 --write fuzz/corpus/fuzz_smo`.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use sdfmo_format::{crc32, PackedOctree, PackedOctreeView};
+use sdfmo_format::{crc32, LeafInput, PackedOctree, PackedOctreeView};
 
 fn check(bytes: &[u8]) {
     let owned = PackedOctree::from_bytes(bytes);
@@ -36,10 +39,13 @@ fn check(bytes: &[u8]) {
             let r = o.leaf_voxels(n);
             assert!(!r.is_empty() && r.end as usize <= o.voxel_count());
             assert_eq!(r, v.leaf_voxels(n));
+            assert_eq!(o.any_clip_voxel(r.clone()), r.clone().any(|x| o.voxel_is_clip(x)));
+            assert!(r.clone().any(|x| !(o.voxel_is_surface(x) && o.voxel_is_clip(x))));
             for vx in r {
                 let c = o.voxel_corners(vx);
                 assert!(c.iter().all(|x| x.is_finite() && x.abs() <= o.dmax() * 1.0001));
                 assert_eq!(o.voxel_is_surface(vx), v.voxel_is_surface(vx));
+                assert_eq!(o.voxel_is_clip(vx), v.voxel_is_clip(vx));
                 next_voxel += 1;
             }
         } else {
@@ -58,6 +64,24 @@ fn check(bytes: &[u8]) {
     assert_eq!(next_voxel as usize, o.voxel_count());
     let again = PackedOctree::from_bytes(&o.to_bytes()).expect("re-encoded octree must load");
     assert!(again == o);
+
+    // Decode → encode → decode keeps the voxel kinds (corners may requantise by a code).
+    let leaves: Vec<LeafInput> = o
+        .leaves()
+        .map(|(coord, voxels)| LeafInput { coord, voxels })
+        .collect();
+    let rebuilt =
+        PackedOctree::from_leaves(*o.meta(), leaves.clone()).expect("decoded leaves build");
+    assert_eq!(rebuilt.clip_voxel_count(), o.clip_voxel_count());
+    assert_eq!(rebuilt.surface_voxel_count(), o.surface_voxel_count());
+    assert_eq!(rebuilt.flags(), o.flags());
+    assert_eq!(rebuilt.as_bytes()[10], o.as_bytes()[10], "minor version");
+    for ((_, got), want) in rebuilt.leaves().zip(&leaves) {
+        assert_eq!(got.len(), want.voxels.len());
+        for (g, w) in got.iter().zip(&want.voxels) {
+            assert_eq!((g.surface, g.clip), (w.surface, w.clip));
+        }
+    }
 }
 
 fuzz_target!(|data: &[u8]| {

@@ -58,12 +58,14 @@ fn leaves(depth: u8, with_plate: bool) -> Vec<LeafInput> {
             voxels.push(Voxel {
                 corners: corners(depth, c, &sphere),
                 surface: false,
+                clip: false,
             });
         }
         if near_plate {
             voxels.push(Voxel {
                 corners: corners(depth, c, &plate),
                 surface: true,
+                clip: false,
             });
         }
         out.push(LeafInput { coord: c, voxels });
@@ -111,14 +113,20 @@ fn load_files(paths: Vec<String>) -> Result<(), Box<dyn std::error::Error>> {
     Ok(())
 }
 
-/// Small files (fuzzing seeds): empty, a lone root leaf, a few leaves at depth 2 and 3.
+/// Small files (fuzzing seeds): empty, a lone root leaf, a few leaves at depth 2 and 3, and a
+/// version-1.1 file with clip voxels (an intersect pair, a surface voxel with a clip-only one).
 fn write_tiny(dir: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
     std::fs::create_dir_all(dir)?;
     let v = |d: f32, surface: bool| Voxel {
         corners: [d, -d, d, -d, 0.5 * d, 0.0, -0.25 * d, d],
         surface,
+        clip: false,
     };
-    let cases: [(&str, u8, ValueBits, Vec<LeafInput>); 4] = [
+    let clipped = |mut x: Voxel| {
+        x.clip = true;
+        x
+    };
+    let cases: [(&str, u8, ValueBits, Vec<LeafInput>); 5] = [
         ("tiny_empty", 3, ValueBits::Eight, vec![]),
         (
             "tiny_root_leaf",
@@ -152,6 +160,25 @@ fn write_tiny(dir: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
                         .collect(),
                 })
                 .collect(),
+        ),
+        (
+            "tiny_d2_clip",
+            2,
+            ValueBits::Eight,
+            vec![
+                LeafInput {
+                    coord: [1, 2, 3],
+                    voxels: vec![clipped(v(0.3, false)), clipped(v(-0.2, false))],
+                },
+                LeafInput {
+                    coord: [2, 2, 3],
+                    voxels: vec![v(0.3, true), clipped(v(0.1, true))],
+                },
+                LeafInput {
+                    coord: [0, 0, 0],
+                    voxels: vec![v(0.4, false)],
+                },
+            ],
         ),
     ];
     for (name, depth, bits, leaves) in cases {

@@ -51,6 +51,12 @@ pub enum FormatError {
         /// The largest allowed count.
         max: usize,
     },
+    /// Every voxel of a leaf is a clip-only voxel (surface + clip): nothing in it could be hit.
+    #[error("leaf at {coord:?} has only clip-only voxels (surface + clip): nothing to hit")]
+    ClipOnlyLeaf {
+        /// The leaf's coordinate.
+        coord: [u32; 3],
+    },
     /// A corner value is NaN or infinite.
     #[error("leaf at {coord:?}, voxel {voxel}, corner {corner} is not finite ({value})")]
     NonFiniteCorner {

@@ -16,8 +16,23 @@ pub const MAGIC: [u8; 8] = [0x89, b'S', b'M', b'O', b'\r', b'\n', 0x1A, b'\n'];
 
 /// Major version: a change means the layout changed and old readers must refuse the file.
 pub const FORMAT_VERSION_MAJOR: u16 = 1;
-/// Minor version: compatible additions (a longer header, tolerated by every 1.x reader).
-pub const FORMAT_VERSION_MINOR: u16 = 0;
+/// Newest minor version this crate reads and writes: 1 (clip voxels, [`FLAG_CLIP_VOXELS`]).
+///
+/// The writer writes the lowest minor that describes the file: 0 when no voxel has the clip bit
+/// (the file is then byte for byte what a 1.0 writer writes), 1 when one has. Every 1.x reader
+/// accepts a longer header; a 1.0 reader refuses a 1.1 file with clip voxels by its unknown flag
+/// bit.
+pub const FORMAT_VERSION_MINOR: u16 = 1;
+
+/// The minor version of a file with (`true`) or without clip voxels: 1 or 0.
+#[inline]
+pub(crate) const fn minor_version(clip: bool) -> u16 {
+    if clip {
+        1
+    } else {
+        0
+    }
+}
 
 /// Size of the version-1.0 header in bytes (a 1.x header may be longer; see `header_size`).
 pub const HEADER_SIZE: usize = 128;
@@ -26,8 +41,11 @@ pub const HEADER_SIZE: usize = 128;
 pub const FLAG_MULTI_VOXEL: u32 = 1 << 0;
 /// Header flag bit 1: at least one voxel is a surface (thin) voxel.
 pub const FLAG_SURFACE_VOXELS: u32 = 1 << 1;
+/// Header flag bit 2 (version 1.1): at least one voxel has the clip bit; the file then holds the
+/// clip bitmap after the corners.
+pub const FLAG_CLIP_VOXELS: u32 = 1 << 2;
 /// Flag bits defined in this version; every other bit must be zero.
-pub const KNOWN_FLAGS: u32 = FLAG_MULTI_VOXEL | FLAG_SURFACE_VOXELS;
+pub const KNOWN_FLAGS: u32 = FLAG_MULTI_VOXEL | FLAG_SURFACE_VOXELS | FLAG_CLIP_VOXELS;
 
 /// Size in bytes of the trailing CRC-32.
 pub const CHECKSUM_SIZE: usize = 4;
@@ -224,14 +242,15 @@ header_values! {
 }
 
 impl Header {
-    /// The header the writer puts in front of an octree with these counts: version 1.0, a
-    /// [`HEADER_SIZE`]-byte header and the sections where [`Layout`] puts them.
+    /// The header the writer puts in front of an octree with these counts: version 1.0 (1.1
+    /// with clip voxels), a [`HEADER_SIZE`]-byte header and the sections where [`Layout`] puts
+    /// them.
     pub(crate) fn canonical(meta: &OctreeMeta, counts: Counts) -> Header {
         let layout = Layout::new(HEADER_SIZE as u64, counts, meta.bits);
         Header {
             magic: MAGIC,
             version_major: FORMAT_VERSION_MAJOR,
-            version_minor: FORMAT_VERSION_MINOR,
+            version_minor: minor_version(counts.clip > 0),
             header_size: HEADER_SIZE as u32,
             flags: counts.flags(),
             depth: meta.depth,
@@ -277,18 +296,21 @@ impl Header {
         }
     }
 
-    /// The counts the header declares.
+    /// The counts the header declares. The header has no clip count: `clip` is 1 when the
+    /// [`FLAG_CLIP_VOXELS`] bit is set (enough for the layout), 0 otherwise; validation replaces
+    /// it with the popcount of the clip bitmap.
     pub(crate) fn counts(&self) -> Counts {
         Counts {
             inner: self.inner_node_count,
             leaves: self.leaf_count,
             voxels: self.voxel_count,
             surface: self.surface_voxel_count,
+            clip: u32::from(self.flags & FLAG_CLIP_VOXELS != 0),
         }
     }
 }
 
-/// What the layout of a file follows from: its four counts.
+/// What the layout of a file follows from: its counts (and whether it has clip voxels).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(crate) struct Counts {
     /// Inner nodes `I`.
@@ -299,6 +321,9 @@ pub(crate) struct Counts {
     pub(crate) voxels: u32,
     /// Surface voxels `S`.
     pub(crate) surface: u32,
+    /// Voxels with the clip bit (not stored in the header: the popcount of the clip bitmap,
+    /// which exists iff this is > 0).
+    pub(crate) clip: u32,
 }
 
 impl Counts {
@@ -310,6 +335,9 @@ impl Counts {
         }
         if self.surface > 0 {
             flags |= FLAG_SURFACE_VOXELS;
+        }
+        if self.clip > 0 {
+            flags |= FLAG_CLIP_VOXELS;
         }
         flags
     }
@@ -328,6 +356,8 @@ pub(crate) struct Layout {
     pub(crate) leaves: (u64, u64),
     pub(crate) surface: (u64, u64),
     pub(crate) corners: (u64, u64),
+    /// The clip bitmap: size 0 (at the end of the corners) in a file without clip voxels.
+    pub(crate) clip: (u64, u64),
     pub(crate) checksum_offset: u64,
     pub(crate) file_size: u64,
 }
@@ -338,16 +368,20 @@ impl Layout {
         let leaves_size = u64::from(counts.leaves).div_ceil(8) * 12;
         let surface_size = u64::from(counts.voxels).div_ceil(64) * 8;
         let corners_size = u64::from(counts.voxels) * 8 * bits.bytes() as u64;
+        // Only a file with clip voxels has the section (a file without is 1.0's layout).
+        let clip_size = if counts.clip > 0 { surface_size } else { 0 };
         let n = align8(header_size);
         let l = align8(n + nodes_size);
         let s = align8(l + leaves_size);
         let c = align8(s + surface_size);
-        let checksum_offset = align8(c + corners_size);
+        let k = align8(c + corners_size);
+        let checksum_offset = align8(k + clip_size);
         Layout {
             nodes: (n, nodes_size),
             leaves: (l, leaves_size),
             surface: (s, surface_size),
             corners: (c, corners_size),
+            clip: (k, clip_size),
             checksum_offset,
             file_size: checksum_offset + CHECKSUM_SIZE as u64,
         }
@@ -367,6 +401,8 @@ pub struct SectionSizes {
     pub surface: usize,
     /// Quantised corners (8 or 16 bytes per voxel).
     pub corners: usize,
+    /// Clip bitmap (8 bytes per 64 voxels; 0 in a file without clip voxels).
+    pub clip: usize,
     /// Zero padding that aligns each section to 8 bytes.
     pub padding: usize,
     /// The trailing CRC-32.
@@ -398,20 +434,21 @@ impl<B: AsRef<[u8]>> Octree<B> {
         // The header size is a multiple of 8, so the node section starts right after it.
         let header = self.sections.nodes;
         let l = Layout::new(header as u64, self.counts, self.meta.bits);
-        let used = header as u64 + l.nodes.1 + l.leaves.1 + l.surface.1 + l.corners.1;
+        let used = header as u64 + l.nodes.1 + l.leaves.1 + l.surface.1 + l.corners.1 + l.clip.1;
         SectionSizes {
             header,
             nodes: l.nodes.1 as usize,
             leaves: l.leaves.1 as usize,
             surface: l.surface.1 as usize,
             corners: l.corners.1 as usize,
+            clip: l.clip.1 as usize,
             padding: (l.checksum_offset - used) as usize,
             checksum: CHECKSUM_SIZE,
             total: l.file_size as usize,
         }
     }
 
-    /// Header flags: [`FLAG_MULTI_VOXEL`], [`FLAG_SURFACE_VOXELS`].
+    /// Header flags: [`FLAG_MULTI_VOXEL`], [`FLAG_SURFACE_VOXELS`], [`FLAG_CLIP_VOXELS`].
     pub fn flags(&self) -> u32 {
         self.counts.flags()
     }
@@ -431,7 +468,8 @@ impl<B: AsRef<[u8]>> Octree<B> {
 
 impl PackedOctree {
     /// Reads a `.smo` file from bytes, validating everything first (see [`Octree::new`]), into
-    /// an owned octree in the canonical encoding (version 1.0, 128-byte header). Time and memory
+    /// an owned octree in the canonical encoding (version 1.0, or 1.1 with clip voxels; a
+    /// 128-byte header). Time and memory
     /// O(bytes.len()).
     pub fn from_bytes(bytes: &[u8]) -> Result<PackedOctree> {
         Ok(PackedOctreeView::new(bytes)?.to_octree())
@@ -481,11 +519,13 @@ mod tests {
                         let mut voxels = vec![Voxel {
                             corners,
                             surface: false,
+                            clip: false,
                         }];
                         if (x + y + z) % 3 == 0 {
                             voxels.push(Voxel {
                                 corners: corners.map(|c| -c),
                                 surface: true,
+                                clip: false,
                             });
                         }
                         out.push(LeafInput {
@@ -523,6 +563,94 @@ mod tests {
                 s.header + s.nodes + s.leaves + s.surface + s.corners + s.padding + s.checksum,
                 s.total
             );
+            assert_eq!(s.clip, 0);
+        }
+    }
+
+    /// `sphere_leaves` with the clip bit on the second voxel of some leaves, making each of
+    /// them an intersect voxel (volume + clip) or a clip-only voxel (surface + clip).
+    fn clipped_sphere_leaves(depth: u8) -> Vec<LeafInput> {
+        let mut leaves = sphere_leaves(depth);
+        for (i, l) in leaves.iter_mut().enumerate() {
+            if l.voxels.len() == 2 && i % 2 == 0 {
+                l.voxels[1].clip = true;
+                l.voxels[1].surface = i % 4 == 0;
+            }
+        }
+        leaves
+    }
+
+    #[test]
+    fn clip_voxels_add_one_bitmap_after_the_corners_and_minor_version_1() {
+        for bits in [ValueBits::Eight, ValueBits::Sixteen] {
+            let leaves = clipped_sphere_leaves(5);
+            // The same leaves without clip bits.
+            let mut unclipped = leaves.clone();
+            unclipped
+                .iter_mut()
+                .flat_map(|l| &mut l.voxels)
+                .for_each(|v| v.clip = false);
+            let plain = PackedOctree::from_leaves(meta(5, bits), unclipped).unwrap();
+            let clip_count = leaves
+                .iter()
+                .flat_map(|l| &l.voxels)
+                .filter(|v| v.clip)
+                .count();
+            assert!(clip_count > 10);
+            let o = PackedOctree::from_leaves(meta(5, bits), leaves.clone()).unwrap();
+            assert_eq!(o.clip_voxel_count(), clip_count);
+            assert!(o.has_clip_voxels() && !plain.has_clip_voxels());
+            assert_eq!(o.flags(), plain.flags() | FLAG_CLIP_VOXELS);
+            let b = o.to_bytes();
+            let h = Header::read(&b);
+            assert_eq!((h.version_major, h.version_minor), (1, 1));
+            assert_eq!(h.flags, o.flags());
+            // Everything before the checksum is the plain file's, then the bitmap.
+            let s = o.section_sizes();
+            assert_eq!(s.clip, o.voxel_count().div_ceil(64) * 8);
+            assert_eq!(s.total, plain.byte_size() + s.clip);
+            assert_eq!(
+                s.header
+                    + s.nodes
+                    + s.leaves
+                    + s.surface
+                    + s.corners
+                    + s.clip
+                    + s.padding
+                    + s.checksum,
+                s.total
+            );
+            let p = plain.as_bytes();
+            let crc_at = p.len() - CHECKSUM_SIZE;
+            // Header fields other than version, flags and file size are the plain file's.
+            for f in HEADER_FIELDS
+                .iter()
+                .filter(|f| !["version_minor", "flags", "file_size"].contains(&f.name))
+            {
+                assert_eq!(
+                    b[f.offset..f.offset + f.size],
+                    p[f.offset..f.offset + f.size]
+                );
+            }
+            assert_eq!(b[HEADER_SIZE..crc_at], p[HEADER_SIZE..crc_at]);
+            let bitmap = &b[crc_at..crc_at + s.clip];
+            let mut v = 0usize;
+            for (_, voxels) in o.leaves() {
+                for voxel in voxels {
+                    assert_eq!(bitmap[v / 8] >> (v % 8) & 1 == 1, voxel.clip);
+                    assert_eq!(o.voxel_is_clip(v as u32), voxel.clip);
+                    v += 1;
+                }
+            }
+            // Round trip, and the decoded leaves carry the bits.
+            let back = PackedOctree::from_bytes(&b).unwrap();
+            assert_eq!(back, o);
+            let mut sorted = leaves;
+            sorted.sort_by_key(|l| crate::morton::encode(l.coord));
+            for ((_, got), want) in back.leaves().zip(&sorted) {
+                let flags = |v: &[Voxel]| v.iter().map(|x| (x.surface, x.clip)).collect::<Vec<_>>();
+                assert_eq!(flags(&got), flags(&want.voxels));
+            }
         }
     }
 
@@ -539,7 +667,8 @@ mod tests {
         let f32_of = |name: &str| f32::from_le_bytes(at(name).try_into().unwrap());
         assert_eq!(at("magic"), &MAGIC);
         assert_eq!(at("version_major"), &FORMAT_VERSION_MAJOR.to_le_bytes());
-        assert_eq!(at("version_minor"), &FORMAT_VERSION_MINOR.to_le_bytes());
+        // No clip voxel: version 1.0, what a 1.0 writer writes.
+        assert_eq!(at("version_minor"), &0u16.to_le_bytes());
         assert_eq!(u32_of("header_size"), HEADER_SIZE as u32);
         assert_eq!(u32_of("flags"), FLAG_MULTI_VOXEL | FLAG_SURFACE_VOXELS);
         assert_eq!(at("depth"), &[4]);

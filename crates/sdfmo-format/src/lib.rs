@@ -1,8 +1,8 @@
 //! The packed SDF multi-octree: its in-memory layout, its `.smo` file and its validation.
 //!
 //! A [`PackedOctree`] is built from the leaves the builder produces ([`LeafInput`]: a cell at the
-//! target depth and its voxels, each 8 corner signed distances plus a *surface* flag) with
-//! [`PackedOctree::from_leaves`], saved with [`PackedOctree::save`] / [`PackedOctree::to_bytes`]
+//! target depth and its voxels, each 8 corner signed distances plus a *surface* and a *clip*
+//! flag) with [`PackedOctree::from_leaves`], saved with [`PackedOctree::save`] / [`PackedOctree::to_bytes`]
 //! and read back with [`PackedOctree::load`] / [`PackedOctree::from_bytes`], which validate every
 //! count, offset and index, and the CRC-32, before using anything.
 //!
@@ -36,6 +36,9 @@
 //!   of the group's first leaf; a leaf's voxels start after its predecessors' in the group.
 //!   1.5 bytes per leaf.
 //! * **Surface flags**: one bit per voxel (bit `v % 64` of 64-bit word `v / 64`).
+//! * **Clip flags** (only in files with clip voxels, version 1.1): one bit per voxel, the same
+//!   way, after the corners. A clip voxel intersects the other voxels of its leaf (see
+//!   [`Voxel::clip`]).
 //! * **Corners**: 8 signed codes per voxel, corner `i = 4x + 2y + z`, quantised symmetrically over
 //!   `± dmax` (the leaf diagonal, see [`quant`]): 8 bytes per voxel at 8 bits, 16 at 16 bits.
 //!
@@ -46,7 +49,8 @@
 //!
 //! The tracer walks the octree with [`Octree::root`], [`Octree::child_mask`],
 //! [`Octree::child`], [`Octree::first_child_index`], [`Octree::is_leaf`],
-//! [`Octree::leaf_voxels`], [`Octree::voxel_corners`] and [`Octree::voxel_is_surface`]:
+//! [`Octree::leaf_voxels`], [`Octree::voxel_corners`], [`Octree::voxel_is_surface`],
+//! [`Octree::voxel_is_clip`] and [`Octree::any_clip_voxel`]:
 //! `#[inline]`, allocation-free, a couple of fixed-size unaligned loads each, bounds-checked (an
 //! index from another octree panics). A [`NodeRef`] is a `Copy` node index.
 
@@ -66,8 +70,9 @@ use glam::Vec3;
 pub use crc32::crc32;
 pub use error::{FormatError, Result};
 pub use file::{
-    HeaderField, SectionSizes, CHECKSUM_SIZE, FLAG_MULTI_VOXEL, FLAG_SURFACE_VOXELS,
-    FORMAT_VERSION_MAJOR, FORMAT_VERSION_MINOR, HEADER_FIELDS, HEADER_SIZE, KNOWN_FLAGS, MAGIC,
+    HeaderField, SectionSizes, CHECKSUM_SIZE, FLAG_CLIP_VOXELS, FLAG_MULTI_VOXEL,
+    FLAG_SURFACE_VOXELS, FORMAT_VERSION_MAJOR, FORMAT_VERSION_MINOR, HEADER_FIELDS, HEADER_SIZE,
+    KNOWN_FLAGS, MAGIC,
 };
 pub use interpolant::{corner_offset, trilinear, trilinear_gradient};
 pub use octree::{NodeRef, Octree, PackedOctree, PackedOctreeView};
@@ -125,6 +130,22 @@ pub struct Voxel {
     pub corners: [f32; 8],
     /// Surface (thin) voxel: its zero set is a surface without inside or outside.
     pub surface: bool,
+    /// Clip voxel: it clips (intersects) the other voxels of its leaf — a hit of any other
+    /// voxel of the leaf counts only where this voxel's interpolant is ≤ 0. A volume voxel with
+    /// the clip bit (an *intersect* voxel) is also hit itself, as a volume voxel; a surface voxel
+    /// with the clip bit (a *clip-only* voxel) is never hit itself. So two intersect voxels make
+    /// the solid `max(a, b) ≤ 0` (a sharp convex edge), and a surface voxel with a clip-only
+    /// voxel is the sheet cut where the clip voxel turns positive (an open rim). A leaf may not
+    /// consist of clip-only voxels alone. `FORMAT.md` (section `clip`) states the rule exactly.
+    pub clip: bool,
+}
+
+impl Voxel {
+    /// A clip-only voxel (surface + clip): it only clips the other voxels of its leaf.
+    #[inline]
+    pub fn is_clip_only(&self) -> bool {
+        self.surface && self.clip
+    }
 }
 
 /// A leaf at the target depth: integer cell coordinates in `[0, 2^depth)³` and its voxels (≥ 1).

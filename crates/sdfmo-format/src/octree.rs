@@ -6,7 +6,7 @@ use std::ops::Range;
 
 use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
-use crate::file::{Counts, Header, Layout, CHECKSUM_SIZE, HEADER_SIZE};
+use crate::file::{minor_version, Counts, Header, Layout, CHECKSUM_SIZE, HEADER_SIZE};
 use crate::quant::{self, dequant_scale, quantize};
 use crate::{morton, LeafInput, OctreeMeta, ValueBits, Voxel, MAX_VOXELS_PER_LEAF};
 
@@ -29,7 +29,7 @@ impl NodeRef {
     }
 }
 
-/// Byte offsets of the four sections in the buffer.
+/// Byte offsets of the sections in the buffer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Sections {
     /// Node groups: 12 bytes per 8 inner nodes (`first_child` u32, then 8 masks).
@@ -40,6 +40,9 @@ pub(crate) struct Sections {
     pub(crate) surface: usize,
     /// Corner codes: `8 · value_bits / 8` bytes per voxel.
     pub(crate) corners: usize,
+    /// Clip bitmap (bit `v % 8` of byte `v / 8`), only when the octree has clip voxels (else
+    /// the end of the corners: nothing is read there).
+    pub(crate) clip: usize,
 }
 
 impl Sections {
@@ -50,6 +53,7 @@ impl Sections {
             leaves: layout.leaves.0 as usize,
             surface: layout.surface.0 as usize,
             corners: layout.corners.0 as usize,
+            clip: layout.clip.0 as usize,
         }
     }
 }
@@ -143,13 +147,16 @@ impl PackedOctree {
     ///
     /// Errors: depth above [`MAX_DEPTH`](crate::MAX_DEPTH), a bad transform, a coordinate
     /// outside `[0, 2^depth)`, two leaves with the same coordinate, a leaf with 0 or more than 255
-    /// voxels, a non-finite corner, or more than 2³² − 1 nodes or voxels.
+    /// voxels or with clip-only voxels alone, a non-finite corner, or more than 2³² − 1 nodes or
+    /// voxels. The file is version 1.0 when no voxel has the clip bit (byte for byte what a 1.0
+    /// writer writes), 1.1 with the clip bitmap when one has.
     pub fn from_leaves(meta: OctreeMeta, leaves: Vec<LeafInput>) -> Result<PackedOctree> {
         meta.validate()?;
         let depth = meta.depth;
         let side = 1u64 << depth;
         let mut total_voxels = 0u64;
         let mut total_surface = 0u64;
+        let mut total_clip = 0u64;
         let mut keyed = Vec::with_capacity(leaves.len());
         for (index, leaf) in leaves.iter().enumerate() {
             if leaf.coord.iter().any(|&c| u64::from(c) >= side) {
@@ -178,6 +185,10 @@ impl PackedOctree {
                     });
                 }
                 total_surface += u64::from(voxel.surface);
+                total_clip += u64::from(voxel.clip);
+            }
+            if leaf.voxels.iter().all(Voxel::is_clip_only) {
+                return Err(FormatError::ClipOnlyLeaf { coord: leaf.coord });
             }
             total_voxels += count as u64;
             keyed.push((morton::encode(leaf.coord), index));
@@ -224,6 +235,7 @@ impl PackedOctree {
             voxels: voxel_count,
             // ≤ voxel_count, which fits.
             surface: total_surface as u32,
+            clip: total_clip as u32,
         };
         let header = Header::canonical(&meta, counts);
         let layout = Layout::new(HEADER_SIZE as u64, counts, meta.bits);
@@ -276,6 +288,9 @@ impl PackedOctree {
             for vx in &leaf.voxels {
                 if vx.surface {
                     out[sections.surface + voxel / 8] |= 1 << (voxel % 8);
+                }
+                if vx.clip {
+                    out[sections.clip + voxel / 8] |= 1 << (voxel % 8);
                 }
                 let codes_at = sections.corners + voxel * 8 * code_bytes;
                 for (i, &v) in vx.corners.iter().enumerate() {
@@ -361,15 +376,17 @@ impl<B: AsRef<[u8]>> Octree<B> {
     }
 
     /// Whether the bytes are what [`PackedOctree::from_leaves`] would write for this octree:
-    /// version 1.0 with a 128-byte header (validation has checked everything else).
+    /// version 1.0 (1.1 with clip voxels) with a 128-byte header (validation has checked
+    /// everything else).
     pub(crate) fn is_canonical(&self) -> bool {
         let h = Header::read(self.as_bytes());
-        h.version_minor == crate::FORMAT_VERSION_MINOR && h.header_size as usize == HEADER_SIZE
+        h.version_minor == minor_version(self.counts.clip > 0)
+            && h.header_size as usize == HEADER_SIZE
     }
 
-    /// An owned copy in the canonical encoding (version 1.0, 128-byte header): the bytes
-    /// themselves when they already are, else the sections re-written behind a new header.
-    /// O(size).
+    /// An owned copy in the canonical encoding (version 1.0, or 1.1 with clip voxels; a
+    /// 128-byte header): the bytes themselves when they already are, else the sections
+    /// re-written behind a new header. O(size).
     pub fn to_octree(&self) -> PackedOctree {
         let bytes = self.as_bytes();
         if self.is_canonical() {
@@ -384,6 +401,7 @@ impl<B: AsRef<[u8]>> Octree<B> {
             (layout.leaves, from.leaves),
             (layout.surface, from.surface),
             (layout.corners, from.corners),
+            (layout.clip, from.clip),
         ] {
             let (to, from, size) = (to.0 as usize, from.0 as usize, from.1 as usize);
             out[to..to + size].copy_from_slice(&bytes[from..from + size]);
@@ -434,6 +452,19 @@ impl<B: AsRef<[u8]>> Octree<B> {
     #[inline]
     pub fn surface_voxel_count(&self) -> usize {
         self.counts.surface as usize
+    }
+
+    /// Voxels with the clip bit (intersect and clip-only voxels); 0 in a 1.0 file.
+    #[inline]
+    pub fn clip_voxel_count(&self) -> usize {
+        self.counts.clip as usize
+    }
+
+    /// Whether any voxel has the clip bit (header flag [`FLAG_CLIP_VOXELS`](crate::FLAG_CLIP_VOXELS)):
+    /// when not, every leaf's hit is the nearest over its voxels and the clip rule never applies.
+    #[inline]
+    pub fn has_clip_voxels(&self) -> bool {
+        self.counts.clip > 0
     }
 
     /// `dmax / Q`: multiply a stored code by this to get a distance in normalised units.
@@ -570,6 +601,46 @@ impl<B: AsRef<[u8]>> Octree<B> {
         self.as_bytes()[self.sections.surface + (voxel as usize >> 3)] >> (voxel & 7) & 1 != 0
     }
 
+    /// Whether the voxel has the clip bit: with [`Octree::voxel_is_surface`] a *clip-only*
+    /// voxel (never hit, only clips the other voxels of its leaf), else an *intersect* voxel
+    /// (hit as a volume voxel and clips the others). Always `false` in a file without clip
+    /// voxels.
+    ///
+    /// Panics if `voxel` is out of range.
+    #[inline]
+    pub fn voxel_is_clip(&self, voxel: u32) -> bool {
+        assert!(voxel < self.counts.voxels, "voxel {voxel} out of range");
+        self.counts.clip > 0
+            && self.as_bytes()[self.sections.clip + (voxel as usize >> 3)] >> (voxel & 7) & 1 != 0
+    }
+
+    /// Whether any voxel of `voxels` (a leaf's range from [`Octree::leaf_voxels`]) has the clip
+    /// bit: the one test a traversal needs to choose the plain nearest-hit rule (`false`, and
+    /// always so in a file without clip voxels) or the clip rule. Reads whole bitmap words.
+    ///
+    /// Panics if the range ends past the last voxel.
+    #[inline]
+    pub fn any_clip_voxel(&self, voxels: Range<u32>) -> bool {
+        if self.counts.clip == 0 || voxels.is_empty() {
+            return false;
+        }
+        assert!(
+            voxels.end <= self.counts.voxels,
+            "voxel {} out of range",
+            voxels.end - 1
+        );
+        let b = self.as_bytes();
+        let (first, last) = (voxels.start >> 6, (voxels.end - 1) >> 6);
+        (first..=last).any(|w| {
+            let word = u64::from_le_bytes(bytes_at::<8>(b, self.sections.clip + w as usize * 8));
+            let lo = if w == first { voxels.start & 63 } else { 0 };
+            let hi = if w == last { (voxels.end - 1) & 63 } else { 63 };
+            // Bits lo..=hi of the word.
+            let mask = (u64::MAX >> (63 - hi)) & (u64::MAX << lo);
+            word & mask != 0
+        })
+    }
+
     // ---- Whole-octree helpers -----------------------------------------------------------
 
     /// Cell coordinates of every leaf, in Morton (storage) order. Allocates; for tools.
@@ -602,6 +673,7 @@ impl<B: AsRef<[u8]>> Octree<B> {
                 .map(|v| Voxel {
                     corners: self.voxel_corners(v),
                     surface: self.voxel_is_surface(v),
+                    clip: self.voxel_is_clip(v),
                 })
                 .collect();
             (coord, voxels)
@@ -633,6 +705,7 @@ impl<B: AsRef<[u8]>> fmt::Debug for Octree<B> {
             .field("leaves", &self.counts.leaves)
             .field("voxels", &self.counts.voxels)
             .field("surface_voxels", &self.counts.surface)
+            .field("clip_voxels", &self.counts.clip)
             .field("bytes", &self.as_bytes().len())
             .field("crc32", &format_args!("{:#010x}", self.stored_crc()))
             .finish()
@@ -668,6 +741,7 @@ mod tests {
                 .map(|i| Voxel {
                     corners: [0.01 * i as f32; 8],
                     surface: i % 2 == 1,
+                    clip: false,
                 })
                 .collect(),
         }
@@ -714,6 +788,7 @@ mod tests {
                     .map(|k| Voxel {
                         corners: [0.05 * k as f32 - 0.04; 8],
                         surface: k == 2,
+                        clip: false,
                     })
                     .collect(),
             })
@@ -725,6 +800,77 @@ mod tests {
             scale: 1.0,
         };
         PackedOctree::from_leaves(meta, leaves).unwrap()
+    }
+
+    /// `mixed_octree` with the clip bit on the third voxel of some leaves (a clip-only voxel,
+    /// since it is a surface voxel) and on the first voxel of others (an intersect voxel).
+    fn clipped_octree(bits: ValueBits) -> PackedOctree {
+        let mut leaves: Vec<LeafInput> = mixed_octree(bits)
+            .leaves()
+            .map(|(coord, voxels)| LeafInput { coord, voxels })
+            .collect();
+        for (i, l) in leaves.iter_mut().enumerate() {
+            let n = l.voxels.len();
+            if n == 3 || i % 5 == 0 {
+                l.voxels[n - 1].clip = true;
+            }
+            if i % 7 == 0 {
+                l.voxels[0].clip = true;
+            }
+        }
+        PackedOctree::from_leaves(*mixed_octree(bits).meta(), leaves).unwrap()
+    }
+
+    #[test]
+    fn clip_bits_read_back_and_any_clip_voxel_agrees() {
+        let o = clipped_octree(ValueBits::Eight);
+        assert!(o.has_clip_voxels());
+        let n = o.voxel_count() as u32;
+        let clip: Vec<bool> = (0..n).map(|v| o.voxel_is_clip(v)).collect();
+        assert_eq!(clip.iter().filter(|&&c| c).count(), o.clip_voxel_count());
+        for a in 0..n {
+            for b in a..=n.min(a + 140) {
+                let want = clip[a as usize..b as usize].iter().any(|&c| c);
+                assert_eq!(o.any_clip_voxel(a..b), want, "{a}..{b}");
+            }
+        }
+        let plain = mixed_octree(ValueBits::Eight);
+        assert!(!plain.has_clip_voxels());
+        assert!(!plain.any_clip_voxel(0..plain.voxel_count() as u32));
+        assert!(!(0..plain.voxel_count() as u32).any(|v| plain.voxel_is_clip(v)));
+    }
+
+    #[test]
+    fn a_leaf_of_clip_only_voxels_is_refused() {
+        let v = |surface, clip| Voxel {
+            corners: [0.1; 8],
+            surface,
+            clip,
+        };
+        for voxels in [vec![v(true, true)], vec![v(true, true), v(true, true)]] {
+            let e = PackedOctree::from_leaves(
+                meta(2),
+                vec![LeafInput {
+                    coord: [1, 2, 3],
+                    voxels,
+                }],
+            )
+            .unwrap_err();
+            assert!(matches!(e, FormatError::ClipOnlyLeaf { coord: [1, 2, 3] }));
+        }
+        // One voxel that is hit is enough (a clip-only voxel with a surface or intersect voxel,
+        // a lone intersect voxel).
+        for voxels in [
+            vec![v(true, true), v(true, false)],
+            vec![v(false, true), v(true, true)],
+            vec![v(false, true)],
+        ] {
+            let leaf = LeafInput {
+                coord: [1, 2, 3],
+                voxels,
+            };
+            PackedOctree::from_leaves(meta(2), vec![leaf]).unwrap();
+        }
     }
 
     #[test]
@@ -773,9 +919,21 @@ mod tests {
 
     #[test]
     fn a_later_minor_version_is_read_in_place_and_copied_canonically() {
-        for bits in [ValueBits::Eight, ValueBits::Sixteen] {
-            let o = mixed_octree(bits);
+        for (bits, clip) in [
+            (ValueBits::Eight, false),
+            (ValueBits::Sixteen, false),
+            (ValueBits::Eight, true),
+            (ValueBits::Sixteen, true),
+        ] {
+            let o = if clip {
+                clipped_octree(bits)
+            } else {
+                mixed_octree(bits)
+            };
             for (extra, minor) in [(0, 1), (8, 1), (64, 7)] {
+                if clip && extra == 0 {
+                    continue; // that one is canonical
+                }
                 let newer = newer_file(o.as_bytes(), extra, minor);
                 let v = PackedOctreeView::new(&newer).unwrap();
                 // Read in place: the same octree, from other bytes.

@@ -5,8 +5,8 @@ use glam::Vec3;
 use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
 use crate::file::{
-    Counts, Header, Layout, CHECKSUM_SIZE, FLAG_MULTI_VOXEL, FLAG_SURFACE_VOXELS,
-    FORMAT_VERSION_MAJOR, HEADER_SIZE, KNOWN_FLAGS, MAGIC,
+    minor_version, Counts, Header, Layout, CHECKSUM_SIZE, FLAG_CLIP_VOXELS, FLAG_MULTI_VOXEL,
+    FLAG_SURFACE_VOXELS, FORMAT_VERSION_MAJOR, HEADER_SIZE, KNOWN_FLAGS, MAGIC,
 };
 use crate::octree::{bytes_at, low_bits, Octree, Sections};
 use crate::quant::max_code;
@@ -30,8 +30,9 @@ impl<B: AsRef<[u8]>> Octree<B> {
     /// offset and size against those the counts imply (and zero padding), the node groups
     /// (first-child bases, a breadth-first walk proving every level is complete and the leaves
     /// sit exactly at `depth`), the leaf groups (counts 1..=255, first-voxel bases, total), the
-    /// surface bitmap (popcount, padding bits), the corner codes (−Q..=Q). O(len), no allocation
-    /// (except for the message of an error).
+    /// surface bitmap (popcount, padding bits), the corner codes (−Q..=Q), and in a 1.1 file
+    /// with clip voxels the clip bitmap (padding bits, at least one bit, no leaf of clip-only
+    /// voxels alone). O(len), no allocation (except for the message of an error).
     pub fn new(buffer: B) -> Result<Octree<B>> {
         let (meta, counts, sections) = validate(buffer.as_ref())?;
         Ok(Octree::from_parts(buffer, meta, counts, sections))
@@ -128,12 +129,21 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, Counts, Sections)> {
     if !scale.is_finite() || scale <= 0.0 {
         return corrupt("scale", format!("{scale} (must be finite and > 0)"));
     }
-    let counts = h.counts();
+    let has_clip = flags & FLAG_CLIP_VOXELS != 0;
+    if has_clip && minor < minor_version(true) {
+        return corrupt(
+            "flags",
+            format!("clip voxels in a version {major}.{minor} file (they need 1.1)"),
+        );
+    }
+    // `clip` is 1 if the flag is set (the layout needs only that), until the bitmap is counted.
+    let mut counts = h.counts();
     let Counts {
         inner,
         leaves,
         voxels,
         surface: surface_count,
+        ..
     } = counts;
     if u64::from(inner) + u64::from(leaves) > u64::from(u32::MAX) {
         return corrupt("inner_node_count", "nodes exceed 2^32 - 1");
@@ -168,6 +178,9 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, Counts, Sections)> {
     }
     if (flags & FLAG_SURFACE_VOXELS != 0) != (surface_count > 0) {
         return corrupt("flags", "surface bit disagrees with surface_voxel_count");
+    }
+    if has_clip && voxels == 0 {
+        return corrupt("flags", "clip bit set in an octree without voxels");
     }
 
     // ---- Sections: exactly where the counts put them ----
@@ -223,7 +236,8 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, Counts, Sections)> {
         (layout.nodes.0 + layout.nodes.1, layout.leaves.0),
         (layout.leaves.0 + layout.leaves.1, layout.surface.0),
         (layout.surface.0 + layout.surface.1, layout.corners.0),
-        (layout.corners.0 + layout.corners.1, layout.checksum_offset),
+        (layout.corners.0 + layout.corners.1, layout.clip.0),
+        (layout.clip.0 + layout.clip.1, layout.checksum_offset),
     ];
     for (from, to) in gaps {
         if bytes[from as usize..to as usize].iter().any(|&b| b != 0) {
@@ -237,15 +251,17 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, Counts, Sections)> {
         leaves: section(layout.leaves),
         surface: section(layout.surface),
         corners: section(layout.corners),
+        clip: section(layout.clip),
     };
     s.validate_nodes()?;
     s.validate_leaves()?;
     s.validate_surface()?;
     s.validate_corners()?;
+    counts.clip = s.validate_clip()?;
     Ok((meta, counts, Sections::of(&layout)))
 }
 
-/// The four sections of a file whose header has been checked.
+/// The sections of a file whose header has been checked.
 struct SectionBytes<'a> {
     meta: OctreeMeta,
     counts: Counts,
@@ -253,6 +269,8 @@ struct SectionBytes<'a> {
     leaves: &'a [u8],
     surface: &'a [u8],
     corners: &'a [u8],
+    /// Empty in a file without clip voxels.
+    clip: &'a [u8],
 }
 
 impl SectionBytes<'_> {
@@ -362,20 +380,26 @@ impl SectionBytes<'_> {
         Ok(())
     }
 
-    fn validate_surface(&self) -> Result<()> {
+    /// Set bits of a per-voxel bitmap (`surface` or `clip`), refusing set padding bits.
+    fn bitmap_ones(&self, name: &'static str, bitmap: &[u8]) -> Result<u64> {
         let mut ones = 0u64;
-        for (w, word) in self.surface.chunks_exact(8).enumerate() {
+        for (w, word) in bitmap.chunks_exact(8).enumerate() {
             let mut x = u64::from_le_bytes(bytes_at::<8>(word, 0));
             let first = w as u64 * 64;
             let valid = u64::from(self.counts.voxels).saturating_sub(first).min(64);
             if valid < 64 {
                 if x >> valid != 0 {
-                    return corrupt("surface", format!("padding bits set in word {w}"));
+                    return corrupt(name, format!("padding bits set in word {w}"));
                 }
                 x = low_bits(x, valid as u32);
             }
             ones += u64::from(x.count_ones());
         }
+        Ok(ones)
+    }
+
+    fn validate_surface(&self) -> Result<()> {
+        let ones = self.bitmap_ones("surface", self.surface)?;
         if ones != u64::from(self.counts.surface) {
             return corrupt(
                 "surface",
@@ -386,6 +410,35 @@ impl SectionBytes<'_> {
             );
         }
         Ok(())
+    }
+
+    /// The clip bitmap (present iff the header's clip flag is): padding bits 0, at least one
+    /// bit set, and every leaf holds a voxel that is not clip-only (surface + clip). Runs after
+    /// [`Self::validate_leaves`], so the leaf groups are consistent. Returns the clip count.
+    fn validate_clip(&self) -> Result<u32> {
+        if self.counts.clip == 0 {
+            return Ok(0);
+        }
+        let ones = self.bitmap_ones("clip", self.clip)?;
+        if ones == 0 {
+            return corrupt("clip", "the clip flag is set but no voxel has the clip bit");
+        }
+        let bit = |bitmap: &[u8], v: u64| bitmap[(v >> 3) as usize] >> (v & 7) & 1 != 0;
+        let mut v = 0u64;
+        for (g, rec) in self.leaves.chunks_exact(12).enumerate() {
+            for (s, &c) in rec[4..].iter().enumerate() {
+                let (start, end) = (v, v + u64::from(c));
+                v = end;
+                if c > 0 && (start..end).all(|x| bit(self.surface, x) && bit(self.clip, x)) {
+                    return corrupt(
+                        "clip",
+                        format!("leaf {} has only clip-only voxels", g * 8 + s),
+                    );
+                }
+            }
+        }
+        // ≤ voxel_count (padding bits are 0), which fits.
+        Ok(ones as u32)
     }
 
     fn validate_corners(&self) -> Result<()> {

@@ -3,9 +3,11 @@
 
 mod common;
 
-use common::{field, meta, reseal, shell_leaves};
+use common::{clipped_shell_leaves, field, meta, reseal, shell_leaves};
 use rand::{Rng, SeedableRng};
-use sdfmo_format::{FormatError, NodeRef, PackedOctree, PackedOctreeView, ValueBits};
+use sdfmo_format::{
+    FormatError, NodeRef, PackedOctree, PackedOctreeView, ValueBits, FLAG_CLIP_VOXELS, KNOWN_FLAGS,
+};
 
 fn real_file(bits: ValueBits) -> Vec<u8> {
     let o = PackedOctree::from_leaves(meta(5, bits), shell_leaves(5)).unwrap();
@@ -15,15 +17,24 @@ fn real_file(bits: ValueBits) -> Vec<u8> {
     o.to_bytes()
 }
 
+/// A real version-1.1 file: `real_file`'s leaves with clip bits (intersect and clip-only).
+fn real_clip_file(bits: ValueBits) -> Vec<u8> {
+    let o = PackedOctree::from_leaves(meta(5, bits), clipped_shell_leaves(5)).unwrap();
+    assert!(o.clip_voxel_count() > 20 && !o.voxel_count().is_multiple_of(64));
+    o.to_bytes()
+}
+
 /// Accepting bytes means: the borrowed and owned forms agree, the whole tree can be walked without panicking,
 /// and writing it back gives the very same bytes (the encoding is canonical).
 fn check_accepted(bytes: &[u8], o: &PackedOctree) {
     let view = PackedOctreeView::new(bytes).expect("view accepts what from_bytes accepts");
     assert_eq!(&view.to_octree(), o);
     // Canonical: writing it back gives the same bytes, up to the minor version (readers accept
-    // any 1.x; the writer writes 1.0).
+    // any 1.x; the writer writes 1.0, or 1.1 with clip voxels).
     let mut expected = bytes.to_vec();
-    expected[field("version_minor")..field("version_minor") + 2].fill(0);
+    let minor = u16::from(o.has_clip_voxels());
+    expected[field("version_minor")..field("version_minor") + 2]
+        .copy_from_slice(&minor.to_le_bytes());
     reseal(&mut expected);
     assert!(o.to_bytes() == expected, "accepted bytes are not canonical");
     let mut leaves = 0;
@@ -32,7 +43,11 @@ fn check_accepted(bytes: &[u8], o: &PackedOctree) {
         if o.is_leaf(n) {
             leaves += 1;
             for v in o.leaf_voxels(n) {
-                let _ = (o.voxel_corners(v), o.voxel_is_surface(v));
+                let _ = (
+                    o.voxel_corners(v),
+                    o.voxel_is_surface(v),
+                    o.voxel_is_clip(v),
+                );
             }
         } else {
             stack.extend((0..8).filter_map(|oct| o.child(n, oct)));
@@ -50,8 +65,16 @@ fn u64_le(b: &mut [u8], at: usize, v: u64) {
 
 #[test]
 fn every_truncation_is_refused() {
-    for bits in [ValueBits::Eight, ValueBits::Sixteen] {
-        let bytes = real_file(bits);
+    for (bits, clip) in [
+        (ValueBits::Eight, false),
+        (ValueBits::Sixteen, false),
+        (ValueBits::Eight, true),
+    ] {
+        let bytes = if clip {
+            real_clip_file(bits)
+        } else {
+            real_file(bits)
+        };
         for len in 0..bytes.len() {
             let r = PackedOctree::from_bytes(&bytes[..len]);
             assert!(
@@ -97,9 +120,18 @@ fn thousands_of_random_flips_are_refused_by_the_checksum() {
 
 #[test]
 fn resealed_random_edits_never_panic_and_accepted_ones_are_canonical() {
+    resealed_random_edits(&real_file(ValueBits::Eight), 99);
+}
+
+#[test]
+fn resealed_random_edits_of_a_clip_file_never_panic() {
+    resealed_random_edits(&real_clip_file(ValueBits::Eight), 0xc11b);
+}
+
+fn resealed_random_edits(bytes: &[u8], seed: u64) {
     // A hostile writer recomputes the CRC after editing: validation proper must hold the line.
-    let bytes = real_file(ValueBits::Eight);
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(99);
+    let bytes = bytes.to_vec();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut refused = 0;
     for _ in 0..3000 {
         let mut b = bytes.clone();
@@ -340,6 +372,67 @@ fn non_zero_padding_slots_are_refused() {
     expect_corrupt_in(&base, "surface padding bit", |b| {
         b[surface + (v / 64) * 8 + 7] |= 0x80
     });
+}
+
+#[test]
+fn lying_clip_flags_and_bitmaps_are_refused() {
+    let plain = real_file(ValueBits::Eight);
+    let clip = real_clip_file(ValueBits::Eight);
+    let o = PackedOctree::from_bytes(&clip).unwrap();
+    let v = o.voxel_count();
+    let words = v.div_ceil(64) * 8;
+    // The bitmap is the last section: right before the checksum.
+    let bitmap = clip.len() - 4 - words;
+    let minor = field("version_minor");
+    let flags = field("flags");
+    // The flag without the section (and the section without the flag): the sizes disagree.
+    expect_corrupt_in(&plain, "clip flag on a 1.0 file", |b| {
+        b[flags] |= FLAG_CLIP_VOXELS as u8;
+        b[minor] = 1;
+    });
+    expect_corrupt_in(&clip, "clip flag cleared", |b| {
+        b[flags] &= !(FLAG_CLIP_VOXELS as u8)
+    });
+    // The flag and the section, but version 1.0.
+    expect_corrupt_in(&clip, "clip voxels in a 1.0 file", |b| b[minor] = 0);
+    // The section with no bit set.
+    expect_corrupt_in(&clip, "empty clip bitmap", |b| {
+        b[bitmap..bitmap + words].fill(0)
+    });
+    // A padding bit after the last voxel.
+    expect_corrupt_in(&clip, "clip padding bit", |b| b[bitmap + words - 1] |= 0x80);
+    // A leaf of clip-only voxels alone: the clip bit on a plate-only leaf's surface voxel.
+    let lone_surface = (0..o.node_count() as u32)
+        .map(NodeRef::from_index)
+        .filter(|&n| o.is_leaf(n))
+        .map(|n| o.leaf_voxels(n))
+        .find(|r| r.len() == 1 && o.voxel_is_surface(r.start) && !o.voxel_is_clip(r.start))
+        .expect("a leaf with one surface voxel")
+        .start as usize;
+    expect_corrupt_in(&clip, "leaf of clip-only voxels", |b| {
+        b[bitmap + lone_surface / 8] |= 1 << (lone_surface % 8)
+    });
+    // The section placed where a 1.0 reader puts the checksum: a 1.0 header of a 1.1 file is
+    // refused by the file size even when the flags are forged.
+    expect_corrupt_in(&clip, "clip file claiming 1.0 without the flag", |b| {
+        b[minor] = 0;
+        b[flags] &= !(FLAG_CLIP_VOXELS as u8);
+    });
+}
+
+/// A reader of version 1.0 knows flag bits 0 and 1 only and refuses unknown ones: a file with
+/// clip voxels is refused by it, never misread as a plain multi-octree.
+#[test]
+fn a_1_0_reader_refuses_clip_files_by_their_flag() {
+    const KNOWN_FLAGS_1_0: u32 = 0b11;
+    assert_ne!(FLAG_CLIP_VOXELS & !KNOWN_FLAGS_1_0, 0);
+    assert_eq!(KNOWN_FLAGS, KNOWN_FLAGS_1_0 | FLAG_CLIP_VOXELS);
+    let clip = real_clip_file(ValueBits::Sixteen);
+    let f = field("flags");
+    let flags = u32::from_le_bytes(clip[f..f + 4].try_into().unwrap());
+    assert_ne!(flags & !KNOWN_FLAGS_1_0, 0);
+    // And this reader refuses the next unknown bit the same way.
+    expect_corrupt_in(&clip, "flag bit 3", |b| b[f] |= 0x08);
 }
 
 #[test]

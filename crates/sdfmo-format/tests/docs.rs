@@ -69,7 +69,11 @@ fn documented_example(md: &str) -> Vec<u8> {
 
 #[test]
 fn docs_worked_example_matches_writer() {
-    let v = |corners: [f32; 8], surface: bool| Voxel { corners, surface };
+    let v = |corners: [f32; 8], surface: bool| Voxel {
+        corners,
+        surface,
+        clip: false,
+    };
     let leaves = vec![
         LeafInput {
             coord: [1, 0, 0],
@@ -89,6 +93,7 @@ fn docs_worked_example_matches_writer() {
         center: Vec3::new(1.0, 0.0, -2.0),
         scale: 0.5,
     };
+    let leaves_again = leaves.clone();
     let o = PackedOctree::from_leaves(meta, leaves).unwrap();
     let bytes = o.to_bytes();
     assert_eq!(bytes, documented_example(&format_md()));
@@ -101,4 +106,15 @@ fn docs_worked_example_matches_writer() {
     assert_eq!(o.leaf_voxels(leaf), 2..3);
     assert_eq!(o.voxel_codes(2), [-127, -73, 73, 127, -37, 37, 110, 127]);
     assert!(o.voxel_is_surface(1));
+
+    // The note on a clip bit for voxel 2 (the leaf (1, 0, 0)'s voxel, stored last).
+    let mut clipped = leaves_again;
+    clipped[0].voxels[0].clip = true;
+    let c = PackedOctree::from_leaves(meta, clipped).unwrap().to_bytes();
+    assert_eq!(c.len(), 204);
+    assert_eq!(u16::from_le_bytes([c[10], c[11]]), 1);
+    assert_eq!(c[16], 7);
+    assert_eq!(c[0xc0..0xc8], 4u64.to_le_bytes());
+    assert_eq!(c[0x18..0x38], bytes[0x18..0x38]);
+    assert_eq!(c[0x40..0xc0], bytes[0x40..0xc0]);
 }

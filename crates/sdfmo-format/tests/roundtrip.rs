@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{meta, shell_leaves};
+use common::{clipped_shell_leaves, meta, shell_leaves};
 use proptest::prelude::*;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
@@ -124,7 +124,13 @@ fn leaves_iterator_matches_sorted_input() {
 /// every accessor alike, and copying the borrowed one gives the owned one.
 #[test]
 fn borrowed_and_owned_forms_agree() {
-    let o = PackedOctree::from_leaves(meta(6, ValueBits::Eight), shell_leaves(6)).unwrap();
+    for leaves in [shell_leaves(6), clipped_shell_leaves(6)] {
+        let o = PackedOctree::from_leaves(meta(6, ValueBits::Eight), leaves).unwrap();
+        forms_agree(&o);
+    }
+}
+
+fn forms_agree(o: &PackedOctree) {
     let bytes = o.to_bytes();
     let v = PackedOctreeView::new(&bytes).unwrap();
     assert_eq!(v.meta(), o.meta());
@@ -157,8 +163,9 @@ fn borrowed_and_owned_forms_agree() {
     for voxel in 0..o.voxel_count() as u32 {
         assert_eq!(v.voxel_corners(voxel), o.voxel_corners(voxel));
         assert_eq!(v.voxel_is_surface(voxel), o.voxel_is_surface(voxel));
+        assert_eq!(v.voxel_is_clip(voxel), o.voxel_is_clip(voxel));
     }
-    assert_eq!(v.to_octree(), o);
+    assert_eq!(&v.to_octree(), o);
     assert_eq!(v.as_bytes(), o.as_bytes());
     assert_eq!(v.section_sizes(), o.section_sizes());
 }
@@ -166,13 +173,28 @@ fn borrowed_and_owned_forms_agree() {
 fn arb_leaves() -> impl Strategy<Value = (u8, Vec<LeafInput>)> {
     (1u8..=7).prop_flat_map(|depth| {
         let side = 1u32 << depth;
-        let voxel = (prop::array::uniform8(-1.0f32..1.0), any::<bool>())
-            .prop_map(|(corners, surface)| Voxel { corners, surface });
+        // Clip bits in about one voxel in four (so most octrees have none, and stay 1.0).
+        let voxel = (
+            prop::array::uniform8(-1.0f32..1.0),
+            any::<bool>(),
+            prop::bool::weighted(0.25),
+        )
+            .prop_map(|(corners, surface, clip)| Voxel {
+                corners,
+                surface,
+                clip,
+            });
         let leaf = (
             prop::array::uniform3(0..side),
             prop::collection::vec(voxel, 1..4),
         )
-            .prop_map(|(coord, voxels)| LeafInput { coord, voxels });
+            .prop_map(|(coord, mut voxels)| {
+                // A leaf of clip-only voxels alone is invalid input: make one hittable.
+                if voxels.iter().all(Voxel::is_clip_only) {
+                    voxels[0].clip = false;
+                }
+                LeafInput { coord, voxels }
+            });
         (Just(depth), prop::collection::vec(leaf, 0..60))
     })
 }
@@ -200,6 +222,11 @@ proptest! {
         prop_assert_eq!(&PackedOctree::from_leaves(meta(depth, bits), rotated).unwrap().to_bytes(), &bytes);
         let back = PackedOctree::from_bytes(&bytes).unwrap();
         prop_assert_eq!(&back, &o);
+        // Version 1.1 with the clip bitmap iff some voxel has the clip bit, else 1.0.
+        let clip = leaves.iter().flat_map(|l| &l.voxels).filter(|v| v.clip).count();
+        prop_assert_eq!(o.clip_voxel_count(), clip);
+        prop_assert_eq!(u16::from_le_bytes([bytes[10], bytes[11]]), u16::from(clip > 0));
+        prop_assert_eq!(o.section_sizes().clip, if clip > 0 { o.voxel_count().div_ceil(64) * 8 } else { 0 });
         prop_assert_eq!(back.to_bytes(), bytes);
         // Decoded leaves equal the input up to quantisation (values scaled by the leaf diagonal).
         let q = if sixteen { 32767.0 } else { 127.0 };
@@ -211,6 +238,7 @@ proptest! {
             prop_assert_eq!(voxels.len(), want.voxels.len());
             for (g, w) in voxels.iter().zip(&want.voxels) {
                 prop_assert_eq!(g.surface, w.surface);
+                prop_assert_eq!(g.clip, w.clip);
                 for (a, b) in g.corners.iter().zip(w.corners) {
                     let b = b.clamp(-o.dmax(), o.dmax());
                     prop_assert!((a - b).abs() <= bound, "{} vs {} (bound {})", a, b, bound);

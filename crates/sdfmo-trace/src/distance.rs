@@ -63,6 +63,16 @@ pub struct DistanceSample {
 /// components), surface voxels counting as `|F|`; the gradient is that voxel's, flipped with
 /// the sign for a surface voxel so that it points away from the surface.
 ///
+/// In a leaf with clip voxels (format 1.1) the value follows the clip rule of the hits: each
+/// voxel that is hit itself contributes its value (`|F|` for a surface voxel) raised to the
+/// largest value of the *other* clip voxels of the leaf (their intersection, `max`), and the
+/// result is the minimum of these (the union): `max(f_A, f_B)` for two intersect voxels (a
+/// sharp convex edge), `max(|f_S|, f_K)` for a sheet `S` cut by a clip-only voxel `K`.
+/// Clip-only voxels contribute only through that `max`. The sample's voxel and gradient are
+/// those of the voxel whose value it is (a clip voxel's where the clip dominates, signed even
+/// for a clip-only voxel). Like a `max` of distances, this is exact on the faces and a lower
+/// bound of the true distance near the edges.
+///
 /// Returns `None` when `p` is not finite or lies outside the root cube, and when the leaf cell
 /// holding `p` is not stored: the builder stores only the cells the surface passes through, so
 /// `None` means the stored field has no zero in that cell (no contact there). Its sign and
@@ -95,8 +105,12 @@ pub fn distance_at<B: AsRef<[u8]>>(octree: &Octree<B>, p: Vec3) -> Option<Distan
         return None;
     }
     let local = ((p - min) / size).clamp(Vec3::ZERO, Vec3::ONE);
+    let voxels = octree.leaf_voxels(node);
+    if octree.any_clip_voxel(voxels.clone()) {
+        return crate::clip::distance_in_leaf(octree, voxels, local, min, size);
+    }
     let mut best: Option<DistanceSample> = None;
-    for voxel in octree.leaf_voxels(node) {
+    for voxel in voxels {
         let corners = octree.voxel_corners(voxel);
         let surface = octree.voxel_is_surface(voxel);
         let value = trilinear(&corners, local);
@@ -146,6 +160,7 @@ mod tests {
         Voxel {
             corners: core::array::from_fn(|i| 0.5 - (i >> 2) as f32),
             surface: false,
+            clip: false,
         }
     }
 
@@ -180,6 +195,7 @@ mod tests {
         let sheet = Voxel {
             corners: core::array::from_fn(|i| 0.25 - (i & 1) as f32),
             surface: true,
+            clip: false,
         };
         let o = one_leaf(vec![plane(), sheet]);
         // Near the sheet, above it: |F| = z − 0.25 < 0.5 − x.

@@ -2,6 +2,8 @@
 //! [`PackedOctree`](sdfmo_format::PackedOctree) ([`intersect`], [`occluded`]), the ray vs
 //! trilinear-voxel kernel ([`intersect_voxel`]), analytic normals ([`hit_normal`]), and the
 //! stored signed distance and its gradient at a point ([`distance_at`], for collision queries).
+//! Leaves with clip voxels (format 1.1: intersect and clip-only voxels) follow the clip rule
+//! ([`clip`]): a hit counts only inside the leaf's other clip voxels.
 //!
 //! Depends on `sdfmo-format` and glam only, so an engine that loads and renders octrees embeds
 //! these two crates and nothing else. Nothing here allocates: the traversal keeps a fixed-size
@@ -15,7 +17,8 @@
 //!
 //! // One leaf at depth 1 (cell [0,1]³) holding the plane x = 0.5 (inside x > 0.5).
 //! let corners = core::array::from_fn(|i| 0.5 - (i >> 2) as f32);
-//! let leaf = LeafInput { coord: [1, 1, 1], voxels: vec![Voxel { corners, surface: false }] };
+//! let voxel = Voxel { corners, surface: false, clip: false };
+//! let leaf = LeafInput { coord: [1, 1, 1], voxels: vec![voxel] };
 //! let meta = OctreeMeta { depth: 1, bits: ValueBits::Sixteen, center: Vec3::ZERO, scale: 1.0 };
 //! let octree = PackedOctree::from_leaves(meta, vec![leaf]).unwrap();
 //! let ray = Ray { origin: Vec3::new(-3.0, 0.5, 0.5), dir: Vec3::X };
@@ -26,6 +29,7 @@
 
 #![deny(missing_docs)]
 
+pub mod clip;
 pub mod distance;
 pub mod normal;
 pub mod ray_voxel;

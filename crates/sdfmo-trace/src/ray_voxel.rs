@@ -35,7 +35,7 @@ const MAX_POLISH_STEPS: u32 = 32;
 
 /// Tolerance of a polished root, as a fraction of the segment length `t1 − t0` (the segment is
 /// at most √3 voxel edges long, so this is below 2e-6 voxel units).
-const REL_TOLERANCE: f32 = 1e-6;
+pub(crate) const REL_TOLERANCE: f32 = 1e-6;
 
 /// A cubic `a s³ + b s² + c s + d` in the segment parameter `s = t − t0`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -237,7 +237,14 @@ pub fn first_root(cubic: &RayCubic, len: f32, surface: bool) -> Option<f32> {
 /// of opposite signs (either may be zero). Newton steps, replaced by bisection whenever they
 /// leave the bracket; stops when a step or the bracket is below `tol`.
 #[inline]
-fn polish(cubic: &RayCubic, mut lo: f32, mut hi: f32, glo: f32, ghi: f32, tol: f32) -> f32 {
+pub(crate) fn polish(
+    cubic: &RayCubic,
+    mut lo: f32,
+    mut hi: f32,
+    glo: f32,
+    ghi: f32,
+    tol: f32,
+) -> f32 {
     if glo == 0.0 {
         return lo;
     }
@@ -275,7 +282,7 @@ fn polish(cubic: &RayCubic, mut lo: f32, mut hi: f32, glo: f32, ghi: f32, tol: f
 }
 
 #[inline]
-fn min_max(c: &[f32; 8]) -> (f32, f32) {
+pub(crate) fn min_max(c: &[f32; 8]) -> (f32, f32) {
     let lo = c[0]
         .min(c[1])
         .min(c[2].min(c[3]))

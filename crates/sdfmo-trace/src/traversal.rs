@@ -301,7 +301,8 @@ fn traverse<B: AsRef<[u8]>, const ANY: bool>(
     }
 }
 
-/// The nearest voxel hit inside a leaf's span (any hit when `ANY`).
+/// The nearest voxel hit inside a leaf's span (any hit when `ANY`); in a leaf with clip voxels
+/// the nearest hit the clip rule accepts ([`crate::clip`]).
 #[inline(always)]
 fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(
     octree: &Octree<B>,
@@ -315,8 +316,22 @@ fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(
     let local_o = (o + d * cell.t_enter - cell.min) * inv_size;
     let local_d = d * inv_size;
     let mut best_s = cell.t_exit - cell.t_enter;
+    let voxels = octree.leaf_voxels(cell.node);
+    // A leaf with clip voxels takes the clip rule (crate::clip); the test is one compare for
+    // an octree without clip voxels.
+    if octree.any_clip_voxel(voxels.clone()) {
+        return crate::clip::leaf_hit::<B, ANY>(octree, voxels, local_o, local_d, best_s).map(
+            |(s, voxel, surface)| Hit {
+                t: (cell.t_enter + s).min(cell.t_exit),
+                voxel,
+                cell_min: cell.min,
+                cell_size: cell.size,
+                surface,
+            },
+        );
+    }
     let mut best: Option<(u32, bool)> = None;
-    for voxel in octree.leaf_voxels(cell.node) {
+    for voxel in voxels {
         let corners = octree.voxel_corners(voxel);
         let surface = octree.voxel_is_surface(voxel);
         if let Some(s) = intersect_voxel(&corners, local_o, local_d, 0.0, best_s, surface) {
@@ -384,7 +399,11 @@ mod tests {
                                 Vec3::new((i >> 2) as f32, ((i >> 1) & 1) as f32, (i & 1) as f32);
                             sdf(min + c * h)
                         });
-                        voxels.push(Voxel { corners, surface });
+                        voxels.push(Voxel {
+                            corners,
+                            surface,
+                            clip: false,
+                        });
                     }
                     if !voxels.is_empty() {
                         leaves.push(LeafInput {
@@ -712,6 +731,7 @@ mod tests {
             voxels: vec![Voxel {
                 corners,
                 surface: true,
+                clip: false,
             }],
         };
         let octree = PackedOctree::from_leaves(meta(0), vec![leaf]).unwrap();

@@ -256,6 +256,7 @@ pub fn svo_leaf(p: &Params, g: &[f32; 8]) -> LeafResult {
             voxels: vec![Voxel {
                 corners: *g,
                 surface: false,
+                clip: false,
             }],
             cap_hit: false,
         }
@@ -351,6 +352,7 @@ pub fn multi_leaf(
                 .map(|c| Voxel {
                     corners: c.c,
                     surface: c.surface,
+                    clip: false,
                 })
                 .collect(),
             cap_hit,

@@ -50,17 +50,40 @@ pub fn shell_leaves(depth: u8) -> Vec<LeafInput> {
             voxels.push(Voxel {
                 corners: cell_corners(depth, c, &sphere),
                 surface: false,
+                clip: false,
             });
         }
         if near_plate {
             voxels.push(Voxel {
                 corners: cell_corners(depth, c, &plate),
                 surface: true,
+                clip: false,
             });
         }
         out.push(LeafInput { coord: c, voxels });
     }
     out
+}
+
+/// `shell_leaves` with clip bits (a version-1.1 file): in leaves where the sphere and the plate
+/// meet, the plate's surface voxel becomes clip-only in every other one; on every third leaf
+/// (of the rest) the first voxel becomes an intersect voxel (volume + clip).
+pub fn clipped_shell_leaves(depth: u8) -> Vec<LeafInput> {
+    let mut leaves = shell_leaves(depth);
+    let mut both = 0;
+    for (i, l) in leaves.iter_mut().enumerate() {
+        if l.voxels.len() == 2 {
+            both += 1;
+            if both % 2 == 0 {
+                l.voxels[1].clip = true;
+                continue;
+            }
+        }
+        if i % 3 == 0 && !l.voxels[0].surface {
+            l.voxels[0].clip = true;
+        }
+    }
+    leaves
 }
 
 /// A meta with a non-trivial transform.
