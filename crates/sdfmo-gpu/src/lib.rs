@@ -8,7 +8,10 @@
 //!   (WGSL has no `#include`: put the source before yours). Functions `smo_info`,
 //!   `smo_intersect`, `smo_hit_normal`, `smo_intersect_voxel`; the same hit rules as the CPU
 //!   kernel (volume voxels: first point inside; surface voxels: first zero crossing from either
-//!   side; in a multi-voxel leaf the nearest hit inside the leaf).
+//!   side; in a multi-voxel leaf the nearest hit inside the leaf; in a leaf with clip voxels,
+//!   format 1.1, the nearest hit that every other clip voxel of the leaf keeps — the clip rule
+//!   of `sdfmo-format`'s FORMAT.md, read from the same buffer: the clip bitmap after the
+//!   corners).
 //! - [`RENDER_WGSL`] (`src/render.wgsl`): one primary ray per pixel, shaded as `sdfmo-render`
 //!   shades it (mask, depth, normal, lambert; no shadows or occlusion), the entry point
 //!   [`ENTRY_POINT`] with workgroups of [`WORKGROUP_SIZE`]².

@@ -4,8 +4,9 @@
 // front-to-back traversal, first leaf with a hit; in a leaf every voxel is tested and the
 // nearest hit inside the leaf's [t_enter, t_exit] is kept; volume voxels are hit at the first
 // point inside (f < 0, the segment start when it starts inside), surface voxels at the first
-// zero crossing from either side; the normal is the interpolant's unit gradient facing the
-// viewer. Include this file in your own pipeline (WGSL has no #include: concatenate the
+// zero crossing from either side; in a leaf with clip voxels (format 1.1, flag CLIP_VOXELS) a
+// hit counts only where every other clip voxel of the leaf is ≤ 0 (sdfmo-trace clip.rs; the
+// clip rule of FORMAT.md); the normal is the interpolant's unit gradient facing the viewer. Include this file in your own pipeline (WGSL has no #include: concatenate the
 // source before yours) and call `smo_info`, `smo_intersect` and `smo_hit_normal`.
 //
 // BINDING LAYOUT (one binding; change the group/binding numbers on the next line if your
@@ -20,13 +21,17 @@
 //   (`PackedOctreeView::new`): the kernel trusts every count and index.
 //
 // What the kernel reads, in words of the file:
+//   header word 4       flags (bit 2 CLIP_VOXELS: the file has the clip bitmap)
 //   header word 5       depth (byte 20) and value_bits (byte 21)
 //   header words 10–12  inner_node_count I, leaf_count L, voxel_count V
 //   header words 16, 20, 24, 28  byte offsets of the nodes, leaves, surface, corners sections
+//   header word 30      corners_size (the clip bitmap starts at corners_offset + corners_size)
 //   nodes    3 words per group of 8 inner nodes: first_child, masks of nodes 8g..8g+3 (one byte
 //            each), masks of nodes 8g+4..8g+7
 //   leaves   3 words per group of 8 leaves: first_voxel, counts of leaves 8g..8g+3, 8g+4..8g+7
 //   surface  bit v % 32 of word v / 32: voxel v is a surface voxel
+//   clip     (only with flag CLIP_VOXELS) bit v % 32 of word v / 32: voxel v has the clip bit
+//            (an intersect voxel if it is a volume voxel, clip-only if a surface voxel)
 //   corners  8-bit: 2 words per voxel, corner i in byte i (i8); 16-bit: 4 words, corner i in
 //            half i (i16); value = code · dequant, dequant = diagonal / Q, passed in by the host
 //            (`sdfmo_format::quant::dequant_scale`, computed in f64 there: WGSL division is not
@@ -54,6 +59,9 @@ const SMO_STACK_SIZE: u32 = 50u;
 const SMO_MAX_POLISH_STEPS: u32 = 32u;
 /// Root tolerance as a fraction of the segment.
 const SMO_REL_TOLERANCE: f32 = 1e-6;
+/// Slack of the clip test at a polished root, relative to the clip voxel's largest |corner|
+/// (sdfmo_trace::clip::CLIP_TOLERANCE); none at the span start.
+const SMO_CLIP_TOLERANCE: f32 = 1e-5;
 
 /// Counts and section offsets (in words) of the bound octree.
 struct SmoInfo {
@@ -66,6 +74,8 @@ struct SmoInfo {
     leaves: u32,
     surface: u32,
     corners: u32,
+    /// Word offset of the clip bitmap, 0 when the file has no clip voxels.
+    clip: u32,
     dequant: f32,
 }
 
@@ -115,6 +125,10 @@ fn smo_info(dequant: f32) -> SmoInfo {
     info.leaves = smo[20] >> 2u;
     info.surface = smo[24] >> 2u;
     info.corners = smo[28] >> 2u;
+    info.clip = 0u;
+    if (smo[4] & 4u) != 0u {
+        info.clip = (smo[28] + smo[30]) >> 2u;
+    }
     info.dequant = dequant;
     return info;
 }
@@ -186,6 +200,28 @@ fn smo_voxel_corners(info: SmoInfo, voxel: u32) -> array<f32, 8> {
 /// Whether the voxel is a surface (thin) voxel.
 fn smo_voxel_is_surface(info: SmoInfo, voxel: u32) -> bool {
     return ((smo[info.surface + (voxel >> 5u)] >> (voxel & 31u)) & 1u) != 0u;
+}
+
+/// Whether the voxel has the clip bit (always false in a file without clip voxels).
+fn smo_voxel_is_clip(info: SmoInfo, voxel: u32) -> bool {
+    if info.clip == 0u {
+        return false;
+    }
+    return ((smo[info.clip + (voxel >> 5u)] >> (voxel & 31u)) & 1u) != 0u;
+}
+
+/// Whether any voxel of [first, first + count) has the clip bit (sdfmo_format's
+/// any_clip_voxel): the leaf then takes the clip rule.
+fn smo_any_clip(info: SmoInfo, first: u32, count: u32) -> bool {
+    if info.clip == 0u {
+        return false;
+    }
+    for (var v = first; v < first + count; v++) {
+        if smo_voxel_is_clip(info, v) {
+            return true;
+        }
+    }
+    return false;
 }
 
 // ---- The interpolant (sdfmo-format interpolant.rs) ----
@@ -389,6 +425,137 @@ fn smo_intersect_voxel(c: array<f32, 8>, origin: vec3<f32>, dir: vec3<f32>, t0: 
     return min(t0 + u * len, t1);
 }
 
+// ---- The clip rule (sdfmo-trace clip.rs) ----
+
+/// The smallest and largest corner.
+fn smo_min_max(c: array<f32, 8>) -> vec2<f32> {
+    let lo = min(min(min(c[0], c[1]), min(c[2], c[3])), min(min(c[4], c[5]), min(c[6], c[7])));
+    let hi = max(max(max(c[0], c[1]), max(c[2], c[3])), max(max(c[4], c[5]), max(c[6], c[7])));
+    return vec2<f32>(lo, hi);
+}
+
+/// Whether the local point `p` is kept by every clip voxel of the leaf's voxels
+/// [first, first + count) other than `skip`: f ≤ SMO_CLIP_TOLERANCE · max|corner| at a polished
+/// root (`slack`), f ≤ 0 at the span start (sdfmo_trace::clip::inside_clip).
+fn smo_clips_keep(info: SmoInfo, first: u32, count: u32, skip: u32, p: vec3<f32>, slack: bool) -> bool {
+    for (var j = first; j < first + count; j++) {
+        if j == skip || !smo_voxel_is_clip(info, j) {
+            continue;
+        }
+        let c = smo_voxel_corners(info, j);
+        let f = smo_trilinear(c, p);
+        var limit = 0.0;
+        if slack {
+            let mm = smo_min_max(c);
+            limit = SMO_CLIP_TOLERANCE * max(mm.y, -mm.x);
+        }
+        if !(f <= limit) {
+            return false;
+        }
+    }
+    return true;
+}
+
+/// The first candidate hit in [0, best] of voxel `voxel` (corners `c`) that the other clip
+/// voxels of the leaf keep, on the segment local_o + s·local_d, or −1
+/// (sdfmo_trace::clip::intersect_voxel_where with t0 = 0, the leaf's clip test as predicate).
+fn smo_clipped_voxel_hit(info: SmoInfo, first: u32, count: u32, voxel: u32, c: array<f32, 8>,
+                         local_o: vec3<f32>, local_d: vec3<f32>, best: f32, surface: bool) -> f32 {
+    let len = best;
+    if !(len >= 0.0 && len < SMO_FAR) {
+        return -1.0;
+    }
+    let mm = smo_min_max(c);
+    if mm.x > 0.0 {
+        return -1.0;
+    }
+    if mm.y < 0.0 {
+        // Inside everywhere: a volume voxel's only candidate is the segment start.
+        if !surface && smo_clips_keep(info, first, count, voxel, local_o, false) {
+            return 0.0;
+        }
+        return -1.0;
+    }
+    let m = max(mm.y, -mm.x);
+    if !(m >= SMO_MIN_POSITIVE) {
+        return -1.0;
+    }
+    let inv = 1.0 / m;
+    var scaled: array<f32, 8>;
+    for (var i = 0u; i < 8u; i++) {
+        scaled[i] = c[i] * inv;
+    }
+    let q = smo_ray_cubic(scaled, local_o, local_d * len);
+    let g0 = q.d;
+    if ((g0 < 0.0 && !surface) || (g0 == 0.0 && surface))
+        && smo_clips_keep(info, first, count, voxel, local_o, false) {
+        return 0.0;
+    }
+    if g0 == 0.0 && q.a == 0.0 && q.b == 0.0 && q.c == 0.0 {
+        if !surface && smo_clips_keep(info, first, count, voxel, local_o, false) {
+            return 0.0;
+        }
+        return -1.0;
+    }
+    if g0 != g0 {
+        return -1.0;
+    }
+    let crit = smo_critical_points(q, 1.0);
+    let n = u32(crit.z);
+    var sa = 0.0;
+    var ga = g0;
+    for (var i = 0u; i <= n; i++) {
+        var sb = 1.0;
+        if i < n {
+            sb = crit[i];
+        }
+        let gb = smo_cubic_eval(q, sb);
+        var crosses = ga >= 0.0 && gb < 0.0;
+        if surface {
+            crosses = (ga > 0.0 && gb <= 0.0) || (ga < 0.0 && gb >= 0.0);
+        }
+        if crosses {
+            let u = smo_polish(q, sa, sb, ga, gb, SMO_REL_TOLERANCE);
+            let s = min(u * len, len);
+            if smo_clips_keep(info, first, count, voxel, local_o + local_d * s, true) {
+                return s;
+            }
+        }
+        sa = sb;
+        ga = gb;
+    }
+    return -1.0;
+}
+
+/// The leaf rule with clip voxels: the nearest accepted candidate over the leaf's voxels
+/// (clip-only voxels are never hit), as in sdfmo_trace::clip::leaf_hit.
+fn smo_clip_leaf_hit(info: SmoInfo, cell: SmoCell, local_o: vec3<f32>, local_d: vec3<f32>,
+                     first: u32, count: u32) -> SmoHit {
+    var best_s = cell.t_exit - cell.t_enter;
+    var hit: SmoHit;
+    hit.hit = false;
+    for (var v = first; v < first + count; v++) {
+        let surface = smo_voxel_is_surface(info, v);
+        if surface && smo_voxel_is_clip(info, v) {
+            continue;
+        }
+        let corners = smo_voxel_corners(info, v);
+        let s = smo_clipped_voxel_hit(info, first, count, v, corners, local_o, local_d, best_s, surface);
+        if s >= 0.0 && (!hit.hit || s < best_s) {
+            best_s = s;
+            hit.hit = true;
+            hit.voxel = v;
+            hit.surface = surface;
+        }
+    }
+    if hit.hit {
+        hit.t = min(cell.t_enter + best_s, cell.t_exit);
+        hit.cell_min = cell.min;
+        hit.cell_size = cell.size;
+    }
+    return hit;
+}
+
 // ---- Traversal (sdfmo-trace traversal.rs) ----
 
 fn smo_safe_inv(d: f32) -> f32 {
@@ -408,10 +575,13 @@ fn smo_leaf_hit(info: SmoInfo, cell: SmoCell, o: vec3<f32>, d: vec3<f32>) -> Smo
     let inv_size = smo_inv_pow2(cell.size);
     let local_o = (o + d * cell.t_enter - cell.min) * inv_size;
     let local_d = d * inv_size;
+    let range = smo_leaf_voxels(info, cell.node);
+    if smo_any_clip(info, range.x, range.y) {
+        return smo_clip_leaf_hit(info, cell, local_o, local_d, range.x, range.y);
+    }
     var best_s = cell.t_exit - cell.t_enter;
     var hit: SmoHit;
     hit.hit = false;
-    let range = smo_leaf_voxels(info, cell.node);
     for (var v = range.x; v < range.x + range.y; v++) {
         let corners = smo_voxel_corners(info, v);
         let surface = smo_voxel_is_surface(info, v);
