@@ -7,5 +7,6 @@ mod degenerate;
 mod gaps;
 mod grazing;
 mod open_nonmanifold;
+mod rims;
 mod scale;
 mod thin;

@@ -230,9 +230,11 @@ fn gap_pair_with_sub_voxel_gap_is_split() {
 }
 
 /// A plate 0.3 voxel thick, lying inside a row of cells: all SVO corners come out positive
-/// and the plate is lost; the multi-octree represents it with surface voxels.
+/// and the plate is lost; the multi-octree represents it with several voxels per leaf: its two
+/// faces as surface voxels, or (issue 11's sharp features, where the faces are flat in the
+/// leaf) as two plane voxels intersected by the clip bit, the slab itself.
 #[test]
-fn thin_plate_survives_as_surface_voxels() {
+fn thin_plate_survives_as_several_voxels_per_leaf() {
     let depth = 5;
     let t = 0.01;
     let plate = procedural::thin_plate(Vec3::new(1.0, t, 0.8));
@@ -276,7 +278,11 @@ fn thin_plate_survives_as_surface_voxels() {
     };
     let (svo, _) = run(&mesh, depth, Method::Svo);
     let (multi, st) = run(&mesh, depth, MULTI);
-    assert!(st.surface_voxels > 0);
+    let clip_voxels = (0..multi.voxel_count() as u32)
+        .filter(|&v| multi.voxel_is_clip(v))
+        .count();
+    assert!(st.surface_voxels + clip_voxels > 0);
+    assert!(st.voxels > st.leaves, "{st:?}");
     let (r_svo, r_multi) = (represented(&svo), represented(&multi));
     assert!(
         r_multi > 0.95,
@@ -293,7 +299,7 @@ fn thin_plate_survives_as_surface_voxels() {
 /// whose zero set hugs two cell edges and misses the plate in between. The decision now
 /// measures the distance to the zero set (`|f| / |∇f|`), and the cell gets the two faces.
 #[test]
-fn thin_plate_on_the_cell_diagonal_is_split_into_surface_voxels() {
+fn thin_plate_on_the_cell_diagonal_is_split_into_two_voxels() {
     let depth = 7;
     let mesh = procedural::demo_part();
     let (_, norm) = mesh.normalized(0.05);
@@ -317,7 +323,11 @@ fn thin_plate_on_the_cell_diagonal_is_split_into_surface_voxels() {
     }
     let multi_cell = &multi_map[&[96, 19, 31]];
     assert_eq!(multi_cell.len(), 2, "{multi_cell:?}");
-    assert!(multi_cell.iter().all(|v| v.surface));
+    // The two faces: surface voxels, or (sharp features) the slab as two intersected planes.
+    assert!(
+        multi_cell.iter().all(|v| v.surface) || multi_cell.iter().all(|v| v.clip && !v.surface),
+        "{multi_cell:?}"
+    );
 
     // Rays from the paper's view 1 (eye on +x) through the plate's middle all hit it, at the
     // plate, with the multi-octree.
