@@ -230,17 +230,9 @@ pub fn render_octree(octree: &PackedOctree, camera: &Camera, mode: Mode) -> Resu
 /// exactly as the builder does, the same camera and shading as [`render_octree`], face normals.
 ///
 /// # Errors
-/// [`Error::Mesh`] for an invalid mesh (non-finite positions, out-of-range indices, no
-/// triangles), [`Error::Distance`] if the ray queries cannot be prepared, [`Error::Render`] for
-/// an invalid camera.
+/// [`Error::Distance`] if the ray queries cannot be prepared, [`Error::Render`] for an invalid
+/// camera. (A [`TriMesh`] is valid by construction, so there is no mesh error here.)
 pub fn render_mesh(mesh: &TriMesh, camera: &Camera, mode: Mode) -> Result<Rendered> {
-    // `TriMesh`'s fields are public, so the mesh may never have been validated: check it before
-    // normalising (which indexes positions by the triangles) so bad input is an error, not a panic.
-    TriMesh::new(
-        mesh.positions.clone(),
-        mesh.triangles.clone(),
-        mesh.parts.clone(),
-    )?;
     let (normalized, _) = mesh.normalized(DEFAULT_MARGIN);
     let dist = MeshDistance::new(&normalized, SignMode::Auto)?;
     Ok(render::render(

@@ -58,7 +58,7 @@ impl LocalMesh {
         LocalMesh {
             tris,
             vids,
-            parts: mesh.parts.clone(),
+            parts: mesh.parts().to_vec(),
             face_normal: normals.face,
             edge_normal: normals.edge,
             boundary: flags.boundary,

@@ -418,51 +418,41 @@ fn abc5_parts_side_by_side_get_several_voxels() {
 
 #[test]
 fn bad_input_is_a_typed_error() {
-    let empty = TriMesh {
-        positions: vec![],
-        triangles: vec![],
-        parts: vec![],
-    };
-    assert!(matches!(
-        build(&empty, &BuildSettings::default(), None),
-        Err(BuildError::EmptyMesh)
-    ));
-    let line = TriMesh {
-        positions: vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0],
-        triangles: vec![[0, 1, 2]],
-        parts: vec![0],
-    };
-    assert!(matches!(
-        build(&line, &BuildSettings::default(), None),
-        Err(BuildError::DegenerateMesh(_))
-    ));
-    let point = TriMesh {
-        positions: vec![Vec3::ONE; 3],
-        triangles: vec![[0, 1, 2]],
-        parts: vec![0],
-    };
-    assert!(matches!(
-        build(&point, &BuildSettings::default(), None),
-        Err(BuildError::DegenerateMesh(_))
-    ));
-    let bad_index = TriMesh {
-        positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
-        triangles: vec![[0, 1, 7]],
-        parts: vec![0],
-    };
-    assert!(matches!(
-        build(&bad_index, &BuildSettings::default(), None),
-        Err(BuildError::InvalidMesh(_))
-    ));
-    let nan = TriMesh {
-        positions: vec![Vec3::ZERO, Vec3::X, Vec3::NAN],
-        triangles: vec![[0, 1, 2]],
-        parts: vec![0],
-    };
-    assert!(matches!(
-        build(&nan, &BuildSettings::default(), None),
-        Err(BuildError::InvalidMesh(_))
-    ));
+    // Meshes a `TriMesh` can hold but the builder cannot use: a typed error.
+    for (what, positions) in [
+        ("line", vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0]),
+        ("point", vec![Vec3::ONE; 3]),
+    ] {
+        let mesh = TriMesh::new(positions, vec![[0, 1, 2]], vec![0]).unwrap();
+        assert!(
+            matches!(
+                build(&mesh, &BuildSettings::default(), None),
+                Err(BuildError::DegenerateMesh(_))
+            ),
+            "{what}"
+        );
+    }
+    // Arrays no `TriMesh` can hold (its fields are private): refused where the mesh is made, so
+    // the builder never sees them.
+    type Arrays = (Vec<Vec3>, Vec<[u32; 3]>, Vec<u32>);
+    let invalid: [(&str, Arrays); 3] = [
+        ("empty", (vec![], vec![], vec![])),
+        (
+            "bad index",
+            (vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 7]], vec![0]),
+        ),
+        (
+            "nan",
+            (
+                vec![Vec3::ZERO, Vec3::X, Vec3::NAN],
+                vec![[0, 1, 2]],
+                vec![0],
+            ),
+        ),
+    ];
+    for (what, (positions, triangles, parts)) in invalid {
+        assert!(TriMesh::new(positions, triangles, parts).is_err(), "{what}");
+    }
     let cube = procedural::box_mesh(Vec3::ZERO, Vec3::ONE);
     let s = |f: fn(&mut BuildSettings)| {
         let mut s = BuildSettings::default();
@@ -508,8 +498,9 @@ fn multi_octree_is_stable_under_a_one_ulp_vertex_move() {
         procedural::thin_plate(Vec3::new(1.0, 0.01, 0.8)).transformed(|p| rot * p),
         procedural::sphere(Vec3::new(0.2, 0.3, -0.1), 0.3, 2),
     ]);
-    let mut moved = part.clone();
-    moved.positions[0].x = f32::from_bits(moved.positions[0].x.to_bits() + 1);
+    let (mut positions, triangles, parts) = part.clone().into_arrays();
+    positions[0].x = f32::from_bits(positions[0].x.to_bits() + 1);
+    let moved = TriMesh::new(positions, triangles, parts).unwrap();
     let (a, sa) = run(&part, 5, MULTI);
     let (b, _) = run(&moved, 5, MULTI);
     assert!(sa.surface_voxels > 0, "the plate must be split: {sa:?}");

@@ -55,9 +55,9 @@ pub fn uniform_points(n: usize, seed: u64) -> Vec<Vec3> {
 /// area, a uniform point on it, then an offset in a uniformly random direction with a length
 /// uniform in [0, `max_offset`). Empty if the mesh has no area.
 pub fn near_surface_points(mesh: &TriMesh, n: usize, max_offset: f32, seed: u64) -> Vec<Vec3> {
-    let mut cumulative = Vec::with_capacity(mesh.triangles.len());
+    let mut cumulative = Vec::with_capacity(mesh.triangles().len());
     let mut total = 0.0f64;
-    for i in 0..mesh.triangles.len() {
+    for i in 0..mesh.triangle_count() {
         let [a, b, c] = mesh.triangle(i);
         total += 0.5 * (b - a).cross(c - a).length() as f64;
         cumulative.push(total);

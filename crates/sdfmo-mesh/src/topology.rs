@@ -53,7 +53,7 @@ impl EdgeAdjacency {
     /// Builds the adjacency of `mesh`. Edges of triangles with a repeated vertex are skipped
     /// (a cleaned mesh has none).
     pub fn of(mesh: &TriMesh) -> EdgeAdjacency {
-        EdgeAdjacency::of_triangles(&mesh.triangles)
+        EdgeAdjacency::of_triangles(mesh.triangles())
     }
 
     /// Builds the adjacency of triangles given by vertex indices (for instance after welding

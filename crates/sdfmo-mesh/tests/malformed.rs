@@ -121,9 +121,7 @@ fn cases() -> Vec<(&'static str, Vec<u8>, Want)> {
     let mut trailing = bin_stl.clone();
     trailing.extend_from_slice(&[0; 7]);
     // A box squashed onto the x axis: every triangle collinear (zero area).
-    let mut flat_only = procedural::box_mesh(Vec3::ZERO, Vec3::ONE);
-    flat_only.positions.iter_mut().for_each(|p| p.y = 0.0);
-    flat_only.positions.iter_mut().for_each(|p| p.z = 0.0);
+    let flat_only = procedural::box_mesh(Vec3::ZERO, Vec3::ONE).transformed(|p| p * Vec3::X);
     let one_buf = r#"{"byteLength":42}"#;
     let node0 = r#"[{"mesh":0}]"#;
     let good_glb = glb(&tri_json(3, 4, node0, one_buf), &tri_bin(TRI, [0, 1, 2]));

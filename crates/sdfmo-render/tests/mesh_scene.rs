@@ -19,7 +19,7 @@ fn settings(mode: Mode, shadows: bool, ao: u32) -> RenderSettings {
 fn icosphere_silhouette_matches_the_analytic_sphere() {
     let (mesh, _) = procedural::sphere(Vec3::new(3.0, -1.0, 2.0), 5.0, 4).normalized(0.05);
     let radius = mesh
-        .positions
+        .positions()
         .iter()
         .map(|p| p.length())
         .fold(0.0f32, f32::max);
@@ -53,7 +53,7 @@ fn icosphere_silhouette_matches_the_analytic_sphere() {
 fn mesh_lambert_is_two_sided_and_close_to_the_analytic_shading() {
     let (mesh, _) = procedural::sphere(Vec3::ZERO, 1.0, 5).normalized(0.05);
     let radius = mesh
-        .positions
+        .positions()
         .iter()
         .map(|p| p.length())
         .fold(0.0f32, f32::max);
@@ -136,6 +136,6 @@ fn normalization_helpers_match_the_mesh_crate() {
     let mesh = procedural::demo_part();
     let (expect, n) = mesh.normalized(0.05);
     let got = apply_normalization(&mesh, n);
-    assert_eq!(got.positions, expect.positions);
-    assert_eq!(got.triangles, expect.triangles);
+    assert_eq!(got.positions(), expect.positions());
+    assert_eq!(got.triangles(), expect.triangles());
 }

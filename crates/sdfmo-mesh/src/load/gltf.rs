@@ -709,8 +709,8 @@ mod tests {
         // Strip 0-1-2-3: (0,1,2) then, odd, (1,3,2) (the specification's order, written here
         // as its rotation (2,1,3)). Fan 0-1-2-3: (0,1,2) duplicates the strip's first; (0,2,3).
         assert_eq!(l.report.input_triangles, 4);
-        assert_eq!(l.mesh.triangles, vec![[0, 1, 2], [2, 1, 3], [0, 2, 3]]);
+        assert_eq!(l.mesh.triangles(), vec![[0, 1, 2], [2, 1, 3], [0, 2, 3]]);
         assert_eq!(l.report.duplicate_triangles, 1);
-        assert_eq!(l.mesh.parts, vec![0, 0, 1]);
+        assert_eq!(l.mesh.parts(), vec![0, 0, 1]);
     }
 }

@@ -232,14 +232,14 @@ v 0 1 1\nusemtl m\nf -5 -4 -3 -2 -1\no first\nf 1//1 3//1 5//1\ns off\nl 1 2\nf 
         assert_eq!(l.mesh.triangle_count(), 6);
         assert_eq!(l.part_names, vec!["first", "second"]);
         assert_eq!(l.mesh.part_count(), 2);
-        let first: usize = l.mesh.parts.iter().filter(|&&p| p == 0).count();
+        let first: usize = l.mesh.parts().iter().filter(|&&p| p == 0).count();
         assert_eq!(first, 3);
         // `v 0 2 0 2.0` is divided by w.
-        assert!(l.mesh.positions.contains(&Vec3::new(0.0, 1.0, 0.0)));
-        assert!(l.mesh.positions.iter().all(|p| p.y <= 1.5));
+        assert!(l.mesh.positions().contains(&Vec3::new(0.0, 1.0, 0.0)));
+        assert!(l.mesh.positions().iter().all(|p| p.y <= 1.5));
         // Fan triangulation of the pentagon keeps the +z winding.
         for i in 0..l.mesh.triangle_count() {
-            assert!(l.mesh.triangle_normal_f64(i)[2] > 0.0 || l.mesh.parts[i] == 0);
+            assert!(l.mesh.triangle_normal_f64(i)[2] > 0.0 || l.mesh.parts()[i] == 0);
         }
     }
 

@@ -277,7 +277,7 @@ mod tests {
         assert_eq!(l.part_names, vec!["part0", "part1"]);
         assert_eq!((l.mesh.triangle_count(), l.mesh.vertex_count()), (24, 16));
         assert_eq!(l.mesh.topology().component_count, 2);
-        assert_eq!(l.mesh.parts, m.parts);
+        assert_eq!(l.mesh.parts(), m.parts());
     }
 
     #[test]
