@@ -330,6 +330,27 @@ pub(crate) fn cross_f64(a: Vec3, b: Vec3, c: Vec3) -> [f64; 3] {
     ]
 }
 
+/// Checks that every index of `triangles` is below `vertex_count`; the error names the element
+/// as `{prefix}triangle {i}`.
+pub(crate) fn check_indices(
+    file: &str,
+    prefix: &str,
+    triangles: &[[u32; 3]],
+    vertex_count: usize,
+) -> Result<()> {
+    for (i, t) in triangles.iter().enumerate() {
+        if let Some(&v) = t.iter().find(|&&v| v as usize >= vertex_count) {
+            return Err(MeshError::IndexOutOfRange {
+                file: file.into(),
+                element: format!("{prefix}triangle {i}"),
+                index: v as i64,
+                vertex_count,
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Checks finite positions, indices in range and at least one triangle.
 pub(crate) fn validate(file: &str, positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<()> {
     for (i, p) in positions.iter().enumerate() {
@@ -342,18 +363,7 @@ pub(crate) fn validate(file: &str, positions: &[Vec3], triangles: &[[u32; 3]]) -
             });
         }
     }
-    for (i, t) in triangles.iter().enumerate() {
-        for &v in t {
-            if v as usize >= positions.len() {
-                return Err(MeshError::IndexOutOfRange {
-                    file: file.into(),
-                    element: format!("triangle {i}"),
-                    index: v as i64,
-                    vertex_count: positions.len(),
-                });
-            }
-        }
-    }
+    check_indices(file, "", triangles, positions.len())?;
     if triangles.is_empty() {
         return Err(MeshError::NoTriangles {
             file: file.into(),

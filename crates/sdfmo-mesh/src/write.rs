@@ -156,25 +156,30 @@ fn gltf_parts(mesh: &TriMesh, buffer_uri: Option<&str>) -> (String, Vec<u8>) {
 /// Binary glTF (GLB) bytes: see [`to_gltf_embedded`] for the layout; the buffer is the BIN
 /// chunk.
 pub fn to_glb(mesh: &TriMesh) -> Vec<u8> {
-    let (json, mut bin) = gltf_parts(mesh, None);
-    let mut json = json.into_bytes();
-    while !json.len().is_multiple_of(4) {
-        json.push(b' ');
-    }
-    while !bin.len().is_multiple_of(4) {
-        bin.push(0);
-    }
+    let (json, bin) = gltf_parts(mesh, None);
+    glb_container(&json, &bin)
+}
+
+/// A GLB file of a JSON chunk `json` (padded with spaces) and a BIN chunk `bin` (padded with
+/// zeros), each to a multiple of 4 bytes, behind the 12-byte header (`glTF`, version 2, total
+/// length). Also what the tests use to wrap hand-written glTF.
+pub fn glb_container(json: &str, bin: &[u8]) -> Vec<u8> {
+    let pad = |bytes: &[u8], fill: u8| {
+        let mut v = bytes.to_vec();
+        v.resize(bytes.len().next_multiple_of(4), fill);
+        v
+    };
+    let (json, bin) = (pad(json.as_bytes(), b' '), pad(bin, 0));
     let total = 12 + 8 + json.len() + 8 + bin.len();
     let mut out = Vec::with_capacity(total);
     out.extend_from_slice(b"glTF");
     out.extend_from_slice(&2u32.to_le_bytes());
     out.extend_from_slice(&(total as u32).to_le_bytes());
-    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&json);
-    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(&bin);
+    for (tag, chunk) in [(b"JSON", &json), (b"BIN\0", &bin)] {
+        out.extend_from_slice(&(chunk.len() as u32).to_le_bytes());
+        out.extend_from_slice(tag);
+        out.extend_from_slice(chunk);
+    }
     out
 }
 

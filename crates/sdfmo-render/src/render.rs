@@ -92,8 +92,12 @@ pub fn render_with_plan<T: Traceable>(
     in_pool(plan.threads, || ctx.run())
 }
 
-/// Runs `f` on a local pool of `threads` workers, or on the current pool for `None`.
-pub(crate) fn in_pool<R: Send>(
+/// Runs `f` on a local pool of `threads` workers, or on the current pool for `None` (what
+/// [`RenderSettings::threads`](crate::RenderSettings) means, for work besides rendering too).
+///
+/// # Errors
+/// [`RenderError::ThreadPool`] if the pool cannot be created.
+pub fn in_pool<R: Send>(
     threads: Option<usize>,
     f: impl FnOnce() -> R + Send,
 ) -> Result<R, RenderError> {

@@ -1,6 +1,9 @@
 //! The octree renderer against the mesh reference: procedural parts built by `sdfmo-build`,
 //! traced by `sdfmo-trace`, compared with the same mesh through `sdfmo-distance`.
 
+mod common;
+use common::settings;
+
 use glam::Vec3;
 use sdfmo_build::{build, BuildSettings, Method};
 use sdfmo_distance::{MeshDistance, SignMode};
@@ -11,15 +14,6 @@ use sdfmo_render::{
     mesh_in_octree_frame, render, render_with_plan, Camera, MeshScene, Mode, OctreeScene,
     RenderPlan, RenderSettings, Rendered, Traceable,
 };
-
-fn settings(mode: Mode, shadows: bool, ao: u32, threads: usize) -> RenderSettings {
-    RenderSettings {
-        mode,
-        shadows,
-        ao_samples: ao,
-        threads: Some(threads),
-    }
-}
 
 fn octree(mesh: &TriMesh, depth: u8, method: Method) -> PackedOctree {
     let s = BuildSettings {

@@ -1,6 +1,9 @@
 //! The renderer end to end on an analytic scene of spheres: planning through the counters,
 //! thread-count independence, shading values, shadows, occlusion, depth, normals, file output.
 
+mod common;
+use common::settings;
+
 use std::path::PathBuf;
 
 use glam::Vec3;
@@ -18,15 +21,6 @@ fn sphere() -> Spheres {
 fn shadow_pair() -> Spheres {
     Spheres {
         spheres: vec![(Vec3::ZERO, 0.6), (light_dir() * 1.2, 0.25)],
-    }
-}
-
-fn settings(mode: Mode, shadows: bool, ao: u32, threads: usize) -> RenderSettings {
-    RenderSettings {
-        mode,
-        shadows,
-        ao_samples: ao,
-        threads: Some(threads),
     }
 }
 

@@ -123,14 +123,5 @@ pub fn with_threads<R: Send>(
     threads: Option<usize>,
     f: impl FnOnce() -> R + Send,
 ) -> anyhow::Result<R> {
-    match threads {
-        None => Ok(f()),
-        Some(n) => {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
-                .build()
-                .context("cannot start worker threads")?;
-            Ok(pool.install(f))
-        }
-    }
+    sdf_multioctree::render::in_pool(threads, f).context("cannot start worker threads")
 }

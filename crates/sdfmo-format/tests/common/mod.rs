@@ -18,6 +18,12 @@ pub fn cell_corners(depth: u8, coord: [u32; 3], sd: &dyn Fn(Vec3) -> f32) -> [f3
 /// radius 0.6 (volume voxels) and a thin plate y = 0.05 (surface voxels); leaves touched by
 /// both hold two voxels. Found by descending only into cells near either surface.
 pub fn shell_leaves(depth: u8) -> Vec<LeafInput> {
+    shape_leaves(depth, true)
+}
+
+/// The leaves of the sphere of [`shell_leaves`], with its plate only if `with_plate` (also the
+/// `smo_sizes` example's input, which includes this file).
+pub fn shape_leaves(depth: u8, with_plate: bool) -> Vec<LeafInput> {
     let sphere = |p: Vec3| p.length() - 0.6;
     let plate = |p: Vec3| p.y - 0.05;
     let mut out = Vec::new();
@@ -27,8 +33,10 @@ pub fn shell_leaves(depth: u8) -> Vec<LeafInput> {
         let center = Vec3::new(c[0] as f32 + 0.5, c[1] as f32 + 0.5, c[2] as f32 + 0.5) * h - 1.0;
         let reach = h * 0.87;
         let near_sphere = sphere(center).abs() <= reach;
-        let near_plate =
-            plate(center).abs() <= reach && center.x.abs() < 0.8 && center.z.abs() < 0.8;
+        let near_plate = with_plate
+            && plate(center).abs() <= reach
+            && center.x.abs() < 0.8
+            && center.z.abs() < 0.8;
         if !near_sphere && !near_plate {
             continue;
         }

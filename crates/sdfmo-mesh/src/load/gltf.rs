@@ -23,6 +23,7 @@ use gltf::mesh::Mode;
 
 use super::{LoadLimits, RawMesh};
 use crate::error::{MeshError, Result};
+use crate::mesh::check_indices;
 
 /// A primitive's positions (model space, before node transforms) and checked triangles.
 type Decoded = (Vec<Vec3>, Vec<[u32; 3]>);
@@ -525,18 +526,7 @@ pub(super) fn read(
                             None => (0..positions.len() as u32).collect(),
                         };
                         let tris = assemble(prim.mode(), &idx, &what, &ctx)?;
-                        for (t, tri) in tris.iter().enumerate() {
-                            for &v in tri {
-                                if v as usize >= positions.len() {
-                                    return Err(MeshError::IndexOutOfRange {
-                                        file: file.into(),
-                                        element: format!("{what} triangle {t}"),
-                                        index: v as i64,
-                                        vertex_count: positions.len(),
-                                    });
-                                }
-                            }
-                        }
+                        check_indices(file, &format!("{what} "), &tris, positions.len())?;
                         slot.insert((positions, tris))
                     }
                 };
@@ -585,13 +575,7 @@ pub(super) fn read(
             stack.push((child, world, depth + 1));
         }
     }
-    if raw.triangles.is_empty() {
-        return Err(MeshError::NoTriangles {
-            file: file.into(),
-            reason: "the scene has no triangle primitive".into(),
-        });
-    }
-    Ok(raw)
+    raw.with_triangles(file, "the scene has no triangle primitive")
 }
 
 #[cfg(test)]
@@ -621,21 +605,7 @@ mod tests {
         for i in [0u16, 1, 2, 3] {
             bin.extend_from_slice(&i.to_le_bytes());
         }
-        let mut j = json.as_bytes().to_vec();
-        while !j.len().is_multiple_of(4) {
-            j.push(b' ');
-        }
-        let total = 12 + 8 + j.len() + 8 + bin.len();
-        let mut out = b"glTF".to_vec();
-        for n in [2, total as u32, j.len() as u32] {
-            out.extend_from_slice(&n.to_le_bytes());
-        }
-        out.extend_from_slice(b"JSON");
-        out.extend_from_slice(&j);
-        out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-        out.extend_from_slice(b"BIN\0");
-        out.extend_from_slice(&bin);
-        out
+        crate::write::glb_container(json, &bin)
     }
 
     fn doc(scene: &str, nodes: &str, primitives: &str) -> String {

@@ -100,6 +100,14 @@ pub(crate) struct RawMesh {
 }
 
 impl RawMesh {
+    /// This mesh, or [`MeshError::NoTriangles`] with `reason` if it has no triangle.
+    fn with_triangles(self, file: &str, reason: &str) -> Result<RawMesh> {
+        if self.triangles.is_empty() {
+            return Err(no_triangles(file, reason));
+        }
+        Ok(self)
+    }
+
     /// Error if adding `n` more triangles would pass the limit.
     pub(crate) fn check_room(&self, file: &str, n: usize, limits: &LoadLimits) -> Result<()> {
         let count = self.triangles.len().saturating_add(n);
@@ -244,12 +252,7 @@ fn load_impl(
             limit: limits.max_vertices as u64,
         });
     }
-    if raw.triangles.is_empty() {
-        return Err(MeshError::NoTriangles {
-            file: name.into(),
-            reason: "the file holds no triangle".into(),
-        });
-    }
+    let raw = raw.with_triangles(name, "the file holds no triangle")?;
     let (mesh, report) = clean(name, &raw.positions, &raw.triangles, &raw.parts)?;
     Ok(LoadedMesh {
         mesh,
@@ -257,6 +260,38 @@ fn load_impl(
         format,
         part_names: raw.part_names,
     })
+}
+
+/// The lines of a text mesh file (OBJ, ASCII STL), numbered from 1, each as UTF-8 text or the
+/// parse error naming its line.
+pub(crate) fn text_lines<'a>(
+    file: &'a str,
+    text: &'a [u8],
+) -> impl Iterator<Item = Result<(usize, &'a str)>> + 'a {
+    text.split(|&b| b == b'\n')
+        .enumerate()
+        .map(move |(i, line)| {
+            std::str::from_utf8(line)
+                .map(|line| (i + 1, line))
+                .map_err(|_| parse_error(file, i + 1, "not UTF-8 text".into()))
+        })
+}
+
+/// A parse error of `file` at line `line`.
+pub(crate) fn parse_error(file: &str, line: usize, reason: String) -> MeshError {
+    MeshError::Parse {
+        file: file.into(),
+        line: Some(line),
+        reason,
+    }
+}
+
+/// [`MeshError::NoTriangles`] of `file`.
+pub(crate) fn no_triangles(file: &str, reason: &str) -> MeshError {
+    MeshError::NoTriangles {
+        file: file.into(),
+        reason: reason.into(),
+    }
 }
 
 #[cfg(test)]

@@ -67,14 +67,9 @@ pub(super) fn read(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawM
     let mut part: Option<u32> = None;
     let mut part_ids: HashMap<String, u32> = HashMap::new();
     let mut face: Vec<u32> = Vec::new();
-    for (i, line) in text.split(|&b| b == b'\n').enumerate() {
-        let lineno = i + 1;
-        let perr = |reason: String| MeshError::Parse {
-            file: file.into(),
-            line: Some(lineno),
-            reason,
-        };
-        let line = std::str::from_utf8(line).map_err(|_| perr("not UTF-8 text".into()))?;
+    for line in super::text_lines(file, text) {
+        let (lineno, line) = line?;
+        let perr = |reason: String| super::parse_error(file, lineno, reason);
         let mut words = line.split_ascii_whitespace();
         match words.next() {
             Some("v") => {
@@ -206,13 +201,7 @@ pub(super) fn read(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawM
             _ => {}
         }
     }
-    if raw.triangles.is_empty() {
-        return Err(MeshError::NoTriangles {
-            file: file.into(),
-            reason: "the OBJ has no face with 3 or more vertices".into(),
-        });
-    }
-    Ok(raw)
+    raw.with_triangles(file, "the OBJ has no face with 3 or more vertices")
 }
 
 #[cfg(test)]
