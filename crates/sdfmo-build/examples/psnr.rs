@@ -24,11 +24,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .map(|a| a.parse())
         .collect::<Result<_, _>>()?;
     let mesh = sdfmo_mesh::load_mesh(Path::new(path))?.mesh;
-    let name = Path::new(path)
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or("mesh")
-        .to_string();
+    let name = sdfmo_mesh::mesh_name(Path::new(path));
     let margin = BuildSettings::default().margin;
     let protocol = PaperProtocol::new(&mesh, margin, size, None)?;
     let refs = protocol.references();

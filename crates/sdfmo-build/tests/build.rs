@@ -38,6 +38,25 @@ fn leaf_map(o: &PackedOctree) -> HashMap<[u32; 3], Vec<Voxel>> {
     o.leaves().collect()
 }
 
+/// The fraction of a 20 × 20 grid of normalised points (`point(i, j)`, `i, j ∈ 0..20` as f32) whose
+/// leaf exists in `oct` and passes `test` (its voxels, the point's local coordinates).
+fn grid_fraction(
+    oct: &PackedOctree,
+    depth: u8,
+    point: impl Fn(f32, f32) -> Vec3,
+    test: impl Fn(&[Voxel], Vec3) -> bool,
+) -> f32 {
+    let map = leaf_map(oct);
+    let mut good = 0;
+    for i in 0..20 {
+        for j in 0..20 {
+            let (key, l) = locate(depth, point(i as f32, j as f32));
+            good += map.get(&key).is_some_and(|vs| test(vs, l)) as usize;
+        }
+    }
+    good as f32 / 400.0
+}
+
 /// The leaf holding normalised point `p` and `p`'s local coordinates in it.
 fn locate(depth: u8, p: Vec3) -> ([u32; 3], Vec3) {
     let h = 2.0 / (1u32 << depth) as f32;
@@ -183,40 +202,24 @@ fn gap_pair_with_sub_voxel_gap_is_split() {
         "the gap must not sit on a grid plane ({frac})"
     );
 
-    let open_fraction = |oct: &PackedOctree| {
-        let map = leaf_map(oct);
-        let mut open = 0;
-        let mut n = 0;
-        for i in 0..20 {
-            for j in 0..20 {
-                let x = -0.4 + 0.8 * i as f32 / 19.0;
-                let z = -0.4 + 0.8 * j as f32 / 19.0;
-                let p = Vec3::new(
-                    norm.to_normalized(Vec3::new(x, 0.0, z)).x,
-                    gap_y,
-                    norm.to_normalized(Vec3::new(x, 0.0, z)).z,
-                );
-                let (key, l) = locate(depth, p);
-                n += 1;
-                // Open: the leaf exists and no volume voxel claims the slot's middle as inside,
-                // while just above and below the slot (inside the boxes) some voxel does.
-                if let Some(vs) = map.get(&key) {
-                    let inside = |q: Vec3| {
-                        vs.iter()
-                            .any(|v| !v.surface && trilinear(&v.corners, q) < 0.0)
-                    };
-                    let dy = Vec3::new(0.0, 2.0 * half_gap / h, 0.0);
-                    let (lo_ok, hi_ok) = (l.y - dy.y >= 0.0, l.y + dy.y <= 1.0);
-                    let below = !lo_ok || inside(l - dy);
-                    let above = !hi_ok || inside(l + dy);
-                    if !inside(l) && below && above {
-                        open += 1;
-                    }
-                }
-            }
-        }
-        open as f32 / n as f32
+    // Open: the leaf exists and no volume voxel claims the slot's middle as inside, while just
+    // above and below the slot (inside the boxes) some voxel does.
+    let slot = |u: f32, v: f32| {
+        let q = norm.to_normalized(Vec3::new(-0.4 + 0.8 * u / 19.0, 0.0, -0.4 + 0.8 * v / 19.0));
+        Vec3::new(q.x, gap_y, q.z)
     };
+    let open = |vs: &[Voxel], l: Vec3| {
+        let inside = |q: Vec3| {
+            vs.iter()
+                .any(|v| !v.surface && trilinear(&v.corners, q) < 0.0)
+        };
+        let dy = Vec3::new(0.0, 2.0 * half_gap / h, 0.0);
+        let (lo_ok, hi_ok) = (l.y - dy.y >= 0.0, l.y + dy.y <= 1.0);
+        let below = !lo_ok || inside(l - dy);
+        let above = !hi_ok || inside(l + dy);
+        !inside(l) && below && above
+    };
+    let open_fraction = |oct: &PackedOctree| grid_fraction(oct, depth, slot, open);
     let (svo, _) = run(&mesh, depth, Method::Svo);
     let (multi, st) = run(&mesh, depth, MULTI);
     let (o_svo, o_multi) = (open_fraction(&svo), open_fraction(&multi));
@@ -245,35 +248,24 @@ fn thin_plate_survives_as_surface_voxels() {
     let frac = ((plate_y + 1.0) / h).fract();
     assert!(frac > 0.2 && frac < 0.8, "plate on a grid plane ({frac})");
 
-    let represented = |oct: &PackedOctree| {
-        let map = leaf_map(oct);
-        let mut good = 0;
-        let mut n = 0;
-        for i in 0..20 {
-            for j in 0..20 {
-                let q = norm.to_normalized(Vec3::new(
-                    -0.45 + 0.9 * i as f32 / 19.0,
-                    0.0,
-                    -0.35 + 0.7 * j as f32 / 19.0,
-                ));
-                let (key, l) = locate(depth, q);
-                n += 1;
-                if let Some(vs) = map.get(&key) {
-                    let e = vs
-                        .iter()
-                        .map(|v| trilinear(&v.corners, l).abs())
-                        .fold(f32::INFINITY, f32::min);
-                    let crosses = vs.iter().any(|v| {
-                        v.corners.iter().any(|&c| c <= 0.0) && v.corners.iter().any(|&c| c >= 0.0)
-                    });
-                    if crosses && e < 0.3 * h {
-                        good += 1;
-                    }
-                }
-            }
-        }
-        good as f32 / n as f32
+    let on_plate = |u: f32, v: f32| {
+        norm.to_normalized(Vec3::new(
+            -0.45 + 0.9 * u / 19.0,
+            0.0,
+            -0.35 + 0.7 * v / 19.0,
+        ))
     };
+    let close = |vs: &[Voxel], l: Vec3| {
+        let e = vs
+            .iter()
+            .map(|v| trilinear(&v.corners, l).abs())
+            .fold(f32::INFINITY, f32::min);
+        let crosses = vs
+            .iter()
+            .any(|v| v.corners.iter().any(|&c| c <= 0.0) && v.corners.iter().any(|&c| c >= 0.0));
+        crosses && e < 0.3 * h
+    };
+    let represented = |oct: &PackedOctree| grid_fraction(oct, depth, on_plate, close);
     let (svo, _) = run(&mesh, depth, Method::Svo);
     let (multi, st) = run(&mesh, depth, MULTI);
     assert!(st.surface_voxels > 0);

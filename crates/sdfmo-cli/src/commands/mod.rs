@@ -39,11 +39,7 @@ pub fn load_input(path: Option<&Path>) -> anyhow::Result<InputMesh> {
         Some(p) => {
             // Every mesh error names the file already.
             let loaded = mesh::load_mesh(p)?;
-            let name = p
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .filter(|s| !s.is_empty())
-                .unwrap_or_else(|| "mesh".to_owned());
+            let name = mesh::mesh_name(p);
             Ok(InputMesh {
                 mesh: loaded.mesh,
                 report: Some(loaded.report),

@@ -8,10 +8,7 @@ use sdfmo_format::{LeafInput, OctreeMeta, ValueBits, Voxel};
 pub fn cell_corners(depth: u8, coord: [u32; 3], sd: &dyn Fn(Vec3) -> f32) -> [f32; 8] {
     let h = 2.0 / (1u32 << depth) as f32;
     let lo = Vec3::new(coord[0] as f32, coord[1] as f32, coord[2] as f32) * h - 1.0;
-    std::array::from_fn(|i| {
-        let o = Vec3::new((i >> 2) as f32, (i >> 1 & 1) as f32, (i & 1) as f32);
-        sd(lo + o * h)
-    })
+    std::array::from_fn(|i| sd(lo + sdfmo_format::corner_offset(i) * h))
 }
 
 /// The leaves a builder would emit for two concentric-ish shapes close together: a sphere of
@@ -41,15 +38,8 @@ pub fn shape_leaves(depth: u8, with_plate: bool) -> Vec<LeafInput> {
             continue;
         }
         if level < depth {
-            for o in 0..8u32 {
-                stack.push((
-                    level + 1,
-                    [
-                        2 * c[0] + (o >> 2),
-                        2 * c[1] + (o >> 1 & 1),
-                        2 * c[2] + (o & 1),
-                    ],
-                ));
+            for o in 0..8u8 {
+                stack.push((level + 1, sdfmo_format::child_coord(c, o)));
             }
             continue;
         }

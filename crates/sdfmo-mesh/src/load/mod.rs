@@ -262,6 +262,15 @@ fn load_impl(
     })
 }
 
+/// The name a mesh file is shown under (tables, image names): its file stem, or `mesh` when it
+/// has none.
+pub fn mesh_name(path: &Path) -> String {
+    path.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| "mesh".to_owned())
+}
+
 /// The lines of a text mesh file (OBJ, ASCII STL), numbered from 1, each as UTF-8 text or the
 /// parse error naming its line.
 pub(crate) fn text_lines<'a>(
