@@ -48,10 +48,8 @@ pub fn env_depths(name: &str, default: &str) -> Vec<u8> {
 /// otherwise.
 pub fn build_settings(depth: u8, method: Method, threads: Option<usize>) -> BuildSettings {
     BuildSettings {
-        depth,
-        method,
         threads,
-        ..BuildSettings::default()
+        ..BuildSettings::new(depth, method)
     }
 }
 

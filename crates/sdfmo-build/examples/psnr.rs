@@ -38,11 +38,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut row = Vec::new();
         let mut svo_imgs: Vec<image::RgbImage> = Vec::new();
         for method in [Method::Svo, Method::Multi { max_voxels: 8 }] {
-            let s = BuildSettings {
-                depth,
-                method,
-                ..Default::default()
-            };
+            let s = BuildSettings::new(depth, method);
             let (oct, st) = build(&mesh, &s, None)?;
             let score = protocol.score(&OctreeScene(&oct))?;
             let mut imgs = Vec::new();

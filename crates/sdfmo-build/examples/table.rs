@@ -36,10 +36,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let mut prev: Option<usize> = None;
             for depth in from..=to {
                 let s = BuildSettings {
-                    depth,
-                    method,
                     threads: Some(2),
-                    ..Default::default()
+                    ..BuildSettings::new(depth, method)
                 };
                 let mut walls = Vec::new();
                 let c0 = cpu_seconds();

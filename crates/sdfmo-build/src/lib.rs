@@ -96,6 +96,17 @@ pub struct BuildSettings {
     pub sign: SignMode,
 }
 
+impl BuildSettings {
+    /// The settings of a build at `depth` with `method`, defaults otherwise.
+    pub fn new(depth: u8, method: Method) -> BuildSettings {
+        BuildSettings {
+            depth,
+            method,
+            ..BuildSettings::default()
+        }
+    }
+}
+
 impl Default for BuildSettings {
     fn default() -> Self {
         BuildSettings {

@@ -13,11 +13,7 @@ use sdfmo_mesh::{procedural, TriMesh};
 const MULTI: Method = Method::Multi { max_voxels: 8 };
 
 fn settings(depth: u8, method: Method) -> BuildSettings {
-    BuildSettings {
-        depth,
-        method,
-        ..Default::default()
-    }
+    BuildSettings::new(depth, method)
 }
 
 fn run(mesh: &TriMesh, depth: u8, method: Method) -> (PackedOctree, BuildStats) {

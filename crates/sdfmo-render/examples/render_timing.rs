@@ -101,11 +101,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut reference_done = false;
     for &depth in &depths {
         for &(method_name, method) in &methods {
-            let settings = BuildSettings {
-                depth,
-                method,
-                ..BuildSettings::default()
-            };
+            let settings = BuildSettings::new(depth, method);
             let (octree, stats) = build(&mesh, &settings, None)?;
             eprintln!(
                 "{name} depth {depth} {method_name}: {} voxels, {} bytes, build {:.0} ms",

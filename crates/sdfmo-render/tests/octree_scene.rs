@@ -17,10 +17,8 @@ use sdfmo_render::{
 
 fn octree(mesh: &TriMesh, depth: u8, method: Method) -> PackedOctree {
     let s = BuildSettings {
-        depth,
-        method,
         threads: Some(2),
-        ..BuildSettings::default()
+        ..BuildSettings::new(depth, method)
     };
     build(mesh, &s, None).expect("build").0
 }

@@ -264,131 +264,121 @@ impl Layout<'_> {
     }
 }
 
-fn layout<'b>(
-    acc: &gltf::Accessor,
-    what: &str,
-    buffers: &'b mut Buffers,
-    ctx: &Ctx,
-) -> Result<Layout<'b>> {
-    let i = acc.index();
-    if acc.sparse().is_some() {
-        return Err(MeshError::Unsupported {
+impl Buffers<'_> {
+    /// The checked layout of accessor `acc` (for `what`, named in errors) in its buffer.
+    fn layout<'b>(&'b mut self, acc: &gltf::Accessor, what: &str, ctx: &Ctx) -> Result<Layout<'b>> {
+        let i = acc.index();
+        if acc.sparse().is_some() {
+            return Err(MeshError::Unsupported {
+                file: ctx.file.into(),
+                reason: format!("{what}: sparse accessor {i}"),
+            });
+        }
+        let view = acc.view().ok_or_else(|| MeshError::Unsupported {
             file: ctx.file.into(),
-            reason: format!("{what}: sparse accessor {i}"),
-        });
-    }
-    let view = acc.view().ok_or_else(|| MeshError::Unsupported {
-        file: ctx.file.into(),
-        reason: format!("{what}: accessor {i} has no bufferView"),
-    })?;
-    let size = acc.size();
-    let stride = view.stride().unwrap_or(size);
-    if stride < size {
-        return Err(ctx.parse(format!(
-            "{what}: accessor {i} elements of {size} bytes overlap (stride {stride})"
-        )));
-    }
-    let bytes = buffers.get(view.buffer().index(), ctx)?;
-    let bad = |reason: String| MeshError::Truncated {
-        file: ctx.file.into(),
-        reason: format!("{what}: accessor {i}: {reason}"),
-    };
-    let view_end = view
-        .offset()
-        .checked_add(view.length())
-        .filter(|&e| e <= bytes.len())
-        .ok_or_else(|| {
-            bad(format!(
-                "bufferView {} (offset {}, length {}) exceeds its buffer of {} bytes",
-                view.index(),
-                view.offset(),
-                view.length(),
-                bytes.len()
-            ))
+            reason: format!("{what}: accessor {i} has no bufferView"),
         })?;
-    let count = acc.count();
-    if count > 0 {
-        let need = (count - 1)
-            .checked_mul(stride)
-            .and_then(|x| x.checked_add(size))
-            .and_then(|x| x.checked_add(acc.offset()));
-        if need.is_none_or(|n| n > view.length()) {
-            return Err(bad(format!(
-                "{count} elements of {size} bytes (stride {stride}, offset {}) exceed bufferView {} of {} bytes",
-                acc.offset(),
-                view.index(),
-                view.length()
+        let size = acc.size();
+        let stride = view.stride().unwrap_or(size);
+        if stride < size {
+            return Err(ctx.parse(format!(
+                "{what}: accessor {i} elements of {size} bytes overlap (stride {stride})"
             )));
         }
-    }
-    Ok(Layout {
-        bytes: &bytes[..view_end],
-        start: view.offset() + acc.offset(),
-        stride,
-        count,
-    })
-}
-
-fn read_positions(
-    acc: &gltf::Accessor,
-    what: &str,
-    buffers: &mut Buffers,
-    ctx: &Ctx,
-) -> Result<Vec<Vec3>> {
-    if acc.dimensions() != Dimensions::Vec3 || acc.data_type() != DataType::F32 {
-        return Err(MeshError::Unsupported {
+        let bytes = self.get(view.buffer().index(), ctx)?;
+        let bad = |reason: String| MeshError::Truncated {
             file: ctx.file.into(),
-            reason: format!(
-                "{what}: POSITION accessor {} is {:?} of {:?} (only VEC3 of FLOAT)",
-                acc.index(),
-                acc.dimensions(),
-                acc.data_type()
-            ),
-        });
-    }
-    let l = layout(acc, what, buffers, ctx)?;
-    Ok((0..l.count)
-        .map(|i| {
-            let e = l.element(i);
-            let f = |k: usize| f32::from_le_bytes([e[k], e[k + 1], e[k + 2], e[k + 3]]);
-            Vec3::new(f(0), f(4), f(8))
-        })
-        .collect())
-}
-
-fn read_indices(
-    acc: &gltf::Accessor,
-    what: &str,
-    buffers: &mut Buffers,
-    ctx: &Ctx,
-) -> Result<Vec<u32>> {
-    if acc.dimensions() != Dimensions::Scalar {
-        return Err(ctx.parse(format!(
-            "{what}: index accessor {} is not SCALAR",
-            acc.index()
-        )));
-    }
-    let ty = acc.data_type();
-    let l = layout(acc, what, buffers, ctx)?;
-    let read = |i: usize| -> Option<u32> {
-        let e = l.element(i);
-        match ty {
-            DataType::U8 => Some(e[0] as u32),
-            DataType::U16 => Some(u16::from_le_bytes([e[0], e[1]]) as u32),
-            DataType::U32 => Some(le_u32(e, 0)),
-            _ => None,
-        }
-    };
-    (0..l.count)
-        .map(|i| {
-            read(i).ok_or_else(|| {
-                ctx.parse(format!(
-                    "{what}: index accessor {} has component type {ty:?} (only unsigned integers)",
-                    acc.index()
+            reason: format!("{what}: accessor {i}: {reason}"),
+        };
+        let view_end = view
+            .offset()
+            .checked_add(view.length())
+            .filter(|&e| e <= bytes.len())
+            .ok_or_else(|| {
+                bad(format!(
+                    "bufferView {} (offset {}, length {}) exceeds its buffer of {} bytes",
+                    view.index(),
+                    view.offset(),
+                    view.length(),
+                    bytes.len()
                 ))
-            })
+            })?;
+        let count = acc.count();
+        if count > 0 {
+            let need = (count - 1)
+                .checked_mul(stride)
+                .and_then(|x| x.checked_add(size))
+                .and_then(|x| x.checked_add(acc.offset()));
+            if need.is_none_or(|n| n > view.length()) {
+                return Err(bad(format!(
+                    "{count} elements of {size} bytes (stride {stride}, offset {}) exceed bufferView {} of {} bytes",
+                    acc.offset(),
+                    view.index(),
+                    view.length()
+                )));
+            }
+        }
+        Ok(Layout {
+            bytes: &bytes[..view_end],
+            start: view.offset() + acc.offset(),
+            stride,
+            count,
         })
-        .collect()
+    }
+
+    /// The positions of accessor `acc` (VEC3 of FLOAT only).
+    fn positions(&mut self, acc: &gltf::Accessor, what: &str, ctx: &Ctx) -> Result<Vec<Vec3>> {
+        if acc.dimensions() != Dimensions::Vec3 || acc.data_type() != DataType::F32 {
+            return Err(MeshError::Unsupported {
+                file: ctx.file.into(),
+                reason: format!(
+                    "{what}: POSITION accessor {} is {:?} of {:?} (only VEC3 of FLOAT)",
+                    acc.index(),
+                    acc.dimensions(),
+                    acc.data_type()
+                ),
+            });
+        }
+        let l = self.layout(acc, what, ctx)?;
+        Ok((0..l.count)
+            .map(|i| {
+                let e = l.element(i);
+                let f = |k: usize| f32::from_le_bytes([e[k], e[k + 1], e[k + 2], e[k + 3]]);
+                Vec3::new(f(0), f(4), f(8))
+            })
+            .collect())
+    }
+
+    /// The indices of accessor `acc` (SCALAR of unsigned integers only).
+    fn indices(&mut self, acc: &gltf::Accessor, what: &str, ctx: &Ctx) -> Result<Vec<u32>> {
+        if acc.dimensions() != Dimensions::Scalar {
+            return Err(ctx.parse(format!(
+                "{what}: index accessor {} is not SCALAR",
+                acc.index()
+            )));
+        }
+        let ty = acc.data_type();
+        let l = self.layout(acc, what, ctx)?;
+        let read = |i: usize| -> Option<u32> {
+            let e = l.element(i);
+            match ty {
+                DataType::U8 => Some(e[0] as u32),
+                DataType::U16 => Some(u16::from_le_bytes([e[0], e[1]]) as u32),
+                DataType::U32 => Some(le_u32(e, 0)),
+                _ => None,
+            }
+        };
+        (0..l.count)
+            .map(|i| {
+                read(i).ok_or_else(|| {
+                    ctx.parse(format!(
+                        "{what}: index accessor {} has component type {ty:?} (only unsigned integers)",
+                        acc.index()
+                    ))
+                })
+            })
+            .collect()
+    }
 }
 
 /// Turns a primitive's index list into triangles according to its mode.
@@ -520,9 +510,9 @@ pub(super) fn read(
                         let pos_acc = prim
                             .get(&gltf::Semantic::Positions)
                             .ok_or_else(|| ctx.parse(format!("{what}: no POSITION attribute")))?;
-                        let positions = read_positions(&pos_acc, &what, &mut buffers, &ctx)?;
+                        let positions = buffers.positions(&pos_acc, &what, &ctx)?;
                         let idx: Vec<u32> = match prim.indices() {
-                            Some(acc) => read_indices(&acc, &what, &mut buffers, &ctx)?,
+                            Some(acc) => buffers.indices(&acc, &what, &ctx)?,
                             None => (0..positions.len() as u32).collect(),
                         };
                         let tris = assemble(prim.mode(), &idx, &what, &ctx)?;
