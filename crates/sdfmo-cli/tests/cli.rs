@@ -9,12 +9,34 @@ use serde_json::Value;
 
 const SDFMO: &str = env!("CARGO_BIN_EXE_sdfmo");
 
-/// A fresh directory for one test.
-fn tmp(name: &str) -> PathBuf {
+/// A fresh directory for one test, removed when the test ends.
+struct TestDir(PathBuf);
+
+impl std::ops::Deref for TestDir {
+    type Target = PathBuf;
+    fn deref(&self) -> &PathBuf {
+        &self.0
+    }
+}
+
+impl Drop for TestDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn tmp(name: &str) -> TestDir {
     let d = std::env::temp_dir().join(format!("sdfmo-cli-test-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
-    d
+    TestDir(d)
+}
+
+/// A fresh directory `name` holding [`cube_obj`]'s cube.
+fn with_cube(name: &str) -> (TestDir, PathBuf) {
+    let dir = tmp(name);
+    let cube = cube_obj(&dir);
+    (dir, cube)
 }
 
 fn sdfmo<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
@@ -84,8 +106,7 @@ fn cube_obj(dir: &Path) -> PathBuf {
 
 #[test]
 fn info_of_a_generated_cube_and_the_demo_part() {
-    let dir = tmp("info");
-    let cube = cube_obj(&dir);
+    let (_dir, cube) = with_cube("info");
     let j = json_ok(&["info".as_ref(), cube.as_os_str(), "--json".as_ref()]);
     keys(
         &j,
@@ -115,7 +136,6 @@ fn info_of_a_generated_cube_and_the_demo_part() {
     let human = sdfmo(&["info".as_ref(), cube.as_os_str()]);
     assert!(human.status.success());
     assert!(String::from_utf8_lossy(&human.stdout).contains("triangles"));
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -160,13 +180,11 @@ fn missing_and_malformed_inputs_fail_cleanly() {
     let o = sdfmo(&["render", "--size", "0x5", "a.smo", "-o", "x.png"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(!stderr(&o).contains("panicked"));
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
 fn distance_signs_output_file_and_malformed_lines() {
-    let dir = tmp("distance");
-    let cube = cube_obj(&dir);
+    let (dir, cube) = with_cube("distance");
     let pts = dir.join("p.xyz");
     // Normalised frame: the cube spans [-0.95, 0.95]³.
     std::fs::write(
@@ -218,13 +236,11 @@ fn distance_signs_output_file_and_malformed_lines() {
         ],
         "p.xyz:2",
     );
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
 fn a_closed_stdout_is_not_an_error() {
-    let dir = tmp("pipe");
-    let cube = cube_obj(&dir);
+    let (dir, cube) = with_cube("pipe");
     let pts = dir.join("many.xyz");
     let text: String = (0..40_000)
         .map(|i| format!("{} 0.1 0.2\n", (i % 200) as f32 / 100.0 - 1.0))
@@ -256,7 +272,6 @@ fn a_closed_stdout_is_not_an_error() {
     let status = child.wait().unwrap();
     assert!(status.success(), "exit {status:?}: {err}");
     assert!(err.is_empty(), "{err}");
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -392,7 +407,6 @@ fn build_render_and_compare_the_demo_part() {
         ],
         "",
     );
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -472,7 +486,6 @@ fn a_tiny_sweep_writes_every_output() {
         .filter(|p| p.to_string_lossy().contains(".tmp"))
         .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 fn walk(dir: &Path) -> Vec<PathBuf> {

@@ -329,13 +329,11 @@ impl SectionBytes<'_> {
             }
             Ok(u64::from(c))
         })?;
-        if next != u64::from(self.counts.voxels) {
+        let voxels = self.counts.voxels;
+        if next != u64::from(voxels) {
             return corrupt(
                 "leaves",
-                format!(
-                    "counts sum to {next}, voxel_count is {}",
-                    self.counts.voxels
-                ),
+                format!("counts sum to {next}, voxel_count is {voxels}"),
             );
         }
         Ok(())
@@ -355,14 +353,10 @@ impl SectionBytes<'_> {
             }
             ones += u64::from(x.count_ones());
         }
-        if ones != u64::from(self.counts.surface) {
-            return corrupt(
-                "surface",
-                format!(
-                    "{ones} bits set, surface_voxel_count is {}",
-                    self.counts.surface
-                ),
-            );
+        let surface = self.counts.surface;
+        if ones != u64::from(surface) {
+            let what = format!("{ones} bits set, surface_voxel_count is {surface}");
+            return corrupt("surface", what);
         }
         Ok(())
     }

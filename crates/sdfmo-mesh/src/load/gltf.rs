@@ -476,14 +476,8 @@ pub(super) fn read(
     let mut decoded: HashMap<(usize, usize), Decoded> = HashMap::new();
     while let Some((node, parent, depth)) = stack.pop() {
         visits += 1;
-        if visits > ctx.limits.max_node_visits {
-            return Err(MeshError::TooLarge {
-                file: file.into(),
-                what: "scene node visits (instancing)".into(),
-                count: visits as u64,
-                limit: ctx.limits.max_node_visits as u64,
-            });
-        }
+        let limit = ctx.limits.max_node_visits;
+        super::check_limit(file, "scene node visits (instancing)", visits, limit)?;
         if depth > node_count {
             return Err(ctx.parse(format!("node {} is its own ancestor (cycle)", node.index())));
         }
@@ -525,14 +519,7 @@ pub(super) fn read(
                 }
                 raw.check_room(file, tris.len(), ctx.limits)?;
                 let nv = raw.positions.len().saturating_add(positions.len());
-                if nv > ctx.limits.max_vertices {
-                    return Err(MeshError::TooLarge {
-                        file: file.into(),
-                        what: "vertex count".into(),
-                        count: nv as u64,
-                        limit: ctx.limits.max_vertices as u64,
-                    });
-                }
+                super::check_limit(file, "vertex count", nv, ctx.limits.max_vertices)?;
                 let base = raw.positions.len() as u32;
                 for (i, p) in positions.iter().enumerate() {
                     let q = world.transform_point3(*p);

@@ -111,15 +111,7 @@ impl RawMesh {
     /// Error if adding `n` more triangles would pass the limit.
     pub(crate) fn check_room(&self, file: &str, n: usize, limits: &LoadLimits) -> Result<()> {
         let count = self.triangles.len().saturating_add(n);
-        if count > limits.max_triangles {
-            return Err(MeshError::TooLarge {
-                file: file.into(),
-                what: "triangle count".into(),
-                count: count as u64,
-                limit: limits.max_triangles as u64,
-            });
-        }
-        Ok(())
+        check_limit(file, "triangle count", count, limits.max_triangles)
     }
 }
 
@@ -244,14 +236,12 @@ fn load_impl(
         MeshFormat::Obj => obj::read(bytes, name, limits)?,
         MeshFormat::Gltf | MeshFormat::Glb => gltf::read(bytes, name, base, limits)?,
     };
-    if raw.positions.len() > limits.max_vertices {
-        return Err(MeshError::TooLarge {
-            file: name.into(),
-            what: "vertex count".into(),
-            count: raw.positions.len() as u64,
-            limit: limits.max_vertices as u64,
-        });
-    }
+    check_limit(
+        name,
+        "vertex count",
+        raw.positions.len(),
+        limits.max_vertices,
+    )?;
     let raw = raw.with_triangles(name, "the file holds no triangle")?;
     let (mesh, report) = clean(name, &raw.positions, &raw.triangles, &raw.parts)?;
     Ok(LoadedMesh {
@@ -269,6 +259,24 @@ pub fn mesh_name(path: &Path) -> String {
         .map(|s| s.to_string_lossy().into_owned())
         .filter(|s| !s.is_empty())
         .unwrap_or_else(|| "mesh".to_owned())
+}
+
+/// [`MeshError::TooLarge`]: `count` of `what` in `file` passes `limit`.
+pub(crate) fn too_large(file: &str, what: &str, count: usize, limit: usize) -> MeshError {
+    MeshError::TooLarge {
+        file: file.into(),
+        what: what.into(),
+        count: count as u64,
+        limit: limit as u64,
+    }
+}
+
+/// [`too_large`] if `count > limit`.
+pub(crate) fn check_limit(file: &str, what: &str, count: usize, limit: usize) -> Result<()> {
+    if count > limit {
+        return Err(too_large(file, what, count, limit));
+    }
+    Ok(())
 }
 
 /// The lines of a text mesh file (OBJ, ASCII STL), numbered from 1, each as UTF-8 text or the

@@ -120,12 +120,12 @@ pub(super) fn read(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawM
                 }
                 // Indices are u32: never more vertices than that, whatever the limits say.
                 if n > limits.max_vertices.min(u32::MAX as usize) {
-                    return Err(MeshError::TooLarge {
-                        file: file.into(),
-                        what: "vertex count".into(),
-                        count: n as u64,
-                        limit: limits.max_vertices as u64,
-                    });
+                    return Err(super::too_large(
+                        file,
+                        "vertex count",
+                        n,
+                        limits.max_vertices,
+                    ));
                 }
                 vertices.push(p);
                 owner.push(u32::MAX);
@@ -166,14 +166,9 @@ pub(super) fn read(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawM
                         next
                     })
                 });
-                if raw.positions.len() + face.len() > u32::MAX as usize {
-                    return Err(MeshError::TooLarge {
-                        file: file.into(),
-                        what: "vertex count (copies per object)".into(),
-                        count: (raw.positions.len() + face.len()) as u64,
-                        limit: u32::MAX as u64,
-                    });
-                }
+                let copies = raw.positions.len() + face.len();
+                let what = "vertex count (copies per object)";
+                super::check_limit(file, what, copies, u32::MAX as usize)?;
                 for v in face.iter_mut() {
                     let k = *v as usize;
                     if owner[k] != object {
