@@ -8,10 +8,8 @@
 //! Defaults: the demo part, depth 6, 256×256 views (a few seconds). The paper's protocol is
 //! depth 9 and 1024×1024 (`sdfmo sweep` runs it over many models and depths).
 
-use sdf_multioctree::{
-    build_octree, compare, demo_mesh, load_mesh, paper_views, render_mesh, render_octree, Method,
-    Mode,
-};
+use sdf_multioctree::render::{OctreeScene, PaperProtocol};
+use sdf_multioctree::{build_octree, demo_mesh, load_mesh, Method, DEFAULT_MARGIN};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -28,15 +26,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .map_or(Ok(256), |s| s.parse())
         .map_err(|_| "SIZE must be a number")?;
 
-    let cameras = paper_views(size);
-    let references = cameras
-        .iter()
-        .map(|c| render_mesh(&mesh, c, Mode::Lambert))
-        .collect::<Result<Vec<_>, _>>()?;
-
+    // The mesh's reference renders of the paper's views; each octree is scored against them.
+    let protocol = PaperProtocol::new(&mesh, DEFAULT_MARGIN, size, None)?;
     println!(
         "{name}, depth {depth}, {} views of {size}x{size}",
-        cameras.len()
+        protocol.cameras().len()
     );
     println!("| method | PSNR dB | FLIP | MB | build ms | render ms |");
     println!("|---|---:|---:|---:|---:|---:|");
@@ -46,24 +40,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ("multi", Method::Multi { max_voxels: 8 }),
     ] {
         let (octree, stats) = build_octree(&mesh, depth, method)?;
-        let (mut psnr, mut flip, mut ms) = (0.0, 0.0, 0.0);
-        for (camera, reference) in cameras.iter().zip(&references) {
-            let image = render_octree(&octree, camera, Mode::Lambert)?;
-            let q = compare(reference, &image)?;
-            psnr += q.psnr;
-            flip += f64::from(q.flip);
-            ms += image.render_ms;
-        }
-        let n = cameras.len() as f64;
+        let score = protocol.score(&OctreeScene(&octree))?;
         println!(
             "| {label} | {:.2} | {:.4} | {:.3} | {:.0} | {:.1} |",
-            psnr / n,
-            flip / n,
+            score.psnr(),
+            score.flip(),
             stats.bytes as f64 / 1e6,
             stats.build_ms,
-            ms / n
+            score.render_ms()
         );
-        psnrs.push(psnr / n);
+        psnrs.push(score.psnr());
     }
     println!("multi − SVO: {:+.2} dB", psnrs[1] - psnrs[0]);
     Ok(())

@@ -91,66 +91,54 @@ pub use format::PackedOctree;
 pub use mesh::TriMesh;
 pub use render::{save_png, Camera, Mode, Rendered};
 
-/// An error of the high-level API: the layer's own error, one variant per layer.
-#[derive(Debug)]
-#[non_exhaustive]
-pub enum Error {
-    /// Loading or validating a mesh.
-    Mesh(mesh::MeshError),
-    /// Preparing distance or ray queries on a mesh.
-    Distance(distance::DistanceError),
-    /// Building an octree.
-    Build(build::BuildError),
-    /// Saving, loading or validating an octree file.
-    Format(format::FormatError),
-    /// Rendering or writing an image.
-    Render(render::RenderError),
-    /// Comparing images.
-    Metrics(metrics::MetricsError),
-}
-
-impl fmt::Display for Error {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Error::Mesh(e) => write!(f, "mesh: {e}"),
-            Error::Distance(e) => write!(f, "distance: {e}"),
-            Error::Build(e) => write!(f, "build: {e}"),
-            Error::Format(e) => write!(f, "octree file: {e}"),
-            Error::Render(e) => write!(f, "render: {e}"),
-            Error::Metrics(e) => write!(f, "metrics: {e}"),
+/// Declares [`Error`], one variant per layer with the prefix its message gets, with its
+/// `Display`, `source` (the layer error's own source: the layer's message is already shown)
+/// and a `From` per layer error.
+macro_rules! layer_errors {
+    ($($(#[doc = $doc:literal])* $variant:ident($ty:ty) => $prefix:literal,)*) => {
+        /// An error of the high-level API: the layer's own error, one variant per layer.
+        #[derive(Debug)]
+        #[non_exhaustive]
+        pub enum Error {
+            $($(#[doc = $doc])* $variant($ty),)*
         }
-    }
-}
 
-impl std::error::Error for Error {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            Error::Mesh(e) => e.source(),
-            Error::Distance(e) => e.source(),
-            Error::Build(e) => e.source(),
-            Error::Format(e) => e.source(),
-            Error::Render(e) => e.source(),
-            Error::Metrics(e) => e.source(),
+        impl fmt::Display for Error {
+            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                match self {
+                    $(Error::$variant(e) => write!(f, concat!($prefix, ": {}"), e),)*
+                }
+            }
         }
-    }
-}
 
-macro_rules! from_layer_error {
-    ($($variant:ident($ty:ty)),* $(,)?) => {$(
-        impl From<$ty> for Error {
+        impl std::error::Error for Error {
+            fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+                match self {
+                    $(Error::$variant(e) => e.source(),)*
+                }
+            }
+        }
+
+        $(impl From<$ty> for Error {
             fn from(e: $ty) -> Error {
                 Error::$variant(e)
             }
-        }
-    )*};
+        })*
+    };
 }
-from_layer_error!(
-    Mesh(mesh::MeshError),
-    Distance(distance::DistanceError),
-    Build(build::BuildError),
-    Format(format::FormatError),
-    Render(render::RenderError),
-    Metrics(metrics::MetricsError),
+layer_errors!(
+    /// Loading or validating a mesh.
+    Mesh(mesh::MeshError) => "mesh",
+    /// Preparing distance or ray queries on a mesh.
+    Distance(distance::DistanceError) => "distance",
+    /// Building an octree.
+    Build(build::BuildError) => "build",
+    /// Saving, loading or validating an octree file.
+    Format(format::FormatError) => "octree file",
+    /// Rendering or writing an image.
+    Render(render::RenderError) => "render",
+    /// Comparing images.
+    Metrics(metrics::MetricsError) => "metrics",
 );
 
 /// Result of the high-level API.
@@ -230,17 +218,9 @@ pub fn render_octree(octree: &PackedOctree, camera: &Camera, mode: Mode) -> Resu
 /// exactly as the builder does, the same camera and shading as [`render_octree`], face normals.
 ///
 /// # Errors
-/// [`Error::Mesh`] for an invalid mesh (non-finite positions, out-of-range indices, no
-/// triangles), [`Error::Distance`] if the ray queries cannot be prepared, [`Error::Render`] for
-/// an invalid camera.
+/// [`Error::Distance`] if the ray queries cannot be prepared, [`Error::Render`] for an invalid
+/// camera. (A [`TriMesh`] is valid by construction, so there is no mesh error here.)
 pub fn render_mesh(mesh: &TriMesh, camera: &Camera, mode: Mode) -> Result<Rendered> {
-    // `TriMesh`'s fields are public, so the mesh may never have been validated: check it before
-    // normalising (which indexes positions by the triangles) so bad input is an error, not a panic.
-    TriMesh::new(
-        mesh.positions.clone(),
-        mesh.triangles.clone(),
-        mesh.parts.clone(),
-    )?;
     let (normalized, _) = mesh.normalized(DEFAULT_MARGIN);
     let dist = MeshDistance::new(&normalized, SignMode::Auto)?;
     Ok(render::render(

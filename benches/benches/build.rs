@@ -9,36 +9,20 @@
 //! 2). Narrow a run with criterion's filter, e.g.
 //! `cargo bench -p sdfmo-benches --bench build -- 'build/abc1/d9/multi'`.
 
-use sdfmo_benches::{data_dir, env_list};
+use sdfmo_benches::{build_at, build_settings, env_depths, env_list, env_num, load_stl, METHODS};
 use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use sdfmo_build::{build, BuildSettings, Method};
-use sdfmo_mesh::{load_mesh, TriMesh};
-
-fn load(name: &str) -> Option<TriMesh> {
-    let path = data_dir().join(format!("{name}.stl"));
-    match load_mesh(&path) {
-        Ok(m) => Some(m.mesh),
-        Err(e) => {
-            eprintln!("note: skipping {name}: {e}");
-            None
-        }
-    }
-}
+use sdfmo_build::{build, Method};
 
 fn bench_build(c: &mut Criterion) {
-    let threads: usize = std::env::var("SDFMO_BENCH_THREADS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(2);
-    let depths: Vec<u8> = env_list("SDFMO_BENCH_DEPTHS", "6,7,8,9,10")
-        .iter()
-        .filter_map(|d| d.parse().ok())
-        .collect();
+    let threads: usize = env_num("SDFMO_BENCH_THREADS", 2);
+    let depths = env_depths("SDFMO_BENCH_DEPTHS", "6,7,8,9,10");
     for name in env_list("SDFMO_BENCH_MESHES", "abc1,abc5") {
-        let Some(mesh) = load(&name) else { continue };
+        let Some(mesh) = load_stl(&name) else {
+            continue;
+        };
         let mut group = c.benchmark_group(format!("build/{name}"));
         for &depth in &depths {
             // Deep builds take seconds: the fewest samples criterion allows, a budget to match.
@@ -51,17 +35,9 @@ fn bench_build(c: &mut Criterion) {
                 5
             }));
             group.warm_up_time(Duration::from_millis(500));
-            for (label, method) in [
-                ("svo", Method::Svo),
-                ("multi", Method::Multi { max_voxels: 8 }),
-            ] {
-                let settings = BuildSettings {
-                    depth,
-                    method,
-                    threads: Some(threads),
-                    ..Default::default()
-                };
-                let (_, stats) = build(&mesh, &settings, None).expect("build");
+            for (label, method) in METHODS {
+                let (_, stats) = build_at(&mesh, depth, method, Some(threads));
+                let settings = build_settings(depth, method, Some(threads));
                 assert!(stats.leaves > 0, "{name} d{depth} {label}: no leaves");
                 if method == Method::Svo {
                     assert_eq!(stats.voxels, stats.leaves);

@@ -11,14 +11,12 @@
 //! Narrow a run with criterion's filter, e.g.
 //! `cargo bench -p sdfmo-benches --bench render -- 'render/abc1/d9/multi/lambert'`.
 
-use sdfmo_benches::{data_dir, env_list};
+use sdfmo_benches::{build_at, env_depths, env_list, env_num, load_stl, METHODS};
 use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use sdfmo_build::{build, BuildSettings, Method};
 use sdfmo_distance::{MeshDistance, SignMode};
-use sdfmo_mesh::{load_mesh, TriMesh};
 use sdfmo_render::{
     mesh_in_octree_frame, render, Camera, MeshScene, Mode, OctreeScene, RenderSettings, Traceable,
 };
@@ -76,37 +74,17 @@ fn bench_scene<T: Traceable>(
 }
 
 fn render_benches(c: &mut Criterion) {
-    let size: u32 = std::env::var("SDFMO_BENCH_SIZE")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(1024);
-    let depths: Vec<u8> = env_list("SDFMO_BENCH_DEPTHS", "7,8,9,10")
-        .iter()
-        .filter_map(|d| d.parse().ok())
-        .collect();
+    let size: u32 = env_num("SDFMO_BENCH_SIZE", 1024);
+    let depths = env_depths("SDFMO_BENCH_DEPTHS", "7,8,9,10");
     let cam = Camera::paper_view(0, size, size);
     for name in env_list("SDFMO_BENCH_MESHES", "abc1,abc5") {
-        let path = data_dir().join(format!("{name}.stl"));
-        if !path.exists() {
-            eprintln!(
-                "skipping {name}: {} not found (set SDFMO_TEST_DATA)",
-                path.display()
-            );
+        let Some(mesh) = load_stl(&name) else {
             continue;
-        }
-        let mesh: TriMesh = load_mesh(&path).expect("load mesh").mesh;
+        };
         let mut reference_done = false;
         for &depth in &depths {
-            for (method_name, method) in [
-                ("svo", Method::Svo),
-                ("multi", Method::Multi { max_voxels: 8 }),
-            ] {
-                let settings = BuildSettings {
-                    depth,
-                    method,
-                    ..BuildSettings::default()
-                };
-                let (octree, stats) = build(&mesh, &settings, None).expect("build");
+            for (method_name, method) in METHODS {
+                let (octree, stats) = build_at(&mesh, depth, method, None);
                 eprintln!(
                     "{name} d{depth} {method_name}: {} leaves, {} voxels, {} bytes, built in {:.0} ms",
                     stats.leaves, stats.voxels, stats.bytes, stats.build_ms

@@ -1,6 +1,67 @@
-//! Shared helpers for the benchmarks: where the test meshes are, and list-valued knobs.
+//! Shared helpers for the benchmarks: where the test meshes are, the knobs read from the
+//! environment, the two methods compared and a build at a depth.
 
 use std::path::PathBuf;
+use std::str::FromStr;
+
+use sdfmo_build::{build, BuildSettings, BuildStats, Method};
+use sdfmo_format::PackedOctree;
+use sdfmo_mesh::{load_mesh, TriMesh};
+
+/// The two methods every benchmark compares, with their labels: the SVO baseline and the
+/// multi-octree at the paper's voxel cap.
+pub const METHODS: [(&str, Method); 2] = [
+    ("svo", Method::Svo),
+    ("multi", Method::Multi { max_voxels: 8 }),
+];
+
+/// The test mesh `NAME.stl` from [`data_dir`], or `None` (with a note on stderr) when it cannot
+/// be loaded, so a run without the data skips it.
+pub fn load_stl(name: &str) -> Option<TriMesh> {
+    let path = data_dir().join(format!("{name}.stl"));
+    match load_mesh(&path) {
+        Ok(m) => Some(m.mesh),
+        Err(e) => {
+            eprintln!("note: skipping {name}: {e} (set SDFMO_TEST_DATA)");
+            None
+        }
+    }
+}
+
+/// `name` parsed from the environment, `default` when unset or unparsable.
+pub fn env_num<T: FromStr>(name: &str, default: T) -> T {
+    std::env::var(name)
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(default)
+}
+
+/// The depths listed in `name` (comma-separated), `default` when unset.
+pub fn env_depths(name: &str, default: &str) -> Vec<u8> {
+    env_list(name, default)
+        .iter()
+        .filter_map(|d| d.parse().ok())
+        .collect()
+}
+
+/// The settings of a benchmark build: `depth`, `method`, `threads` (`None`: all), defaults
+/// otherwise.
+pub fn build_settings(depth: u8, method: Method, threads: Option<usize>) -> BuildSettings {
+    BuildSettings {
+        threads,
+        ..BuildSettings::new(depth, method)
+    }
+}
+
+/// Builds `mesh` with [`build_settings`], panicking on error (a benchmark's input).
+pub fn build_at(
+    mesh: &TriMesh,
+    depth: u8,
+    method: Method,
+    threads: Option<usize>,
+) -> (PackedOctree, BuildStats) {
+    build(mesh, &build_settings(depth, method, threads), None).expect("build")
+}
 
 /// The shared test-mesh directory: `SDFMO_TEST_DATA`, else `../shared/data` beside the workspace
 /// (a relative value is taken against the workspace root; see `sdfmo-testdata`).

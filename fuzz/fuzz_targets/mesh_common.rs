@@ -14,7 +14,7 @@ pub const LIMITS: LoadLimits = LoadLimits {
 /// The mesh satisfies `TriMesh::new`'s invariants; cleaning it again changes nothing; its
 /// topology is consistent; written as binary STL and read back it gives the same triangles.
 pub fn check(m: &TriMesh) {
-    TriMesh::new(m.positions.clone(), m.triangles.clone(), m.parts.clone()).expect("invariants");
+    TriMesh::new(m.positions().to_vec(), m.triangles().to_vec(), m.parts().to_vec()).expect("invariants");
     let (again, report) = m.cleaned().expect("a clean mesh cleans");
     assert_eq!(again.triangle_count(), m.triangle_count());
     assert_eq!(again.vertex_count(), m.vertex_count());

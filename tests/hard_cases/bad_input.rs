@@ -7,9 +7,9 @@ use sdf_multioctree::build::Method;
 use sdf_multioctree::format::PackedOctree;
 use sdf_multioctree::mesh::{procedural, TriMesh};
 use sdf_multioctree::render::{Camera, Mode};
-use sdf_multioctree::{build_octree, load_mesh, load_octree, render_mesh, render_octree, Error};
+use sdf_multioctree::{build_octree, load_mesh, load_octree, render_octree, Error};
 
-use crate::common::{METHODS, MULTI};
+use crate::common::MULTI;
 
 fn tmp(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("sdfmo-hard-cases-{}", std::process::id()));
@@ -17,14 +17,12 @@ fn tmp(name: &str) -> PathBuf {
     dir.join(name)
 }
 
-/// A mesh that skips `TriMesh::new`'s validation (the fields are public).
-fn raw(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> TriMesh {
+/// What the facade makes of arrays no mesh can hold: `TriMesh`'s fields are private, so
+/// `TriMesh::new` is the only way in and refuses them with a typed [`Error::Mesh`]; the builder
+/// and the reference renderer never see such a mesh.
+fn raw(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Error {
     let parts = vec![0; triangles.len()];
-    TriMesh {
-        positions,
-        triangles,
-        parts,
-    }
+    Error::from(TriMesh::new(positions, triangles, parts).expect_err("an invalid mesh"))
 }
 
 fn tri() -> Vec<Vec3> {
@@ -36,18 +34,8 @@ fn nan_and_infinite_coordinates_are_typed_errors() {
     for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
         let mut p = tri();
         p[1].y = bad;
-        assert!(TriMesh::new(p.clone(), vec![[0, 1, 2]], vec![0]).is_err());
-        let m = raw(p, vec![[0, 1, 2]]);
-        for (_, method) in METHODS {
-            let e = build_octree(&m, 5, method).unwrap_err();
-            assert!(matches!(e, Error::Build(_)), "{bad}: {e}");
-        }
-        // The reference renderer refuses it too (no NaN image, no panic).
-        let cam = Camera::paper_view(0, 16, 16);
-        assert!(
-            render_mesh(&m, &cam, Mode::Lambert).is_err(),
-            "{bad}: render_mesh accepted a non-finite mesh"
-        );
+        let e = raw(p, vec![[0, 1, 2]]);
+        assert!(matches!(e, Error::Mesh(_)), "{bad}: {e}");
     }
     // From a file.
     for (ext, text) in [
@@ -65,13 +53,9 @@ fn nan_and_infinite_coordinates_are_typed_errors() {
 
 #[test]
 fn out_of_range_indices_are_typed_errors() {
-    assert!(TriMesh::new(tri(), vec![[0, 1, 3]], vec![0]).is_err());
     for idx in [3u32, 1000, u32::MAX] {
-        let m = raw(tri(), vec![[0, 1, 2], [0, idx, 1]]);
-        for (_, method) in METHODS {
-            let e = build_octree(&m, 5, method).unwrap_err();
-            assert!(matches!(e, Error::Build(_)), "{idx}: {e}");
-        }
+        let e = raw(tri(), vec![[0, 1, 2], [0, idx, 1]]);
+        assert!(matches!(e, Error::Mesh(_)), "{idx}: {e}");
     }
     for text in [
         "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n",
@@ -85,26 +69,14 @@ fn out_of_range_indices_are_typed_errors() {
         eprintln!("OBJ with a bad index: {e}");
     }
     // Part ids that disagree with the triangles.
-    let m = TriMesh {
-        positions: tri(),
-        triangles: vec![[0, 1, 2]],
-        parts: vec![],
-    };
-    assert!(matches!(
-        build_octree(&m, 5, MULTI).unwrap_err(),
-        Error::Build(_)
-    ));
+    let e = Error::from(TriMesh::new(tri(), vec![[0, 1, 2]], vec![]).unwrap_err());
+    assert!(matches!(e, Error::Mesh(_)), "{e}");
 }
 
 #[test]
 fn empty_meshes_are_typed_errors() {
-    assert!(TriMesh::new(vec![], vec![], vec![]).is_err());
-    for m in [raw(vec![], vec![]), raw(tri(), vec![])] {
-        for (_, method) in METHODS {
-            let e = build_octree(&m, 5, method).unwrap_err();
-            assert!(matches!(e, Error::Build(_)), "{e}");
-        }
-        assert!(render_mesh(&m, &Camera::paper_view(0, 16, 16), Mode::Lambert).is_err());
+    for e in [raw(vec![], vec![]), raw(tri(), vec![])] {
+        assert!(matches!(e, Error::Mesh(_)), "{e}");
     }
     for (name, bytes) in [
         ("empty.obj", &b""[..]),
@@ -223,18 +195,16 @@ fn corrupt_octree_files_are_typed_errors() {
 
 /// Regression: the facade's `render_mesh` used to normalise the mesh (`TriMesh::normalized` →
 /// `bounds`) before anything validated it, so a `TriMesh` built without `TriMesh::new` (its fields
-/// are public) with triangles [[0,1,2],[0,3,1]] over 3 vertices panicked with "index out of
-/// bounds: the len is 3 but the index is 3" instead of returning an error.
+/// were public) with triangles [[0,1,2],[0,3,1]] over 3 vertices panicked with "index out of
+/// bounds: the len is 3 but the index is 3" instead of returning an error. The fields are private
+/// now: such a mesh cannot be made, and asking for it is a typed error, not a panic.
 #[test]
 fn render_mesh_with_out_of_range_index_is_a_typed_error() {
     for idx in [3u32, 1000, u32::MAX] {
-        let m = raw(tri(), vec![[0, 1, 2], [0, idx, 1]]);
-        let r = std::panic::catch_unwind(|| {
-            render_mesh(&m, &Camera::paper_view(0, 16, 16), Mode::Lambert).is_err()
-        });
+        let r = std::panic::catch_unwind(|| raw(tri(), vec![[0, 1, 2], [0, idx, 1]]));
         assert!(
-            matches!(r, Ok(true)),
-            "index {idx}: render_mesh panicked or accepted the mesh"
+            matches!(r, Ok(Error::Mesh(_))),
+            "index {idx}: the mesh was accepted or panicked"
         );
     }
 }

@@ -13,16 +13,17 @@ use crate::common::{
 /// The demo part with every kind of dirt added; the geometry (the set of points on triangles)
 /// is unchanged, so the cleaned mesh is the demo part up to vertex numbering.
 fn dirty_demo() -> TriMesh {
-    let mut m = procedural::demo_part();
+    let m = procedural::demo_part();
     let n = m.triangle_count();
+    let (mut positions, mut triangles, mut parts) = m.into_arrays();
     let mut extra: Vec<[u32; 3]> = Vec::new();
     // Zero-area: a repeated vertex on the surface, and, in the empty space between the
     // parts, three exactly collinear vertices and a triangle with all three indices equal: as
     // segments or points they would add geometry if the builder did not ignore them.
-    let [a, b, c] = m.triangles[0];
+    let [a, b, c] = triangles[0];
     extra.push([a, a, b]);
-    let free = m.positions.len() as u32;
-    m.positions.extend([
+    let free = positions.len() as u32;
+    positions.extend([
         Vec3::new(0.3, 0.2, -0.1),
         Vec3::new(0.45, 0.2, -0.1),
         Vec3::new(0.6, 0.2, -0.1),
@@ -30,32 +31,32 @@ fn dirty_demo() -> TriMesh {
     extra.extend([[free, free + 1, free + 2], [free + 1, free + 1, free + 1]]);
     // Needles: slivers lying inside an existing face (a point very close to a corner, inside
     // the triangle, and a point very close to an edge), so the surface does not change.
-    let [pa, pb, pc] = [a, b, c].map(|v| m.positions[v as usize]);
-    let near_a = m.positions.len() as u32;
-    m.positions.push(pa * (1.0 - 2e-6) + pb * 1e-6 + pc * 1e-6);
+    let [pa, pb, pc] = [a, b, c].map(|v| positions[v as usize]);
+    let near_a = positions.len() as u32;
+    positions.push(pa * (1.0 - 2e-6) + pb * 1e-6 + pc * 1e-6);
     extra.push([a, b, near_a]);
-    let near_ab = m.positions.len() as u32;
-    m.positions.push((pa + pb) * 0.5 * (1.0 - 1e-6) + pc * 1e-6);
+    let near_ab = positions.len() as u32;
+    positions.push((pa + pb) * 0.5 * (1.0 - 1e-6) + pc * 1e-6);
     extra.push([a, near_ab, b]);
     // Duplicates: the same triangle again, rotated, and reversed.
-    let [d0, d1, d2] = m.triangles[n / 2];
+    let [d0, d1, d2] = triangles[n / 2];
     extra.extend([[d0, d1, d2], [d1, d2, d0], [d0, d2, d1]]);
     // Duplicate vertices: every third triangle refers to a bit-identical copy of its first
     // vertex instead (breaks welding by index; the cleaner welds them again).
     for i in (0..n).step_by(3) {
-        let v = m.triangles[i][0];
-        m.positions.push(m.positions[v as usize]);
-        m.triangles[i][0] = m.positions.len() as u32 - 1;
+        let v = triangles[i][0];
+        positions.push(positions[v as usize]);
+        triangles[i][0] = positions.len() as u32 - 1;
     }
     // Unused vertices: inside the part and far outside it (bounds ignore unreferenced ones).
-    m.positions.push(Vec3::ZERO);
-    m.positions.push(Vec3::splat(1e6));
-    m.positions.push(Vec3::splat(-3.0e4));
+    positions.push(Vec3::ZERO);
+    positions.push(Vec3::splat(1e6));
+    positions.push(Vec3::splat(-3.0e4));
     for t in extra {
-        m.triangles.push(t);
-        m.parts.push(m.parts[0]);
+        triangles.push(t);
+        parts.push(parts[0]);
     }
-    TriMesh::new(m.positions, m.triangles, m.parts).expect("dirty but valid")
+    TriMesh::new(positions, triangles, parts).expect("dirty but valid")
 }
 
 #[test]

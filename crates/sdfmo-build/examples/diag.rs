@@ -17,15 +17,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let depth: u8 = a[1].parse()?;
     let view: usize = a[2].parse()?;
     let size: u32 = a[3].parse()?;
-    let (svo, _) = build(
-        &mesh,
-        &BuildSettings {
-            depth,
-            method: Method::Svo,
-            ..Default::default()
-        },
-        None,
-    )?;
+    let (svo, _) = build(&mesh, &BuildSettings::new(depth, Method::Svo), None)?;
     let (multi, _) = build(
         &mesh,
         &BuildSettings {

@@ -6,10 +6,7 @@
 use std::path::Path;
 
 use sdfmo_build::{build, BuildSettings, Method};
-use sdfmo_distance::{MeshDistance, SignMode};
-use sdfmo_render::{
-    mesh_in_octree_frame, render, Camera, MeshScene, Mode, OctreeScene, RenderSettings,
-};
+use sdfmo_render::{OctreeScene, PaperProtocol};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -27,53 +24,31 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .map(|a| a.parse())
         .collect::<Result<_, _>>()?;
     let mesh = sdfmo_mesh::load_mesh(Path::new(path))?.mesh;
-    let name = Path::new(path)
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or("mesh")
-        .to_string();
-    let views = Camera::paper_views(size, size);
-    let rs = RenderSettings::new(Mode::Lambert);
-    let mut refs = Vec::new();
+    let name = sdfmo_mesh::mesh_name(Path::new(path));
+    let margin = BuildSettings::default().margin;
+    let protocol = PaperProtocol::new(&mesh, margin, size, None)?;
+    let refs = protocol.references();
+    if let Some(dir) = &save {
+        std::fs::create_dir_all(dir)?;
+        for (i, r) in refs.iter().enumerate() {
+            r.save(format!("{dir}/{name}_ref_{i}.png"))?;
+        }
+    }
     for depth in depths {
         let mut row = Vec::new();
         let mut svo_imgs: Vec<image::RgbImage> = Vec::new();
         for method in [Method::Svo, Method::Multi { max_voxels: 8 }] {
-            let s = BuildSettings {
-                depth,
-                method,
-                ..Default::default()
-            };
+            let s = BuildSettings::new(depth, method);
             let (oct, st) = build(&mesh, &s, None)?;
-            if refs.is_empty() {
-                let m = mesh_in_octree_frame(&mesh, oct.meta());
-                let d = MeshDistance::new(&m, SignMode::Auto)?;
-                for v in &views {
-                    refs.push(render(&MeshScene(&d), v, &rs)?.to_image());
-                }
-                if let Some(dir) = &save {
-                    std::fs::create_dir_all(dir)?;
-                    for (i, r) in refs.iter().enumerate() {
-                        r.save(format!("{dir}/{name}_ref_{i}.png"))?;
-                    }
-                }
-            }
+            let score = protocol.score(&OctreeScene(&oct))?;
             let mut imgs = Vec::new();
-            let mut p = 0.0;
-            let mut f = 0.0;
-            for (i, v) in views.iter().enumerate() {
-                let r = render(&OctreeScene(&oct), v, &rs)?;
+            for (i, view) in score.views.iter().enumerate() {
                 if std::env::var("VERBOSE").is_ok() {
-                    eprintln!("  view {i} {:?}: render {:.1} ms", method, r.render_ms);
+                    eprintln!("  view {i} {:?}: render {:.1} ms", method, view.render_ms);
+                    eprintln!("  view {i} {:?}: {:.2} dB", method, view.psnr);
                 }
-                let img = r.to_image();
-                let pv = sdfmo_metrics::psnr(&refs[i], &img)?;
-                if std::env::var("VERBOSE").is_ok() {
-                    eprintln!("  view {i} {:?}: {pv:.2} dB", method);
-                }
-                p += pv;
+                let img = &view.image;
                 imgs.push(img.clone());
-                f += sdfmo_metrics::flip(&refs[i], &img)?.mean as f64;
                 if let Some(dir) = &save {
                     let m = if method == Method::Svo {
                         "svo"
@@ -118,10 +93,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             if method == Method::Svo {
                 svo_imgs = imgs;
             }
-            let n = views.len() as f64;
             row.push((
-                p / n,
-                f / n,
+                score.psnr(),
+                score.flip(),
                 st.bytes,
                 st.voxels,
                 st.surface_voxels,

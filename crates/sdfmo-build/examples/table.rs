@@ -28,11 +28,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     for path in &a[3..] {
         let mesh = sdfmo_mesh::load_mesh(Path::new(path))?.mesh;
-        let name = Path::new(path)
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or("?")
-            .to_string();
+        let name = sdfmo_mesh::mesh_name(Path::new(path));
         for (label, method) in [
             ("svo", Method::Svo),
             ("multi", Method::Multi { max_voxels: 8 }),
@@ -40,10 +36,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let mut prev: Option<usize> = None;
             for depth in from..=to {
                 let s = BuildSettings {
-                    depth,
-                    method,
                     threads: Some(2),
-                    ..Default::default()
+                    ..BuildSettings::new(depth, method)
                 };
                 let mut walls = Vec::new();
                 let c0 = cpu_seconds();

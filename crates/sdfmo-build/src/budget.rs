@@ -38,10 +38,10 @@ pub fn estimate_memory(mesh: &TriMesh, settings: &BuildSettings) -> MemoryEstima
     let scale = f64::from(norm.scale);
     // Σ area · (|nx| + |ny| + |nz|) = Σ (|cx| + |cy| + |cz|) / 2 with c the cross product.
     let crossed: f64 = mesh
-        .triangles
+        .triangles()
         .iter()
         .map(|t| {
-            let [a, b, c] = t.map(|v| mesh.positions[v as usize].as_dvec3() * scale);
+            let [a, b, c] = t.map(|v| mesh.positions()[v as usize].as_dvec3() * scale);
             let cr = (b - a).cross(c - a);
             0.5 * (cr.x.abs() + cr.y.abs() + cr.z.abs())
         })
@@ -54,8 +54,9 @@ pub fn estimate_memory(mesh: &TriMesh, settings: &BuildSettings) -> MemoryEstima
         Method::Svo => BYTES_PER_CELL_SVO,
         Method::Multi { .. } => BYTES_PER_CELL_MULTI,
     };
-    let bytes =
-        BASE_BYTES + candidate_cells * per_cell + mesh.triangles.len() as f64 * BYTES_PER_TRIANGLE;
+    let bytes = BASE_BYTES
+        + candidate_cells * per_cell
+        + mesh.triangles().len() as f64 * BYTES_PER_TRIANGLE;
     MemoryEstimate {
         candidate_cells,
         bytes: bytes.min(u64::MAX as f64) as u64,

@@ -42,11 +42,7 @@ fn component_distance(local: &LocalMesh, tris: &[u32]) -> Option<MeshDistance> {
     // Unwelded triangles: the builder signs with its own pseudo-normals (whole-mesh adjacency)
     // wherever the closest feature is clean, so this structure's sign is only the fallback (its
     // winding number, which needs no adjacency).
-    let mesh = TriMesh {
-        positions,
-        triangles,
-        parts: vec![0; tris.len()],
-    };
+    let mesh = TriMesh::new(positions, triangles, vec![0; tris.len()]).ok()?;
     MeshDistance::new(&mesh, SignMode::Winding).ok()
 }
 

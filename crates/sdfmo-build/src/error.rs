@@ -6,12 +6,6 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 #[non_exhaustive]
 pub enum BuildError {
-    /// The mesh has no triangles.
-    #[error("the mesh has no triangles")]
-    EmptyMesh,
-    /// The mesh's arrays are inconsistent (its fields are public, so they are checked again).
-    #[error("invalid mesh: {0}")]
-    InvalidMesh(String),
     /// All triangles have zero area, or the mesh has no extent to normalise.
     #[error("degenerate mesh: {0}")]
     DegenerateMesh(String),

@@ -96,6 +96,17 @@ pub struct BuildSettings {
     pub sign: SignMode,
 }
 
+impl BuildSettings {
+    /// The settings of a build at `depth` with `method`, defaults otherwise.
+    pub fn new(depth: u8, method: Method) -> BuildSettings {
+        BuildSettings {
+            depth,
+            method,
+            ..BuildSettings::default()
+        }
+    }
+}
+
 impl Default for BuildSettings {
     fn default() -> Self {
         BuildSettings {
@@ -164,30 +175,6 @@ fn validate(mesh: &TriMesh, settings: &BuildSettings) -> Result<()> {
     if !(0.0..0.5).contains(&settings.margin) {
         return Err(BuildError::InvalidMargin(settings.margin));
     }
-    if mesh.triangles.is_empty() {
-        return Err(BuildError::EmptyMesh);
-    }
-    if mesh.parts.len() != mesh.triangles.len() {
-        return Err(BuildError::InvalidMesh(format!(
-            "{} part ids for {} triangles",
-            mesh.parts.len(),
-            mesh.triangles.len()
-        )));
-    }
-    let nv = mesh.positions.len();
-    if let Some((i, t)) = mesh
-        .triangles
-        .iter()
-        .enumerate()
-        .find(|(_, t)| t.iter().any(|&v| v as usize >= nv))
-    {
-        return Err(BuildError::InvalidMesh(format!(
-            "triangle {i} has index {t:?} but there are {nv} vertices"
-        )));
-    }
-    if let Some(i) = mesh.positions.iter().position(|p| !p.is_finite()) {
-        return Err(BuildError::InvalidMesh(format!("vertex {i} is not finite")));
-    }
     let b = mesh.bounds();
     let ext = (b.max - b.min).max_element();
     if ext.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !ext.is_finite() {
@@ -195,8 +182,8 @@ fn validate(mesh: &TriMesh, settings: &BuildSettings) -> Result<()> {
             "the bounding box has extent {ext}"
         )));
     }
-    let any_area = mesh.triangles.iter().any(|t| {
-        let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
+    let any_area = mesh.triangles().iter().any(|t| {
+        let [a, b, c] = t.map(|v| mesh.positions()[v as usize]);
         (b - a).cross(c - a).length_squared() > 0.0
     });
     if !any_area {

@@ -53,12 +53,13 @@ impl LocalMesh {
         let bbox = triangle_boxes(&tris);
         // Face, edge and vertex pseudo-normals of the welded mesh: the distance layer's (f64);
         // boundary and clean flags: the mesh layer's.
-        let normals = sdfmo_distance::PseudoNormals::new(&welded_pos, &vids);
-        let flags = EdgeAdjacency::of_triangles(&vids).edge_flags(&vids, welded_pos.len());
+        let adjacency = EdgeAdjacency::of_triangles(&vids);
+        let normals = sdfmo_distance::PseudoNormals::with_adjacency(&welded_pos, &vids, &adjacency);
+        let flags = adjacency.edge_flags(&vids, welded_pos.len());
         LocalMesh {
             tris,
             vids,
-            parts: mesh.parts.clone(),
+            parts: mesh.parts().to_vec(),
             face_normal: normals.face,
             edge_normal: normals.edge,
             boundary: flags.boundary,

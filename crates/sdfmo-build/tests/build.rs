@@ -13,11 +13,7 @@ use sdfmo_mesh::{procedural, TriMesh};
 const MULTI: Method = Method::Multi { max_voxels: 8 };
 
 fn settings(depth: u8, method: Method) -> BuildSettings {
-    BuildSettings {
-        depth,
-        method,
-        ..Default::default()
-    }
+    BuildSettings::new(depth, method)
 }
 
 fn run(mesh: &TriMesh, depth: u8, method: Method) -> (PackedOctree, BuildStats) {
@@ -36,6 +32,25 @@ fn load(name: &str) -> TriMesh {
 
 fn leaf_map(o: &PackedOctree) -> HashMap<[u32; 3], Vec<Voxel>> {
     o.leaves().collect()
+}
+
+/// The fraction of a 20 × 20 grid of normalised points (`point(i, j)`, `i, j ∈ 0..20` as f32) whose
+/// leaf exists in `oct` and passes `test` (its voxels, the point's local coordinates).
+fn grid_fraction(
+    oct: &PackedOctree,
+    depth: u8,
+    point: impl Fn(f32, f32) -> Vec3,
+    test: impl Fn(&[Voxel], Vec3) -> bool,
+) -> f32 {
+    let map = leaf_map(oct);
+    let mut good = 0;
+    for i in 0..20 {
+        for j in 0..20 {
+            let (key, l) = locate(depth, point(i as f32, j as f32));
+            good += map.get(&key).is_some_and(|vs| test(vs, l)) as usize;
+        }
+    }
+    good as f32 / 400.0
 }
 
 /// The leaf holding normalised point `p` and `p`'s local coordinates in it.
@@ -183,40 +198,24 @@ fn gap_pair_with_sub_voxel_gap_is_split() {
         "the gap must not sit on a grid plane ({frac})"
     );
 
-    let open_fraction = |oct: &PackedOctree| {
-        let map = leaf_map(oct);
-        let mut open = 0;
-        let mut n = 0;
-        for i in 0..20 {
-            for j in 0..20 {
-                let x = -0.4 + 0.8 * i as f32 / 19.0;
-                let z = -0.4 + 0.8 * j as f32 / 19.0;
-                let p = Vec3::new(
-                    norm.to_normalized(Vec3::new(x, 0.0, z)).x,
-                    gap_y,
-                    norm.to_normalized(Vec3::new(x, 0.0, z)).z,
-                );
-                let (key, l) = locate(depth, p);
-                n += 1;
-                // Open: the leaf exists and no volume voxel claims the slot's middle as inside,
-                // while just above and below the slot (inside the boxes) some voxel does.
-                if let Some(vs) = map.get(&key) {
-                    let inside = |q: Vec3| {
-                        vs.iter()
-                            .any(|v| !v.surface && trilinear(&v.corners, q) < 0.0)
-                    };
-                    let dy = Vec3::new(0.0, 2.0 * half_gap / h, 0.0);
-                    let (lo_ok, hi_ok) = (l.y - dy.y >= 0.0, l.y + dy.y <= 1.0);
-                    let below = !lo_ok || inside(l - dy);
-                    let above = !hi_ok || inside(l + dy);
-                    if !inside(l) && below && above {
-                        open += 1;
-                    }
-                }
-            }
-        }
-        open as f32 / n as f32
+    // Open: the leaf exists and no volume voxel claims the slot's middle as inside, while just
+    // above and below the slot (inside the boxes) some voxel does.
+    let slot = |u: f32, v: f32| {
+        let q = norm.to_normalized(Vec3::new(-0.4 + 0.8 * u / 19.0, 0.0, -0.4 + 0.8 * v / 19.0));
+        Vec3::new(q.x, gap_y, q.z)
     };
+    let open = |vs: &[Voxel], l: Vec3| {
+        let inside = |q: Vec3| {
+            vs.iter()
+                .any(|v| !v.surface && trilinear(&v.corners, q) < 0.0)
+        };
+        let dy = Vec3::new(0.0, 2.0 * half_gap / h, 0.0);
+        let (lo_ok, hi_ok) = (l.y - dy.y >= 0.0, l.y + dy.y <= 1.0);
+        let below = !lo_ok || inside(l - dy);
+        let above = !hi_ok || inside(l + dy);
+        !inside(l) && below && above
+    };
+    let open_fraction = |oct: &PackedOctree| grid_fraction(oct, depth, slot, open);
     let (svo, _) = run(&mesh, depth, Method::Svo);
     let (multi, st) = run(&mesh, depth, MULTI);
     let (o_svo, o_multi) = (open_fraction(&svo), open_fraction(&multi));
@@ -247,35 +246,24 @@ fn thin_plate_survives_as_several_voxels_per_leaf() {
     let frac = ((plate_y + 1.0) / h).fract();
     assert!(frac > 0.2 && frac < 0.8, "plate on a grid plane ({frac})");
 
-    let represented = |oct: &PackedOctree| {
-        let map = leaf_map(oct);
-        let mut good = 0;
-        let mut n = 0;
-        for i in 0..20 {
-            for j in 0..20 {
-                let q = norm.to_normalized(Vec3::new(
-                    -0.45 + 0.9 * i as f32 / 19.0,
-                    0.0,
-                    -0.35 + 0.7 * j as f32 / 19.0,
-                ));
-                let (key, l) = locate(depth, q);
-                n += 1;
-                if let Some(vs) = map.get(&key) {
-                    let e = vs
-                        .iter()
-                        .map(|v| trilinear(&v.corners, l).abs())
-                        .fold(f32::INFINITY, f32::min);
-                    let crosses = vs.iter().any(|v| {
-                        v.corners.iter().any(|&c| c <= 0.0) && v.corners.iter().any(|&c| c >= 0.0)
-                    });
-                    if crosses && e < 0.3 * h {
-                        good += 1;
-                    }
-                }
-            }
-        }
-        good as f32 / n as f32
+    let on_plate = |u: f32, v: f32| {
+        norm.to_normalized(Vec3::new(
+            -0.45 + 0.9 * u / 19.0,
+            0.0,
+            -0.35 + 0.7 * v / 19.0,
+        ))
     };
+    let close = |vs: &[Voxel], l: Vec3| {
+        let e = vs
+            .iter()
+            .map(|v| trilinear(&v.corners, l).abs())
+            .fold(f32::INFINITY, f32::min);
+        let crosses = vs
+            .iter()
+            .any(|v| v.corners.iter().any(|&c| c <= 0.0) && v.corners.iter().any(|&c| c >= 0.0));
+        crosses && e < 0.3 * h
+    };
+    let represented = |oct: &PackedOctree| grid_fraction(oct, depth, on_plate, close);
     let (svo, _) = run(&mesh, depth, Method::Svo);
     let (multi, st) = run(&mesh, depth, MULTI);
     let clip_voxels = (0..multi.voxel_count() as u32)
@@ -428,51 +416,41 @@ fn abc5_parts_side_by_side_get_several_voxels() {
 
 #[test]
 fn bad_input_is_a_typed_error() {
-    let empty = TriMesh {
-        positions: vec![],
-        triangles: vec![],
-        parts: vec![],
-    };
-    assert!(matches!(
-        build(&empty, &BuildSettings::default(), None),
-        Err(BuildError::EmptyMesh)
-    ));
-    let line = TriMesh {
-        positions: vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0],
-        triangles: vec![[0, 1, 2]],
-        parts: vec![0],
-    };
-    assert!(matches!(
-        build(&line, &BuildSettings::default(), None),
-        Err(BuildError::DegenerateMesh(_))
-    ));
-    let point = TriMesh {
-        positions: vec![Vec3::ONE; 3],
-        triangles: vec![[0, 1, 2]],
-        parts: vec![0],
-    };
-    assert!(matches!(
-        build(&point, &BuildSettings::default(), None),
-        Err(BuildError::DegenerateMesh(_))
-    ));
-    let bad_index = TriMesh {
-        positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
-        triangles: vec![[0, 1, 7]],
-        parts: vec![0],
-    };
-    assert!(matches!(
-        build(&bad_index, &BuildSettings::default(), None),
-        Err(BuildError::InvalidMesh(_))
-    ));
-    let nan = TriMesh {
-        positions: vec![Vec3::ZERO, Vec3::X, Vec3::NAN],
-        triangles: vec![[0, 1, 2]],
-        parts: vec![0],
-    };
-    assert!(matches!(
-        build(&nan, &BuildSettings::default(), None),
-        Err(BuildError::InvalidMesh(_))
-    ));
+    // Meshes a `TriMesh` can hold but the builder cannot use: a typed error.
+    for (what, positions) in [
+        ("line", vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0]),
+        ("point", vec![Vec3::ONE; 3]),
+    ] {
+        let mesh = TriMesh::new(positions, vec![[0, 1, 2]], vec![0]).unwrap();
+        assert!(
+            matches!(
+                build(&mesh, &BuildSettings::default(), None),
+                Err(BuildError::DegenerateMesh(_))
+            ),
+            "{what}"
+        );
+    }
+    // Arrays no `TriMesh` can hold (its fields are private): refused where the mesh is made, so
+    // the builder never sees them.
+    type Arrays = (Vec<Vec3>, Vec<[u32; 3]>, Vec<u32>);
+    let invalid: [(&str, Arrays); 3] = [
+        ("empty", (vec![], vec![], vec![])),
+        (
+            "bad index",
+            (vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 7]], vec![0]),
+        ),
+        (
+            "nan",
+            (
+                vec![Vec3::ZERO, Vec3::X, Vec3::NAN],
+                vec![[0, 1, 2]],
+                vec![0],
+            ),
+        ),
+    ];
+    for (what, (positions, triangles, parts)) in invalid {
+        assert!(TriMesh::new(positions, triangles, parts).is_err(), "{what}");
+    }
     let cube = procedural::box_mesh(Vec3::ZERO, Vec3::ONE);
     let s = |f: fn(&mut BuildSettings)| {
         let mut s = BuildSettings::default();
@@ -518,8 +496,9 @@ fn multi_octree_is_stable_under_a_one_ulp_vertex_move() {
         procedural::thin_plate(Vec3::new(1.0, 0.01, 0.8)).transformed(|p| rot * p),
         procedural::sphere(Vec3::new(0.2, 0.3, -0.1), 0.3, 2),
     ]);
-    let mut moved = part.clone();
-    moved.positions[0].x = f32::from_bits(moved.positions[0].x.to_bits() + 1);
+    let (mut positions, triangles, parts) = part.clone().into_arrays();
+    positions[0].x = f32::from_bits(positions[0].x.to_bits() + 1);
+    let moved = TriMesh::new(positions, triangles, parts).unwrap();
     let (a, sa) = run(&part, 5, MULTI);
     let (b, _) = run(&moved, 5, MULTI);
     assert!(sa.surface_voxels > 0, "the plate must be split: {sa:?}");

@@ -9,22 +9,19 @@ const FRACTION_STEPS: u64 = 1000;
 
 /// A bar over `len` steps with a message, or a hidden one when stderr is not a terminal.
 pub fn steps(len: u64, message: &str) -> ProgressBar {
-    let bar = new_bar(len);
-    if let Ok(style) =
-        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} {msg}")
-    {
-        bar.set_style(style);
-    }
-    bar.set_message(message.to_owned());
-    bar
+    styled(len, "{pos}/{len}", message)
 }
 
 /// A bar driven by a fraction in [0, 1] (see [`set_fraction`]).
 pub fn fraction(message: &str) -> ProgressBar {
-    let bar = new_bar(FRACTION_STEPS);
-    if let Ok(style) =
-        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:30} {percent:>3}% {msg}")
-    {
+    styled(FRACTION_STEPS, "{percent:>3}%", message)
+}
+
+/// A bar over `len` steps showing `count` (an indicatif template fragment) after the bar.
+fn styled(len: u64, count: &str, message: &str) -> ProgressBar {
+    let bar = new_bar(len);
+    let template = format!("{{spinner}} [{{elapsed_precise}}] {{bar:30}} {count} {{msg}}");
+    if let Ok(style) = ProgressStyle::with_template(&template) {
         bar.set_style(style);
     }
     bar.set_message(message.to_owned());

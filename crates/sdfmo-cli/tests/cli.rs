@@ -9,12 +9,41 @@ use serde_json::Value;
 
 const SDFMO: &str = env!("CARGO_BIN_EXE_sdfmo");
 
-/// A fresh directory for one test.
-fn tmp(name: &str) -> PathBuf {
+/// Command-line arguments of mixed kinds (`&str`, paths) as one `[&OsStr; N]`.
+macro_rules! os {
+    ($($arg:expr),* $(,)?) => {
+        [$(std::ffi::OsStr::new(&$arg)),*]
+    };
+}
+
+/// A fresh directory for one test, removed when the test ends.
+struct TestDir(PathBuf);
+
+impl std::ops::Deref for TestDir {
+    type Target = PathBuf;
+    fn deref(&self) -> &PathBuf {
+        &self.0
+    }
+}
+
+impl Drop for TestDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn tmp(name: &str) -> TestDir {
     let d = std::env::temp_dir().join(format!("sdfmo-cli-test-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
-    d
+    TestDir(d)
+}
+
+/// A fresh directory `name` holding [`cube_obj`]'s cube.
+fn with_cube(name: &str) -> (TestDir, PathBuf) {
+    let dir = tmp(name);
+    let cube = cube_obj(&dir);
+    (dir, cube)
 }
 
 fn sdfmo<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
@@ -84,9 +113,8 @@ fn cube_obj(dir: &Path) -> PathBuf {
 
 #[test]
 fn info_of_a_generated_cube_and_the_demo_part() {
-    let dir = tmp("info");
-    let cube = cube_obj(&dir);
-    let j = json_ok(&["info".as_ref(), cube.as_os_str(), "--json".as_ref()]);
+    let (_dir, cube) = with_cube("info");
+    let j = json_ok(&os!["info", cube, "--json"]);
     keys(
         &j,
         &[
@@ -112,61 +140,40 @@ fn info_of_a_generated_cube_and_the_demo_part() {
     assert!(demo["triangles"].as_u64().unwrap() > 12);
     assert!(demo["parts"].as_u64().unwrap() >= 1);
 
-    let human = sdfmo(&["info".as_ref(), cube.as_os_str()]);
+    let human = sdfmo(&os!["info", cube]);
     assert!(human.status.success());
     assert!(String::from_utf8_lossy(&human.stdout).contains("triangles"));
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
 fn missing_and_malformed_inputs_fail_cleanly() {
     let dir = tmp("errors");
     let missing = dir.join("no_such_file.obj");
-    fails_cleanly(&["info".as_ref(), missing.as_os_str()], "no_such_file.obj");
+    fails_cleanly(&os!["info", missing], "no_such_file.obj");
     let bad = dir.join("bad.stl");
     std::fs::write(
         &bad,
         b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 nan\n",
     )
     .unwrap();
-    fails_cleanly(&["info".as_ref(), bad.as_os_str()], "bad.stl");
+    fails_cleanly(&os!["info", bad], "bad.stl");
     fails_cleanly(
-        &[
-            "build".as_ref(),
-            missing.as_os_str(),
-            "-d".as_ref(),
-            "4".as_ref(),
-            "-o".as_ref(),
-            dir.join("x.smo").as_os_str(),
-        ],
+        &os!["build", missing, "-d", "4", "-o", dir.join("x.smo")],
         "no_such_file.obj",
     );
     let not_smo = dir.join("not.smo");
     std::fs::write(&not_smo, b"this is not an octree").unwrap();
-    fails_cleanly(
-        &[
-            "render".as_ref(),
-            not_smo.as_os_str(),
-            "-o".as_ref(),
-            dir.join("x.png").as_os_str(),
-        ],
-        "not.smo",
-    );
-    fails_cleanly(
-        &["compare".as_ref(), not_smo.as_os_str(), not_smo.as_os_str()],
-        "not.smo",
-    );
+    fails_cleanly(&os!["render", not_smo, "-o", dir.join("x.png")], "not.smo");
+    fails_cleanly(&os!["compare", not_smo, not_smo], "not.smo");
     // Usage errors are clap's: exit 2 too, no panic.
     let o = sdfmo(&["render", "--size", "0x5", "a.smo", "-o", "x.png"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(!stderr(&o).contains("panicked"));
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
 fn distance_signs_output_file_and_malformed_lines() {
-    let dir = tmp("distance");
-    let cube = cube_obj(&dir);
+    let (dir, cube) = with_cube("distance");
     let pts = dir.join("p.xyz");
     // Normalised frame: the cube spans [-0.95, 0.95]³.
     std::fs::write(
@@ -175,15 +182,7 @@ fn distance_signs_output_file_and_malformed_lines() {
     )
     .unwrap();
     let out = dir.join("d.txt");
-    let j = json_ok(&[
-        "distance".as_ref(),
-        cube.as_os_str(),
-        "--points".as_ref(),
-        pts.as_os_str(),
-        "-o".as_ref(),
-        out.as_os_str(),
-        "--json".as_ref(),
-    ]);
+    let j = json_ok(&os!["distance", cube, "--points", pts, "-o", out, "--json"]);
     keys(&j, &["points", "query_ms"]);
     assert_eq!(j["points"], 3);
     let d: Vec<f32> = std::fs::read_to_string(&out)
@@ -196,35 +195,19 @@ fn distance_signs_output_file_and_malformed_lines() {
     assert!((d[1] - 0.55).abs() < 1e-4, "outside: {}", d[1]);
     assert!((d[2] + 0.05).abs() < 1e-4, "near a face: {}", d[2]);
     // Without -o, --json carries the distances.
-    let j = json_ok(&[
-        "distance".as_ref(),
-        cube.as_os_str(),
-        "--points".as_ref(),
-        pts.as_os_str(),
-        "--sign".as_ref(),
-        "winding".as_ref(),
-        "--json".as_ref(),
+    let j = json_ok(&os![
+        "distance", cube, "--points", pts, "--sign", "winding", "--json",
     ]);
     assert_eq!(j["distances"].as_array().unwrap().len(), 3);
     assert_eq!(j["sign"], "winding");
 
     std::fs::write(&pts, "0 0 0\n0 0\n").unwrap();
-    fails_cleanly(
-        &[
-            "distance".as_ref(),
-            cube.as_os_str(),
-            "--points".as_ref(),
-            pts.as_os_str(),
-        ],
-        "p.xyz:2",
-    );
-    std::fs::remove_dir_all(dir).unwrap();
+    fails_cleanly(&os!["distance", cube, "--points", pts], "p.xyz:2");
 }
 
 #[test]
 fn a_closed_stdout_is_not_an_error() {
-    let dir = tmp("pipe");
-    let cube = cube_obj(&dir);
+    let (dir, cube) = with_cube("pipe");
     let pts = dir.join("many.xyz");
     let text: String = (0..40_000)
         .map(|i| format!("{} 0.1 0.2\n", (i % 200) as f32 / 100.0 - 1.0))
@@ -256,7 +239,6 @@ fn a_closed_stdout_is_not_an_error() {
     let status = child.wait().unwrap();
     assert!(status.success(), "exit {status:?}: {err}");
     assert!(err.is_empty(), "{err}");
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -265,17 +247,17 @@ fn build_render_and_compare_the_demo_part() {
     let mut smo = PathBuf::new();
     for method in ["svo", "multi"] {
         smo = dir.join(format!("demo.{method}.smo"));
-        let j = json_ok(&[
-            "build".as_ref(),
-            "-d".as_ref(),
-            "5".as_ref(),
-            "--method".as_ref(),
-            method.as_ref(),
-            "--threads".as_ref(),
-            "2".as_ref(),
-            "-o".as_ref(),
-            smo.as_os_str(),
-            "--json".as_ref(),
+        let j = json_ok(&os![
+            "build",
+            "-d",
+            "5",
+            "--method",
+            method,
+            "--threads",
+            "2",
+            "-o",
+            smo,
+            "--json",
         ]);
         keys(
             &j,
@@ -300,16 +282,8 @@ fn build_render_and_compare_the_demo_part() {
 
     // --views paper numbers the files before the extension.
     let views = dir.join("v.png");
-    let j = json_ok(&[
-        "render".as_ref(),
-        smo.as_os_str(),
-        "--views".as_ref(),
-        "paper".as_ref(),
-        "--size".as_ref(),
-        "32x24".as_ref(),
-        "-o".as_ref(),
-        views.as_os_str(),
-        "--json".as_ref(),
+    let j = json_ok(&os![
+        "render", smo, "--views", "paper", "--size", "32x24", "-o", views, "--json",
     ]);
     assert_eq!(j["views"].as_array().unwrap().len(), 4);
     assert!(!views.exists());
@@ -320,96 +294,83 @@ fn build_render_and_compare_the_demo_part() {
     assert_eq!(j["counters"]["rays"].as_u64().unwrap(), 4 * 32 * 24);
 
     // One camera; a mask needs no normals, lambert does; shadows cast shadow rays.
-    let mask = json_ok(&[
-        "render".as_ref(),
-        smo.as_os_str(),
-        "--mode".as_ref(),
-        "mask".as_ref(),
-        "--eye=2,1.5,2.5".as_ref(),
-        "--target=0,0,0".as_ref(),
-        "--fov=45".as_ref(),
-        "--size=40x30".as_ref(),
-        "-o".as_ref(),
-        dir.join("mask.png").as_os_str(),
-        "--json".as_ref(),
+    let mask = json_ok(&os![
+        "render",
+        smo,
+        "--mode",
+        "mask",
+        "--eye=2,1.5,2.5",
+        "--target=0,0,0",
+        "--fov=45",
+        "--size=40x30",
+        "-o",
+        dir.join("mask.png"),
+        "--json",
     ]);
     keys(&mask, &["render_ms", "counters"]);
     assert_eq!(mask["counters"]["normal_evals"], 0);
     assert_eq!(mask["counters"]["shadow_rays"], 0);
-    let lit = json_ok(&[
-        "render".as_ref(),
-        smo.as_os_str(),
-        "--shadows".as_ref(),
-        "--eye=2,1.5,2.5".as_ref(),
-        "--size=40x30".as_ref(),
-        "-o".as_ref(),
-        dir.join("lit.png").as_os_str(),
-        "--json".as_ref(),
+    let lit = json_ok(&os![
+        "render",
+        smo,
+        "--shadows",
+        "--eye=2,1.5,2.5",
+        "--size=40x30",
+        "-o",
+        dir.join("lit.png"),
+        "--json",
     ]);
     assert!(lit["counters"]["normal_evals"].as_u64().unwrap() > 0);
     assert!(lit["counters"]["shadow_rays"].as_u64().unwrap() > 0);
 
     // The mesh reference with the same camera lines up: compare them.
     let reference = dir.join("ref.png");
-    let j = json_ok(&[
-        "render-mesh".as_ref(),
-        "--eye=2,1.5,2.5".as_ref(),
-        "--size=40x30".as_ref(),
-        "-o".as_ref(),
-        reference.as_os_str(),
-        "--json".as_ref(),
+    let j = json_ok(&os![
+        "render-mesh",
+        "--eye=2,1.5,2.5",
+        "--size=40x30",
+        "-o",
+        reference,
+        "--json",
     ]);
     keys(&j, &["render_ms", "counters"]);
     let heat = dir.join("heat.png");
-    let c = json_ok(&[
-        "compare".as_ref(),
-        reference.as_os_str(),
-        dir.join("lit.png").as_os_str(),
-        "--heatmap".as_ref(),
-        heat.as_os_str(),
-        "--json".as_ref(),
+    let c = json_ok(&os![
+        "compare",
+        reference,
+        dir.join("lit.png"),
+        "--heatmap",
+        heat,
+        "--json",
     ]);
     assert!(c["psnr"].as_f64().unwrap() > 5.0, "{c}");
     let flip = c["flip"].as_f64().unwrap();
     assert!((0.0..1.0).contains(&flip), "{c}");
     assert_eq!(image::open(&heat).unwrap().width(), 40);
     // Identical images: infinite PSNR is written as null with a flag (JSON has no infinity).
-    let same = json_ok(&[
-        "compare".as_ref(),
-        reference.as_os_str(),
-        reference.as_os_str(),
-        "--json".as_ref(),
-    ]);
+    let same = json_ok(&os!["compare", reference, reference, "--json"]);
     assert_eq!(same["psnr"], Value::Null);
     assert_eq!(same["identical"], true);
     assert_eq!(same["flip"], 0.0);
     // Different sizes are an error, not a panic.
-    fails_cleanly(
-        &[
-            "compare".as_ref(),
-            reference.as_os_str(),
-            dir.join("v_0.png").as_os_str(),
-        ],
-        "",
-    );
-    std::fs::remove_dir_all(dir).unwrap();
+    fails_cleanly(&os!["compare", reference, dir.join("v_0.png")], "");
 }
 
 #[test]
 fn a_tiny_sweep_writes_every_output() {
     let dir = tmp("sweep");
     let out = dir.join("out");
-    let j = json_ok(&[
-        "sweep".as_ref(),
-        "--depths".as_ref(),
-        "4..5".as_ref(),
-        "--size".as_ref(),
-        "32".as_ref(),
-        "--threads".as_ref(),
-        "2".as_ref(),
-        "-o".as_ref(),
-        out.as_os_str(),
-        "--json".as_ref(),
+    let j = json_ok(&os![
+        "sweep",
+        "--depths",
+        "4..5",
+        "--size",
+        "32",
+        "--threads",
+        "2",
+        "-o",
+        out,
+        "--json",
     ]);
     assert_eq!(j["rows"].as_array().unwrap().len(), 4);
     let results: Value =
@@ -472,7 +433,6 @@ fn a_tiny_sweep_writes_every_output() {
         .filter(|p| p.to_string_lossy().contains(".tmp"))
         .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 fn walk(dir: &Path) -> Vec<PathBuf> {
@@ -493,17 +453,9 @@ fn walk(dir: &Path) -> Vec<PathBuf> {
 fn shared_data_parts_and_sign() {
     // The shared test meshes, as `build.rs` resolved them (`sdfmo-testdata`).
     let data = PathBuf::from(env!("SDFMO_TEST_DATA_DIR"));
-    let j = json_ok(&[
-        "info".as_ref(),
-        data.join("abc5_parts.glb").as_os_str(),
-        "--json".as_ref(),
-    ]);
+    let j = json_ok(&os!["info", data.join("abc5_parts.glb"), "--json"]);
     assert_eq!(j["parts"], 10);
-    let j = json_ok(&[
-        "info".as_ref(),
-        data.join("teapot.obj").as_os_str(),
-        "--json".as_ref(),
-    ]);
+    let j = json_ok(&os!["info", data.join("teapot.obj"), "--json"]);
     assert_eq!(j["watertight"], false);
     assert!(j["boundary_edges"].as_u64().unwrap() > 0);
 }

@@ -113,48 +113,49 @@ fn gpu_render_matches_cpu_and_adds_device_keys() {
     );
 }
 
-#[test]
-fn gpu_refuses_what_it_does_not_render() {
-    let dir = tmp("refuse");
+/// Extra `render` arguments, environment, and what the one-line error must contain.
+type RefusalCase<'a> = (&'a [&'a str], &'a [(&'a str, &'a str)], &'a str);
+
+/// `sdfmo render` of a fresh demo octree (in the folder `name`) on the GPU with `extra`
+/// arguments and `env`: fails with one line containing `needle` and writes no image.
+fn gpu_render_fails(name: &str, cases: &[RefusalCase]) {
+    let dir = tmp(name);
     let smo = demo_octree(&dir);
     let png = dir.join("x.png").display().to_string();
-    let o = sdfmo(
-        &["render", &smo, "--device", "gpu", "--shadows", "-o", &png],
-        &[],
-    );
-    fails_cleanly(&o, "--shadows and --ao are not available with --device gpu");
-    let o = sdfmo(
-        &["render", &smo, "--device", "gpu", "--ao", "4", "-o", &png],
-        &[],
-    );
-    fails_cleanly(&o, "--device gpu");
-    let o = sdfmo(
+    for &(extra, env, needle) in cases {
+        let mut args = vec!["render", smo.as_str(), "--device", "gpu"];
+        args.extend_from_slice(extra);
+        args.extend(["-o", png.as_str()]);
+        fails_cleanly(&sdfmo(&args, env), needle);
+        assert!(!std::path::Path::new(&png).exists(), "{extra:?}");
+    }
+}
+
+#[test]
+fn gpu_refuses_what_it_does_not_render() {
+    gpu_render_fails(
+        "refuse",
         &[
-            "render",
-            &smo,
-            "--device",
-            "gpu",
-            "--threads",
-            "2",
-            "-o",
-            &png,
+            (
+                &["--shadows"],
+                &[],
+                "--shadows and --ao are not available with --device gpu",
+            ),
+            (&["--ao", "4"], &[], "--device gpu"),
+            (
+                &["--threads", "2"],
+                &[],
+                "--threads applies to --device cpu only",
+            ),
         ],
-        &[],
     );
-    fails_cleanly(&o, "--threads applies to --device cpu only");
-    assert!(!std::path::Path::new(&png).exists());
 }
 
 #[test]
 fn no_adapter_is_one_line_error() {
     // wgpu is built without its GL backend: asking for it alone finds no adapter anywhere.
-    let dir = tmp("none");
-    let smo = demo_octree(&dir);
-    let png = dir.join("x.png").display().to_string();
-    let o = sdfmo(
-        &["render", &smo, "--device", "gpu", "-o", &png],
-        &[("WGPU_BACKEND", "gl")],
+    gpu_render_fails(
+        "none",
+        &[(&[], &[("WGPU_BACKEND", "gl")], "no GPU adapter found")],
     );
-    fails_cleanly(&o, "no GPU adapter found");
-    assert!(!std::path::Path::new(&png).exists());
 }

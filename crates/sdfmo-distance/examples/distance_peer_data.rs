@@ -52,10 +52,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mesh, _) = loaded.mesh.normalized(0.05);
     write_f32(
         &out.join("vertices.f32"),
-        mesh.positions.iter().flat_map(|p| p.to_array()),
+        mesh.positions().iter().flat_map(|p| p.to_array()),
     )?;
     let faces: Vec<u8> = mesh
-        .triangles
+        .triangles()
         .iter()
         .flatten()
         .flat_map(|i| i.to_le_bytes())

@@ -105,27 +105,6 @@ const COARSE_FAR_SCALE: f32 =
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum DistanceError {
-    /// The mesh has no triangles.
-    #[error("the mesh has no triangles")]
-    EmptyMesh,
-    /// A triangle refers to a vertex that does not exist.
-    #[error(
-        "triangle {triangle} refers to vertex {index}, but the mesh has {vertex_count} vertices"
-    )]
-    IndexOutOfRange {
-        /// Index of the triangle.
-        triangle: usize,
-        /// The offending vertex index.
-        index: u32,
-        /// Number of vertices in the mesh.
-        vertex_count: usize,
-    },
-    /// A vertex position is NaN or infinite.
-    #[error("vertex {vertex} has a non-finite position")]
-    NonFinitePosition {
-        /// Index of the vertex.
-        vertex: usize,
-    },
     /// The BVH is deeper than the traversal stacks allow.
     #[error("the BVH has depth {depth}, more than the supported {max}")]
     BvhTooDeep {
@@ -264,26 +243,10 @@ impl MeshDistance {
     /// Builds the BVH, the pseudo-normals and the winding-number tree of `mesh` (which is
     /// copied). `SignMode::Auto` is resolved here from the mesh's topology.
     pub fn new(mesh: &TriMesh, sign: SignMode) -> Result<MeshDistance, DistanceError> {
-        if mesh.triangles.is_empty() {
-            return Err(DistanceError::EmptyMesh);
-        }
-        if let Some(vertex) = mesh.positions.iter().position(|p| !p.is_finite()) {
-            return Err(DistanceError::NonFinitePosition { vertex });
-        }
-        let vertex_count = mesh.positions.len();
-        for (triangle, t) in mesh.triangles.iter().enumerate() {
-            if let Some(&index) = t.iter().find(|&&i| i as usize >= vertex_count) {
-                return Err(DistanceError::IndexOutOfRange {
-                    triangle,
-                    index,
-                    vertex_count,
-                });
-            }
-        }
         let tris: Vec<[Vec3; 3]> = mesh
-            .triangles
+            .triangles()
             .iter()
-            .map(|t| t.map(|i| mesh.positions[i as usize]))
+            .map(|t| t.map(|i| mesh.positions()[i as usize]))
             .collect();
         let obvhs_tris: Vec<Triangle> = tris
             .iter()
@@ -342,7 +305,7 @@ impl MeshDistance {
         }
         let winding = winding::build_winding_nodes(&nodes, &leaf_tris, &order);
         let leaf_dipoles = leaf_tris.iter().map(TriangleDipole::new).collect();
-        let normals = PseudoNormals::new(&mesh.positions, &mesh.triangles);
+        let normals = PseudoNormals::new(mesh.positions(), mesh.triangles());
         let sign = match sign {
             SignMode::Auto => {
                 if normals.closed_and_oriented && mesh.topology().watertight {
@@ -390,7 +353,7 @@ impl MeshDistance {
     /// chain-boundary edge minus its own circumradius about the centroid. Meshes with more than
     /// [`MAX_CHAIN_BOUNDARY_EDGES`] such edges get no shortcut.
     fn clean_winding_radii(&self) -> Vec<f32> {
-        let tris = &self.mesh.triangles;
+        let tris = self.mesh.triangles();
         let mut half: Vec<(u64, i32)> = Vec::with_capacity(tris.len() * 3);
         for t in tris {
             for k in 0..3 {
@@ -408,7 +371,7 @@ impl MeshDistance {
             if group.iter().map(|h| h.1).sum::<i32>() != 0 {
                 let key = group[0].0;
                 let (a, b) = ((key >> 32) as usize, (key & 0xffff_ffff) as usize);
-                chain.push((self.mesh.positions[a], self.mesh.positions[b]));
+                chain.push((self.mesh.positions()[a], self.mesh.positions()[b]));
                 if chain.len() > MAX_CHAIN_BOUNDARY_EDGES {
                     return vec![0.0; tris.len()];
                 }
@@ -493,13 +456,13 @@ impl MeshDistance {
             }
             let start = node.first_index as usize;
             for other in start..start + node.prim_count as usize {
-                let oi = self.mesh.triangles[self.leaf_ids[other] as usize];
+                let oi = self.mesh.triangles()[self.leaf_ids[other] as usize];
                 let ot = &self.leaf_tris[other];
                 for slot in range.clone() {
                     if slot == other {
                         continue;
                     }
-                    let li = self.mesh.triangles[self.leaf_ids[slot] as usize];
+                    let li = self.mesh.triangles()[self.leaf_ids[slot] as usize];
                     if li.iter().any(|v| oi.contains(v)) {
                         continue;
                     }
@@ -637,6 +600,15 @@ mod tests {
         }
     }
 
+    /// The cube [-h, h]³ without its face at `+h` along `axis`.
+    fn open_box(h: f32, axis: usize) -> TriMesh {
+        let (p, mut tris, mut parts) =
+            sdfmo_mesh::procedural::box_mesh(Vec3::splat(-h), Vec3::splat(h)).into_arrays();
+        tris.retain(|t| !t.iter().all(|&i| p[i as usize][axis] > h - 0.01));
+        parts.truncate(tris.len());
+        TriMesh::new(p, tris, parts).unwrap()
+    }
+
     #[test]
     fn clean_radii_follow_the_chain_boundary() {
         // Closed sphere: no chain boundary, every triangle clean with an unbounded radius.
@@ -649,15 +621,12 @@ mod tests {
         assert!(md.clean_winding_radii().iter().all(|&r| r == 0.0));
         // A box without its top face: triangles far from the rim are clean, with radii no
         // larger than their distance to the rim (the top edges at y = 0.5).
-        let mut open_box = sdfmo_mesh::procedural::box_mesh(Vec3::splat(-0.5), Vec3::splat(0.5));
-        let p = open_box.positions.clone();
-        open_box
-            .triangles
-            .retain(|t| !t.iter().all(|&i| p[i as usize].y > 0.49));
-        assert!(open_box.triangles.len() < 12);
+        let open_box = open_box(0.5, 1);
+        let p = open_box.positions();
+        assert!(open_box.triangles().len() < 12);
         let md = MeshDistance::new(&open_box, SignMode::Winding).unwrap();
         let radii = md.clean_winding_radii();
-        for (t, &r) in open_box.triangles.iter().zip(&radii) {
+        for (t, &r) in open_box.triangles().iter().zip(&radii) {
             let lowest = t
                 .iter()
                 .map(|&i| p[i as usize].y)
@@ -676,12 +645,7 @@ mod tests {
         // points within 0.03 of the surface.
         let a = sdfmo_mesh::procedural::sphere(Vec3::new(-0.2, 0.0, 0.0), 0.4, 3);
         let b = sdfmo_mesh::procedural::sphere(Vec3::new(0.2, 0.05, 0.0), 0.35, 3);
-        let mut open_box = sdfmo_mesh::procedural::box_mesh(Vec3::splat(-0.3), Vec3::splat(0.3));
-        let p = open_box.positions.clone();
-        open_box
-            .triangles
-            .retain(|t| !t.iter().all(|&i| p[i as usize].x > 0.29));
-        open_box.parts.truncate(open_box.triangles.len());
+        let open_box = open_box(0.3, 0);
         for mesh in [
             TriMesh::merge(&[a, b.clone()]),
             TriMesh::merge(&[b, open_box]),
@@ -690,8 +654,12 @@ mod tests {
             let mut next = lcg_stream(11, 2.0, 1.0);
             let radii = md.clean_winding_radii();
             let (mut compared, mut shortcut) = (0, 0);
-            for t in mesh.triangles.iter().step_by(3) {
-                let c = t.iter().map(|&i| mesh.positions[i as usize]).sum::<Vec3>() / 3.0;
+            for t in mesh.triangles().iter().step_by(3) {
+                let c = t
+                    .iter()
+                    .map(|&i| mesh.positions()[i as usize])
+                    .sum::<Vec3>()
+                    / 3.0;
                 let q = c + Vec3::new(next(), next(), next()) * 0.03;
                 let full = md.winding_number(q);
                 if (full - 0.5).abs() < 0.05 {

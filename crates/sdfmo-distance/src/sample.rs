@@ -7,35 +7,8 @@
 use glam::Vec3;
 use sdfmo_mesh::TriMesh;
 
-/// SplitMix64: a tiny, fast, deterministic 64-bit generator.
-#[derive(Clone, Debug)]
-pub struct SplitMix64(u64);
-
-impl SplitMix64 {
-    /// A generator started from `seed`.
-    pub fn new(seed: u64) -> SplitMix64 {
-        SplitMix64(seed)
-    }
-
-    /// The next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1) with 24 random bits (every value exactly representable in f32).
-    pub fn next_f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
-    }
-
-    /// Uniform in [lo, hi).
-    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.next_f32()
-    }
-}
+/// The generator of the points (the project's one, from `sdfmo-io`).
+pub use sdfmo_io::SplitMix64;
 
 /// `n` points uniformly distributed in the root cube [-1, 1]³.
 pub fn uniform_points(n: usize, seed: u64) -> Vec<Vec3> {
@@ -55,9 +28,9 @@ pub fn uniform_points(n: usize, seed: u64) -> Vec<Vec3> {
 /// area, a uniform point on it, then an offset in a uniformly random direction with a length
 /// uniform in [0, `max_offset`). Empty if the mesh has no area.
 pub fn near_surface_points(mesh: &TriMesh, n: usize, max_offset: f32, seed: u64) -> Vec<Vec3> {
-    let mut cumulative = Vec::with_capacity(mesh.triangles.len());
+    let mut cumulative = Vec::with_capacity(mesh.triangles().len());
     let mut total = 0.0f64;
-    for i in 0..mesh.triangles.len() {
+    for i in 0..mesh.triangle_count() {
         let [a, b, c] = mesh.triangle(i);
         total += 0.5 * (b - a).cross(c - a).length() as f64;
         cumulative.push(total);

@@ -67,7 +67,7 @@ impl MeshDistance {
 
     #[inline]
     pub(crate) fn pseudo_normal_sign(&self, p: Vec3, c: &ClosestPoint) -> f32 {
-        let Some(&idx) = self.mesh.triangles.get(c.triangle as usize) else {
+        let Some(&idx) = self.mesh.triangles().get(c.triangle as usize) else {
             return c.distance;
         };
         sign_by_pseudo_normal(

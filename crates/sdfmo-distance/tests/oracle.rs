@@ -282,11 +282,11 @@ fn rays_through_edges_and_vertices_never_slip_through() {
                 .filter(|&p| inside(p))
                 .take(4)
                 .collect();
-        let mut targets: Vec<Vec3> = mesh.positions.clone();
-        for t in &mesh.triangles {
+        let mut targets: Vec<Vec3> = mesh.positions().to_vec();
+        for t in mesh.triangles() {
             for k in 0..3 {
-                let a = mesh.positions[t[k] as usize];
-                let b = mesh.positions[t[(k + 1) % 3] as usize];
+                let a = mesh.positions()[t[k] as usize];
+                let b = mesh.positions()[t[(k + 1) % 3] as usize];
                 targets.push((a + b) * 0.5);
                 targets.push(a + (b - a) * rng.random_range(0.0f32..1.0));
             }
@@ -315,7 +315,7 @@ fn subset_queries_measure_only_the_subset() {
     let mesh = gap_pair(1.0, 0.1);
     let md = MeshDistance::new(&mesh, SignMode::Auto).unwrap();
     let part0: Vec<u32> = (0..mesh.triangle_count() as u32)
-        .filter(|&i| mesh.parts[i as usize] == 0)
+        .filter(|&i| mesh.parts()[i as usize] == 0)
         .collect();
     assert!(!part0.is_empty() && part0.len() < mesh.triangle_count());
     let mut rng = ChaCha8Rng::seed_from_u64(5);
@@ -332,8 +332,11 @@ fn subset_queries_measure_only_the_subset() {
         assert_eq!(sd.abs(), c.distance);
         let inside0 = inside_convex(
             &TriMesh::new(
-                mesh.positions.clone(),
-                part0.iter().map(|&i| mesh.triangles[i as usize]).collect(),
+                mesh.positions().to_vec(),
+                part0
+                    .iter()
+                    .map(|&i| mesh.triangles()[i as usize])
+                    .collect(),
                 vec![0; part0.len()],
             )
             .unwrap(),
@@ -379,28 +382,24 @@ fn bounded_and_hinted_queries_agree_with_the_full_query() {
 
 #[test]
 fn bad_meshes_are_errors_not_panics() {
-    let mut mesh = box_mesh(Vec3::ZERO, Vec3::ONE);
-    mesh.triangles[3][1] = 1000;
+    // A `TriMesh` cannot hold these (its fields are private and `TriMesh::new` checks them), so
+    // `MeshDistance::new` never sees one: the error comes where the mesh is made.
+    let (positions, triangles, parts) = box_mesh(Vec3::ZERO, Vec3::ONE).into_arrays();
+    let mut bad = triangles.clone();
+    bad[3][1] = 1000;
     assert!(matches!(
-        MeshDistance::new(&mesh, SignMode::Auto),
-        Err(sdfmo_distance::DistanceError::IndexOutOfRange {
-            triangle: 3,
-            index: 1000,
-            ..
-        })
+        TriMesh::new(positions.clone(), bad, parts.clone()),
+        Err(sdfmo_mesh::MeshError::IndexOutOfRange { index: 1000, .. })
     ));
-    let mut mesh = box_mesh(Vec3::ZERO, Vec3::ONE);
-    mesh.positions[2].y = f32::NAN;
+    let mut nan = positions.clone();
+    nan[2].y = f32::NAN;
     assert!(matches!(
-        MeshDistance::new(&mesh, SignMode::Auto),
-        Err(sdfmo_distance::DistanceError::NonFinitePosition { vertex: 2 })
+        TriMesh::new(nan, triangles.clone(), parts),
+        Err(sdfmo_mesh::MeshError::NonFinite { ref element, .. }) if element == "vertex 2"
     ));
-    let mut mesh = box_mesh(Vec3::ZERO, Vec3::ONE);
-    mesh.triangles.clear();
-    mesh.parts.clear();
     assert!(matches!(
-        MeshDistance::new(&mesh, SignMode::Auto),
-        Err(sdfmo_distance::DistanceError::EmptyMesh)
+        TriMesh::new(positions, Vec::new(), Vec::new()),
+        Err(sdfmo_mesh::MeshError::NoTriangles { .. })
     ));
     // Non-finite queries do not panic.
     let md = MeshDistance::new(&box_mesh(Vec3::ZERO, Vec3::ONE), SignMode::Auto).unwrap();

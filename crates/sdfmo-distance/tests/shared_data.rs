@@ -15,6 +15,14 @@ use sdfmo_mesh::{load_mesh, TriMesh};
 /// A mesh of the shared test data (resolved by `build.rs` through `sdfmo-testdata`), normalised;
 /// the tests that call this are ignored when the directory is absent and
 /// `SDFMO_REQUIRE_TEST_DATA` is not `1`.
+/// The normalised mesh `name` and its distance structure, whose automatic sign must be `sign`.
+fn distance_with_sign(name: &str, sign: SignMode) -> (TriMesh, MeshDistance) {
+    let mesh = load_normalized(name);
+    let md = MeshDistance::new(&mesh, SignMode::Auto).unwrap();
+    assert_eq!(md.sign_mode(), sign, "{name}");
+    (mesh, md)
+}
+
 fn load_normalized(name: &str) -> TriMesh {
     let path = PathBuf::from(env!("SDFMO_TEST_DATA_DIR")).join(name);
     let loaded = load_mesh(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
@@ -53,9 +61,7 @@ fn sample_points(mesh: &TriMesh, n: usize, seed: u64) -> Vec<Vec3> {
 #[test]
 #[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
 fn teapot_distances_match_the_oracle_and_winding_signs_match_the_exact_winding_number() {
-    let mesh = load_normalized("teapot.obj");
-    let md = MeshDistance::new(&mesh, SignMode::Auto).unwrap();
-    assert_eq!(md.sign_mode(), SignMode::Winding, "the teapot is open");
+    let (mesh, md) = distance_with_sign("teapot.obj", SignMode::Winding); // open
     let pts = sample_points(&mesh, 600, 1);
     let mut max_err = 0.0f64;
     let mut compared = 0;
@@ -86,10 +92,8 @@ fn teapot_distances_match_the_oracle_and_winding_signs_match_the_exact_winding_n
 #[test]
 #[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
 fn closed_cad_part_has_no_sign_errors_near_edges_and_vertices() {
-    let mesh = load_normalized("abc8.stl");
-    let md = MeshDistance::new(&mesh, SignMode::Auto).unwrap();
-    assert_eq!(md.sign_mode(), SignMode::PseudoNormal, "abc8 is watertight");
-    // Every 8th point near a vertex or an edge, offsets 1e-5 .. 1e-2 (normalised units).
+    let (mesh, md) = distance_with_sign("abc8.stl", SignMode::PseudoNormal); // watertight
+                                                                             // Every 8th point near a vertex or an edge, offsets 1e-5 .. 1e-2 (normalised units).
     let pts: Vec<Vec3> = points_near_features(&mesh, 0.1, 8)
         .into_iter()
         .step_by(8)

@@ -16,62 +16,12 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+// The leaves of analytic shapes the integration tests use.
+#[path = "../tests/common/mod.rs"]
+mod common;
+
 use glam::Vec3;
 use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, Voxel};
-
-fn corners(depth: u8, c: [u32; 3], sd: &dyn Fn(Vec3) -> f32) -> [f32; 8] {
-    let h = 2.0 / (1u32 << depth) as f32;
-    let lo = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) * h - 1.0;
-    std::array::from_fn(|i| {
-        sd(lo + Vec3::new((i >> 2) as f32, (i >> 1 & 1) as f32, (i & 1) as f32) * h)
-    })
-}
-
-fn leaves(depth: u8, with_plate: bool) -> Vec<LeafInput> {
-    let sphere = |p: Vec3| p.length() - 0.6;
-    let plate = |p: Vec3| p.y - 0.05;
-    let mut out = Vec::new();
-    let mut stack = vec![(0u8, [0u32; 3])];
-    while let Some((level, c)) = stack.pop() {
-        let h = 2.0 / (1u32 << level) as f32;
-        let mid = (Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) + 0.5) * h - 1.0;
-        let reach = h * 0.87; // half the cell diagonal
-        let near_sphere = sphere(mid).abs() <= reach;
-        let near_plate =
-            with_plate && plate(mid).abs() <= reach && mid.x.abs() < 0.8 && mid.z.abs() < 0.8;
-        if !near_sphere && !near_plate {
-            continue;
-        }
-        if level < depth {
-            for o in 0..8u32 {
-                let child = [
-                    2 * c[0] + (o >> 2),
-                    2 * c[1] + (o >> 1 & 1),
-                    2 * c[2] + (o & 1),
-                ];
-                stack.push((level + 1, child));
-            }
-            continue;
-        }
-        let mut voxels = Vec::new();
-        if near_sphere {
-            voxels.push(Voxel {
-                corners: corners(depth, c, &sphere),
-                surface: false,
-                clip: false,
-            });
-        }
-        if near_plate {
-            voxels.push(Voxel {
-                corners: corners(depth, c, &plate),
-                surface: true,
-                clip: false,
-            });
-        }
-        out.push(LeafInput { coord: c, voxels });
-    }
-    out
-}
 
 /// Best of 5 wall-clock timings of `f`, in milliseconds.
 fn best_ms(f: &mut dyn FnMut()) -> f64 {
@@ -214,7 +164,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for depth in 4..=max_depth {
         for (shape, plate) in [("svo", false), ("multi", true)] {
-            let input = leaves(depth, plate);
+            let input = common::shape_leaves(depth, plate);
             for bits in [ValueBits::Eight, ValueBits::Sixteen] {
                 let meta = OctreeMeta {
                     depth,

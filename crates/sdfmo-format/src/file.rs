@@ -509,10 +509,8 @@ mod tests {
             for y in 0..n {
                 for z in 0..n {
                     let lo = Vec3::new(x as f32, y as f32, z as f32) * h - 1.0;
-                    let corners: [f32; 8] = std::array::from_fn(|i| {
-                        let o = Vec3::new((i >> 2) as f32, (i >> 1 & 1) as f32, (i & 1) as f32);
-                        sd(lo + o * h)
-                    });
+                    let corners: [f32; 8] =
+                        std::array::from_fn(|i| sd(lo + crate::corner_offset(i) * h));
                     let min = corners.iter().cloned().fold(f32::INFINITY, f32::min);
                     let max = corners.iter().cloned().fold(f32::NEG_INFINITY, f32::max);
                     if min <= 0.0 && max >= 0.0 {

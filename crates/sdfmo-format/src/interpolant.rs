@@ -10,6 +10,18 @@ pub fn corner_offset(i: usize) -> Vec3 {
     Vec3::new(((i >> 2) & 1) as f32, ((i >> 1) & 1) as f32, (i & 1) as f32)
 }
 
+/// Integer coordinate of child `octant` (`4x + 2y + z`, the corner order) of the cell at
+/// `parent`, one level down.
+#[inline]
+pub fn child_coord(parent: [u32; 3], octant: u8) -> [u32; 3] {
+    let o = u32::from(octant);
+    [
+        2 * parent[0] + (o >> 2),
+        2 * parent[1] + (o >> 1 & 1),
+        2 * parent[2] + (o & 1),
+    ]
+}
+
 /// The trilinear interpolant of `corners` (index `4x + 2y + z`) at local coordinates `l ∈ [0,1]³`.
 #[inline]
 pub fn trilinear(c: &[f32; 8], l: Vec3) -> f32 {

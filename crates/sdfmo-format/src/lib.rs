@@ -74,7 +74,7 @@ pub use file::{
     FLAG_SURFACE_VOXELS, FORMAT_VERSION_MAJOR, FORMAT_VERSION_MINOR, HEADER_FIELDS, HEADER_SIZE,
     KNOWN_FLAGS, MAGIC,
 };
-pub use interpolant::{corner_offset, trilinear, trilinear_gradient};
+pub use interpolant::{child_coord, corner_offset, trilinear, trilinear_gradient};
 pub use octree::{NodeRef, Octree, PackedOctree, PackedOctreeView};
 
 /// Deepest supported octree (leaf coordinates up to 2^16 per axis).

@@ -652,11 +652,11 @@ impl<B: AsRef<[u8]>> Octree<B> {
         coords.push([0, 0, 0]);
         // Breadth first: appending each node's children in order reproduces the node numbering.
         for k in 0..self.counts.inner {
-            let [x, y, z] = coords[k as usize];
+            let parent = coords[k as usize];
             let mask = self.child_mask(NodeRef(k));
-            for o in 0..8u32 {
+            for o in 0..8u8 {
                 if mask >> o & 1 != 0 {
-                    coords.push([2 * x + (o >> 2), 2 * y + (o >> 1 & 1), 2 * z + (o & 1)]);
+                    coords.push(crate::child_coord(parent, o));
                 }
             }
         }
@@ -765,15 +765,7 @@ mod tests {
             }
             for oct in 0..8u8 {
                 if let Some(ch) = o.child(n, oct) {
-                    let k = u32::from(oct);
-                    stack.push((
-                        ch,
-                        [
-                            2 * c[0] + (k >> 2),
-                            2 * c[1] + (k >> 1 & 1),
-                            2 * c[2] + (k & 1),
-                        ],
-                    ));
+                    stack.push((ch, crate::child_coord(c, oct)));
                 }
             }
         }

@@ -81,25 +81,17 @@ mod tests {
 
     proptest! {
         #[test]
-        fn error_bound_8bit(depth in 0u8..=16, t in -1.0f32..=1.0) {
+        fn error_bound(depth in 0u8..=16, t in -1.0f32..=1.0) {
+            // Both widths at every drawn value (the codes stay within ±max_code).
             let dmax = voxel_diagonal(depth);
             let v = t * dmax;
-            let q = quantize(v, dmax, ValueBits::Eight);
-            prop_assert!((-127..=127).contains(&q));
-            let back = dequantize(q, dequant_scale(depth, ValueBits::Eight));
-            prop_assert!((back - v).abs() <= bound(depth, ValueBits::Eight),
-                "v {v} back {back} err {} bound {}", (back - v).abs(), bound(depth, ValueBits::Eight));
-        }
-
-        #[test]
-        fn error_bound_16bit(depth in 0u8..=16, t in -1.0f32..=1.0) {
-            let dmax = voxel_diagonal(depth);
-            let v = t * dmax;
-            let q = quantize(v, dmax, ValueBits::Sixteen);
-            prop_assert!((-32767..=32767).contains(&q));
-            let back = dequantize(q, dequant_scale(depth, ValueBits::Sixteen));
-            prop_assert!((back - v).abs() <= bound(depth, ValueBits::Sixteen),
-                "v {v} back {back} err {} bound {}", (back - v).abs(), bound(depth, ValueBits::Sixteen));
+            for (bits, max) in [(ValueBits::Eight, 127), (ValueBits::Sixteen, 32767)] {
+                let q = quantize(v, dmax, bits);
+                prop_assert!((-max..=max).contains(&q));
+                let back = dequantize(q, dequant_scale(depth, bits));
+                prop_assert!((back - v).abs() <= bound(depth, bits),
+                    "{bits:?}: v {v} back {back} err {} bound {}", (back - v).abs(), bound(depth, bits));
+            }
         }
 
         #[test]

@@ -281,23 +281,12 @@ impl SectionBytes<'_> {
 
     fn validate_nodes(&self) -> Result<()> {
         // Bases: group g's first child is 1 + the popcount of every mask before node 8g.
-        let mut next = 1u64;
-        for (g, rec) in self.nodes.chunks_exact(12).enumerate() {
-            let base = u32_at(rec, 0);
-            if u64::from(base) != next {
-                return corrupt(
-                    "nodes",
-                    format!("group {g} first_child {base}, expected {next}"),
-                );
+        walk_groups("nodes", self.nodes, "first_child", 1, |k, m| {
+            if k >= u64::from(self.counts.inner) && m != 0 {
+                return corrupt("nodes", format!("padding mask of slot {k} is {m:#x}"));
             }
-            for (s, &m) in rec[4..].iter().enumerate() {
-                let k = g as u64 * 8 + s as u64;
-                if k >= u64::from(self.counts.inner) && m != 0 {
-                    return corrupt("nodes", format!("padding mask of slot {k} is {m:#x}"));
-                }
-                next += u64::from(m.count_ones());
-            }
-        }
+            Ok(u64::from(m.count_ones()))
+        })?;
         if self.counts.inner == 0 {
             return Ok(());
         }
@@ -347,34 +336,22 @@ impl SectionBytes<'_> {
     }
 
     fn validate_leaves(&self) -> Result<()> {
-        let mut next = 0u64;
-        for (g, rec) in self.leaves.chunks_exact(12).enumerate() {
-            let base = u32_at(rec, 0);
-            if u64::from(base) != next {
-                return corrupt(
-                    "leaves",
-                    format!("group {g} first_voxel {base}, expected {next}"),
-                );
+        // Bases: group g's first voxel is the sum of every count before leaf 8g.
+        let next = walk_groups("leaves", self.leaves, "first_voxel", 0, |j, c| {
+            let real = j < u64::from(self.counts.leaves);
+            if real && c == 0 {
+                return corrupt("leaves", format!("leaf {j} has no voxel"));
             }
-            for (s, &c) in rec[4..].iter().enumerate() {
-                let j = g as u64 * 8 + s as u64;
-                let real = j < u64::from(self.counts.leaves);
-                if real && c == 0 {
-                    return corrupt("leaves", format!("leaf {j} has no voxel"));
-                }
-                if !real && c != 0 {
-                    return corrupt("leaves", format!("padding count of slot {j} is {c}"));
-                }
-                next += u64::from(c);
+            if !real && c != 0 {
+                return corrupt("leaves", format!("padding count of slot {j} is {c}"));
             }
-        }
-        if next != u64::from(self.counts.voxels) {
+            Ok(u64::from(c))
+        })?;
+        let voxels = self.counts.voxels;
+        if next != u64::from(voxels) {
             return corrupt(
                 "leaves",
-                format!(
-                    "counts sum to {next}, voxel_count is {}",
-                    self.counts.voxels
-                ),
+                format!("counts sum to {next}, voxel_count is {voxels}"),
             );
         }
         Ok(())
@@ -461,4 +438,27 @@ impl SectionBytes<'_> {
         }
         Ok(())
     }
+}
+/// Walks the 12-byte group records of `section` (a u32 `base_name`, then 8 one-byte entries,
+/// slot `8g + s`): every base must be `first` plus the sum of what `entry` returned for the
+/// entries before it; `entry(slot, byte)` checks an entry and returns its weight. The total.
+fn walk_groups(
+    section: &'static str,
+    bytes: &[u8],
+    base_name: &str,
+    first: u64,
+    mut entry: impl FnMut(u64, u8) -> Result<u64>,
+) -> Result<u64> {
+    let mut next = first;
+    for (g, rec) in bytes.chunks_exact(12).enumerate() {
+        let base = u32_at(rec, 0);
+        if u64::from(base) != next {
+            let what = format!("group {g} {base_name} {base}, expected {next}");
+            return corrupt(section, what);
+        }
+        for (s, &e) in rec[4..].iter().enumerate() {
+            next += entry(g as u64 * 8 + s as u64, e)?;
+        }
+    }
+    Ok(next)
 }

@@ -24,6 +24,12 @@ fn real_clip_file(bits: ValueBits) -> Vec<u8> {
     o.to_bytes()
 }
 
+/// The 8-bit real file and a seeded random stream to attack it with.
+fn real_file_and_rng(seed: u64) -> (Vec<u8>, rand_chacha::ChaCha8Rng) {
+    let rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    (real_file(ValueBits::Eight), rng)
+}
+
 /// Accepting bytes means: the borrowed and owned forms agree, the whole tree can be walked without panicking,
 /// and writing it back gives the very same bytes (the encoding is canonical).
 fn check_accepted(bytes: &[u8], o: &PackedOctree) {
@@ -93,8 +99,7 @@ fn every_truncation_is_refused() {
 
 #[test]
 fn thousands_of_random_flips_are_refused_by_the_checksum() {
-    let bytes = real_file(ValueBits::Eight);
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x5eed);
+    let (bytes, mut rng) = real_file_and_rng(0x5eed);
     let mut by_checksum = 0;
     for trial in 0..4000 {
         let mut b = bytes.clone();

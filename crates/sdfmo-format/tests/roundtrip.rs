@@ -24,15 +24,7 @@ fn walk(o: &PackedOctree) -> Vec<([u32; 3], std::ops::Range<u32>)> {
             let child = o.child(n, oct);
             assert_eq!(child.is_some(), mask >> oct & 1 == 1);
             if let Some(ch) = child {
-                let o = u32::from(oct);
-                stack.push((
-                    ch,
-                    [
-                        2 * c[0] + (o >> 2),
-                        2 * c[1] + (o >> 1 & 1),
-                        2 * c[2] + (o & 1),
-                    ],
-                ));
+                stack.push((ch, sdfmo_format::child_coord(c, oct)));
             }
         }
     }

@@ -252,10 +252,8 @@ fn compare(gpu: &mut GpuRenderer, octree: &PackedOctree, label: &str) -> Stats {
 
 fn build_octree(mesh: &TriMesh, depth: u8, method: Method, bits: ValueBits) -> PackedOctree {
     let settings = BuildSettings {
-        depth,
-        method,
         bits,
-        ..BuildSettings::default()
+        ..BuildSettings::new(depth, method)
     };
     build(mesh, &settings, None).expect("build").0
 }

@@ -26,6 +26,7 @@
 #![deny(missing_docs)]
 
 mod confine;
+mod random;
 mod read;
 mod write;
 
@@ -33,6 +34,7 @@ use std::fmt;
 use std::path::PathBuf;
 
 pub use confine::resolve_in_folder;
+pub use random::SplitMix64;
 pub use read::{open_regular, read_regular, read_regular_to_string};
 pub use write::{check_destination, remove_pending_temporaries, write_atomic, OutputBatch};
 

@@ -4,6 +4,14 @@ use std::path::Path;
 
 use sdfmo_io::{check_destination, read_regular, write_atomic, FileKind, IoError, OutputBatch};
 
+/// A fresh temporary folder with the file `name` holding `bytes` in it.
+fn dir_with_file(name: &str, bytes: &[u8]) -> (tempfile::TempDir, std::path::PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(name);
+    std::fs::write(&path, bytes).unwrap();
+    (dir, path)
+}
+
 fn names(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)
         .unwrap()
@@ -104,9 +112,7 @@ fn special_destinations_are_refused_and_kept() {
 #[cfg(unix)]
 #[test]
 fn links_are_followed_and_dangling_links_refused() {
-    let dir = tempfile::tempdir().unwrap();
-    let real = dir.path().join("real.png");
-    std::fs::write(&real, b"old").unwrap();
+    let (dir, real) = dir_with_file("real.png", b"old");
     let link = dir.path().join("link.png");
     std::os::unix::fs::symlink("real.png", &link).unwrap();
     write_atomic(&link, b"new").unwrap();
@@ -128,9 +134,7 @@ fn links_are_followed_and_dangling_links_refused() {
 fn a_planted_link_at_a_temporary_name_is_never_followed() {
     // Temporary names are random and created with O_EXCL; plant links at the names the old
     // writers used (pid-based) and check that the victim is untouched.
-    let dir = tempfile::tempdir().unwrap();
-    let victim = dir.path().join("victim");
-    std::fs::write(&victim, b"precious").unwrap();
+    let (dir, victim) = dir_with_file("victim", b"precious");
     let pid = std::process::id();
     for name in [format!(".out.png.tmp-{pid}"), format!(".out.png.tmp{pid}")] {
         std::os::unix::fs::symlink(&victim, dir.path().join(name)).unwrap();
@@ -166,9 +170,7 @@ fn a_batch_writes_all_or_none() {
 
 #[test]
 fn reads_are_bounded_and_regular_only() {
-    let dir = tempfile::tempdir().unwrap();
-    let p = dir.path().join("f.bin");
-    std::fs::write(&p, [7u8; 100]).unwrap();
+    let (dir, p) = dir_with_file("f.bin", &[7u8; 100]);
     assert_eq!(read_regular(&p, 100).unwrap().len(), 100);
     let e = read_regular(&p, 99).unwrap_err();
     assert!(

@@ -27,20 +27,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         std::fs::create_dir_all(root.join(dir))?;
     }
     for (name, m) in &meshes {
-        sdfmo_io::write_atomic(root.join(format!("fuzz_obj/{name}.obj")), write::to_obj(m))?;
-        sdfmo_io::write_atomic(
-            root.join(format!("fuzz_stl/{name}.stl")),
-            write::to_stl_binary(m),
-        )?;
-        sdfmo_io::write_atomic(
-            root.join(format!("fuzz_stl/{name}_ascii.stl")),
-            write::to_stl_ascii(m),
-        )?;
-        sdfmo_io::write_atomic(root.join(format!("fuzz_gltf/{name}.glb")), write::to_glb(m))?;
-        sdfmo_io::write_atomic(
-            root.join(format!("fuzz_gltf/{name}.gltf")),
-            write::to_gltf_embedded(m),
-        )?;
+        let seeds: [(String, Vec<u8>); 5] = [
+            (
+                format!("fuzz_obj/{name}.obj"),
+                write::to_obj(m).into_bytes(),
+            ),
+            (format!("fuzz_stl/{name}.stl"), write::to_stl_binary(m)),
+            (
+                format!("fuzz_stl/{name}_ascii.stl"),
+                write::to_stl_ascii(m).into_bytes(),
+            ),
+            (format!("fuzz_gltf/{name}.glb"), write::to_glb(m)),
+            (
+                format!("fuzz_gltf/{name}.gltf"),
+                write::to_gltf_embedded(m).into_bytes(),
+            ),
+        ];
+        for (path, bytes) in seeds {
+            sdfmo_io::write_atomic(root.join(path), bytes)?;
+        }
     }
     // Hand-written OBJ features the writer does not produce: quads, polygons, negative
     // indices, texture/normal references, groups, w coordinates, comments.

@@ -55,6 +55,16 @@ pub fn clean(
             reason: format!("{} part ids for {} triangles", parts.len(), triangles.len()),
         });
     }
+    clean_valid(file, positions, triangles, parts)
+}
+
+/// [`clean`] of arrays already known to be valid (those of a [`TriMesh`]).
+fn clean_valid(
+    file: &str,
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    parts: &[u32],
+) -> Result<(TriMesh, CleanReport)> {
     let mut report = CleanReport {
         input_vertices: positions.len(),
         input_triangles: triangles.len(),
@@ -128,14 +138,7 @@ pub fn clean(
         }
     }
     report.unreferenced_vertices = positions.len() - out_positions.len() - report.welded_vertices;
-    Ok((
-        TriMesh {
-            positions: out_positions,
-            triangles: kept,
-            parts: kept_parts,
-        },
-        report,
-    ))
+    Ok((TriMesh::from_valid(out_positions, kept, kept_parts), report))
 }
 
 impl TriMesh {
@@ -144,10 +147,10 @@ impl TriMesh {
     /// ids topology needs where a loader repeats a position across parts (OBJ objects, glTF
     /// primitives). Unlike [`TriMesh::cleaned`], no triangle is dropped and parts stay apart.
     pub fn welded_by_position(&self) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-        let mut first: HashMap<[u32; 3], u32> = HashMap::with_capacity(self.positions.len());
-        let mut welded = Vec::with_capacity(self.positions.len());
+        let mut first: HashMap<[u32; 3], u32> = HashMap::with_capacity(self.vertex_count());
+        let mut welded = Vec::with_capacity(self.vertex_count());
         let remap: Vec<u32> = self
-            .positions
+            .positions()
             .iter()
             .map(|&p| {
                 *first.entry(key(p)).or_insert_with(|| {
@@ -157,7 +160,7 @@ impl TriMesh {
             })
             .collect();
         let triangles = self
-            .triangles
+            .triangles()
             .iter()
             .map(|t| t.map(|v| remap[v as usize]))
             .collect();
@@ -171,11 +174,11 @@ impl TriMesh {
     /// # Errors
     /// [`MeshError::NoTriangles`] if every triangle is degenerate or a duplicate.
     pub fn cleaned(&self) -> Result<(TriMesh, CleanReport)> {
-        clean(
+        clean_valid(
             crate::mesh::MEMORY,
-            &self.positions,
-            &self.triangles,
-            &self.parts,
+            self.positions(),
+            self.triangles(),
+            self.parts(),
         )
     }
 }
@@ -192,17 +195,16 @@ pub fn weld_within(mesh: &TriMesh, tolerance: f32) -> Result<(TriMesh, CleanRepo
     if tolerance.is_nan() || tolerance <= 0.0 || tolerance.is_infinite() {
         return mesh.cleaned();
     }
-    validate(crate::mesh::MEMORY, &mesh.positions, &mesh.triangles)?;
-    let n = mesh.positions.len();
+    let n = mesh.positions().len();
     let cell = |p: Vec3| (p / tolerance).floor().as_i64vec3().to_array();
     let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::with_capacity(n.min(1 << 22));
-    for (i, &p) in mesh.positions.iter().enumerate() {
+    for (i, &p) in mesh.positions().iter().enumerate() {
         grid.entry(cell(p)).or_default().push(i as u32);
     }
     // Union–find over vertices; the root is always the lowest index of its set.
     let mut sets = crate::UnionFind::new(n);
     let tol2 = tolerance * tolerance;
-    for (i, &p) in mesh.positions.iter().enumerate() {
+    for (i, &p) in mesh.positions().iter().enumerate() {
         let c = cell(p);
         for dx in -1..=1 {
             for dy in -1..=1 {
@@ -212,7 +214,7 @@ pub fn weld_within(mesh: &TriMesh, tolerance: f32) -> Result<(TriMesh, CleanRepo
                     };
                     for &j in others {
                         if (j as usize) < i
-                            && p.distance_squared(mesh.positions[j as usize]) <= tol2
+                            && p.distance_squared(mesh.positions()[j as usize]) <= tol2
                         {
                             sets.union(i as u32, j);
                         }
@@ -222,13 +224,14 @@ pub fn weld_within(mesh: &TriMesh, tolerance: f32) -> Result<(TriMesh, CleanRepo
         }
     }
     let positions: Vec<Vec3> = (0..n as u32)
-        .map(|i| mesh.positions[sets.find(i) as usize])
+        .map(|i| mesh.positions()[sets.find(i) as usize])
         .collect();
-    clean(
+    // Every welded position is one of the mesh's own: still valid.
+    clean_valid(
         crate::mesh::MEMORY,
         &positions,
-        &mesh.triangles,
-        &mesh.parts,
+        mesh.triangles(),
+        mesh.parts(),
     )
 }
 
@@ -263,9 +266,9 @@ mod tests {
         ];
         let t = vec![[0, 1, 2], [3, 4, 5], [2, 1, 0], [0, 1, 6], [0, 3, 2]];
         let (m, r) = clean("x", &p, &t, &[0, 1, 2, 3, 4]).unwrap();
-        assert_eq!(m.triangles, vec![[0, 1, 2], [0, 2, 3]]);
-        assert_eq!(m.parts, vec![0, 1]);
-        assert_eq!(m.positions.len(), 4);
+        assert_eq!(m.triangles(), vec![[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(m.parts(), vec![0, 1]);
+        assert_eq!(m.positions().len(), 4);
         assert_eq!(
             r,
             CleanReport {
@@ -294,19 +297,15 @@ mod tests {
         let b = crate::procedural::box_mesh(Vec3::ZERO, Vec3::ONE);
         let mut positions = Vec::new();
         let mut triangles = Vec::new();
-        for (t, tri) in b.triangles.iter().enumerate() {
+        for (t, tri) in b.triangles().iter().enumerate() {
             let base = positions.len() as u32;
             for (k, &v) in tri.iter().enumerate() {
                 let jitter = ((t * 3 + k) % 5) as f32 * 5e-7;
-                positions.push(b.positions[v as usize] + Vec3::splat(jitter));
+                positions.push(b.positions()[v as usize] + Vec3::splat(jitter));
             }
             triangles.push([base, base + 1, base + 2]);
         }
-        let soup = TriMesh {
-            positions,
-            triangles,
-            parts: vec![0; 12],
-        };
+        let soup = TriMesh::new(positions, triangles, vec![0; 12]).unwrap();
         let (exact, _) = soup.cleaned().unwrap();
         assert!(!exact.topology().watertight);
         let (welded, r) = soup.welded_within(1e-5).unwrap();

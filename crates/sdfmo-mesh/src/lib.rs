@@ -31,7 +31,7 @@ pub use clean::{clean, weld_within, CleanReport};
 pub use error::{MeshError, Result};
 pub use load::{
     detect_format, load_mesh, load_mesh_from_bytes, load_mesh_from_bytes_with_limits,
-    load_mesh_with_limits, LoadLimits, LoadedMesh, MeshFormat,
+    load_mesh_with_limits, mesh_name, LoadLimits, LoadedMesh, MeshFormat,
 };
 pub use mesh::{Aabb, Normalization, TriMesh};
 pub use topology::{EdgeAdjacency, EdgeFlags, Topology};

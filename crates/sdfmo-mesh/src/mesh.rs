@@ -10,16 +10,16 @@ pub(crate) const MEMORY: &str = "<memory>";
 
 /// An indexed triangle mesh in f32 with a part id per triangle.
 ///
-/// Invariants (checked by [`TriMesh::new`]): every position is finite, every index is in range,
-/// `parts.len() == triangles.len()`, and there is at least one triangle.
+/// Invariants: every position is finite, every index is in range,
+/// `parts().len() == triangles().len()`, and there is at least one triangle. The fields are
+/// private and every way to make a mesh keeps them ([`TriMesh::new`] and [`crate::clean`]
+/// check their input; the loaders, [`TriMesh::transformed`], [`TriMesh::merge`] and the
+/// [`crate::procedural`] parts keep them), so no layer above checks a `TriMesh` again.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TriMesh {
-    /// Vertex positions.
-    pub positions: Vec<Vec3>,
-    /// Triangles as three vertex indices, counter-clockwise seen from outside.
-    pub triangles: Vec<[u32; 3]>,
-    /// Part id per triangle (OBJ object/group, glTF primitive, ASCII STL solid); 0.. part_count.
-    pub parts: Vec<u32>,
+    positions: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
+    parts: Vec<u32>,
 }
 
 /// An axis-aligned bounding box.
@@ -93,6 +93,11 @@ impl Normalization {
 
     /// The transform that puts the centre of `bounds` at the origin and scales its longest
     /// extent to `2·(1 − margin)`. A box of zero extent gets scale 1.
+    ///
+    /// For a finite box the transform maps every point of the box to a finite point: where
+    /// `min + max` overflows f32 the centre is taken as `min / 2 + max / 2`, and where the scale
+    /// would overflow (a subnormal extent) it is 1. Neither happens for a box that fits f32
+    /// comfortably, so ordinary meshes get the plain formula.
     pub fn for_bounds(bounds: &Aabb, margin: f32) -> Normalization {
         let longest = bounds.longest_extent();
         let target = 2.0 * (1.0 - margin);
@@ -101,9 +106,14 @@ impl Normalization {
         } else {
             1.0
         };
+        let center = bounds.center();
         Normalization {
-            center: bounds.center(),
-            scale,
+            center: if center.is_finite() {
+                center
+            } else {
+                bounds.min * 0.5 + bounds.max * 0.5
+            },
+            scale: if scale.is_finite() { scale } else { 1.0 },
         }
     }
 
@@ -132,11 +142,48 @@ impl TriMesh {
                 reason: format!("{} part ids for {} triangles", parts.len(), triangles.len()),
             });
         }
-        Ok(TriMesh {
+        Ok(TriMesh::from_valid(positions, triangles, parts))
+    }
+
+    /// A mesh from arrays the caller has already validated (inside this crate only): checked
+    /// again in debug builds.
+    pub(crate) fn from_valid(
+        positions: Vec<Vec3>,
+        triangles: Vec<[u32; 3]>,
+        parts: Vec<u32>,
+    ) -> TriMesh {
+        debug_assert!(validate(MEMORY, &positions, &triangles).is_ok());
+        debug_assert_eq!(parts.len(), triangles.len());
+        TriMesh {
             positions,
             triangles,
             parts,
-        })
+        }
+    }
+
+    /// Vertex positions (all finite).
+    #[inline]
+    pub fn positions(&self) -> &[Vec3] {
+        &self.positions
+    }
+
+    /// Triangles as three vertex indices (each below [`TriMesh::vertex_count`]),
+    /// counter-clockwise seen from outside.
+    #[inline]
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
+    }
+
+    /// Part id per triangle (OBJ object/group, glTF primitive, ASCII STL solid);
+    /// `0..part_count()`.
+    #[inline]
+    pub fn parts(&self) -> &[u32] {
+        &self.parts
+    }
+
+    /// The positions, triangles and part ids, moved out.
+    pub fn into_arrays(self) -> (Vec<Vec3>, Vec<[u32; 3]>, Vec<u32>) {
+        (self.positions, self.triangles, self.parts)
     }
 
     /// Number of triangles.
@@ -181,6 +228,11 @@ impl TriMesh {
 
     /// The mesh moved into the normalised frame: centre of the bounding box to the origin,
     /// longest extent to `2·(1 − margin)`; returns the transform too.
+    ///
+    /// # Panics
+    /// Only if a vertex that no triangle references lies so far outside the triangles' box that
+    /// its image overflows f32 (the referenced ones always map to finite points, see
+    /// [`Normalization::for_bounds`]; loaded and cleaned meshes have no unreferenced vertices).
     pub fn normalized(&self, margin: f32) -> (TriMesh, Normalization) {
         let n = Normalization::for_bounds(&self.bounds(), margin);
         (self.transformed(|p| n.to_normalized(p)), n)
@@ -193,17 +245,38 @@ impl TriMesh {
     }
 
     /// A copy with every position mapped by `f` (triangles and parts unchanged).
+    ///
+    /// # Panics
+    /// If `f` maps a position to a non-finite one (the mesh would break its invariant); use
+    /// [`TriMesh::try_transformed`] where the map can overflow.
     pub fn transformed(&self, f: impl Fn(Vec3) -> Vec3) -> TriMesh {
-        TriMesh {
-            positions: self.positions.iter().map(|&p| f(p)).collect(),
-            triangles: self.triangles.clone(),
-            parts: self.parts.clone(),
+        match self.try_transformed(f) {
+            Ok(m) => m,
+            Err(e) => panic!("TriMesh::transformed: {e}"),
         }
+    }
+
+    /// A copy with every position mapped by `f` (triangles and parts unchanged).
+    ///
+    /// # Errors
+    /// [`MeshError::NonFinite`] if `f` maps a position to a non-finite one.
+    pub fn try_transformed(&self, f: impl Fn(Vec3) -> Vec3) -> Result<TriMesh> {
+        let positions: Vec<Vec3> = self.positions.iter().map(|&p| f(p)).collect();
+        validate(MEMORY, &positions, &self.triangles)?;
+        Ok(TriMesh::from_valid(
+            positions,
+            self.triangles.clone(),
+            self.parts.clone(),
+        ))
     }
 
     /// Concatenates meshes; the part ids of each input are offset by the part counts of the
     /// inputs before it, so parts stay distinct.
+    ///
+    /// # Panics
+    /// If `meshes` is empty (a mesh has at least one triangle).
     pub fn merge(meshes: &[TriMesh]) -> TriMesh {
+        assert!(!meshes.is_empty(), "TriMesh::merge of no meshes");
         let mut out = TriMesh {
             positions: Vec::new(),
             triangles: Vec::new(),
@@ -257,6 +330,27 @@ pub(crate) fn cross_f64(a: Vec3, b: Vec3, c: Vec3) -> [f64; 3] {
     ]
 }
 
+/// Checks that every index of `triangles` is below `vertex_count`; the error names the element
+/// as `{prefix}triangle {i}`.
+pub(crate) fn check_indices(
+    file: &str,
+    prefix: &str,
+    triangles: &[[u32; 3]],
+    vertex_count: usize,
+) -> Result<()> {
+    for (i, t) in triangles.iter().enumerate() {
+        if let Some(&v) = t.iter().find(|&&v| v as usize >= vertex_count) {
+            return Err(MeshError::IndexOutOfRange {
+                file: file.into(),
+                element: format!("{prefix}triangle {i}"),
+                index: v as i64,
+                vertex_count,
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Checks finite positions, indices in range and at least one triangle.
 pub(crate) fn validate(file: &str, positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<()> {
     for (i, p) in positions.iter().enumerate() {
@@ -269,18 +363,7 @@ pub(crate) fn validate(file: &str, positions: &[Vec3], triangles: &[[u32; 3]]) -
             });
         }
     }
-    for (i, t) in triangles.iter().enumerate() {
-        for &v in t {
-            if v as usize >= positions.len() {
-                return Err(MeshError::IndexOutOfRange {
-                    file: file.into(),
-                    element: format!("triangle {i}"),
-                    index: v as i64,
-                    vertex_count: positions.len(),
-                });
-            }
-        }
-    }
+    check_indices(file, "", triangles, positions.len())?;
     if triangles.is_empty() {
         return Err(MeshError::NoTriangles {
             file: file.into(),

@@ -51,11 +51,7 @@ pub fn box_mesh(min: Vec3, max: Vec3) -> TriMesh {
         [1, 5, 7],
         [1, 7, 3], // +z
     ];
-    TriMesh {
-        positions,
-        triangles,
-        parts: vec![0; 12],
-    }
+    TriMesh::from_valid(positions, triangles, vec![0; 12])
 }
 
 /// A closed icosphere: an icosahedron subdivided `subdivisions` times (clamped to 8), vertices
@@ -119,11 +115,11 @@ pub fn sphere(center: Vec3, radius: f32, subdivisions: u32) -> TriMesh {
         triangles = next;
     }
     let n = triangles.len();
-    TriMesh {
-        positions: positions.into_iter().map(|p| center + p * radius).collect(),
+    TriMesh::from_valid(
+        positions.into_iter().map(|p| center + p * radius).collect(),
         triangles,
-        parts: vec![0; n],
-    }
+        vec![0; n],
+    )
 }
 
 /// A closed box centred at the origin with edge lengths `size` (x, y = thickness, z): a plate
@@ -155,11 +151,7 @@ pub fn open_sheet(width: f32, depth: f32, segments: u32) -> TriMesh {
         }
     }
     let len = triangles.len();
-    TriMesh {
-        positions,
-        triangles,
-        parts: vec![0; len],
-    }
+    TriMesh::from_valid(positions, triangles, vec![0; len])
 }
 
 /// Two closed cubes of edge `size`, stacked along y with a horizontal gap of `gap` between them
@@ -236,7 +228,12 @@ mod tests {
             "procedural meshes come welded and clean"
         );
         assert_eq!(c.triangle_count(), m.triangle_count());
-        TriMesh::new(m.positions.clone(), m.triangles.clone(), m.parts.clone()).unwrap();
+        TriMesh::new(
+            m.positions().to_vec(),
+            m.triangles().to_vec(),
+            m.parts().to_vec(),
+        )
+        .unwrap();
     }
 
     #[test]
@@ -261,7 +258,7 @@ mod tests {
             assert_eq!(m.triangle_count(), 20 * 4usize.pow(s));
             assert_eq!(m.vertex_count(), 10 * 4usize.pow(s) + 2);
             assert!(m.topology().watertight);
-            for p in &m.positions {
+            for p in m.positions() {
                 assert!(((*p - Vec3::new(1.0, 2.0, 3.0)).length() - 2.0).abs() < 1e-5);
             }
             let v = volume(&m);
@@ -322,7 +319,7 @@ mod tests {
                 ys.iter().cloned().fold(f32::MAX, f32::min),
                 ys.iter().cloned().fold(f32::MIN, f32::max),
             );
-            match m.parts[i] {
+            match m.parts()[i] {
                 0 | 1 => assert!(lo >= 0.45 - 1e-6),
                 2 | 3 => assert!(hi <= -0.45 + 1e-6),
                 _ => assert!(lo >= -0.36 && hi <= 0.36),
@@ -337,11 +334,11 @@ mod tests {
         // plate normal.
         let normal = Vec3::new(1.0, 0.0, 1.0).normalize();
         let plate: Vec<f32> = n
-            .triangles
+            .triangles()
             .iter()
-            .zip(&n.parts)
+            .zip(n.parts())
             .filter(|(_, &p)| p == 2)
-            .flat_map(|(t, _)| t.map(|v| n.positions[v as usize].dot(normal)))
+            .flat_map(|(t, _)| t.map(|v| n.positions()[v as usize].dot(normal)))
             .collect();
         let spread = plate.iter().cloned().fold(f32::MIN, f32::max)
             - plate.iter().cloned().fold(f32::MAX, f32::min);

@@ -53,7 +53,7 @@ impl EdgeAdjacency {
     /// Builds the adjacency of `mesh`. Edges of triangles with a repeated vertex are skipped
     /// (a cleaned mesh has none).
     pub fn of(mesh: &TriMesh) -> EdgeAdjacency {
-        EdgeAdjacency::of_triangles(&mesh.triangles)
+        EdgeAdjacency::of_triangles(mesh.triangles())
     }
 
     /// Builds the adjacency of triangles given by vertex indices (for instance after welding
@@ -101,8 +101,7 @@ impl EdgeAdjacency {
         let mut clean = vec![0u8; triangles.len()];
         let mut vertex_clean = vec![true; vertex_count];
         for e in 0..self.edge_count() {
-            let range = self.offsets[e] as usize..self.offsets[e + 1] as usize;
-            let (tris, slots) = (&self.triangles[range.clone()], &self.slots[range]);
+            let (tris, slots) = (self.triangles_of(e), self.slots_of(e));
             // The start vertex of each traversal: opposite directions start at different ends.
             let start = |i: usize| triangles[tris[i] as usize][slots[i] as usize];
             let is_clean = tris.len() == 2 && start(0) != start(1);
@@ -178,6 +177,11 @@ impl EdgeAdjacency {
     /// Triangles incident to edge `e`.
     pub fn triangles_of(&self, e: usize) -> &[u32] {
         &self.triangles[self.offsets[e] as usize..self.offsets[e + 1] as usize]
+    }
+
+    /// Which edge `k` of each triangle of [`EdgeAdjacency::triangles_of`] edge `e` is.
+    pub fn slots_of(&self, e: usize) -> &[u8] {
+        &self.slots[self.offsets[e] as usize..self.offsets[e + 1] as usize]
     }
 }
 

@@ -31,7 +31,7 @@ pub fn to_stl_ascii(mesh: &TriMesh) -> String {
     let mut s = String::new();
     for part in 0..mesh.part_count() as u32 {
         let _ = writeln!(s, "solid part{part}");
-        for i in (0..mesh.triangle_count()).filter(|&i| mesh.parts[i] == part) {
+        for i in (0..mesh.triangle_count()).filter(|&i| mesh.parts()[i] == part) {
             let [a, b, c] = mesh.triangle(i);
             let n = (b - a).cross(c - a).normalize_or_zero();
             let _ = writeln!(s, "  facet normal {:e} {:e} {:e}", n.x, n.y, n.z);
@@ -50,15 +50,15 @@ pub fn to_stl_ascii(mesh: &TriMesh) -> String {
 /// OBJ text: all vertices, then one `o partN` block of faces per part (in part order).
 pub fn to_obj(mesh: &TriMesh) -> String {
     let mut s = String::new();
-    for p in &mesh.positions {
+    for p in mesh.positions() {
         let _ = writeln!(s, "v {:e} {:e} {:e}", p.x, p.y, p.z);
     }
     for part in 0..mesh.part_count() as u32 {
         let _ = writeln!(s, "o part{part}");
         for (t, _) in mesh
-            .triangles
+            .triangles()
             .iter()
-            .zip(&mesh.parts)
+            .zip(mesh.parts())
             .filter(|(_, &p)| p == part)
         {
             let _ = writeln!(s, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1);
@@ -89,19 +89,19 @@ fn base64_encode(data: &[u8]) -> String {
 /// part (in part order, parts without triangles skipped), all sharing one POSITION accessor.
 fn gltf_parts(mesh: &TriMesh, buffer_uri: Option<&str>) -> (String, Vec<u8>) {
     let mut bin = Vec::new();
-    for p in &mesh.positions {
+    for p in mesh.positions() {
         for x in p.to_array() {
             bin.extend_from_slice(&x.to_le_bytes());
         }
     }
     let pos_len = bin.len();
-    let b = crate::Aabb::from_points(mesh.positions.iter().copied());
+    let b = crate::Aabb::from_points(mesh.positions().iter().copied());
     let mut views = vec![format!(
         r#"{{"buffer":0,"byteOffset":0,"byteLength":{pos_len}}}"#
     )];
     let mut accessors = vec![format!(
         r#"{{"bufferView":0,"componentType":5126,"count":{},"type":"VEC3","min":[{:e},{:e},{:e}],"max":[{:e},{:e},{:e}]}}"#,
-        mesh.positions.len(),
+        mesh.positions().len(),
         b.min.x,
         b.min.y,
         b.min.z,
@@ -114,9 +114,9 @@ fn gltf_parts(mesh: &TriMesh, buffer_uri: Option<&str>) -> (String, Vec<u8>) {
         let start = bin.len();
         let mut n = 0;
         for (t, _) in mesh
-            .triangles
+            .triangles()
             .iter()
-            .zip(&mesh.parts)
+            .zip(mesh.parts())
             .filter(|(_, &q)| q == part)
         {
             for v in t {
@@ -156,25 +156,30 @@ fn gltf_parts(mesh: &TriMesh, buffer_uri: Option<&str>) -> (String, Vec<u8>) {
 /// Binary glTF (GLB) bytes: see [`to_gltf_embedded`] for the layout; the buffer is the BIN
 /// chunk.
 pub fn to_glb(mesh: &TriMesh) -> Vec<u8> {
-    let (json, mut bin) = gltf_parts(mesh, None);
-    let mut json = json.into_bytes();
-    while !json.len().is_multiple_of(4) {
-        json.push(b' ');
-    }
-    while !bin.len().is_multiple_of(4) {
-        bin.push(0);
-    }
+    let (json, bin) = gltf_parts(mesh, None);
+    glb_container(&json, &bin)
+}
+
+/// A GLB file of a JSON chunk `json` (padded with spaces) and a BIN chunk `bin` (padded with
+/// zeros), each to a multiple of 4 bytes, behind the 12-byte header (`glTF`, version 2, total
+/// length). Also what the tests use to wrap hand-written glTF.
+pub fn glb_container(json: &str, bin: &[u8]) -> Vec<u8> {
+    let pad = |bytes: &[u8], fill: u8| {
+        let mut v = bytes.to_vec();
+        v.resize(bytes.len().next_multiple_of(4), fill);
+        v
+    };
+    let (json, bin) = (pad(json.as_bytes(), b' '), pad(bin, 0));
     let total = 12 + 8 + json.len() + 8 + bin.len();
     let mut out = Vec::with_capacity(total);
     out.extend_from_slice(b"glTF");
     out.extend_from_slice(&2u32.to_le_bytes());
     out.extend_from_slice(&(total as u32).to_le_bytes());
-    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&json);
-    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(&bin);
+    for (tag, chunk) in [(b"JSON", &json), (b"BIN\0", &bin)] {
+        out.extend_from_slice(&(chunk.len() as u32).to_le_bytes());
+        out.extend_from_slice(tag);
+        out.extend_from_slice(chunk);
+    }
     out
 }
 
@@ -226,11 +231,11 @@ mod tests {
                     // Triangles are grouped by part on export: compare part by part.
                     for part in 0..m.part_count() as u32 {
                         let a: Vec<_> = (0..m.triangle_count())
-                            .filter(|&i| m.parts[i] == part)
+                            .filter(|&i| m.parts()[i] == part)
                             .map(|i| m.triangle(i))
                             .collect();
                         let b: Vec<_> = (0..r.triangle_count())
-                            .filter(|&i| r.parts[i] == part)
+                            .filter(|&i| r.parts()[i] == part)
                             .map(|i| r.triangle(i))
                             .collect();
                         assert_eq!(a, b, "{format:?} part {part}");

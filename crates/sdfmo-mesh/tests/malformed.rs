@@ -58,25 +58,7 @@ impl Drop for TempDir {
 }
 
 fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
-    let mut j = json.as_bytes().to_vec();
-    while !j.len().is_multiple_of(4) {
-        j.push(b' ');
-    }
-    let mut b = bin.to_vec();
-    while !b.len().is_multiple_of(4) {
-        b.push(0);
-    }
-    let total = 12 + 8 + j.len() + 8 + b.len();
-    let mut out = b"glTF".to_vec();
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&(total as u32).to_le_bytes());
-    out.extend_from_slice(&(j.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&j);
-    out.extend_from_slice(&(b.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(&b);
-    out
+    write::glb_container(json, bin)
 }
 
 /// One triangle: 3 positions (36 bytes) then 3 u16 indices (6 bytes).
@@ -121,9 +103,7 @@ fn cases() -> Vec<(&'static str, Vec<u8>, Want)> {
     let mut trailing = bin_stl.clone();
     trailing.extend_from_slice(&[0; 7]);
     // A box squashed onto the x axis: every triangle collinear (zero area).
-    let mut flat_only = procedural::box_mesh(Vec3::ZERO, Vec3::ONE);
-    flat_only.positions.iter_mut().for_each(|p| p.y = 0.0);
-    flat_only.positions.iter_mut().for_each(|p| p.z = 0.0);
+    let flat_only = procedural::box_mesh(Vec3::ZERO, Vec3::ONE).transformed(|p| p * Vec3::X);
     let one_buf = r#"{"byteLength":42}"#;
     let node0 = r#"[{"mesh":0}]"#;
     let good_glb = glb(&tri_json(3, 4, node0, one_buf), &tri_bin(TRI, [0, 1, 2]));

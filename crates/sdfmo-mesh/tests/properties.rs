@@ -64,7 +64,7 @@ proptest! {
             return Ok(());
         };
         // Vertices are unique (bit-identical ones welded, ±0 together).
-        let keys: HashSet<[u32; 3]> = mesh.positions.iter().map(|&p| key(p)).collect();
+        let keys: HashSet<[u32; 3]> = mesh.positions().iter().map(|&p| key(p)).collect();
         prop_assert_eq!(keys.len(), mesh.vertex_count());
         // Kept + removed = input; one triangle per distinct non-degenerate corner set.
         prop_assert_eq!(
@@ -80,16 +80,16 @@ proptest! {
             let k = sorted_corners(mesh.triangle(i));
             let first = input.iter().position(|t| sorted_corners(*t) == k).unwrap();
             prop_assert_eq!(mesh.triangle(i).map(key), input[first].map(key));
-            prop_assert_eq!(mesh.parts[i], parts[first]);
+            prop_assert_eq!(mesh.parts()[i], parts[first]);
         }
         // Idempotent, and the same through a binary STL file.
         let (again, r2) = mesh.cleaned().unwrap();
         prop_assert_eq!(&again, &mesh);
         prop_assert_eq!(r2.welded_vertices + r2.degenerate_triangles + r2.duplicate_triangles, 0);
-        let soup = TriMesh { positions: positions.clone(), triangles: triangles.clone(), parts: vec![0; parts.len()] };
+        let soup = TriMesh::new(positions.clone(), triangles.clone(), vec![0; parts.len()]).unwrap();
         let l = load_mesh_from_bytes(&write::to_stl_binary(&soup), "soup.stl", Some(MeshFormat::Stl)).unwrap();
-        prop_assert_eq!(&l.mesh.triangles, &mesh.triangles);
-        prop_assert_eq!(l.mesh.positions.iter().map(|&p| key(p)).collect::<Vec<_>>(), mesh.positions.iter().map(|&p| key(p)).collect::<Vec<_>>());
+        prop_assert_eq!(l.mesh.triangles(), mesh.triangles());
+        prop_assert_eq!(l.mesh.positions().iter().map(|&p| key(p)).collect::<Vec<_>>(), mesh.positions().iter().map(|&p| key(p)).collect::<Vec<_>>());
     }
 
     #[test]
@@ -111,7 +111,7 @@ proptest! {
         prop_assert!((b.longest_extent() - target).abs() <= 1e-5 * target, "extent {} vs {}", b.longest_extent(), target);
         prop_assert!((b.min + b.max).abs().max_element() <= 1e-5, "not centred: {:?}", b);
         prop_assert!(b.min.cmpge(Vec3::splat(-1.0)).all() && b.max.cmple(Vec3::splat(1.0)).all());
-        for (p, q) in mesh.positions.iter().zip(&norm.positions) {
+        for (p, q) in mesh.positions().iter().zip(norm.positions()) {
             prop_assert_eq!(t.to_normalized(*p), *q);
             let back = t.to_model(*q);
             prop_assert!((back - *p).abs().max_element() <= 1e-5 * extent, "{:?} -> {:?} -> {:?}", p, q, back);

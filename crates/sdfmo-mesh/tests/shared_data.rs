@@ -134,7 +134,7 @@ fn same_model_in_three_formats_gives_the_same_mesh() {
                 .iter()
                 .position(|&x| x == c)
                 .unwrap();
-            assert_eq!(m.parts[tri], m.parts[first]);
+            assert_eq!(m.parts()[tri], m.parts()[first]);
         }
     }
     // The GLB keeps the STL's f32 coordinates bit for bit: same bounds.

@@ -54,6 +54,19 @@ mod tests {
         })
     }
 
+    /// A black `w` × `h` image and a copy whose pixel (x, y) is `rgb`.
+    fn black_and_one_pixel(
+        w: u32,
+        h: u32,
+        (x, y): (u32, u32),
+        rgb: [u8; 3],
+    ) -> (RgbImage, RgbImage) {
+        let a = RgbImage::new(w, h);
+        let mut b = a.clone();
+        b.put_pixel(x, y, Rgb(rgb));
+        (a, b)
+    }
+
     #[test]
     fn identical_images_are_infinite() {
         let a = pattern(7, 5);
@@ -64,9 +77,7 @@ mod tests {
     #[test]
     fn one_channel_of_one_pixel_by_one_level() {
         // 2×2 image, 12 samples, one differs by 1: MSE = 1/12.
-        let a = RgbImage::new(2, 2);
-        let mut b = a.clone();
-        b.put_pixel(1, 0, Rgb([0, 1, 0]));
+        let (a, b) = black_and_one_pixel(2, 2, (1, 0), [0, 1, 0]);
         assert_eq!(mse(&a, &b).unwrap(), 1.0 / 12.0);
         let expected = 10.0 * (255.0f64 * 255.0 * 12.0).log10();
         assert!((psnr(&a, &b).unwrap() - expected).abs() < 1e-12);
@@ -86,12 +97,8 @@ mod tests {
     fn background_pixels_count() {
         // The same single wrong pixel in a larger (mostly equal, "background") image raises PSNR
         // by 10·log10(area ratio): every pixel counts.
-        let small_a = RgbImage::new(2, 2);
-        let mut small_b = small_a.clone();
-        small_b.put_pixel(0, 0, Rgb([40, 0, 0]));
-        let big_a = RgbImage::new(8, 8);
-        let mut big_b = big_a.clone();
-        big_b.put_pixel(0, 0, Rgb([40, 0, 0]));
+        let (small_a, small_b) = black_and_one_pixel(2, 2, (0, 0), [40, 0, 0]);
+        let (big_a, big_b) = black_and_one_pixel(8, 8, (0, 0), [40, 0, 0]);
         let gain = psnr(&big_a, &big_b).unwrap() - psnr(&small_a, &small_b).unwrap();
         assert!((gain - 10.0 * 16f64.log10()).abs() < 1e-9, "gain {gain}");
     }

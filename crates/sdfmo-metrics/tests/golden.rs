@@ -93,6 +93,22 @@ fn evaluate(dir: &Path, pair: &Pair) -> (f64, FlipResult) {
     )
 }
 
+/// Every golden pair with our PSNR and FLIP of it, computed once for all the tests here.
+fn evaluated() -> &'static [(Pair, f64, FlipResult)] {
+    static ALL: std::sync::OnceLock<Vec<(Pair, f64, FlipResult)>> = std::sync::OnceLock::new();
+    ALL.get_or_init(|| {
+        let dir = golden_dir();
+        let pairs = pairs(&dir);
+        let scores = pairs.iter().map(|pair| evaluate(&dir, pair));
+        let scores: Vec<_> = scores.collect();
+        pairs
+            .into_iter()
+            .zip(scores)
+            .map(|(pair, (db, result))| (pair, db, result))
+            .collect()
+    })
+}
+
 fn max_abs_diff(a: &[f32], b: &[f32]) -> f32 {
     a.iter()
         .zip(b)
@@ -103,9 +119,8 @@ fn max_abs_diff(a: &[f32], b: &[f32]) -> f32 {
 #[test]
 #[cfg_attr(sdfmo_no_golden_data, ignore = "no golden FLIP data: set SDFMO_GOLDEN")]
 fn psnr_matches_golden_for_every_pair() {
-    let dir = golden_dir();
-    for pair in pairs(&dir) {
-        let (db, _) = evaluate(&dir, &pair);
+    for (pair, db, _) in evaluated() {
+        let db = *db;
         let diff = pair.psnr.map_or(0.0, |g| (db - g).abs());
         println!(
             "{:>15}: psnr {db:.15} golden {:?} |d| {diff:.1e}",
@@ -126,8 +141,7 @@ fn psnr_matches_golden_for_every_pair() {
 #[cfg_attr(sdfmo_no_golden_data, ignore = "no golden FLIP data: set SDFMO_GOLDEN")]
 fn flip_matches_golden_mean_max_and_map_for_every_pair() {
     let dir = golden_dir();
-    for pair in pairs(&dir) {
-        let (_, result) = evaluate(&dir, &pair);
+    for (pair, _, result) in evaluated() {
         let golden_map = read_f32_map(&dir.join(format!("{}_flip.f32", pair.name)));
         assert_eq!(
             golden_map.len(),
@@ -170,11 +184,10 @@ fn golden_maps_are_row_major() {
     // map as column-major (transposed) must disagree with ours, row-major must agree.
     let dir = golden_dir();
     let mut checked = 0;
-    for pair in pairs(&dir) {
+    for (pair, _, result) in evaluated() {
         if pair.width == pair.height || pair.max_flip == 0.0 {
             continue;
         }
-        let (_, result) = evaluate(&dir, &pair);
         let golden = read_f32_map(&dir.join(format!("{}_flip.f32", pair.name)));
         let (w, h) = (pair.width as usize, pair.height as usize);
         let transposed: Vec<f32> = (0..h)
@@ -198,11 +211,9 @@ fn golden_maps_are_row_major() {
 #[test]
 #[cfg_attr(sdfmo_no_golden_data, ignore = "no golden FLIP data: set SDFMO_GOLDEN")]
 fn heatmap_of_golden_pairs_has_their_size_and_magma_extremes() {
-    let dir = golden_dir();
     let magma0 = flip_rs_magma_byte(0);
-    for pair in pairs(&dir) {
-        let (_, result) = evaluate(&dir, &pair);
-        let heat = flip_heatmap(&result);
+    for (pair, _, result) in evaluated() {
+        let heat = flip_heatmap(result);
         assert_eq!(heat.dimensions(), (pair.width, pair.height));
         if pair.max_flip == 0.0 {
             assert!(heat.pixels().all(|p| p.0 == magma0), "{}", pair.name);

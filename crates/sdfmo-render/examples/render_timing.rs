@@ -13,7 +13,7 @@ use std::path::PathBuf;
 
 use sdfmo_build::{build, BuildSettings, Method};
 use sdfmo_distance::{MeshDistance, SignMode};
-use sdfmo_mesh::{load_mesh, procedural};
+use sdfmo_mesh::{load_mesh, mesh_name, procedural};
 use sdfmo_render::{
     mesh_in_octree_frame, render, save_png, Camera, MeshScene, Mode, OctreeScene, RenderSettings,
     Rendered, Spheres, Traceable,
@@ -53,14 +53,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let arg = |i: usize| args.get(i).map(String::as_str);
     let (mesh, name) = match arg(0) {
-        Some(p) => (
-            load_mesh(p.as_ref())?.mesh,
-            PathBuf::from(p)
-                .file_stem()
-                .unwrap()
-                .to_string_lossy()
-                .into_owned(),
-        ),
+        Some(p) => (load_mesh(p.as_ref())?.mesh, mesh_name(p.as_ref())),
         None => (procedural::demo_part(), "demo".to_string()),
     };
     let depths: Vec<u8> = arg(1)
@@ -108,11 +101,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut reference_done = false;
     for &depth in &depths {
         for &(method_name, method) in &methods {
-            let settings = BuildSettings {
-                depth,
-                method,
-                ..BuildSettings::default()
-            };
+            let settings = BuildSettings::new(depth, method);
             let (octree, stats) = build(&mesh, &settings, None)?;
             eprintln!(
                 "{name} depth {depth} {method_name}: {} voxels, {} bytes, build {:.0} ms",

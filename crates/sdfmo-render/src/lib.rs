@@ -27,6 +27,8 @@ pub mod mesh;
 pub mod octree;
 mod output;
 pub mod plan;
+#[cfg(feature = "mesh-reference")]
+pub mod protocol;
 mod render;
 pub mod scene;
 pub mod shading;
@@ -39,7 +41,9 @@ pub use mesh::{apply_normalization, mesh_in_octree_frame, octree_normalization, 
 pub use octree::OctreeScene;
 pub use output::{encode_exr, encode_png, save_exr, save_png};
 pub use plan::{Counters, Mode, RenderPlan, RenderSettings, MAX_AO_SAMPLES};
-pub use render::{render, render_with_plan, Rendered};
+#[cfg(feature = "mesh-reference")]
+pub use protocol::{PaperProtocol, ProtocolError, Score, ViewScore};
+pub use render::{in_pool, render, render_with_plan, Rendered};
 pub use scene::{SphereHit, Spheres, Traceable};
 
 /// Everything that can go wrong while rendering or writing images.

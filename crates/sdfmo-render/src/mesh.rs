@@ -58,6 +58,10 @@ pub fn octree_normalization(meta: &OctreeMeta) -> Normalization {
 
 /// `mesh` (model units) mapped into the normalised frame by `n`, exactly as
 /// `TriMesh::normalized` maps it (`(p − center) · scale` in f32).
+///
+/// # Panics
+/// If `n` maps a vertex beyond f32's range (`TriMesh::transformed`); the normalisation of the
+/// octree built from `mesh` never does.
 pub fn apply_normalization(mesh: &TriMesh, n: Normalization) -> TriMesh {
     mesh.transformed(|p| n.to_normalized(p))
 }

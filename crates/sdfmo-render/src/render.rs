@@ -89,14 +89,26 @@ pub fn render_with_plan<T: Traceable>(
             )
         }),
     };
-    match plan.threads {
-        None => Ok(ctx.run()),
+    in_pool(plan.threads, || ctx.run())
+}
+
+/// Runs `f` on a local pool of `threads` workers, or on the current pool for `None` (what
+/// [`RenderSettings::threads`](crate::RenderSettings) means, for work besides rendering too).
+///
+/// # Errors
+/// [`RenderError::ThreadPool`] if the pool cannot be created.
+pub fn in_pool<R: Send>(
+    threads: Option<usize>,
+    f: impl FnOnce() -> R + Send,
+) -> Result<R, RenderError> {
+    match threads {
+        None => Ok(f()),
         Some(n) => {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(n)
                 .build()
                 .map_err(|source| RenderError::ThreadPool { threads: n, source })?;
-            Ok(pool.install(|| ctx.run()))
+            Ok(pool.install(f))
         }
     }
 }

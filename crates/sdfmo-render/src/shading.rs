@@ -20,6 +20,7 @@
 //! (otherwise the direct term is zero anyway).
 
 use glam::Vec3;
+use sdfmo_io::SplitMix64;
 
 /// Ambient term of the lambert shading.
 pub const AMBIENT: f32 = 0.25;
@@ -94,33 +95,29 @@ pub fn depth_grey(t: f32, range: DepthRange) -> u8 {
     to_u8(g).max(1)
 }
 
-/// A small deterministic per-pixel random generator (SplitMix64), so occlusion samples depend on
-/// the pixel and the sample index only, never on the thread or tile order.
+/// A small deterministic per-pixel random generator (the project's SplitMix64), so occlusion
+/// samples depend on the pixel and the sample index only, never on the thread or tile order.
 #[derive(Clone, Debug)]
-pub struct PixelRng(u64);
+pub struct PixelRng(SplitMix64);
 
 impl PixelRng {
     /// The generator of pixel (`px`, `py`).
     pub fn new(px: u32, py: u32) -> PixelRng {
-        let mut r = PixelRng((u64::from(py) << 32 | u64::from(px)) ^ 0x5DF0_C7EE_0000_0A0A);
+        let mut r = SplitMix64::new((u64::from(py) << 32 | u64::from(px)) ^ 0x5DF0_C7EE_0000_0A0A);
         r.next_u64();
-        r
+        PixelRng(r)
     }
 
     /// The next 64 random bits.
     #[inline]
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        self.0.next_u64()
     }
 
     /// A uniform value in [0, 1).
     #[inline]
     pub fn next_f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+        self.0.next_f32()
     }
 }
 

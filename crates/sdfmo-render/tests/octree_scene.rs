@@ -1,6 +1,9 @@
 //! The octree renderer against the mesh reference: procedural parts built by `sdfmo-build`,
 //! traced by `sdfmo-trace`, compared with the same mesh through `sdfmo-distance`.
 
+mod common;
+use common::{settings, shot};
+
 use glam::Vec3;
 use sdfmo_build::{build, BuildSettings, Method};
 use sdfmo_distance::{MeshDistance, SignMode};
@@ -12,21 +15,10 @@ use sdfmo_render::{
     RenderPlan, RenderSettings, Rendered, Traceable,
 };
 
-fn settings(mode: Mode, shadows: bool, ao: u32, threads: usize) -> RenderSettings {
-    RenderSettings {
-        mode,
-        shadows,
-        ao_samples: ao,
-        threads: Some(threads),
-    }
-}
-
 fn octree(mesh: &TriMesh, depth: u8, method: Method) -> PackedOctree {
     let s = BuildSettings {
-        depth,
-        method,
         threads: Some(2),
-        ..BuildSettings::default()
+        ..BuildSettings::new(depth, method)
     };
     build(mesh, &s, None).expect("build").0
 }
@@ -158,7 +150,7 @@ fn octree_planning_through_the_counters() {
     let scene = OctreeScene(&tree);
     let camera = Camera::paper_view(1, 48, 48);
     for mode in [Mode::Mask, Mode::Depth] {
-        let r = render(&scene, &camera, &settings(mode, true, 4, 2)).unwrap();
+        let r = shot(&scene, &camera, mode, true, 4);
         assert!(r.counters.hits > 0);
         assert_eq!(r.counters.rays, 48 * 48);
         assert_eq!(
@@ -170,10 +162,10 @@ fn octree_planning_through_the_counters() {
             (0, 0, 0)
         );
     }
-    let plain = render(&scene, &camera, &settings(Mode::Lambert, false, 0, 2)).unwrap();
+    let plain = shot(&scene, &camera, Mode::Lambert, false, 0);
     assert_eq!(plain.counters.normal_evals, plain.counters.hits);
     assert_eq!((plain.counters.shadow_rays, plain.counters.ao_rays), (0, 0));
-    let full = render(&scene, &camera, &settings(Mode::Lambert, true, 3, 2)).unwrap();
+    let full = shot(&scene, &camera, Mode::Lambert, true, 3);
     assert!(full.counters.shadow_rays > 0 && full.counters.shadow_rays <= full.counters.hits);
     assert_eq!(full.counters.ao_rays, 3 * full.counters.hits);
 }
@@ -218,32 +210,12 @@ fn octree_shadows_fall_where_the_mesh_shadows_fall() {
             .collect()
     };
     let o = shadowed(
-        &render(
-            &OctreeScene(&tree),
-            &camera,
-            &settings(Mode::Lambert, false, 0, 2),
-        )
-        .unwrap(),
-        &render(
-            &OctreeScene(&tree),
-            &camera,
-            &settings(Mode::Lambert, true, 0, 2),
-        )
-        .unwrap(),
+        &shot(&OctreeScene(&tree), &camera, Mode::Lambert, false, 0),
+        &shot(&OctreeScene(&tree), &camera, Mode::Lambert, true, 0),
     );
     let m = shadowed(
-        &render(
-            &MeshScene(&dist),
-            &camera,
-            &settings(Mode::Lambert, false, 0, 2),
-        )
-        .unwrap(),
-        &render(
-            &MeshScene(&dist),
-            &camera,
-            &settings(Mode::Lambert, true, 0, 2),
-        )
-        .unwrap(),
+        &shot(&MeshScene(&dist), &camera, Mode::Lambert, false, 0),
+        &shot(&MeshScene(&dist), &camera, Mode::Lambert, true, 0),
     );
     let (no, nm) = (
         o.iter().filter(|x| **x).count(),

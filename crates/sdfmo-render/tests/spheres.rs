@@ -1,6 +1,9 @@
 //! The renderer end to end on an analytic scene of spheres: planning through the counters,
 //! thread-count independence, shading values, shadows, occlusion, depth, normals, file output.
 
+mod common;
+use common::{settings, shot};
+
 use std::path::PathBuf;
 
 use glam::Vec3;
@@ -21,15 +24,6 @@ fn shadow_pair() -> Spheres {
     }
 }
 
-fn settings(mode: Mode, shadows: bool, ao: u32, threads: usize) -> RenderSettings {
-    RenderSettings {
-        mode,
-        shadows,
-        ao_samples: ao,
-        threads: Some(threads),
-    }
-}
-
 fn cam(size: u32) -> Camera {
     Camera::paper_view(0, size, size)
 }
@@ -37,7 +31,7 @@ fn cam(size: u32) -> Camera {
 #[test]
 fn every_mode_casts_one_primary_ray_per_pixel() {
     for mode in Mode::ALL {
-        let r = render(&sphere(), &cam(37), &settings(mode, false, 0, 2)).unwrap();
+        let r = shot(&sphere(), &cam(37), mode, false, 0);
         assert_eq!(r.counters.rays, 37 * 37);
         assert_eq!(r.rgb.len(), 37 * 37 * 3);
         assert!(r.counters.hits > 0 && r.counters.hits < r.counters.rays);
@@ -47,7 +41,7 @@ fn every_mode_casts_one_primary_ray_per_pixel() {
 #[test]
 fn mask_and_depth_evaluate_no_normals_even_with_shadows_and_ao_asked() {
     for mode in [Mode::Mask, Mode::Depth] {
-        let r = render(&shadow_pair(), &cam(32), &settings(mode, true, 8, 2)).unwrap();
+        let r = shot(&shadow_pair(), &cam(32), mode, true, 8);
         assert!(r.counters.hits > 0);
         assert_eq!(r.counters.normal_evals, 0, "{mode}");
         assert_eq!(r.counters.shadow_rays, 0, "{mode}");
@@ -57,12 +51,7 @@ fn mask_and_depth_evaluate_no_normals_even_with_shadows_and_ao_asked() {
 
 #[test]
 fn normal_mode_evaluates_one_normal_per_hit_and_nothing_else() {
-    let r = render(
-        &shadow_pair(),
-        &cam(32),
-        &settings(Mode::Normal, true, 8, 2),
-    )
-    .unwrap();
+    let r = shot(&shadow_pair(), &cam(32), Mode::Normal, true, 8);
     assert_eq!(r.counters.normal_evals, r.counters.hits);
     assert_eq!((r.counters.shadow_rays, r.counters.ao_rays), (0, 0));
 }
@@ -70,18 +59,18 @@ fn normal_mode_evaluates_one_normal_per_hit_and_nothing_else() {
 #[test]
 fn lambert_casts_secondary_rays_only_when_asked() {
     let scene = shadow_pair();
-    let plain = render(&scene, &cam(48), &settings(Mode::Lambert, false, 0, 2)).unwrap();
+    let plain = shot(&scene, &cam(48), Mode::Lambert, false, 0);
     assert_eq!(plain.counters.normal_evals, plain.counters.hits);
     assert_eq!(plain.counters.shadow_rays, 0);
     assert_eq!(plain.counters.ao_rays, 0);
 
-    let shadowed = render(&scene, &cam(48), &settings(Mode::Lambert, true, 0, 2)).unwrap();
+    let shadowed = shot(&scene, &cam(48), Mode::Lambert, true, 0);
     assert!(shadowed.counters.shadow_rays > 0);
     // only hits facing the light cast one
     assert!(shadowed.counters.shadow_rays < shadowed.counters.hits);
     assert_eq!(shadowed.counters.ao_rays, 0);
 
-    let ao = render(&scene, &cam(48), &settings(Mode::Lambert, false, 5, 2)).unwrap();
+    let ao = shot(&scene, &cam(48), Mode::Lambert, false, 5);
     assert_eq!(ao.counters.ao_rays, 5 * ao.counters.hits);
     assert_eq!(ao.counters.shadow_rays, 0);
 }
@@ -144,7 +133,7 @@ fn lambert_centre_pixel_has_the_documented_value() {
 
 #[test]
 fn mask_is_white_on_black_and_matches_the_sphere_silhouette() {
-    let r = render(&sphere(), &cam(64), &settings(Mode::Mask, false, 0, 2)).unwrap();
+    let r = shot(&sphere(), &cam(64), Mode::Mask, false, 0);
     let cam = cam(64);
     for y in 0..64 {
         for x in 0..64 {
@@ -165,8 +154,8 @@ fn mask_is_white_on_black_and_matches_the_sphere_silhouette() {
 fn shadows_darken_to_ambient_where_the_small_sphere_blocks_the_light() {
     let scene = shadow_pair();
     let camera = Camera::new(light_dir() * 3.0, Vec3::ZERO, 40.0, 41, 41);
-    let lit = render(&scene, &camera, &settings(Mode::Lambert, false, 0, 2)).unwrap();
-    let dark = render(&scene, &camera, &settings(Mode::Lambert, true, 0, 2)).unwrap();
+    let lit = shot(&scene, &camera, Mode::Lambert, false, 0);
+    let dark = shot(&scene, &camera, Mode::Lambert, true, 0);
     // Seen from the light, the small sphere covers the centre; around it, the big sphere is in
     // its shadow: those pixels drop to the ambient value.
     let ambient = (AMBIENT * 255.0).round() as u8;
@@ -182,8 +171,8 @@ fn shadows_darken_to_ambient_where_the_small_sphere_blocks_the_light() {
     assert_eq!(shadowed, 0);
     // From the side, the shadow is visible.
     let side = Camera::new(Vec3::new(3.0, 0.5, 0.5), Vec3::ZERO, 50.0, 64, 64);
-    let lit = render(&scene, &side, &settings(Mode::Lambert, false, 0, 2)).unwrap();
-    let dark = render(&scene, &side, &settings(Mode::Lambert, true, 0, 2)).unwrap();
+    let lit = shot(&scene, &side, Mode::Lambert, false, 0);
+    let dark = shot(&scene, &side, Mode::Lambert, true, 0);
     let n = lit.rgb.iter().zip(&dark.rgb).filter(|(a, b)| b < a).count();
     assert!(n > 30, "only {n} shadowed channel values");
     for (a, b) in lit.rgb.iter().zip(&dark.rgb) {
@@ -193,8 +182,8 @@ fn shadows_darken_to_ambient_where_the_small_sphere_blocks_the_light() {
 
 #[test]
 fn occlusion_leaves_a_convex_sphere_unchanged_and_darkens_a_contact() {
-    let plain = render(&sphere(), &cam(40), &settings(Mode::Lambert, false, 0, 2)).unwrap();
-    let ao = render(&sphere(), &cam(40), &settings(Mode::Lambert, false, 8, 2)).unwrap();
+    let plain = shot(&sphere(), &cam(40), Mode::Lambert, false, 0);
+    let ao = shot(&sphere(), &cam(40), Mode::Lambert, false, 8);
     assert!(ao.counters.ao_rays > 0);
     assert_eq!(plain.rgb, ao.rgb, "nothing occludes a lone convex sphere");
 
@@ -205,8 +194,8 @@ fn occlusion_leaves_a_convex_sphere_unchanged_and_darkens_a_contact() {
             (Vec3::new(0.5, 0.0, 0.0), 0.5),
         ],
     };
-    let plain = render(&pair, &cam(64), &settings(Mode::Lambert, false, 0, 2)).unwrap();
-    let ao = render(&pair, &cam(64), &settings(Mode::Lambert, false, 16, 2)).unwrap();
+    let plain = shot(&pair, &cam(64), Mode::Lambert, false, 0);
+    let ao = shot(&pair, &cam(64), Mode::Lambert, false, 16);
     let darker = plain.rgb.iter().zip(&ao.rgb).filter(|(a, b)| b < a).count();
     assert!(darker > 0);
     assert!(plain.rgb.iter().zip(&ao.rgb).all(|(a, b)| b <= a));
@@ -214,7 +203,7 @@ fn occlusion_leaves_a_convex_sphere_unchanged_and_darkens_a_contact() {
 
 #[test]
 fn depth_mode_keeps_distances_and_maps_them_to_grey() {
-    let r = render(&sphere(), &cam(33), &settings(Mode::Depth, false, 0, 2)).unwrap();
+    let r = shot(&sphere(), &cam(33), Mode::Depth, false, 0);
     let depth = r.depth.as_ref().expect("depth kept in depth mode");
     assert!(r.normals.is_none());
     assert!(
@@ -232,7 +221,7 @@ fn depth_mode_keeps_distances_and_maps_them_to_grey() {
 #[test]
 fn normal_mode_keeps_unit_viewer_facing_normals() {
     let camera = cam(31);
-    let r = render(&sphere(), &camera, &settings(Mode::Normal, false, 0, 2)).unwrap();
+    let r = shot(&sphere(), &camera, Mode::Normal, false, 0);
     let normals = r.normals.as_ref().expect("normals kept in normal mode");
     assert!(r.depth.is_none());
     for y in 0..31 {
@@ -281,12 +270,7 @@ fn out_dir() -> PathBuf {
 
 #[test]
 fn png_round_trips_exactly() {
-    let r = render(
-        &shadow_pair(),
-        &cam(29),
-        &settings(Mode::Lambert, true, 2, 2),
-    )
-    .unwrap();
+    let r = shot(&shadow_pair(), &cam(29), Mode::Lambert, true, 2);
     let path = out_dir().join("lambert.png");
     save_png(&r, &path).unwrap();
     let back = image::open(&path).unwrap().into_rgb8();
@@ -323,7 +307,7 @@ fn exr_holds_f32_depth_and_normals() {
     use exr::prelude::{read_all_flat_layers_from_file, FlatSamples};
     let camera = cam(17);
     for mode in [Mode::Depth, Mode::Normal] {
-        let r = render(&sphere(), &camera, &settings(mode, false, 0, 2)).unwrap();
+        let r = shot(&sphere(), &camera, mode, false, 0);
         let path = out_dir().join(format!("{mode}.exr"));
         save_exr(&r, &path).unwrap();
         let img = read_all_flat_layers_from_file(&path).unwrap();

@@ -72,7 +72,7 @@ fn sphere_values_are_within_quantisation_plus_interpolation_error() {
         let delta = half_step(depth, bits);
         let (normalized, _) = mesh.normalized(0.05);
         let radius = normalized
-            .positions
+            .positions()
             .iter()
             .map(|p| p.length())
             .fold(0.0, f32::max);

@@ -221,7 +221,8 @@ mod tests {
         let b = procedural::box_mesh(Vec3::new(0.15, -0.5, -0.5), Vec3::new(0.6, 0.5, 0.5));
         let mut m = TriMesh::merge(&[a, b]);
         if !parts {
-            m.parts.iter_mut().for_each(|p| *p = 0);
+            let (p, t, q) = m.into_arrays();
+            m = TriMesh::new(p, t, vec![0; q.len()]).unwrap();
         }
         Fixture::new(m)
     }

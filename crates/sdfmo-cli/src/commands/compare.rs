@@ -14,20 +14,12 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<()> {
     }
     let reference = metrics::load_rgb8(&args.reference)?;
     let test = metrics::load_rgb8(&args.test)?;
-    let psnr = metrics::psnr(&reference, &test).with_context(|| {
-        format!(
-            "cannot compare {} with {}",
-            args.reference.display(),
-            args.test.display()
-        )
-    })?;
-    let flip = metrics::flip(&reference, &test).with_context(|| {
-        format!(
-            "cannot compare {} with {}",
-            args.reference.display(),
-            args.test.display()
-        )
-    })?;
+    let what = || {
+        let (r, t) = (args.reference.display(), args.test.display());
+        format!("cannot compare {r} with {t}")
+    };
+    let psnr = metrics::psnr(&reference, &test).with_context(what)?;
+    let flip = metrics::flip(&reference, &test).with_context(what)?;
     if let Some(out) = &args.heatmap {
         ensure_parent(out)?;
         metrics::save_png(&metrics::flip_heatmap(&flip), out)?;

@@ -39,11 +39,7 @@ pub fn load_input(path: Option<&Path>) -> anyhow::Result<InputMesh> {
         Some(p) => {
             // Every mesh error names the file already.
             let loaded = mesh::load_mesh(p)?;
-            let name = p
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .filter(|s| !s.is_empty())
-                .unwrap_or_else(|| "mesh".to_owned());
+            let name = mesh::mesh_name(p);
             Ok(InputMesh {
                 mesh: loaded.mesh,
                 report: Some(loaded.report),
@@ -123,14 +119,5 @@ pub fn with_threads<R: Send>(
     threads: Option<usize>,
     f: impl FnOnce() -> R + Send,
 ) -> anyhow::Result<R> {
-    match threads {
-        None => Ok(f()),
-        Some(n) => {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
-                .build()
-                .context("cannot start worker threads")?;
-            Ok(pool.install(f))
-        }
-    }
+    sdf_multioctree::render::in_pool(threads, f).context("cannot start worker threads")
 }

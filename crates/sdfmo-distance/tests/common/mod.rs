@@ -116,17 +116,17 @@ pub fn points_near_features(mesh: &TriMesh, scale: f32, seed: u64) -> Vec<Vec3> 
             return v.normalize();
         }
     };
-    for &v in &mesh.positions {
+    for &v in mesh.positions() {
         for &o in &offsets {
             for _ in 0..4 {
                 out.push(v + dir(&mut rng) * o * scale);
             }
         }
     }
-    for t in &mesh.triangles {
+    for t in mesh.triangles() {
         for k in 0..3 {
-            let a = mesh.positions[t[k] as usize];
-            let b = mesh.positions[t[(k + 1) % 3] as usize];
+            let a = mesh.positions()[t[k] as usize];
+            let b = mesh.positions()[t[(k + 1) % 3] as usize];
             for &o in &offsets {
                 let s: f32 = rng.random_range(0.0..1.0);
                 out.push(a + (b - a) * s + dir(&mut rng) * o * scale);

@@ -8,16 +8,19 @@ use sdfmo_format::{LeafInput, OctreeMeta, ValueBits, Voxel};
 pub fn cell_corners(depth: u8, coord: [u32; 3], sd: &dyn Fn(Vec3) -> f32) -> [f32; 8] {
     let h = 2.0 / (1u32 << depth) as f32;
     let lo = Vec3::new(coord[0] as f32, coord[1] as f32, coord[2] as f32) * h - 1.0;
-    std::array::from_fn(|i| {
-        let o = Vec3::new((i >> 2) as f32, (i >> 1 & 1) as f32, (i & 1) as f32);
-        sd(lo + o * h)
-    })
+    std::array::from_fn(|i| sd(lo + sdfmo_format::corner_offset(i) * h))
 }
 
 /// The leaves a builder would emit for two concentric-ish shapes close together: a sphere of
 /// radius 0.6 (volume voxels) and a thin plate y = 0.05 (surface voxels); leaves touched by
 /// both hold two voxels. Found by descending only into cells near either surface.
 pub fn shell_leaves(depth: u8) -> Vec<LeafInput> {
+    shape_leaves(depth, true)
+}
+
+/// The leaves of the sphere of [`shell_leaves`], with its plate only if `with_plate` (also the
+/// `smo_sizes` example's input, which includes this file).
+pub fn shape_leaves(depth: u8, with_plate: bool) -> Vec<LeafInput> {
     let sphere = |p: Vec3| p.length() - 0.6;
     let plate = |p: Vec3| p.y - 0.05;
     let mut out = Vec::new();
@@ -27,21 +30,16 @@ pub fn shell_leaves(depth: u8) -> Vec<LeafInput> {
         let center = Vec3::new(c[0] as f32 + 0.5, c[1] as f32 + 0.5, c[2] as f32 + 0.5) * h - 1.0;
         let reach = h * 0.87;
         let near_sphere = sphere(center).abs() <= reach;
-        let near_plate =
-            plate(center).abs() <= reach && center.x.abs() < 0.8 && center.z.abs() < 0.8;
+        let near_plate = with_plate
+            && plate(center).abs() <= reach
+            && center.x.abs() < 0.8
+            && center.z.abs() < 0.8;
         if !near_sphere && !near_plate {
             continue;
         }
         if level < depth {
-            for o in 0..8u32 {
-                stack.push((
-                    level + 1,
-                    [
-                        2 * c[0] + (o >> 2),
-                        2 * c[1] + (o >> 1 & 1),
-                        2 * c[2] + (o & 1),
-                    ],
-                ));
+            for o in 0..8u8 {
+                stack.push((level + 1, sdfmo_format::child_coord(c, o)));
             }
             continue;
         }

@@ -23,6 +23,7 @@ use gltf::mesh::Mode;
 
 use super::{LoadLimits, RawMesh};
 use crate::error::{MeshError, Result};
+use crate::mesh::check_indices;
 
 /// A primitive's positions (model space, before node transforms) and checked triangles.
 type Decoded = (Vec<Vec3>, Vec<[u32; 3]>);
@@ -263,131 +264,121 @@ impl Layout<'_> {
     }
 }
 
-fn layout<'b>(
-    acc: &gltf::Accessor,
-    what: &str,
-    buffers: &'b mut Buffers,
-    ctx: &Ctx,
-) -> Result<Layout<'b>> {
-    let i = acc.index();
-    if acc.sparse().is_some() {
-        return Err(MeshError::Unsupported {
+impl Buffers<'_> {
+    /// The checked layout of accessor `acc` (for `what`, named in errors) in its buffer.
+    fn layout<'b>(&'b mut self, acc: &gltf::Accessor, what: &str, ctx: &Ctx) -> Result<Layout<'b>> {
+        let i = acc.index();
+        if acc.sparse().is_some() {
+            return Err(MeshError::Unsupported {
+                file: ctx.file.into(),
+                reason: format!("{what}: sparse accessor {i}"),
+            });
+        }
+        let view = acc.view().ok_or_else(|| MeshError::Unsupported {
             file: ctx.file.into(),
-            reason: format!("{what}: sparse accessor {i}"),
-        });
-    }
-    let view = acc.view().ok_or_else(|| MeshError::Unsupported {
-        file: ctx.file.into(),
-        reason: format!("{what}: accessor {i} has no bufferView"),
-    })?;
-    let size = acc.size();
-    let stride = view.stride().unwrap_or(size);
-    if stride < size {
-        return Err(ctx.parse(format!(
-            "{what}: accessor {i} elements of {size} bytes overlap (stride {stride})"
-        )));
-    }
-    let bytes = buffers.get(view.buffer().index(), ctx)?;
-    let bad = |reason: String| MeshError::Truncated {
-        file: ctx.file.into(),
-        reason: format!("{what}: accessor {i}: {reason}"),
-    };
-    let view_end = view
-        .offset()
-        .checked_add(view.length())
-        .filter(|&e| e <= bytes.len())
-        .ok_or_else(|| {
-            bad(format!(
-                "bufferView {} (offset {}, length {}) exceeds its buffer of {} bytes",
-                view.index(),
-                view.offset(),
-                view.length(),
-                bytes.len()
-            ))
+            reason: format!("{what}: accessor {i} has no bufferView"),
         })?;
-    let count = acc.count();
-    if count > 0 {
-        let need = (count - 1)
-            .checked_mul(stride)
-            .and_then(|x| x.checked_add(size))
-            .and_then(|x| x.checked_add(acc.offset()));
-        if need.is_none_or(|n| n > view.length()) {
-            return Err(bad(format!(
-                "{count} elements of {size} bytes (stride {stride}, offset {}) exceed bufferView {} of {} bytes",
-                acc.offset(),
-                view.index(),
-                view.length()
+        let size = acc.size();
+        let stride = view.stride().unwrap_or(size);
+        if stride < size {
+            return Err(ctx.parse(format!(
+                "{what}: accessor {i} elements of {size} bytes overlap (stride {stride})"
             )));
         }
-    }
-    Ok(Layout {
-        bytes: &bytes[..view_end],
-        start: view.offset() + acc.offset(),
-        stride,
-        count,
-    })
-}
-
-fn read_positions(
-    acc: &gltf::Accessor,
-    what: &str,
-    buffers: &mut Buffers,
-    ctx: &Ctx,
-) -> Result<Vec<Vec3>> {
-    if acc.dimensions() != Dimensions::Vec3 || acc.data_type() != DataType::F32 {
-        return Err(MeshError::Unsupported {
+        let bytes = self.get(view.buffer().index(), ctx)?;
+        let bad = |reason: String| MeshError::Truncated {
             file: ctx.file.into(),
-            reason: format!(
-                "{what}: POSITION accessor {} is {:?} of {:?} (only VEC3 of FLOAT)",
-                acc.index(),
-                acc.dimensions(),
-                acc.data_type()
-            ),
-        });
-    }
-    let l = layout(acc, what, buffers, ctx)?;
-    Ok((0..l.count)
-        .map(|i| {
-            let e = l.element(i);
-            let f = |k: usize| f32::from_le_bytes([e[k], e[k + 1], e[k + 2], e[k + 3]]);
-            Vec3::new(f(0), f(4), f(8))
-        })
-        .collect())
-}
-
-fn read_indices(
-    acc: &gltf::Accessor,
-    what: &str,
-    buffers: &mut Buffers,
-    ctx: &Ctx,
-) -> Result<Vec<u32>> {
-    if acc.dimensions() != Dimensions::Scalar {
-        return Err(ctx.parse(format!(
-            "{what}: index accessor {} is not SCALAR",
-            acc.index()
-        )));
-    }
-    let ty = acc.data_type();
-    let l = layout(acc, what, buffers, ctx)?;
-    let read = |i: usize| -> Option<u32> {
-        let e = l.element(i);
-        match ty {
-            DataType::U8 => Some(e[0] as u32),
-            DataType::U16 => Some(u16::from_le_bytes([e[0], e[1]]) as u32),
-            DataType::U32 => Some(le_u32(e, 0)),
-            _ => None,
-        }
-    };
-    (0..l.count)
-        .map(|i| {
-            read(i).ok_or_else(|| {
-                ctx.parse(format!(
-                    "{what}: index accessor {} has component type {ty:?} (only unsigned integers)",
-                    acc.index()
+            reason: format!("{what}: accessor {i}: {reason}"),
+        };
+        let view_end = view
+            .offset()
+            .checked_add(view.length())
+            .filter(|&e| e <= bytes.len())
+            .ok_or_else(|| {
+                bad(format!(
+                    "bufferView {} (offset {}, length {}) exceeds its buffer of {} bytes",
+                    view.index(),
+                    view.offset(),
+                    view.length(),
+                    bytes.len()
                 ))
-            })
+            })?;
+        let count = acc.count();
+        if count > 0 {
+            let need = (count - 1)
+                .checked_mul(stride)
+                .and_then(|x| x.checked_add(size))
+                .and_then(|x| x.checked_add(acc.offset()));
+            if need.is_none_or(|n| n > view.length()) {
+                return Err(bad(format!(
+                    "{count} elements of {size} bytes (stride {stride}, offset {}) exceed bufferView {} of {} bytes",
+                    acc.offset(),
+                    view.index(),
+                    view.length()
+                )));
+            }
+        }
+        Ok(Layout {
+            bytes: &bytes[..view_end],
+            start: view.offset() + acc.offset(),
+            stride,
+            count,
         })
-        .collect()
+    }
+
+    /// The positions of accessor `acc` (VEC3 of FLOAT only).
+    fn positions(&mut self, acc: &gltf::Accessor, what: &str, ctx: &Ctx) -> Result<Vec<Vec3>> {
+        if acc.dimensions() != Dimensions::Vec3 || acc.data_type() != DataType::F32 {
+            return Err(MeshError::Unsupported {
+                file: ctx.file.into(),
+                reason: format!(
+                    "{what}: POSITION accessor {} is {:?} of {:?} (only VEC3 of FLOAT)",
+                    acc.index(),
+                    acc.dimensions(),
+                    acc.data_type()
+                ),
+            });
+        }
+        let l = self.layout(acc, what, ctx)?;
+        Ok((0..l.count)
+            .map(|i| {
+                let e = l.element(i);
+                let f = |k: usize| f32::from_le_bytes([e[k], e[k + 1], e[k + 2], e[k + 3]]);
+                Vec3::new(f(0), f(4), f(8))
+            })
+            .collect())
+    }
+
+    /// The indices of accessor `acc` (SCALAR of unsigned integers only).
+    fn indices(&mut self, acc: &gltf::Accessor, what: &str, ctx: &Ctx) -> Result<Vec<u32>> {
+        if acc.dimensions() != Dimensions::Scalar {
+            return Err(ctx.parse(format!(
+                "{what}: index accessor {} is not SCALAR",
+                acc.index()
+            )));
+        }
+        let ty = acc.data_type();
+        let l = self.layout(acc, what, ctx)?;
+        let read = |i: usize| -> Option<u32> {
+            let e = l.element(i);
+            match ty {
+                DataType::U8 => Some(e[0] as u32),
+                DataType::U16 => Some(u16::from_le_bytes([e[0], e[1]]) as u32),
+                DataType::U32 => Some(le_u32(e, 0)),
+                _ => None,
+            }
+        };
+        (0..l.count)
+            .map(|i| {
+                read(i).ok_or_else(|| {
+                    ctx.parse(format!(
+                        "{what}: index accessor {} has component type {ty:?} (only unsigned integers)",
+                        acc.index()
+                    ))
+                })
+            })
+            .collect()
+    }
 }
 
 /// Turns a primitive's index list into triangles according to its mode.
@@ -485,14 +476,8 @@ pub(super) fn read(
     let mut decoded: HashMap<(usize, usize), Decoded> = HashMap::new();
     while let Some((node, parent, depth)) = stack.pop() {
         visits += 1;
-        if visits > ctx.limits.max_node_visits {
-            return Err(MeshError::TooLarge {
-                file: file.into(),
-                what: "scene node visits (instancing)".into(),
-                count: visits as u64,
-                limit: ctx.limits.max_node_visits as u64,
-            });
-        }
+        let limit = ctx.limits.max_node_visits;
+        super::check_limit(file, "scene node visits (instancing)", visits, limit)?;
         if depth > node_count {
             return Err(ctx.parse(format!("node {} is its own ancestor (cycle)", node.index())));
         }
@@ -519,24 +504,13 @@ pub(super) fn read(
                         let pos_acc = prim
                             .get(&gltf::Semantic::Positions)
                             .ok_or_else(|| ctx.parse(format!("{what}: no POSITION attribute")))?;
-                        let positions = read_positions(&pos_acc, &what, &mut buffers, &ctx)?;
+                        let positions = buffers.positions(&pos_acc, &what, &ctx)?;
                         let idx: Vec<u32> = match prim.indices() {
-                            Some(acc) => read_indices(&acc, &what, &mut buffers, &ctx)?,
+                            Some(acc) => buffers.indices(&acc, &what, &ctx)?,
                             None => (0..positions.len() as u32).collect(),
                         };
                         let tris = assemble(prim.mode(), &idx, &what, &ctx)?;
-                        for (t, tri) in tris.iter().enumerate() {
-                            for &v in tri {
-                                if v as usize >= positions.len() {
-                                    return Err(MeshError::IndexOutOfRange {
-                                        file: file.into(),
-                                        element: format!("{what} triangle {t}"),
-                                        index: v as i64,
-                                        vertex_count: positions.len(),
-                                    });
-                                }
-                            }
-                        }
+                        check_indices(file, &format!("{what} "), &tris, positions.len())?;
                         slot.insert((positions, tris))
                     }
                 };
@@ -545,14 +519,7 @@ pub(super) fn read(
                 }
                 raw.check_room(file, tris.len(), ctx.limits)?;
                 let nv = raw.positions.len().saturating_add(positions.len());
-                if nv > ctx.limits.max_vertices {
-                    return Err(MeshError::TooLarge {
-                        file: file.into(),
-                        what: "vertex count".into(),
-                        count: nv as u64,
-                        limit: ctx.limits.max_vertices as u64,
-                    });
-                }
+                super::check_limit(file, "vertex count", nv, ctx.limits.max_vertices)?;
                 let base = raw.positions.len() as u32;
                 for (i, p) in positions.iter().enumerate() {
                     let q = world.transform_point3(*p);
@@ -585,13 +552,7 @@ pub(super) fn read(
             stack.push((child, world, depth + 1));
         }
     }
-    if raw.triangles.is_empty() {
-        return Err(MeshError::NoTriangles {
-            file: file.into(),
-            reason: "the scene has no triangle primitive".into(),
-        });
-    }
-    Ok(raw)
+    raw.with_triangles(file, "the scene has no triangle primitive")
 }
 
 #[cfg(test)]
@@ -621,21 +582,7 @@ mod tests {
         for i in [0u16, 1, 2, 3] {
             bin.extend_from_slice(&i.to_le_bytes());
         }
-        let mut j = json.as_bytes().to_vec();
-        while !j.len().is_multiple_of(4) {
-            j.push(b' ');
-        }
-        let total = 12 + 8 + j.len() + 8 + bin.len();
-        let mut out = b"glTF".to_vec();
-        for n in [2, total as u32, j.len() as u32] {
-            out.extend_from_slice(&n.to_le_bytes());
-        }
-        out.extend_from_slice(b"JSON");
-        out.extend_from_slice(&j);
-        out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-        out.extend_from_slice(b"BIN\0");
-        out.extend_from_slice(&bin);
-        out
+        crate::write::glb_container(json, &bin)
     }
 
     fn doc(scene: &str, nodes: &str, primitives: &str) -> String {
@@ -709,8 +656,8 @@ mod tests {
         // Strip 0-1-2-3: (0,1,2) then, odd, (1,3,2) (the specification's order, written here
         // as its rotation (2,1,3)). Fan 0-1-2-3: (0,1,2) duplicates the strip's first; (0,2,3).
         assert_eq!(l.report.input_triangles, 4);
-        assert_eq!(l.mesh.triangles, vec![[0, 1, 2], [2, 1, 3], [0, 2, 3]]);
+        assert_eq!(l.mesh.triangles(), vec![[0, 1, 2], [2, 1, 3], [0, 2, 3]]);
         assert_eq!(l.report.duplicate_triangles, 1);
-        assert_eq!(l.mesh.parts, vec![0, 0, 1]);
+        assert_eq!(l.mesh.parts(), vec![0, 0, 1]);
     }
 }

@@ -100,18 +100,18 @@ pub(crate) struct RawMesh {
 }
 
 impl RawMesh {
+    /// This mesh, or [`MeshError::NoTriangles`] with `reason` if it has no triangle.
+    fn with_triangles(self, file: &str, reason: &str) -> Result<RawMesh> {
+        if self.triangles.is_empty() {
+            return Err(no_triangles(file, reason));
+        }
+        Ok(self)
+    }
+
     /// Error if adding `n` more triangles would pass the limit.
     pub(crate) fn check_room(&self, file: &str, n: usize, limits: &LoadLimits) -> Result<()> {
         let count = self.triangles.len().saturating_add(n);
-        if count > limits.max_triangles {
-            return Err(MeshError::TooLarge {
-                file: file.into(),
-                what: "triangle count".into(),
-                count: count as u64,
-                limit: limits.max_triangles as u64,
-            });
-        }
-        Ok(())
+        check_limit(file, "triangle count", count, limits.max_triangles)
     }
 }
 
@@ -236,20 +236,13 @@ fn load_impl(
         MeshFormat::Obj => obj::read(bytes, name, limits)?,
         MeshFormat::Gltf | MeshFormat::Glb => gltf::read(bytes, name, base, limits)?,
     };
-    if raw.positions.len() > limits.max_vertices {
-        return Err(MeshError::TooLarge {
-            file: name.into(),
-            what: "vertex count".into(),
-            count: raw.positions.len() as u64,
-            limit: limits.max_vertices as u64,
-        });
-    }
-    if raw.triangles.is_empty() {
-        return Err(MeshError::NoTriangles {
-            file: name.into(),
-            reason: "the file holds no triangle".into(),
-        });
-    }
+    check_limit(
+        name,
+        "vertex count",
+        raw.positions.len(),
+        limits.max_vertices,
+    )?;
+    let raw = raw.with_triangles(name, "the file holds no triangle")?;
     let (mesh, report) = clean(name, &raw.positions, &raw.triangles, &raw.parts)?;
     Ok(LoadedMesh {
         mesh,
@@ -257,6 +250,65 @@ fn load_impl(
         format,
         part_names: raw.part_names,
     })
+}
+
+/// The name a mesh file is shown under (tables, image names): its file stem, or `mesh` when it
+/// has none.
+pub fn mesh_name(path: &Path) -> String {
+    path.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| "mesh".to_owned())
+}
+
+/// [`MeshError::TooLarge`]: `count` of `what` in `file` passes `limit`.
+pub(crate) fn too_large(file: &str, what: &str, count: usize, limit: usize) -> MeshError {
+    MeshError::TooLarge {
+        file: file.into(),
+        what: what.into(),
+        count: count as u64,
+        limit: limit as u64,
+    }
+}
+
+/// [`too_large`] if `count > limit`.
+pub(crate) fn check_limit(file: &str, what: &str, count: usize, limit: usize) -> Result<()> {
+    if count > limit {
+        return Err(too_large(file, what, count, limit));
+    }
+    Ok(())
+}
+
+/// The lines of a text mesh file (OBJ, ASCII STL), numbered from 1, each as UTF-8 text or the
+/// parse error naming its line.
+pub(crate) fn text_lines<'a>(
+    file: &'a str,
+    text: &'a [u8],
+) -> impl Iterator<Item = Result<(usize, &'a str)>> + 'a {
+    text.split(|&b| b == b'\n')
+        .enumerate()
+        .map(move |(i, line)| {
+            std::str::from_utf8(line)
+                .map(|line| (i + 1, line))
+                .map_err(|_| parse_error(file, i + 1, "not UTF-8 text".into()))
+        })
+}
+
+/// A parse error of `file` at line `line`.
+pub(crate) fn parse_error(file: &str, line: usize, reason: String) -> MeshError {
+    MeshError::Parse {
+        file: file.into(),
+        line: Some(line),
+        reason,
+    }
+}
+
+/// [`MeshError::NoTriangles`] of `file`.
+pub(crate) fn no_triangles(file: &str, reason: &str) -> MeshError {
+    MeshError::NoTriangles {
+        file: file.into(),
+        reason: reason.into(),
+    }
 }
 
 #[cfg(test)]

@@ -67,14 +67,9 @@ pub(super) fn read(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawM
     let mut part: Option<u32> = None;
     let mut part_ids: HashMap<String, u32> = HashMap::new();
     let mut face: Vec<u32> = Vec::new();
-    for (i, line) in text.split(|&b| b == b'\n').enumerate() {
-        let lineno = i + 1;
-        let perr = |reason: String| MeshError::Parse {
-            file: file.into(),
-            line: Some(lineno),
-            reason,
-        };
-        let line = std::str::from_utf8(line).map_err(|_| perr("not UTF-8 text".into()))?;
+    for line in super::text_lines(file, text) {
+        let (lineno, line) = line?;
+        let perr = |reason: String| super::parse_error(file, lineno, reason);
         let mut words = line.split_ascii_whitespace();
         match words.next() {
             Some("v") => {
@@ -125,12 +120,12 @@ pub(super) fn read(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawM
                 }
                 // Indices are u32: never more vertices than that, whatever the limits say.
                 if n > limits.max_vertices.min(u32::MAX as usize) {
-                    return Err(MeshError::TooLarge {
-                        file: file.into(),
-                        what: "vertex count".into(),
-                        count: n as u64,
-                        limit: limits.max_vertices as u64,
-                    });
+                    return Err(super::too_large(
+                        file,
+                        "vertex count",
+                        n,
+                        limits.max_vertices,
+                    ));
                 }
                 vertices.push(p);
                 owner.push(u32::MAX);
@@ -171,14 +166,9 @@ pub(super) fn read(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawM
                         next
                     })
                 });
-                if raw.positions.len() + face.len() > u32::MAX as usize {
-                    return Err(MeshError::TooLarge {
-                        file: file.into(),
-                        what: "vertex count (copies per object)".into(),
-                        count: (raw.positions.len() + face.len()) as u64,
-                        limit: u32::MAX as u64,
-                    });
-                }
+                let copies = raw.positions.len() + face.len();
+                let what = "vertex count (copies per object)";
+                super::check_limit(file, what, copies, u32::MAX as usize)?;
                 for v in face.iter_mut() {
                     let k = *v as usize;
                     if owner[k] != object {
@@ -206,13 +196,7 @@ pub(super) fn read(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawM
             _ => {}
         }
     }
-    if raw.triangles.is_empty() {
-        return Err(MeshError::NoTriangles {
-            file: file.into(),
-            reason: "the OBJ has no face with 3 or more vertices".into(),
-        });
-    }
-    Ok(raw)
+    raw.with_triangles(file, "the OBJ has no face with 3 or more vertices")
 }
 
 #[cfg(test)]
@@ -232,14 +216,14 @@ v 0 1 1\nusemtl m\nf -5 -4 -3 -2 -1\no first\nf 1//1 3//1 5//1\ns off\nl 1 2\nf 
         assert_eq!(l.mesh.triangle_count(), 6);
         assert_eq!(l.part_names, vec!["first", "second"]);
         assert_eq!(l.mesh.part_count(), 2);
-        let first: usize = l.mesh.parts.iter().filter(|&&p| p == 0).count();
+        let first: usize = l.mesh.parts().iter().filter(|&&p| p == 0).count();
         assert_eq!(first, 3);
         // `v 0 2 0 2.0` is divided by w.
-        assert!(l.mesh.positions.contains(&Vec3::new(0.0, 1.0, 0.0)));
-        assert!(l.mesh.positions.iter().all(|p| p.y <= 1.5));
+        assert!(l.mesh.positions().contains(&Vec3::new(0.0, 1.0, 0.0)));
+        assert!(l.mesh.positions().iter().all(|p| p.y <= 1.5));
         // Fan triangulation of the pentagon keeps the +z winding.
         for i in 0..l.mesh.triangle_count() {
-            assert!(l.mesh.triangle_normal_f64(i)[2] > 0.0 || l.mesh.parts[i] == 0);
+            assert!(l.mesh.triangle_normal_f64(i)[2] > 0.0 || l.mesh.parts()[i] == 0);
         }
     }
 

@@ -78,10 +78,10 @@ fn read_binary(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawMesh>
         });
     }
     if n == 0 {
-        return Err(MeshError::NoTriangles {
-            file: file.into(),
-            reason: "the binary STL header announces 0 triangles".into(),
-        });
+        return Err(super::no_triangles(
+            file,
+            "the binary STL header announces 0 triangles",
+        ));
     }
     let n = n as usize;
     let mut raw = RawMesh::default();
@@ -142,14 +142,9 @@ fn read_ascii(text: &[u8], file: &str, limits: &LoadLimits) -> Result<RawMesh> {
     let mut state = State::Outside;
     let mut part = 0u32;
     let mut facet = 0usize;
-    for (i, line) in text.split(|&b| b == b'\n').enumerate() {
-        let lineno = i + 1;
-        let perr = |reason: String| MeshError::Parse {
-            file: file.into(),
-            line: Some(lineno),
-            reason,
-        };
-        let line = std::str::from_utf8(line).map_err(|_| perr("not UTF-8 text".into()))?;
+    for line in super::text_lines(file, text) {
+        let (lineno, line) = line?;
+        let perr = |reason: String| super::parse_error(file, lineno, reason);
         let mut words = line.split_ascii_whitespace();
         let Some(word) = words.next() else { continue };
         let word = word.to_ascii_lowercase();
@@ -277,7 +272,7 @@ mod tests {
         assert_eq!(l.part_names, vec!["part0", "part1"]);
         assert_eq!((l.mesh.triangle_count(), l.mesh.vertex_count()), (24, 16));
         assert_eq!(l.mesh.topology().component_count, 2);
-        assert_eq!(l.mesh.parts, m.parts);
+        assert_eq!(l.mesh.parts(), m.parts());
     }
 
     #[test]

@@ -9,9 +9,9 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use rayon::prelude::*;
 use sdf_multioctree::build::{self, BuildSettings};
-use sdf_multioctree::distance::{MeshDistance, SignMode};
+use sdf_multioctree::distance::SignMode;
 use sdf_multioctree::metrics;
-use sdf_multioctree::render::{self, Camera, MeshScene, Mode, OctreeScene, RenderSettings};
+use sdf_multioctree::render::{Camera, OctreeScene, PaperProtocol};
 use serde::Serialize;
 use serde_json::json;
 
@@ -212,29 +212,17 @@ fn sweep_model(
     let img_dir: PathBuf = args.output.join("images").join(name);
     std::fs::create_dir_all(&img_dir)
         .with_context(|| format!("cannot create directory {}", img_dir.display()))?;
-    let cams = Camera::paper_views(args.size, args.size);
-    let render_settings = RenderSettings {
-        mode: Mode::Lambert,
-        shadows: false,
-        ao_samples: 0,
-        threads: args.threads,
-    };
-
     bar.set_message(format!("{name}: reference"));
-    let (normalized, _) = input.mesh.normalized(sdf_multioctree::DEFAULT_MARGIN);
-    let dist = MeshDistance::new(&normalized, SignMode::Auto)
-        .with_context(|| format!("cannot prepare ray queries on {}", input.source))?;
-    let mut references = Vec::with_capacity(cams.len());
-    let mut reference_ms = 0.0;
-    for (k, cam) in cams.iter().enumerate() {
-        let r = render::render(&MeshScene(&dist), cam, &render_settings)
-            .with_context(|| format!("cannot render the reference of {}", input.source))?;
-        reference_ms += r.render_ms;
-        let img = to_image(r)?;
-        write_png(&img_dir.join(reference_file(k)), &img)?;
-        references.push(img);
+    let protocol = PaperProtocol::new(
+        &input.mesh,
+        sdf_multioctree::DEFAULT_MARGIN,
+        args.size,
+        args.threads,
+    )
+    .with_context(|| format!("cannot render the reference of {}", input.source))?;
+    for (k, reference) in protocol.references().iter().enumerate() {
+        write_png(&img_dir.join(reference_file(k)), reference)?;
     }
-    drop(dist);
     bar.inc(1);
 
     for &method in methods {
@@ -253,60 +241,49 @@ fn sweep_model(
                         )
                     })?;
             bar.set_message(format!("{name}: {} depth {depth}: render", method.name()));
-            let mut row = Row {
+            let score = protocol
+                .score(&OctreeScene(&octree))
+                .with_context(|| format!("cannot render {} depth {depth}", method.name()))?;
+            bar.set_message(format!("{name}: {} depth {depth}: write", method.name()));
+            // PNG encoding is single-threaded: the views and heat maps in parallel.
+            with_threads(args.threads, || {
+                score
+                    .views
+                    .par_iter()
+                    .enumerate()
+                    .try_for_each(|(k, view)| {
+                        write_png(
+                            &img_dir.join(view_file(method.name(), depth, k)),
+                            &view.image,
+                        )?;
+                        write_png(
+                            &img_dir.join(heatmap_file(method.name(), depth, k)),
+                            &metrics::flip_heatmap(&view.flip),
+                        )
+                    })
+            })??;
+            let psnr = score.psnr();
+            rows.push(Row {
                 model: name.clone(),
                 method: method.name().to_owned(),
                 depth,
+                psnr: psnr.is_finite().then_some(psnr),
+                flip: score.flip(),
                 bytes: stats.bytes,
                 build_ms: stats.build_ms,
+                render_ms: score.render_ms(),
                 nodes: stats.nodes,
                 leaves: stats.leaves,
                 voxels: stats.voxels,
                 surface_voxels: stats.surface_voxels,
                 cap_hits: stats.cap_hits,
-                ..Row::default()
-            };
-            // Render the views one after the other (each render uses every worker), then
-            // compare and encode them in parallel (FLIP and PNG encoding are single-threaded).
-            let mut render_ms = 0.0;
-            let mut images = Vec::with_capacity(cams.len());
-            for cam in &cams {
-                let r = render::render(&OctreeScene(&octree), cam, &render_settings)
-                    .with_context(|| format!("cannot render {} depth {depth}", method.name()))?;
-                render_ms += r.render_ms;
-                images.push(to_image(r)?);
-            }
-            bar.set_message(format!("{name}: {} depth {depth}: compare", method.name()));
-            let scores = with_threads(args.threads, || {
-                images
-                    .par_iter()
-                    .zip(references.par_iter())
-                    .enumerate()
-                    .map(|(k, (img, reference))| {
-                        write_png(&img_dir.join(view_file(method.name(), depth, k)), img)?;
-                        let psnr = metrics::psnr(reference, img).context("cannot compute PSNR")?;
-                        let flip = metrics::flip(reference, img).context("cannot compute FLIP")?;
-                        write_png(
-                            &img_dir.join(heatmap_file(method.name(), depth, k)),
-                            &metrics::flip_heatmap(&flip),
-                        )?;
-                        Ok((psnr, f64::from(flip.mean)))
-                    })
-                    .collect::<anyhow::Result<Vec<(f64, f64)>>>()
-            })??;
-            for (psnr, flip) in scores {
-                row.psnr_views.push(psnr.is_finite().then_some(psnr));
-                row.flip_views.push(flip);
-            }
-            let n = cams.len().max(1) as f64;
-            row.render_ms = render_ms / n;
-            row.flip = row.flip_views.iter().sum::<f64>() / n;
-            row.psnr = row
-                .psnr_views
-                .iter()
-                .try_fold(0.0, |acc, p| p.map(|p| acc + p))
-                .map(|sum| sum / n);
-            rows.push(row);
+                psnr_views: score
+                    .views
+                    .iter()
+                    .map(|v| v.psnr.is_finite().then_some(v.psnr))
+                    .collect(),
+                flip_views: score.views.iter().map(|v| f64::from(v.flip.mean)).collect(),
+            });
             // Keep the files current after every row: a long sweep that is stopped keeps its
             // results so far.
             report::write_tables(&args.output, settings, models, rows)?;
@@ -317,15 +294,8 @@ fn sweep_model(
         model: name.clone(),
         source: input.source.clone(),
         triangles: input.mesh.triangle_count(),
-        reference_render_ms: reference_ms / cams.len().max(1) as f64,
+        reference_render_ms: protocol.reference_ms(),
     })
-}
-
-/// A rendered image as an `image` RGB buffer.
-fn to_image(r: render::Rendered) -> anyhow::Result<image::RgbImage> {
-    let (w, h) = (r.width, r.height);
-    image::RgbImage::from_raw(w, h, r.rgb)
-        .with_context(|| format!("the renderer returned a buffer that is not {w}x{h} RGB"))
 }
 
 /// A model name safe in file names and HTML: letters, digits, `-`, `_`, `.`; others become `_`.

@@ -64,52 +64,47 @@ struct Axis<'a> {
     integer: bool,
 }
 
+impl Axis<'static> {
+    /// A linear axis of real values.
+    const fn linear(label: &'static str) -> Axis<'static> {
+        Axis {
+            label,
+            log: false,
+            integer: false,
+        }
+    }
+
+    /// A logarithmic axis.
+    const fn log(label: &'static str) -> Axis<'static> {
+        Axis {
+            log: true,
+            ..Axis::linear(label)
+        }
+    }
+}
+
 /// Which plots the sweep writes: file name, title, axes, and the (x, y) of a row.
 type Extract = fn(&Row) -> Option<(f64, f64)>;
 const PLOTS: [(&str, &str, Axis<'static>, Axis<'static>, Extract); 4] = [
     (
         "plot_psnr_vs_size.png",
         "PSNR vs size",
-        Axis {
-            label: "size (MB)",
-            log: true,
-            integer: false,
-        },
-        Axis {
-            label: "PSNR (dB)",
-            log: false,
-            integer: false,
-        },
+        Axis::log("size (MB)"),
+        Axis::linear("PSNR (dB)"),
         |r| r.psnr.map(|p| (r.bytes as f64 / 1e6, p)),
     ),
     (
         "plot_flip_vs_size.png",
         "FLIP vs size (lower is better)",
-        Axis {
-            label: "size (MB)",
-            log: true,
-            integer: false,
-        },
-        Axis {
-            label: "mean FLIP",
-            log: false,
-            integer: false,
-        },
+        Axis::log("size (MB)"),
+        Axis::linear("mean FLIP"),
         |r| Some((r.bytes as f64 / 1e6, r.flip)),
     ),
     (
         "plot_psnr_vs_render_time.png",
         "PSNR vs render time per view",
-        Axis {
-            label: "render time (ms)",
-            log: true,
-            integer: false,
-        },
-        Axis {
-            label: "PSNR (dB)",
-            log: false,
-            integer: false,
-        },
+        Axis::log("render time (ms)"),
+        Axis::linear("PSNR (dB)"),
         |r| r.psnr.map(|p| (r.render_ms, p)),
     ),
     (
@@ -120,11 +115,7 @@ const PLOTS: [(&str, &str, Axis<'static>, Axis<'static>, Extract); 4] = [
             log: false,
             integer: true,
         },
-        Axis {
-            label: "build time (ms)",
-            log: true,
-            integer: false,
-        },
+        Axis::log("build time (ms)"),
         |r| Some((f64::from(r.depth), r.build_ms)),
     ),
 ];
@@ -351,25 +342,22 @@ where
     for s in series {
         let color = s.color;
         let style = color.stroke_width(2);
-        if s.dashed {
-            chart
-                .draw_series(DashedLineSeries::new(s.points.iter().copied(), 8, 5, style))
-                .map_err(|e| err(&e))?;
-            chart
-                .draw_series(
-                    s.points
-                        .iter()
-                        .map(|&p| TriangleMarker::new(p, 5, color.filled())),
-                )
-                .map_err(|e| err(&e))?;
+        // Multi-octree dashed with triangles, SVO solid with circles.
+        let points = s.points.iter().copied();
+        let drawn = if s.dashed {
+            let marks = points
+                .clone()
+                .map(|p| TriangleMarker::new(p, 5, color.filled()));
+            (chart.draw_series(DashedLineSeries::new(points, 8, 5, style)))
+                .map(|_| ())
+                .and_then(|()| chart.draw_series(marks).map(|_| ()))
         } else {
-            chart
-                .draw_series(LineSeries::new(s.points.iter().copied(), style))
-                .map_err(|e| err(&e))?;
-            chart
-                .draw_series(s.points.iter().map(|&p| Circle::new(p, 4, color.filled())))
-                .map_err(|e| err(&e))?;
-        }
+            let marks = points.clone().map(|p| Circle::new(p, 4, color.filled()));
+            (chart.draw_series(LineSeries::new(points, style)))
+                .map(|_| ())
+                .and_then(|()| chart.draw_series(marks).map(|_| ()))
+        };
+        drawn.map_err(|e| err(&e))?;
     }
     // Each point's depth beside it (not on the depth plot, where x is the depth): multi-octree
     // labels above right, SVO labels below right, so the two methods' labels do not collide.
@@ -388,30 +376,15 @@ where
     let text = ("sans-serif", 15).into_font();
     let mut ly = 60;
     for s in series {
-        let color = s.color;
-        if s.dashed {
-            legend
-                .draw(&DashedPathElement::new(
-                    vec![(8, ly), (40, ly)],
-                    6,
-                    4,
-                    color.stroke_width(2),
-                ))
-                .map_err(|e| err(&e))?;
-            legend
-                .draw(&TriangleMarker::new((24, ly), 5, color.filled()))
-                .map_err(|e| err(&e))?;
+        let (color, line) = (s.color, vec![(8, ly), (40, ly)]);
+        let drawn = if s.dashed {
+            (legend.draw(&DashedPathElement::new(line, 6, 4, color.stroke_width(2))))
+                .and_then(|()| legend.draw(&TriangleMarker::new((24, ly), 5, color.filled())))
         } else {
-            legend
-                .draw(&PathElement::new(
-                    vec![(8, ly), (40, ly)],
-                    color.stroke_width(2),
-                ))
-                .map_err(|e| err(&e))?;
-            legend
-                .draw(&Circle::new((24, ly), 4, color.filled()))
-                .map_err(|e| err(&e))?;
-        }
+            (legend.draw(&PathElement::new(line, color.stroke_width(2))))
+                .and_then(|()| legend.draw(&Circle::new((24, ly), 4, color.filled())))
+        };
+        drawn.map_err(|e| err(&e))?;
         legend
             .draw(&Text::new(s.label.clone(), (48, ly - 8), text.clone()))
             .map_err(|e| err(&e))?;
