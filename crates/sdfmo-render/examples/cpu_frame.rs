@@ -11,7 +11,7 @@
 //! ```
 //! `--png DIR` saves each octree's first render (`DIR/<stem>.png`) for byte comparisons.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use sdfmo_format::PackedOctree;
@@ -79,8 +79,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let scene = OctreeScene(&octree);
         let first = pools[0].install(|| render_with_plan(&scene, &camera, &plan))?;
         if let Some(dir) = &png {
-            let stem = file.file_stem().map_or("octree".into(), |s| s.to_string_lossy());
-            save_png(&first, &dir.join(Path::new(&format!("{stem}.png"))))?;
+            let stem = file
+                .file_stem()
+                .map_or("octree".into(), |s| s.to_string_lossy());
+            save_png(&first, dir.join(format!("{stem}.png")))?;
         }
         let mut wall = vec![Vec::new(); pools.len()];
         let mut cpu = vec![Vec::new(); pools.len()];

@@ -55,12 +55,12 @@ const TINY_DIR: f32 = 1e-30;
 
 /// A cell waiting on the stack: node, box and the ray's span in it.
 #[derive(Clone, Copy, Debug)]
-struct Cell {
-    node: NodeRef,
-    min: Vec3,
-    size: f32,
-    t_enter: f32,
-    t_exit: f32,
+pub(crate) struct Cell {
+    pub(crate) node: NodeRef,
+    pub(crate) min: Vec3,
+    pub(crate) size: f32,
+    pub(crate) t_enter: f32,
+    pub(crate) t_exit: f32,
 }
 
 /// The ray's first hit in `[t_min, t_max]`: in the first leaf along the ray that has one, the
@@ -148,7 +148,7 @@ pub(crate) fn le(a: f32, b: f32) -> bool {
 
 /// `1/d`, with zero (and subnormal) components replaced by ±[`TINY_DIR`].
 #[inline]
-fn safe_inv(d: f32) -> f32 {
+pub(crate) fn safe_inv(d: f32) -> f32 {
     if d.abs() < TINY_DIR {
         1.0 / TINY_DIR.copysign(d)
     } else {
@@ -158,7 +158,14 @@ fn safe_inv(d: f32) -> f32 {
 
 /// The ray's span in the box `[min, min + size]³`, clipped to `[t_min, t_max]`.
 #[inline]
-fn box_span(min: Vec3, size: f32, origin: Vec3, inv: Vec3, t_min: f32, t_max: f32) -> (f32, f32) {
+pub(crate) fn box_span(
+    min: Vec3,
+    size: f32,
+    origin: Vec3,
+    inv: Vec3,
+    t_min: f32,
+    t_max: f32,
+) -> (f32, f32) {
     let ta = (min - origin) * inv;
     let tb = (min + Vec3::splat(size) - origin) * inv;
     let t_enter = ta.min(tb).max_element().max(t_min);
@@ -334,7 +341,7 @@ fn inner_step<B: AsRef<[u8]>>(
 
 /// The nearest voxel hit inside a leaf's span (any hit when `ANY`).
 #[inline(always)]
-fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(
+pub(crate) fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(
     octree: &Octree<B>,
     cell: &Cell,
     o: Vec3,
