@@ -192,7 +192,8 @@ fn packet_step<B: AsRef<[u8]>>(
         );
         let behind =
             u32::from(tm.x <= te) << 2 | u32::from(tm.y <= te) << 1 | u32::from(tm.z <= te);
-        let crossed = |t: f32| t > te && t < tx;
+        // `&`, not `&&`: no branch.
+        let crossed = |t: f32| (t > te) & (t < tx);
         let (mut k0, mut b0) = if crossed(tm.x) { (tm.x, 4u32) } else { (tx, 0) };
         let (mut k1, mut b1) = if crossed(tm.y) { (tm.y, 2u32) } else { (tx, 0) };
         let (mut k2, mut b2) = if crossed(tm.z) { (tm.z, 1u32) } else { (tx, 0) };
@@ -373,7 +374,7 @@ mod tests {
                                 dirs[0] = fwd;
                             }
                             // Every packet whole, and a partial one.
-                            for lanes in [0xff, 0b1010_0110] {
+                            for lanes in [(1u32 << PACKET_SIZE) - 1, 0b1010_0110] {
                                 let got = intersect_packet(octree, eye, &dirs, lanes, t_max);
                                 for l in 0..PACKET_SIZE {
                                     let ray = Ray {
