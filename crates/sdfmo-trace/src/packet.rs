@@ -72,6 +72,19 @@ pub fn intersect_packet<B: AsRef<[u8]>>(
     lanes: u32,
     t_max: f32,
 ) -> [Option<Hit>; PACKET_SIZE] {
+    packet::<B, { cfg!(target_arch = "x86_64") }>(octree, origin, dirs, lanes, t_max)
+}
+
+/// The packet walk; `SSE2`: the inner-node step with SSE2 (x86-64 only; the scalar step
+/// elsewhere, with the same bits).
+#[inline(always)]
+fn packet<B: AsRef<[u8]>, const SSE2: bool>(
+    octree: &Octree<B>,
+    origin: Vec3,
+    dirs: &[Vec3; PACKET_SIZE],
+    lanes: u32,
+    t_max: f32,
+) -> [Option<Hit>; PACKET_SIZE] {
     let mut out = [None; PACKET_SIZE];
     let Some(root) = octree.root() else {
         return out;
@@ -139,9 +152,18 @@ pub fn intersect_packet<B: AsRef<[u8]>>(
                 if alive == 0 {
                     return out;
                 }
-            } else if let Some(next) =
+            } else if let Some(next) = if SSE2 {
+                #[cfg(target_arch = "x86_64")]
+                {
+                    packet_step_sse2(octree, &cell, lanes, o, &consts, &mut stack, &mut sp)
+                }
+                #[cfg(not(target_arch = "x86_64"))]
+                {
+                    packet_step(octree, &cell, lanes, o, &consts, &mut stack, &mut sp)
+                }
+            } else {
                 packet_step(octree, &cell, lanes, o, &consts, &mut stack, &mut sp)
-            {
+            } {
                 cell = next;
                 continue;
             }
@@ -257,6 +279,174 @@ fn packet_step<B: AsRef<[u8]>>(
         }
     }
     pending
+}
+
+/// [`packet_step`] with SSE2 (part of every x86-64 CPU), all eight lanes in two registers:
+/// the same comparisons and the same f32 products lane by lane (SSE2 arithmetic is IEEE like
+/// the scalar code, and its comparisons are false on NaN like Rust's), so the same children,
+/// spans and bits. Lanes outside `lanes` are computed too and masked off.
+///
+/// Each lane's child sequence is kept as four octants (`seq[p]`: after p crossings; 8 where
+/// there is no p-th crossing) and five bounds (`t_enter`, the three sorted keys, `t_exit`); a
+/// child is visited by the lanes whose sequence holds it, over `[bound p, bound p + 1]`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn packet_step_sse2<B: AsRef<[u8]>>(
+    octree: &Octree<B>,
+    cell: &PacketCell,
+    lanes: u32,
+    o: Vec3,
+    consts: &Lanes,
+    stack: &mut [MaybeUninit<PacketCell>; PACKET_STACK],
+    sp: &mut usize,
+) -> Option<PacketCell> {
+    use core::arch::x86_64::*;
+    const HALVES: usize = PACKET_SIZE / 4;
+
+    let half = 0.5 * cell.size;
+    let mid = cell.min + Vec3::splat(half);
+    let d = mid - o;
+    let mask = u32::from(octree.child_mask(cell.node));
+    let near =
+        u32::from(o.x >= mid.x) << 2 | u32::from(o.y >= mid.y) << 1 | u32::from(o.z >= mid.z);
+
+    // SAFETY: SSE2 is part of the x86-64 baseline; every load and store below reads or writes
+    // four f32/u32 inside an array of PACKET_SIZE (= 4 · HALVES) elements (unaligned access).
+    unsafe {
+        let sel =
+            |m: __m128, a: __m128, b: __m128| _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b));
+        let seli = |m: __m128i, a: __m128i, b: __m128i| {
+            _mm_or_si128(_mm_and_si128(m, a), _mm_andnot_si128(m, b))
+        };
+        let zero = _mm_setzero_si128();
+        let none = _mm_set1_epi32(8);
+        let mut seq = [[zero; HALVES]; 4];
+        let mut bound = [[_mm_setzero_ps(); HALVES]; 5];
+        for h in 0..HALVES {
+            let te = _mm_loadu_ps(cell.t_enter.as_ptr().add(4 * h));
+            let tx = _mm_loadu_ps(cell.t_exit.as_ptr().add(4 * h));
+            let tmx = _mm_mul_ps(
+                _mm_set1_ps(d.x),
+                _mm_loadu_ps(consts.inv[0].as_ptr().add(4 * h)),
+            );
+            let tmy = _mm_mul_ps(
+                _mm_set1_ps(d.y),
+                _mm_loadu_ps(consts.inv[1].as_ptr().add(4 * h)),
+            );
+            let tmz = _mm_mul_ps(
+                _mm_set1_ps(d.z),
+                _mm_loadu_ps(consts.inv[2].as_ptr().add(4 * h)),
+            );
+            // Entry octant: `tm ≤ te` (behind), xor the negative axes.
+            let behind = _mm_or_si128(
+                _mm_or_si128(
+                    _mm_and_si128(_mm_castps_si128(_mm_cmple_ps(tmx, te)), _mm_set1_epi32(4)),
+                    _mm_and_si128(_mm_castps_si128(_mm_cmple_ps(tmy, te)), _mm_set1_epi32(2)),
+                ),
+                _mm_and_si128(_mm_castps_si128(_mm_cmple_ps(tmz, te)), _mm_set1_epi32(1)),
+            );
+            let negative = _mm_loadu_si128(consts.negative.as_ptr().add(4 * h).cast());
+            let o0 = _mm_xor_si128(behind, negative);
+            // Crossings inside (te, tx): key tm and the axis bit, else key tx and bit 0.
+            let crossed = |t: __m128| _mm_and_ps(_mm_cmpgt_ps(t, te), _mm_cmplt_ps(t, tx));
+            let (cx, cy, cz) = (crossed(tmx), crossed(tmy), crossed(tmz));
+            let mut k0 = sel(cx, tmx, tx);
+            let mut k1 = sel(cy, tmy, tx);
+            let mut k2 = sel(cz, tmz, tx);
+            let mut b0 = _mm_and_si128(_mm_castps_si128(cx), _mm_set1_epi32(4));
+            let mut b1 = _mm_and_si128(_mm_castps_si128(cy), _mm_set1_epi32(2));
+            let mut b2 = _mm_and_si128(_mm_castps_si128(cz), _mm_set1_epi32(1));
+            // The stable network: swap where the later key is strictly smaller.
+            let s = _mm_cmplt_ps(k1, k0);
+            let si = _mm_castps_si128(s);
+            (k0, k1, b0, b1) = (
+                sel(s, k1, k0),
+                sel(s, k0, k1),
+                seli(si, b1, b0),
+                seli(si, b0, b1),
+            );
+            let s = _mm_cmplt_ps(k2, k1);
+            let si = _mm_castps_si128(s);
+            (k1, k2, b1, b2) = (
+                sel(s, k2, k1),
+                sel(s, k1, k2),
+                seli(si, b2, b1),
+                seli(si, b1, b2),
+            );
+            let s = _mm_cmplt_ps(k1, k0);
+            let si = _mm_castps_si128(s);
+            (k0, k1, b0, b1) = (
+                sel(s, k1, k0),
+                sel(s, k0, k1),
+                seli(si, b1, b0),
+                seli(si, b0, b1),
+            );
+            let o1 = _mm_xor_si128(o0, b0);
+            let o2 = _mm_xor_si128(o1, b1);
+            let o3 = _mm_xor_si128(o2, b2);
+            seq[0][h] = o0;
+            seq[1][h] = seli(_mm_cmpeq_epi32(b0, zero), none, o1);
+            seq[2][h] = seli(_mm_cmpeq_epi32(b1, zero), none, o2);
+            seq[3][h] = seli(_mm_cmpeq_epi32(b2, zero), none, o3);
+            bound[0][h] = te;
+            bound[1][h] = k0;
+            bound[2][h] = k1;
+            bound[3][h] = k2;
+            bound[4][h] = tx;
+        }
+
+        let mut first = None;
+        let mut pending: Option<PacketCell> = None;
+        for &flip in NEAR_TO_FAR.iter().rev() {
+            let c = near ^ flip;
+            if mask >> c & 1 == 0 {
+                continue;
+            }
+            let cv = _mm_set1_epi32(c as i32);
+            let mut visit = 0u32;
+            let mut t_enter = [0.0f32; PACKET_SIZE];
+            let mut t_exit = [0.0f32; PACKET_SIZE];
+            for h in 0..HALVES {
+                let h0 = _mm_castsi128_ps(_mm_cmpeq_epi32(seq[0][h], cv));
+                let h1 = _mm_castsi128_ps(_mm_cmpeq_epi32(seq[1][h], cv));
+                let h2 = _mm_castsi128_ps(_mm_cmpeq_epi32(seq[2][h], cv));
+                let h3 = _mm_castsi128_ps(_mm_cmpeq_epi32(seq[3][h], cv));
+                let any = _mm_or_ps(_mm_or_ps(h0, h1), _mm_or_ps(h2, h3));
+                visit |= (_mm_movemask_ps(any) as u32) << (4 * h);
+                let b = &bound;
+                let t_a = sel(h0, b[0][h], sel(h1, b[1][h], sel(h2, b[2][h], b[3][h])));
+                let t_b = sel(h0, b[1][h], sel(h1, b[2][h], sel(h2, b[3][h], b[4][h])));
+                _mm_storeu_ps(t_enter.as_mut_ptr().add(4 * h), t_a);
+                _mm_storeu_ps(t_exit.as_mut_ptr().add(4 * h), t_b);
+            }
+            visit &= lanes;
+            if visit == 0 {
+                continue;
+            }
+            let first = *first.get_or_insert_with(|| octree.first_child_index(cell.node));
+            let below = mask & ((1u32 << c) - 1);
+            let child = PacketCell {
+                node: NodeRef::from_index(first + below.count_ones()),
+                // Exact, as in the single-ray step.
+                min: Vec3::new(
+                    if c & 4 != 0 { mid.x } else { cell.min.x },
+                    if c & 2 != 0 { mid.y } else { cell.min.y },
+                    if c & 1 != 0 { mid.z } else { cell.min.z },
+                ),
+                size: half,
+                lanes: visit,
+                t_enter,
+                t_exit,
+            };
+            if let Some(p) = pending.replace(child) {
+                if *sp < PACKET_STACK {
+                    stack[*sp].write(p);
+                    *sp += 1;
+                }
+            }
+        }
+        pending
+    }
 }
 
 #[cfg(test)]
@@ -376,6 +566,7 @@ mod tests {
                             // Every packet whole, and a partial one.
                             for lanes in [(1u32 << PACKET_SIZE) - 1, 0b1010_0110] {
                                 let got = intersect_packet(octree, eye, &dirs, lanes, t_max);
+                                let scalar = packet::<_, false>(octree, eye, &dirs, lanes, t_max);
                                 for l in 0..PACKET_SIZE {
                                     let ray = Ray {
                                         origin: eye,
@@ -391,6 +582,7 @@ mod tests {
                                         "eye {eye} lane {l} {ray:?}: {:?} vs {want:?}",
                                         got[l]
                                     );
+                                    assert!(same_hit(scalar[l], want), "scalar step, lane {l}");
                                     hits += usize::from(want.is_some());
                                 }
                             }
