@@ -28,9 +28,10 @@ use core::mem::MaybeUninit;
 use glam::Vec3;
 use sdfmo_format::{NodeRef, Octree, MAX_DEPTH};
 
+use crate::ray_voxel::{intersect_prepared, prepare_voxel, PreparedVoxel};
 #[cfg(doc)]
 use crate::traversal::intersect;
-use crate::traversal::{box_span, le, leaf_hit, safe_inv, Cell, Hit};
+use crate::traversal::{box_span, le, safe_inv, Hit};
 
 /// Rays per packet (lanes).
 pub const PACKET_SIZE: usize = 8;
@@ -133,22 +134,7 @@ fn packet<B: AsRef<[u8]>, const SSE2: bool>(
         let lanes = cell.lanes & alive;
         if lanes != 0 {
             if octree.is_leaf(cell.node) {
-                let mut rest = lanes;
-                while rest != 0 {
-                    let l = rest.trailing_zeros() as usize;
-                    rest &= rest - 1;
-                    let single = Cell {
-                        node: cell.node,
-                        min: cell.min,
-                        size: cell.size,
-                        t_enter: cell.t_enter[l],
-                        t_exit: cell.t_exit[l],
-                    };
-                    if let Some(hit) = leaf_hit::<B, false>(octree, &single, o, dirs[l]) {
-                        out[l] = Some(hit);
-                        alive &= !(1 << l);
-                    }
-                }
+                packet_leaf(octree, &cell, lanes, o, dirs, &mut out, &mut alive);
                 if alive == 0 {
                     return out;
                 }
@@ -175,6 +161,70 @@ fn packet<B: AsRef<[u8]>, const SSE2: bool>(
         // SAFETY: `stack[sp]` was written: `sp` only grows by one right after writing
         // `stack[sp]`, so every entry below it is initialised.
         cell = unsafe { stack[sp].assume_init() };
+    }
+}
+
+/// A leaf for the lanes `lanes`: for each, exactly the single-ray leaf test (the nearest voxel
+/// hit in its span, voxels in storage order), with each voxel's corners read and prepared once
+/// for all lanes. Lanes that hit get their hit in `out` and leave `alive`.
+#[inline(always)]
+fn packet_leaf<B: AsRef<[u8]>>(
+    octree: &Octree<B>,
+    cell: &PacketCell,
+    lanes: u32,
+    o: Vec3,
+    dirs: &[Vec3; PACKET_SIZE],
+    out: &mut [Option<Hit>; PACKET_SIZE],
+    alive: &mut u32,
+) {
+    // As in the single-ray leaf test: the local frame [0,1]³ from each lane's entry point.
+    let inv_size = 1.0 / cell.size;
+    let mut local_o = [Vec3::ZERO; PACKET_SIZE];
+    let mut local_d = [Vec3::ZERO; PACKET_SIZE];
+    let mut best_s = [0.0f32; PACKET_SIZE];
+    let mut best: [Option<(u32, bool)>; PACKET_SIZE] = [None; PACKET_SIZE];
+    let mut rest = lanes;
+    while rest != 0 {
+        let l = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        local_o[l] = (o + dirs[l] * cell.t_enter[l] - cell.min) * inv_size;
+        local_d[l] = dirs[l] * inv_size;
+        best_s[l] = cell.t_exit[l] - cell.t_enter[l];
+    }
+    for voxel in octree.leaf_voxels(cell.node) {
+        let prepared = prepare_voxel(&octree.voxel_corners(voxel));
+        if let PreparedVoxel::Miss = prepared {
+            continue; // no lane can hit it
+        }
+        let surface = octree.voxel_is_surface(voxel);
+        let mut rest = lanes;
+        while rest != 0 {
+            let l = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            if let Some(s) =
+                intersect_prepared(&prepared, local_o[l], local_d[l], 0.0, best_s[l], surface)
+            {
+                if best[l].is_none() || s < best_s[l] {
+                    best_s[l] = s;
+                    best[l] = Some((voxel, surface));
+                }
+            }
+        }
+    }
+    let mut rest = lanes;
+    while rest != 0 {
+        let l = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        if let Some((voxel, surface)) = best[l] {
+            out[l] = Some(Hit {
+                t: (cell.t_enter[l] + best_s[l]).min(cell.t_exit[l]),
+                voxel,
+                cell_min: cell.min,
+                cell_size: cell.size,
+                surface,
+            });
+            *alive &= !(1 << l);
+        }
     }
 }
 
