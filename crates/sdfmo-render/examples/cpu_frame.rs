@@ -3,7 +3,9 @@
 //! `THREADS`), the configurations interleaved round by round, and per configuration the median
 //! wall time and the median **CPU time** per frame (the sum over the process's threads of
 //! `/proc/self/task/*/schedstat`, ns resolution; other processes competing for the cores do not
-//! inflate it).
+//! inflate it), and the median CPU time of the busiest thread (what the frame takes on free
+//! cores, one thread each: CPU at 1 thread over this at 2 threads is the two-core speed-up
+//! that load balance allows, measurable on a shared machine).
 //!
 //! ```text
 //! cargo run --release -p sdfmo-render --example cpu_frame -- [--threads 1,2] [--repeat 9] \
@@ -19,15 +21,33 @@ use sdfmo_render::{
     render_with_plan, save_png, Camera, Mode, OctreeScene, RenderPlan, RenderSettings,
 };
 
-/// CPU time of all the process's live threads, ns (Linux; 0 elsewhere).
-fn process_cpu_ns() -> u64 {
+/// CPU time of each of the process's live threads, ns, by thread id (Linux; empty elsewhere).
+fn thread_cpu_ns() -> Vec<(String, u64)> {
     let Ok(dir) = std::fs::read_dir("/proc/self/task") else {
-        return 0;
+        return Vec::new();
     };
     dir.filter_map(|e| e.ok())
-        .filter_map(|e| std::fs::read_to_string(e.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<u64>().ok())
-        .sum()
+        .filter_map(|e| {
+            let s = std::fs::read_to_string(e.path().join("schedstat")).ok()?;
+            let ns = s.split_whitespace().next()?.parse::<u64>().ok()?;
+            Some((e.file_name().to_string_lossy().into_owned(), ns))
+        })
+        .collect()
+}
+
+/// Total and largest per-thread CPU time between two [`thread_cpu_ns`] samples, ns. The largest
+/// is what the frame would take on free cores (one thread per core), whatever else shares the
+/// machine: with two threads, `total / largest` is the speed-up two free cores would give.
+fn cpu_between(before: &[(String, u64)], after: &[(String, u64)]) -> (u64, u64) {
+    let mut total = 0;
+    let mut largest = 0;
+    for (tid, ns) in after {
+        let start = before.iter().find(|(t, _)| t == tid).map_or(0, |(_, n)| *n);
+        let d = ns.saturating_sub(start);
+        total += d;
+        largest = largest.max(d);
+    }
+    (total, largest)
 }
 
 fn median(v: &mut [f64]) -> f64 {
@@ -72,8 +92,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .collect::<Result<_, _>>()?;
     let camera = Camera::paper_view(view, size, size);
     let plan = RenderPlan::new(&RenderSettings::new(Mode::Lambert))?;
-    println!("| octree | threads | hits | median wall ms | median CPU ms / frame | runs |");
-    println!("|---|---|---|---|---|---|");
+    println!(
+        "| octree | threads | hits | median wall ms | median CPU ms / frame | median busiest-thread CPU ms | runs |"
+    );
+    println!("|---|---|---|---|---|---|---|");
     for file in &files {
         let octree = PackedOctree::load(file)?;
         let scene = OctreeScene(&octree);
@@ -86,22 +108,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         let mut wall = vec![Vec::new(); pools.len()];
         let mut cpu = vec![Vec::new(); pools.len()];
+        let mut busiest = vec![Vec::new(); pools.len()];
         for _ in 0..repeat {
             for (k, pool) in pools.iter().enumerate() {
-                let (c0, t0) = (process_cpu_ns(), Instant::now());
+                let (c0, t0) = (thread_cpu_ns(), Instant::now());
                 let r = pool.install(|| render_with_plan(&scene, &camera, &plan))?;
                 wall[k].push(t0.elapsed().as_secs_f64() * 1e3);
-                cpu[k].push((process_cpu_ns() - c0) as f64 * 1e-6);
+                let (total, largest) = cpu_between(&c0, &thread_cpu_ns());
+                cpu[k].push(total as f64 * 1e-6);
+                busiest[k].push(largest as f64 * 1e-6);
                 assert_eq!(r.counters.hits, first.counters.hits);
             }
         }
         for (k, n) in threads.iter().enumerate() {
             println!(
-                "| {} | {n} | {} | {:.1} | {:.1} | {repeat} |",
+                "| {} | {n} | {} | {:.1} | {:.1} | {:.1} | {repeat} |",
                 file.display(),
                 first.counters.hits,
                 median(&mut wall[k]),
                 median(&mut cpu[k]),
+                median(&mut busiest[k]),
             );
         }
     }
