@@ -78,12 +78,27 @@ pub fn intersect_packet<B: AsRef<[u8]>>(
         // SAFETY: the CPU has AVX2.
         return unsafe { packet_avx2(octree, origin, dirs, lanes, t_max) };
     }
-    packet::<B, { cfg!(target_arch = "x86_64") }>(octree, origin, dirs, lanes, t_max)
+    packet::<
+        B,
+        {
+            if cfg!(target_arch = "x86_64") {
+                SSE2
+            } else {
+                SCALAR
+            }
+        },
+    >(octree, origin, dirs, lanes, t_max)
 }
 
-/// [`packet`] with the SSE2 step compiled for AVX2 CPUs: the same operations (Rust never fuses
-/// a multiply and an add by itself, so the same bits) in three-operand VEX form, which saves
-/// most of the register copies of the two-operand SSE encoding.
+/// Inner-node steps of [`packet`]: lane by lane.
+const SCALAR: u8 = 0;
+/// Inner-node steps of [`packet`]: SSE2, two registers of four lanes (x86-64 only).
+const SSE2: u8 = 1;
+/// Inner-node steps of [`packet`]: AVX2, one register of eight lanes (x86-64 CPUs with AVX2).
+const AVX2: u8 = 2;
+
+/// [`packet`] with the AVX2 step, compiled for AVX2 CPUs (the rest in three-operand VEX form;
+/// Rust never fuses a multiply and an add by itself, so the same bits).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn packet_avx2<B: AsRef<[u8]>>(
@@ -93,13 +108,13 @@ unsafe fn packet_avx2<B: AsRef<[u8]>>(
     lanes: u32,
     t_max: f32,
 ) -> [Option<Hit>; PACKET_SIZE] {
-    packet::<B, true>(octree, origin, dirs, lanes, t_max)
+    packet::<B, AVX2>(octree, origin, dirs, lanes, t_max)
 }
 
-/// The packet walk; `SSE2`: the inner-node step with SSE2 (x86-64 only; the scalar step
-/// elsewhere, with the same bits).
+/// The packet walk; `STEP` ([`SCALAR`], [`SSE2`], [`AVX2`]) picks the inner-node step (all give
+/// the same bits; [`AVX2`] only from [`packet_avx2`], SSE2 only on x86-64).
 #[inline(always)]
-fn packet<B: AsRef<[u8]>, const SSE2: bool>(
+fn packet<B: AsRef<[u8]>, const STEP: u8>(
     octree: &Octree<B>,
     origin: Vec3,
     dirs: &[Vec3; PACKET_SIZE],
@@ -158,7 +173,17 @@ fn packet<B: AsRef<[u8]>, const SSE2: bool>(
                 if alive == 0 {
                     return out;
                 }
-            } else if let Some(next) = if SSE2 {
+            } else if let Some(next) = if STEP == AVX2 {
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: STEP = AVX2 only in `packet_avx2`, called once AVX2 is detected.
+                unsafe {
+                    packet_step_avx2(octree, &cell, lanes, o, &consts, &mut stack, &mut sp)
+                }
+                #[cfg(not(target_arch = "x86_64"))]
+                {
+                    packet_step(octree, &cell, lanes, o, &consts, &mut stack, &mut sp)
+                }
+            } else if STEP == SSE2 {
                 #[cfg(target_arch = "x86_64")]
                 {
                     packet_step_sse2(octree, &cell, lanes, o, &consts, &mut stack, &mut sp)
@@ -519,6 +544,160 @@ fn packet_step_sse2<B: AsRef<[u8]>>(
     }
 }
 
+/// [`packet_step_sse2`] with AVX2: the eight lanes in one register (the same comparisons and
+/// products; the AVX comparison predicates used are the ordered ones, false on NaN like SSE's).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn packet_step_avx2<B: AsRef<[u8]>>(
+    octree: &Octree<B>,
+    cell: &PacketCell,
+    lanes: u32,
+    o: Vec3,
+    consts: &Lanes,
+    stack: &mut [MaybeUninit<PacketCell>; PACKET_STACK],
+    sp: &mut usize,
+) -> Option<PacketCell> {
+    use core::arch::x86_64::*;
+    const _: () = assert!(PACKET_SIZE == 8, "one AVX register of lanes");
+
+    let half = 0.5 * cell.size;
+    let mid = cell.min + Vec3::splat(half);
+    let d = mid - o;
+    let mask = u32::from(octree.child_mask(cell.node));
+    let near =
+        u32::from(o.x >= mid.x) << 2 | u32::from(o.y >= mid.y) << 1 | u32::from(o.z >= mid.z);
+
+    // SAFETY (the caller guarantees AVX2): every load and store reads or writes eight f32/u32 of
+    // an array of PACKET_SIZE = 8 elements (unaligned access).
+    unsafe {
+        let sel = |m: __m256, a: __m256, b: __m256| _mm256_blendv_ps(b, a, m);
+        let seli = |m: __m256i, a: __m256i, b: __m256i| {
+            _mm256_castps_si256(_mm256_blendv_ps(
+                _mm256_castsi256_ps(b),
+                _mm256_castsi256_ps(a),
+                _mm256_castsi256_ps(m),
+            ))
+        };
+        let zero = _mm256_setzero_si256();
+        let none = _mm256_set1_epi32(8);
+        let te = _mm256_loadu_ps(cell.t_enter.as_ptr());
+        let tx = _mm256_loadu_ps(cell.t_exit.as_ptr());
+        let tmx = _mm256_mul_ps(_mm256_set1_ps(d.x), _mm256_loadu_ps(consts.inv[0].as_ptr()));
+        let tmy = _mm256_mul_ps(_mm256_set1_ps(d.y), _mm256_loadu_ps(consts.inv[1].as_ptr()));
+        let tmz = _mm256_mul_ps(_mm256_set1_ps(d.z), _mm256_loadu_ps(consts.inv[2].as_ptr()));
+        let bits =
+            |m: __m256, b: i32| _mm256_and_si256(_mm256_castps_si256(m), _mm256_set1_epi32(b));
+        // Entry octant: `tm ≤ te` (behind), xor the negative axes.
+        let behind = _mm256_or_si256(
+            _mm256_or_si256(
+                bits(_mm256_cmp_ps::<_CMP_LE_OQ>(tmx, te), 4),
+                bits(_mm256_cmp_ps::<_CMP_LE_OQ>(tmy, te), 2),
+            ),
+            bits(_mm256_cmp_ps::<_CMP_LE_OQ>(tmz, te), 1),
+        );
+        let negative = _mm256_loadu_si256(consts.negative.as_ptr().cast());
+        let o0 = _mm256_xor_si256(behind, negative);
+        // Crossings inside (te, tx): key tm and the axis bit, else key tx and bit 0.
+        let crossed = |t: __m256| {
+            _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GT_OQ>(t, te),
+                _mm256_cmp_ps::<_CMP_LT_OQ>(t, tx),
+            )
+        };
+        let (cx, cy, cz) = (crossed(tmx), crossed(tmy), crossed(tmz));
+        let mut k0 = sel(cx, tmx, tx);
+        let mut k1 = sel(cy, tmy, tx);
+        let mut k2 = sel(cz, tmz, tx);
+        let mut b0 = bits(cx, 4);
+        let mut b1 = bits(cy, 2);
+        let mut b2 = bits(cz, 1);
+        // The stable network: swap where the later key is strictly smaller.
+        let s = _mm256_cmp_ps::<_CMP_LT_OQ>(k1, k0);
+        let si = _mm256_castps_si256(s);
+        (k0, k1, b0, b1) = (
+            sel(s, k1, k0),
+            sel(s, k0, k1),
+            seli(si, b1, b0),
+            seli(si, b0, b1),
+        );
+        let s = _mm256_cmp_ps::<_CMP_LT_OQ>(k2, k1);
+        let si = _mm256_castps_si256(s);
+        (k1, k2, b1, b2) = (
+            sel(s, k2, k1),
+            sel(s, k1, k2),
+            seli(si, b2, b1),
+            seli(si, b1, b2),
+        );
+        let s = _mm256_cmp_ps::<_CMP_LT_OQ>(k1, k0);
+        let si = _mm256_castps_si256(s);
+        (k0, k1, b0, b1) = (
+            sel(s, k1, k0),
+            sel(s, k0, k1),
+            seli(si, b1, b0),
+            seli(si, b0, b1),
+        );
+        let o1 = _mm256_xor_si256(o0, b0);
+        let o2 = _mm256_xor_si256(o1, b1);
+        let o3 = _mm256_xor_si256(o2, b2);
+        let seq = [
+            o0,
+            seli(_mm256_cmpeq_epi32(b0, zero), none, o1),
+            seli(_mm256_cmpeq_epi32(b1, zero), none, o2),
+            seli(_mm256_cmpeq_epi32(b2, zero), none, o3),
+        ];
+        let bound = [te, k0, k1, k2, tx];
+
+        let mut first = None;
+        let mut pending: Option<PacketCell> = None;
+        for &flip in NEAR_TO_FAR.iter().rev() {
+            let c = near ^ flip;
+            if mask >> c & 1 == 0 {
+                continue;
+            }
+            let cv = _mm256_set1_epi32(c as i32);
+            let h0 = _mm256_castsi256_ps(_mm256_cmpeq_epi32(seq[0], cv));
+            let h1 = _mm256_castsi256_ps(_mm256_cmpeq_epi32(seq[1], cv));
+            let h2 = _mm256_castsi256_ps(_mm256_cmpeq_epi32(seq[2], cv));
+            let h3 = _mm256_castsi256_ps(_mm256_cmpeq_epi32(seq[3], cv));
+            let any = _mm256_or_ps(_mm256_or_ps(h0, h1), _mm256_or_ps(h2, h3));
+            let visit = _mm256_movemask_ps(any) as u32 & lanes;
+            if visit == 0 {
+                continue;
+            }
+            let b = &bound;
+            let mut t_enter = [0.0f32; PACKET_SIZE];
+            let mut t_exit = [0.0f32; PACKET_SIZE];
+            let t_a = sel(h0, b[0], sel(h1, b[1], sel(h2, b[2], b[3])));
+            let t_b = sel(h0, b[1], sel(h1, b[2], sel(h2, b[3], b[4])));
+            _mm256_storeu_ps(t_enter.as_mut_ptr(), t_a);
+            _mm256_storeu_ps(t_exit.as_mut_ptr(), t_b);
+            let first = *first.get_or_insert_with(|| octree.first_child_index(cell.node));
+            let below = mask & ((1u32 << c) - 1);
+            let child = PacketCell {
+                node: NodeRef::from_index(first + below.count_ones()),
+                // Exact, as in the single-ray step.
+                min: Vec3::new(
+                    if c & 4 != 0 { mid.x } else { cell.min.x },
+                    if c & 2 != 0 { mid.y } else { cell.min.y },
+                    if c & 1 != 0 { mid.z } else { cell.min.z },
+                ),
+                size: half,
+                lanes: visit,
+                t_enter,
+                t_exit,
+            };
+            if let Some(p) = pending.replace(child) {
+                if *sp < PACKET_STACK {
+                    stack[*sp].write(p);
+                    *sp += 1;
+                }
+            }
+        }
+        pending
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -636,9 +815,9 @@ mod tests {
                             // Every packet whole, and a partial one.
                             for lanes in [(1u32 << PACKET_SIZE) - 1, 0b1010_0110] {
                                 let got = intersect_packet(octree, eye, &dirs, lanes, t_max);
-                                let scalar = packet::<_, false>(octree, eye, &dirs, lanes, t_max);
+                                let scalar = packet::<_, SCALAR>(octree, eye, &dirs, lanes, t_max);
                                 // The SSE2 step without AVX2 (x86-64; elsewhere scalar again).
-                                let sse2 = packet::<_, true>(octree, eye, &dirs, lanes, t_max);
+                                let sse2 = packet::<_, SSE2>(octree, eye, &dirs, lanes, t_max);
                                 for l in 0..PACKET_SIZE {
                                     let ray = Ray {
                                         origin: eye,
