@@ -1,5 +1,7 @@
 //! Ray tracing the packed SDF multi-octree: front-to-back traversal of a
-//! [`PackedOctree`](sdfmo_format::PackedOctree) ([`intersect`], [`occluded`]), the ray vs
+//! [`PackedOctree`](sdfmo_format::PackedOctree) ([`intersect`], [`occluded`]; for primary rays
+//! sharing the eye, [`intersect_packet`] walks the octree once per packet of [`PACKET_SIZE`]
+//! rays with each ray's hit bit for bit that of [`intersect`]), the ray vs
 //! trilinear-voxel kernel ([`intersect_voxel`]), analytic normals ([`hit_normal`]), and the
 //! stored signed distance and its gradient at a point ([`distance_at`], for collision queries).
 //!
