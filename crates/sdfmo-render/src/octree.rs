@@ -2,9 +2,9 @@
 
 use glam::Vec3;
 use sdfmo_format::PackedOctree;
-use sdfmo_trace::{hit_normal, intersect, occluded, occupied_bounds, Hit, Ray};
+use sdfmo_trace::{hit_normal, intersect, intersect_packet, occluded, occupied_bounds, Hit, Ray};
 
-use crate::scene::Traceable;
+use crate::scene::{Traceable, PACKET};
 
 /// Offset of secondary rays on the octree, as a fraction of the leaf edge `2 / 2^depth`. Large
 /// enough that a shadow ray leaving a surface voxel does not re-find the zero crossing it
@@ -26,6 +26,25 @@ impl Traceable for OctreeScene<'_> {
     #[inline]
     fn first_hit(&self, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> Option<Hit> {
         intersect(self.0, &Ray { origin, dir }, t_min, t_max)
+    }
+
+    /// One walk of the octree for the whole packet (`sdfmo_trace::intersect_packet`: the same
+    /// hits as ray by ray, bit for bit).
+    #[inline]
+    fn first_hits(
+        &self,
+        origin: Vec3,
+        dirs: &[Vec3; PACKET],
+        lanes: u32,
+        t_max: f32,
+        out: &mut [Option<Hit>; PACKET],
+    ) {
+        let hits = intersect_packet(self.0, origin, dirs, lanes, t_max);
+        for (l, hit) in hits.into_iter().enumerate() {
+            if lanes >> l & 1 != 0 {
+                out[l] = hit;
+            }
+        }
     }
 
     #[inline]

@@ -7,7 +7,11 @@ use rayon::prelude::*;
 
 use crate::camera::{Camera, CameraFrame};
 use crate::plan::{Counters, Mode, RenderPlan, RenderSettings};
-use crate::scene::{Traceable, OCCUPIED_PAD};
+use crate::scene::{Traceable, OCCUPIED_PAD, PACKET};
+
+/// Pixel columns and rows of a packet of primary rays ([`PACKET`] in all).
+const PACKET_COLS: usize = 4;
+const PACKET_ROWS: usize = PACKET / PACKET_COLS;
 use crate::shading::{
     cosine_hemisphere, depth_grey, lambert_value, light_dir, normal_rgb, DepthRange, PixelRng,
     AO_DISTANCE,
@@ -217,20 +221,50 @@ impl<T: Traceable> Ctx<'_, T> {
         // Camera terms cached per tile: the same f64 sums as `CameraFrame::ray`, bit for bit.
         let columns: Vec<DVec3> = (x0..x0 + tw).map(|px| self.frame.column(px)).collect();
         let eye = self.frame.eye.as_vec3();
-        for row in 0..th {
-            let row_term = self.frame.row(y0 + row);
-            for (col, &column) in columns.iter().enumerate() {
-                let col = col as u32;
-                let i = (row * tw + col) as usize;
-                // Rays that miss the occupied box are rejected on the unnormalised direction
-                // (same line; the box's padding dwarfs the rounding), before the f64
-                // normalisation: most pixels of a typical view never need their exact ray.
-                if !self.meets_occupied(eye, (column + row_term).as_vec3(), f32::INFINITY) {
+        // Packets of PACKET_COLS × PACKET_ROWS neighbouring pixels traced together (one octree
+        // walk for all; each ray's hit is exactly its single-ray hit).
+        for row0 in (0..th).step_by(PACKET_ROWS) {
+            let row_terms: [DVec3; PACKET_ROWS] =
+                core::array::from_fn(|r| self.frame.row(y0 + (row0 + r as u32).min(th - 1)));
+            for col0 in (0..tw).step_by(PACKET_COLS) {
+                let mut dirs = [Vec3::ZERO; PACKET];
+                let mut lanes = 0u32;
+                for (l, dir) in dirs.iter_mut().enumerate() {
+                    let (col, row) = (
+                        col0 + (l % PACKET_COLS) as u32,
+                        row0 + (l / PACKET_COLS) as u32,
+                    );
+                    if col >= tw || row >= th {
+                        continue;
+                    }
+                    let (column, row_term) = (columns[col as usize], row_terms[l / PACKET_COLS]);
+                    // Rays that miss the occupied box are rejected on the unnormalised
+                    // direction (same line; the box's padding dwarfs the rounding), before the
+                    // f64 normalisation: most pixels of a typical view never need their exact
+                    // ray.
                     tile.counters.rays += 1;
-                    continue; // background (already there)
+                    if !self.meets_occupied(eye, (column + row_term).as_vec3(), f32::INFINITY) {
+                        continue; // background (already there)
+                    }
+                    *dir = CameraFrame::direction(column, row_term);
+                    lanes |= 1 << l;
                 }
-                let dir = CameraFrame::direction(column, row_term);
-                self.pixel(eye, dir, x0 + col, y0 + row, i, &mut tile);
+                if lanes == 0 {
+                    continue;
+                }
+                let mut hits = [None; PACKET];
+                self.scene
+                    .first_hits(eye, &dirs, lanes, f32::INFINITY, &mut hits);
+                for (l, hit) in hits.iter().enumerate() {
+                    if let Some(hit) = hit {
+                        let (col, row) = (
+                            col0 + (l % PACKET_COLS) as u32,
+                            row0 + (l / PACKET_COLS) as u32,
+                        );
+                        let i = (row * tw + col) as usize;
+                        self.shade(eye, dirs[l], hit, x0 + col, y0 + row, i, &mut tile);
+                    }
+                }
             }
         }
         tile
@@ -279,23 +313,20 @@ impl<T: Traceable> Ctx<'_, T> {
         })
     }
 
+    /// The pixel of a primary ray that hit: depth, normal and colour.
     #[inline]
-    fn pixel(&self, o: Vec3, d: Vec3, px: u32, py: u32, i: usize, tile: &mut Tile) {
+    #[allow(clippy::too_many_arguments)]
+    fn shade(&self, o: Vec3, d: Vec3, hit: &T::Hit, px: u32, py: u32, i: usize, tile: &mut Tile) {
         let c = &mut tile.counters;
-        c.rays += 1;
-        // The caller has checked the occupied box.
-        let Some(hit) = self.scene.first_hit(o, d, 0.0, f32::INFINITY) else {
-            return; // background: black, depth +∞, normal 0 (already there)
-        };
         c.hits += 1;
-        let t = self.scene.hit_t(&hit);
+        let t = self.scene.hit_t(hit);
         if self.plan.keep_depth {
             tile.depth[i] = t;
         }
         let mut n = Vec3::ZERO;
         if self.plan.normals {
             c.normal_evals += 1;
-            n = self.scene.normal(o, d, &hit);
+            n = self.scene.normal(o, d, hit);
             if n.dot(d) > 0.0 {
                 n = -n; // two-sided: face the viewer
             }

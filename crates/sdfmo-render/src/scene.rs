@@ -2,6 +2,9 @@
 
 use glam::Vec3;
 
+/// Rays per packet of [`Traceable::first_hits`] (that of `sdfmo_trace::intersect_packet`).
+pub const PACKET: usize = sdfmo_trace::PACKET_SIZE;
+
 /// Default offset of secondary rays, normalised units.
 pub const DEFAULT_EPSILON: f32 = 1e-4;
 
@@ -27,6 +30,25 @@ pub trait Traceable: Sync {
     /// Whether anything is hit with `t ∈ [t_min, t_max]` (any hit, not the closest).
     fn occluded(&self, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> bool {
         self.first_hit(origin, dir, t_min, t_max).is_some()
+    }
+
+    /// The closest hits in `[0, t_max]` of the rays `origin + t·dirs[i]` whose bit `i` is set
+    /// in `lanes`, into `out[i]` (other entries are left alone): primary rays of neighbouring
+    /// pixels, traced together. Must give exactly what [`Traceable::first_hit`] gives ray by
+    /// ray (the default does just that; the octree walks the octree once per packet).
+    fn first_hits(
+        &self,
+        origin: Vec3,
+        dirs: &[Vec3; PACKET],
+        lanes: u32,
+        t_max: f32,
+        out: &mut [Option<Self::Hit>; PACKET],
+    ) {
+        for (l, dir) in dirs.iter().enumerate() {
+            if lanes >> l & 1 != 0 {
+                out[l] = self.first_hit(origin, *dir, 0.0, t_max);
+            }
+        }
     }
 
     /// Offset of secondary-ray origins along the normal, normalised units.

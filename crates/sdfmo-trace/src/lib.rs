@@ -1,5 +1,7 @@
 //! Ray tracing the packed SDF multi-octree: front-to-back traversal of a
-//! [`PackedOctree`](sdfmo_format::PackedOctree) ([`intersect`], [`occluded`]), the ray vs
+//! [`PackedOctree`](sdfmo_format::PackedOctree) ([`intersect`], [`occluded`]; for primary rays
+//! sharing the eye, [`intersect_packet`] walks the octree once per packet of [`PACKET_SIZE`]
+//! rays with each ray's hit bit for bit that of [`intersect`]), the ray vs
 //! trilinear-voxel kernel ([`intersect_voxel`]), analytic normals ([`hit_normal`]), and the
 //! stored signed distance and its gradient at a point ([`distance_at`], for collision queries).
 //! Leaves with clip voxels (format 1.1: intersect and clip-only voxels) follow the clip rule
@@ -32,10 +34,12 @@
 pub mod clip;
 pub mod distance;
 pub mod normal;
+pub mod packet;
 pub mod ray_voxel;
 pub mod traversal;
 
 pub use distance::{distance_at, DistanceSample};
 pub use normal::{hit_normal, trilinear_gradient};
+pub use packet::{intersect_packet, PACKET_SIZE};
 pub use ray_voxel::{intersect_voxel, unit_cube_span};
 pub use traversal::{intersect, occluded, occupied_bounds, ray_meets_box, Hit, Ray};

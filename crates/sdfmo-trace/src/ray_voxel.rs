@@ -166,21 +166,32 @@ pub fn intersect_voxel(
     t1: f32,
     surface: bool,
 ) -> Option<f32> {
-    let len = t1 - t0;
-    // Also rejects NaN and infinite segments.
-    if !(0.0..f32::INFINITY).contains(&len) {
-        return None;
-    }
+    intersect_prepared(&prepare_voxel(corners), origin, dir, t0, t1, surface)
+}
+
+/// What [`intersect_voxel`] learns from a voxel's corners alone, the same for every ray: a
+/// packet of rays through one leaf computes it once per voxel ([`crate::intersect_packet`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum PreparedVoxel {
+    /// No zero inside the cube (all corners positive, or all (near) zero or NaN).
+    Miss,
+    /// All corners negative: inside everywhere.
+    Inside,
+    /// The corners divided by their largest magnitude.
+    Scaled([f32; 8]),
+}
+
+/// The corner-only part of [`intersect_voxel`].
+#[inline]
+pub(crate) fn prepare_voxel(corners: &[f32; 8]) -> PreparedVoxel {
     let (lo, hi) = min_max(corners);
     // Exact early-outs: a trilinear interpolant is a convex combination of its corners inside
     // the cube, so it can only reach zero if min ≤ 0 ≤ max.
     if lo > 0.0 {
-        return None;
+        return PreparedVoxel::Miss;
     }
     if hi < 0.0 {
-        // Everything inside: a volume voxel is hit where the segment starts; a surface voxel has
-        // no zero at all.
-        return (!surface).then_some(t0);
+        return PreparedVoxel::Inside;
     }
     // Normalise values by the largest magnitude and the parameter to u = (t − t0)/len ∈ [0, 1]:
     // the coefficients of a cubic bounded by 1 on [0, 1] are O(1), so nothing overflows or
@@ -188,12 +199,37 @@ pub fn intersect_voxel(
     // smallest normal f32 (or NaN) count as zero: no crossing.
     let m = hi.max(-lo);
     if m.is_nan() || m < f32::MIN_POSITIVE {
-        return None;
+        return PreparedVoxel::Miss;
     }
     let inv = 1.0 / m;
-    let scaled = corners.map(|c| c * inv);
-    let cubic = RayCubic::new(&scaled, origin + dir * t0, dir * len);
-    first_root(&cubic, 1.0, surface).map(|u| (t0 + u * len).min(t1))
+    PreparedVoxel::Scaled(corners.map(|c| c * inv))
+}
+
+/// The per-ray part of [`intersect_voxel`] (whose result it is, bit for bit).
+#[inline]
+pub(crate) fn intersect_prepared(
+    voxel: &PreparedVoxel,
+    origin: Vec3,
+    dir: Vec3,
+    t0: f32,
+    t1: f32,
+    surface: bool,
+) -> Option<f32> {
+    let len = t1 - t0;
+    // Also rejects NaN and infinite segments.
+    if !(0.0..f32::INFINITY).contains(&len) {
+        return None;
+    }
+    match voxel {
+        PreparedVoxel::Miss => None,
+        // Everything inside: a volume voxel is hit where the segment starts; a surface voxel
+        // has no zero at all.
+        PreparedVoxel::Inside => (!surface).then_some(t0),
+        PreparedVoxel::Scaled(scaled) => {
+            let cubic = RayCubic::new(scaled, origin + dir * t0, dir * len);
+            first_root(&cubic, 1.0, surface).map(|u| (t0 + u * len).min(t1))
+        }
+    }
 }
 
 /// Like [`intersect_voxel`] for a segment `s ∈ [0, len]` whose cubic is already known: the
