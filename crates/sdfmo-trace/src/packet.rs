@@ -236,7 +236,66 @@ fn packet_leaf<B: AsRef<[u8]>>(
         local_d[l] = dirs[l] * inv_size;
         best_s[l] = cell.t_exit[l] - cell.t_enter[l];
     }
-    for voxel in octree.leaf_voxels(cell.node) {
+    let voxels = octree.leaf_voxels(cell.node);
+    if octree.any_clip_voxel(voxels.clone()) {
+        // A leaf with clip voxels takes the clip rule, lane by lane (as the single-ray test).
+        let mut rest = lanes;
+        while rest != 0 {
+            let l = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let hit = crate::clip::leaf_hit::<B, false>(
+                octree,
+                voxels.clone(),
+                local_o[l],
+                local_d[l],
+                best_s[l],
+            );
+            if let Some((s, voxel, surface)) = hit {
+                best_s[l] = s;
+                best[l] = Some((voxel, surface));
+            }
+        }
+    } else {
+        packet_leaf_voxels(
+            octree,
+            voxels,
+            lanes,
+            &local_o,
+            &local_d,
+            &mut best_s,
+            &mut best,
+        );
+    }
+    let mut rest = lanes;
+    while rest != 0 {
+        let l = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        if let Some((voxel, surface)) = best[l] {
+            out[l] = Some(Hit {
+                t: (cell.t_enter[l] + best_s[l]).min(cell.t_exit[l]),
+                voxel,
+                cell_min: cell.min,
+                cell_size: cell.size,
+                surface,
+            });
+            *alive &= !(1 << l);
+        }
+    }
+}
+
+/// The plain leaf rule (no clip voxels) for the packet's `lanes`: each voxel prepared once, the
+/// nearest hit per lane (as the single-ray leaf test).
+#[inline(always)]
+fn packet_leaf_voxels<B: AsRef<[u8]>>(
+    octree: &Octree<B>,
+    voxels: std::ops::Range<u32>,
+    lanes: u32,
+    local_o: &[Vec3; PACKET_SIZE],
+    local_d: &[Vec3; PACKET_SIZE],
+    best_s: &mut [f32; PACKET_SIZE],
+    best: &mut [Option<(u32, bool)>; PACKET_SIZE],
+) {
+    for voxel in voxels {
         let prepared = prepare_voxel(&octree.voxel_corners(voxel));
         if let PreparedVoxel::Miss = prepared {
             continue; // no lane can hit it
@@ -254,21 +313,6 @@ fn packet_leaf<B: AsRef<[u8]>>(
                     best[l] = Some((voxel, surface));
                 }
             }
-        }
-    }
-    let mut rest = lanes;
-    while rest != 0 {
-        let l = rest.trailing_zeros() as usize;
-        rest &= rest - 1;
-        if let Some((voxel, surface)) = best[l] {
-            out[l] = Some(Hit {
-                t: (cell.t_enter[l] + best_s[l]).min(cell.t_exit[l]),
-                voxel,
-                cell_min: cell.min,
-                cell_size: cell.size,
-                surface,
-            });
-            *alive &= !(1 << l);
         }
     }
 }
@@ -705,8 +749,9 @@ mod tests {
     use crate::Ray;
     use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, ValueBits, Voxel};
 
-    /// Leaves where `sdfs` come within a cell diagonal of zero, one voxel per SDF.
-    fn octree_from_sdfs(depth: u8, sdfs: &[(&dyn Fn(Vec3) -> f32, bool)]) -> PackedOctree {
+    /// Leaves where `sdfs` come within a cell diagonal of zero, one voxel per SDF (with its
+    /// surface and clip bits).
+    fn octree_from_sdfs(depth: u8, sdfs: &[(&dyn Fn(Vec3) -> f32, bool, bool)]) -> PackedOctree {
         let n = 1u32 << depth;
         let h = 2.0 / n as f32;
         let mut leaves = Vec::new();
@@ -715,7 +760,7 @@ mod tests {
                 for z in 0..n {
                     let min = Vec3::new(x as f32, y as f32, z as f32) * h - Vec3::ONE;
                     let mut voxels = Vec::new();
-                    for &(sdf, surface) in sdfs {
+                    for &(sdf, surface, clip) in sdfs {
                         if sdf(min + Vec3::splat(0.5 * h)).abs() > h * 0.87 {
                             continue;
                         }
@@ -724,9 +769,14 @@ mod tests {
                                 Vec3::new((i >> 2) as f32, ((i >> 1) & 1) as f32, (i & 1) as f32);
                             sdf(min + c * h)
                         });
-                        voxels.push(Voxel { corners, surface });
+                        voxels.push(Voxel {
+                            corners,
+                            surface,
+                            clip,
+                        });
                     }
-                    if !voxels.is_empty() {
+                    // A leaf of clip-only voxels alone is not a valid leaf.
+                    if !voxels.iter().all(|v| v.surface && v.clip) {
                         leaves.push(LeafInput {
                             coord: [x, y, z],
                             voxels,
@@ -769,11 +819,32 @@ mod tests {
             let q = p * 5.0;
             0.1 * (q.x.sin() * q.y.cos() + q.y.sin() * q.z.cos() + q.z.sin() * q.x.cos())
         };
+        // Clip voxels (format 1.1): a slab as two intersected planes, and the sheet clipped
+        // by a clip-only plane.
+        let top = |p: Vec3| p.y - 0.3;
+        let bottom = |p: Vec3| -0.2 - p.y;
+        let rim = |p: Vec3| p.x - 0.1;
         let octrees = [
-            octree_from_sdfs(5, &[(&a, false)]),
-            octree_from_sdfs(4, &[(&a, false), (&b, false), (&sheet, true)]),
-            octree_from_sdfs(5, &[(&gyroid, true)]),
-            octree_from_sdfs(5, &[(&gyroid, false)]),
+            octree_from_sdfs(5, &[(&a, false, false)]),
+            octree_from_sdfs(
+                4,
+                &[
+                    (&a, false, false),
+                    (&b, false, false),
+                    (&sheet, true, false),
+                ],
+            ),
+            octree_from_sdfs(5, &[(&gyroid, true, false)]),
+            octree_from_sdfs(5, &[(&gyroid, false, false)]),
+            octree_from_sdfs(
+                5,
+                &[
+                    (&top, false, true),
+                    (&bottom, false, true),
+                    (&a, false, false),
+                ],
+            ),
+            octree_from_sdfs(5, &[(&sheet, true, false), (&rim, true, true)]),
         ];
         // Eyes on two and one root mid-planes (the paper views), off them, inside the root
         // cube, on a cell corner, and looking along an axis.
