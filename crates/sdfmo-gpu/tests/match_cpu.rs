@@ -25,6 +25,15 @@
 //! (169, 35): one ulp of dir.y moves the CPU's own t by 3.3e-6 (1.07e-4 voxel); the GPU's t
 //! differs by 3.4e-6.
 //!
+//! A last class of **lambert** pixel is excused, and counted (`edge_excused`, at most
+//! [`MAX_EDGE_EXCUSED`] of the hits): where the CPU's own hit changes voxel under a one-ulp
+//! change of the ray. Those are hits on a sharp edge or corner built from intersect voxels
+//! (issue 11), where two faces meet and either face's normal is right; the kernels' few-ulp
+//! differences pick either. Measured on lavapipe, four 256² views: the demo part's
+//! multi-octree 99 of 31,037 hits at depth 6 (0.32 %; lambert PSNR 37.3 dB without the excuse),
+//! 60 at depth 7, 18 at depth 8 (8- and 16-bit), 4 at depth 9; abc5 and the teapot 0; the
+//! SVOs 0–1.
+//!
 //! Resolution [`SIZE`]² (lavapipe runs the kernel on the CPU; a 256² paper view is 65k rays),
 //! each octree built once and rendered in both modes on all four views.
 //!
@@ -57,6 +66,8 @@ const DEPTH_ULPS: f32 = 4.0;
 const MIN_PSNR: f64 = 45.0;
 /// Ill-conditioned pixels (see the module docs) allowed, as a fraction of the hits.
 const MAX_ILL_CONDITIONED: f64 = 0.002;
+/// Lambert pixels excused on sharp edges (see the module docs), as a fraction of the hits.
+const MAX_EDGE_EXCUSED: f64 = 0.005;
 
 /// The renderer, or `None` (with a message) when there is no adapter and none is required.
 fn gpu() -> Option<GpuRenderer> {
@@ -137,6 +148,20 @@ fn one_ulp_spread(octree: &PackedOctree, o: Vec3, d: Vec3, t: f32) -> (bool, f32
     (flips, spread)
 }
 
+/// Whether the CPU's hit voxel changes when one component of the ray direction moves by one ulp.
+fn active_voxel_flips(octree: &PackedOctree, o: Vec3, d: Vec3) -> bool {
+    let voxel =
+        |dir: Vec3| intersect(octree, &Ray { origin: o, dir }, 0.0, f32::INFINITY).map(|h| h.voxel);
+    let here = voxel(d);
+    (0..3).any(|k| {
+        [-1i32, 1].into_iter().any(|step| {
+            let mut dir = d.to_array();
+            dir[k] = f32::from_bits(dir[k].to_bits().wrapping_add_signed(step));
+            voxel(Vec3::from_array(dir)) != here
+        })
+    })
+}
+
 fn psnr(a: &[u8], b: &[u8], size: u32) -> f64 {
     let img = |v: &[u8]| image::RgbImage::from_raw(size, size, v.to_vec()).expect("size");
     sdfmo_metrics::psnr(&img(a), &img(b)).expect("same size")
@@ -151,6 +176,8 @@ struct Stats {
     ulp_allowance: u64,
     boundary_excused: u64,
     ill_conditioned: u64,
+    /// Lambert pixels whose CPU voxel is not stable under a one-ulp ray change.
+    edge_excused: u64,
     max_depth_err_voxels: f32,
     min_psnr: f64,
 }
@@ -222,7 +249,27 @@ fn compare(gpu: &mut GpuRenderer, octree: &PackedOctree, label: &str) -> Stats {
         let gl = gpu
             .render(&on_gpu, &gcam, GpuMode::Lambert, &shade)
             .expect("GPU render");
-        let p = psnr(&cl.rgb, &gl.rgb, SIZE);
+        // Lambert pixels whose CPU hit changes voxel under a one-ulp change of the ray (a hit on
+        // a sharp edge of intersect voxels, where either face's normal is right) are excused:
+        // compared as the CPU's.
+        let mut g_rgb = gl.rgb.clone();
+        for (i, (cp, gp)) in cl
+            .rgb
+            .chunks_exact(3)
+            .zip(gl.rgb.chunks_exact(3))
+            .enumerate()
+        {
+            if cp == gp {
+                continue;
+            }
+            let (px, py) = (i as u32 % SIZE, i as u32 / SIZE);
+            let (o, d) = cam.primary_ray(px, py);
+            if active_voxel_flips(octree, o, d) {
+                stats.edge_excused += 1;
+                g_rgb[3 * i..3 * i + 3].copy_from_slice(cp);
+            }
+        }
+        let p = psnr(&cl.rgb, &g_rgb, SIZE);
         stats.min_psnr = stats.min_psnr.min(p);
         if p < MIN_PSNR {
             failures.push(format!(
@@ -234,6 +281,12 @@ fn compare(gpu: &mut GpuRenderer, octree: &PackedOctree, label: &str) -> Stats {
     assert!(
         stats.hits > 0,
         "{label}: nothing hit, the comparison is empty"
+    );
+    assert!(
+        stats.edge_excused as f64 <= MAX_EDGE_EXCUSED * stats.hits as f64,
+        "{label}: {} lambert pixels excused at edges of {} hits",
+        stats.edge_excused,
+        stats.hits
     );
     assert!(
         stats.ill_conditioned as f64 <= MAX_ILL_CONDITIONED * stats.hits as f64,
