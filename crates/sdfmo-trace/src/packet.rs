@@ -749,9 +749,12 @@ mod tests {
     use crate::Ray;
     use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, ValueBits, Voxel};
 
+    /// A signed distance with the surface and clip bits of its voxels.
+    type Field<'a> = (&'a dyn Fn(Vec3) -> f32, bool, bool);
+
     /// Leaves where `sdfs` come within a cell diagonal of zero, one voxel per SDF (with its
     /// surface and clip bits).
-    fn octree_from_sdfs(depth: u8, sdfs: &[(&dyn Fn(Vec3) -> f32, bool, bool)]) -> PackedOctree {
+    fn octree_from_sdfs(depth: u8, sdfs: &[Field<'_>]) -> PackedOctree {
         let n = 1u32 << depth;
         let h = 2.0 / n as f32;
         let mut leaves = Vec::new();
