@@ -123,7 +123,8 @@ pub struct Params {
     /// +1.55, 0.97 → +1.80 / +2.55, 0.99 → +1.43 / +3.53, 0.998 → +0.89 / +3.61 (abc5 −3.2).
     pub sharp_cos: f32,
     /// Sharp features: a face's samples must lie within this of its plane, and every sample
-    /// within this of the combined voxels' zero set.
+    /// within this of the combined voxels' zero set (0.02). Measured at depth 9, multi − SVO dB
+    /// for abc1 / teapot: 0.02 → +1.80 / +2.55, 0.04 → +1.98 / +2.18, 0.08 → +1.07 / +1.28.
     pub sharp_flat: f32,
     /// Sharp features: corners whose exact distance is beyond this must keep their sign.
     pub sharp_sign: f32,
