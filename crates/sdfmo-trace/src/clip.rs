@@ -35,7 +35,7 @@ use glam::Vec3;
 use sdfmo_format::{trilinear, trilinear_gradient, Octree};
 
 use crate::distance::DistanceSample;
-use crate::ray_voxel::{min_max, polish, RayCubic, REL_TOLERANCE};
+use crate::ray_voxel::{min_max, roots_where, RayCubic};
 
 /// Slack of the clip test at a crossing, relative to the clip voxel's largest |corner|: a
 /// candidate that is a polished root is accepted where `f_j ≤ CLIP_TOLERANCE · max|corner_j|`.
@@ -110,52 +110,6 @@ pub fn intersect_voxel_where(
     let cubic = RayCubic::new(&scaled, origin + dir * t0, dir * len);
     let to_t = |u: f32| (t0 + u * len).min(t1);
     roots_where(&cubic, 1.0, surface, |u, root| accept(to_t(u), root)).map(to_t)
-}
-
-/// The candidates of a cubic on `[0, len]` in order, the first one `accept` takes (see
-/// [`intersect_voxel_where`]); the loop of [`first_root`](crate::ray_voxel::first_root) that
-/// goes on past a rejected root.
-#[inline]
-fn roots_where(
-    cubic: &RayCubic,
-    len: f32,
-    surface: bool,
-    mut accept: impl FnMut(f32, bool) -> bool,
-) -> Option<f32> {
-    let g0 = cubic.d;
-    // The segment start: inside a volume, or on a surface.
-    if (g0 < 0.0 && !surface || g0 == 0.0 && surface) && accept(0.0, false) {
-        return Some(0.0);
-    }
-    if g0 == 0.0 && cubic.a == 0.0 && cubic.b == 0.0 && cubic.c == 0.0 {
-        // Zero along the whole segment: a volume voxel is hit where it starts (as the plain
-        // kernel); a surface voxel had its one candidate at the start.
-        return (!surface && accept(0.0, false)).then_some(0.0);
-    }
-    if len.is_nan() || len < 0.0 || g0.is_nan() {
-        return None;
-    }
-    let (crit, n) = cubic.critical_points(len);
-    let mut sa = 0.0f32;
-    let mut ga = g0;
-    for sb in crit.into_iter().take(n).chain(core::iter::once(len)) {
-        let gb = cubic.eval(sb);
-        // One root at most on a monotone piece.
-        let crosses = if surface {
-            (ga > 0.0 && gb <= 0.0) || (ga < 0.0 && gb >= 0.0)
-        } else {
-            ga >= 0.0 && gb < 0.0
-        };
-        if crosses {
-            let s = polish(cubic, sa, sb, ga, gb, len * REL_TOLERANCE);
-            if accept(s, true) {
-                return Some(s);
-            }
-        }
-        sa = sb;
-        ga = gb;
-    }
-    None
 }
 
 /// The leaf rule on a leaf with clip voxels: the nearest accepted candidate over the voxels of

@@ -236,15 +236,33 @@ pub(crate) fn intersect_prepared(
 /// first root in parameter units of the cubic. Polishes to `1e-6 · len`.
 #[inline]
 pub fn first_root(cubic: &RayCubic, len: f32, surface: bool) -> Option<f32> {
+    roots_where(cubic, len, surface, |_, _| true)
+}
+
+/// The candidates of a cubic on `[0, len]` in order, the first one `accept` takes (it gets the
+/// candidate's parameter and whether it is a polished root, `false` for the segment start):
+/// for a volume voxel the segment start when it starts inside (or the cubic is zero along the
+/// whole segment, a ray in the zero set of touching shells: on the surface, not a leak), then
+/// every crossing from `g ≥ 0` to `g < 0`; for a surface voxel the start when `g = 0` there,
+/// then every sign change. Each monotone piece between the cubic's critical points holds one
+/// root at most, polished to `1e-6 · len`. [`first_root`] accepts everything; the clip rule
+/// (`crate::clip`) goes on past rejected candidates.
+#[inline]
+pub(crate) fn roots_where(
+    cubic: &RayCubic,
+    len: f32,
+    surface: bool,
+    mut accept: impl FnMut(f32, bool) -> bool,
+) -> Option<f32> {
     let g0 = cubic.d;
-    if g0 < 0.0 && !surface || g0 == 0.0 && surface {
+    // The segment start: inside a volume, or on a surface.
+    if (g0 < 0.0 && !surface || g0 == 0.0 && surface) && accept(0.0, false) {
         return Some(0.0);
     }
-    // A volume segment lying in the zero set (the cubic is identically zero: a ray in the plane
-    // of an internal face of touching or overlapping shells, whose distance is 0 inside the
-    // solid) is on the surface: a hit where it starts, not a leak through the solid.
     if g0 == 0.0 && cubic.a == 0.0 && cubic.b == 0.0 && cubic.c == 0.0 {
-        return Some(0.0);
+        // Zero along the whole segment: a volume voxel is hit where it starts (as the plain
+        // kernel); a surface voxel had its one candidate at the start.
+        return (!surface && accept(0.0, false)).then_some(0.0);
     }
     if len.is_nan() || len < 0.0 || g0.is_nan() {
         return None;
@@ -254,14 +272,17 @@ pub fn first_root(cubic: &RayCubic, len: f32, surface: bool) -> Option<f32> {
     let mut ga = g0;
     for sb in crit.into_iter().take(n).chain(core::iter::once(len)) {
         let gb = cubic.eval(sb);
+        // One root at most on a monotone piece.
         let crosses = if surface {
             (ga > 0.0 && gb <= 0.0) || (ga < 0.0 && gb >= 0.0)
         } else {
-            // ga ≥ 0 here: the previous piece ended at or above zero.
-            gb < 0.0
+            ga >= 0.0 && gb < 0.0
         };
         if crosses {
-            return Some(polish(cubic, sa, sb, ga, gb, len * REL_TOLERANCE));
+            let s = polish(cubic, sa, sb, ga, gb, len * REL_TOLERANCE);
+            if accept(s, true) {
+                return Some(s);
+            }
         }
         sa = sb;
         ga = gb;
