@@ -3,19 +3,22 @@
 //!
 //! # The multi-octree decision, leaf by leaf
 //!
-//! [`multi_leaf`] runs five phases, each a function of its own module with its own tests:
-//! [`samples`] → [`split`] (components and their candidate voxels) → [`reduce`] → [`score`].
-//! Every threshold is a documented field of [`Params`].
+//! [`multi_leaf`] runs these phases, each a function of its own module with its own tests:
+//! [`samples`] → [`gaps`] → [`sharp`] → [`split`] (components and their candidate voxels) →
+//! [`reduce`] → [`score`] → [`rim`]. Every threshold is a documented field of [`Params`].
 //!
 //! 1. *Samples.* Every gathered triangle is clipped to the leaf cell; the clipped polygon's
 //!    vertices, centroid and centroid–vertex midpoints are points of the true surface inside the
-//!    leaf (signed distance 0).
+//!    leaf (signed distance 0). A cell without samples near an open sheet is dropped (the sheet's
+//!    extended plane is no surface there).
 //! 2. *Does the SVO voxel already do?* The single voxel from the global signed distance (shared
 //!    corners, quantised as the file stores them) is evaluated at the samples. If the largest
 //!    distance from a sample to the voxel's zero set (`|f| / |∇f|`, not `|f|`: a collapsed
-//!    gradient hides a missing zero set) is below [`Params::accept`] of the cell size, the leaf
-//!    gets that voxel, exactly as the SVO (most leaves: smooth surfaces, sharp edges of one
-//!    component). The thin test of step 3 measures the same distance.
+//!    gradient hides a missing zero set) is below [`Params::accept`] of the cell size, no sheet
+//!    is open near it and it closes no gap between the leaf's components ([`gaps`]), the leaf
+//!    gets that voxel, exactly as the SVO (most leaves: smooth surfaces). Before that, a sharp
+//!    edge or corner of one closed component takes one plane voxel per face ([`sharp`]). The
+//!    thin test of step 3 measures the same distance.
 //! 3. *Components.* The gathered triangles split into connected components through shared edges
 //!    of vertices welded by position (never at a sharp edge: a sharp edge shares its vertices;
 //!    part ids pre-split). Pieces of the same *global* component are merged back (a piece cut
@@ -40,7 +43,8 @@
 //!    mesh than the SVO voxel's (plus [`Params::reach_tol`]): the zero crossings of every voxel
 //!    on 4×4 axis-parallel lines per axis (exact, the interpolant is linear along them), minus
 //!    those buried in another volume voxel, are measured against the true unsigned distance.
-//!    Otherwise the leaf gets the SVO voxel.
+//!    Both scores count the gap points each choice closes. Otherwise the leaf gets the SVO voxel.
+//! 6. *Rims.* An open sheet's one voxel is clipped at the sheet's boundary ([`rim`]).
 
 use glam::Vec3;
 use sdfmo_format::{quant, ValueBits, Voxel};
@@ -403,7 +407,15 @@ pub fn multi_leaf(
     };
     // 6. One open sheet's voxel (its surface voxel, or the SVO voxel) stops at the sheet's rim.
     if p.rims && k == 1 && open_near && r.voxels.len() == 1 {
-        rim::rim_clips(p, mesh, &cell, tris, &s.samples, &mut r.voxels);
+        rim::rim_clips(
+            p,
+            mesh,
+            &cell,
+            tris,
+            &s.samples,
+            &mut s.sharp,
+            &mut r.voxels,
+        );
     }
     r
 }

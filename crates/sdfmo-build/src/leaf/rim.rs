@@ -6,14 +6,17 @@
 //! positive beyond the rim. A straight rim takes one; a convex corner of the sheet two (their
 //! intersection).
 //!
-//! The clips are added only where the leaf's voxel set is the sheet's one surface voxel, the
-//! boundary edges crossing the cell lie on at most [`MAX_RIMS`] lines, and no surface sample
-//! lies beyond a clip (a concave corner, or a rim that is not straight within the cell).
+//! The clips are added only where the leaf's voxel set is one voxel of one open component (its
+//! surface voxel, or the SVO voxel where that won), the boundary edges crossing the cell lie on
+//! at most [`MAX_RIMS`] lines, and no surface sample lies beyond a clip (a concave corner, or a
+//! rim that is not straight within the cell). Where the sheet is one flat face in the cell (the
+//! `sharp` module's face groups), its own voxel becomes that plane.
 
 use glam::Vec3;
 use sdfmo_format::Voxel;
 
 use super::samples::Samples;
+use super::sharp::{flat_faces, SharpScratch};
 use super::{Cell, Params};
 use crate::local::LocalMesh;
 
@@ -36,10 +39,15 @@ pub(crate) fn rim_clips(
     cell: &Cell,
     tris: &[u32],
     samples: &Samples,
+    scratch: &mut SharpScratch,
     out: &mut Vec<Voxel>,
 ) -> usize {
     let flat = p.sharp_flat * cell.h;
-    let mut planes: [Option<RimPlane>; MAX_RIMS] = [None; MAX_RIMS];
+    let unset = RimPlane {
+        normal: Vec3::ZERO,
+        point: Vec3::ZERO,
+    };
+    let mut planes = [unset; MAX_RIMS];
     let mut count = 0;
     for &t in tris {
         let t = t as usize;
@@ -66,13 +74,13 @@ pub(crate) fn rim_clips(
             let same = |q: &RimPlane| {
                 q.normal.dot(normal) >= p.sharp_cos && q.normal.dot(a - q.point).abs() <= flat
             };
-            if planes[..count].iter().flatten().any(same) {
+            if planes[..count].iter().any(same) {
                 continue;
             }
             if count == MAX_RIMS {
                 return 0;
             }
-            planes[count] = Some(RimPlane { normal, point: a });
+            planes[count] = RimPlane { normal, point: a };
             count += 1;
         }
     }
@@ -82,7 +90,9 @@ pub(crate) fn rim_clips(
     // around the boundary edge, and its interpolant with it; the plane, cut by the clips, is
     // exact.
     if let Some(sheet) = out.first_mut().filter(|v| v.surface && !v.clip) {
-        if let Some((normal, point)) = flat_plane(mesh, cell, tris, samples, flat) {
+        let plane =
+            flat_faces(p, mesh, cell, tris, samples, scratch).and_then(|f| f.single_plane());
+        if let Some((normal, point)) = plane {
             let c = corners.map(|x| normal.dot(x - point));
             // Keep the orientation of the sheet's own voxel (either sign is the same surface).
             let same = c
@@ -94,7 +104,7 @@ pub(crate) fn rim_clips(
             sheet.corners = if same { c } else { c.map(|v| -v) };
         }
     }
-    for plane in planes[..count].iter().flatten() {
+    for plane in &planes[..count] {
         // The sheet lies on the inner side: no sample beyond the plane.
         if samples
             .points
@@ -116,45 +126,6 @@ pub(crate) fn rim_clips(
         });
     }
     out.len() - start
-}
-
-/// The plane of the triangles reaching into the cell (area-weighted normal and centroid), when
-/// every surface sample lies within `flat` of it.
-fn flat_plane(
-    mesh: &LocalMesh,
-    cell: &Cell,
-    tris: &[u32],
-    samples: &Samples,
-    flat: f32,
-) -> Option<(Vec3, Vec3)> {
-    let mut normal = Vec3::ZERO;
-    let mut point = Vec3::ZERO;
-    let mut area = 0.0f32;
-    let mut reference = Vec3::ZERO;
-    for &li in &samples.triangle {
-        let t = tris[li as usize] as usize;
-        let mut n = mesh.face_normal[t];
-        if reference == Vec3::ZERO {
-            reference = n;
-        } else if n.dot(reference) < 0.0 {
-            n = -n;
-        }
-        let w = mesh.area2[t];
-        let [a, b, c] = mesh.tris[t];
-        normal += n * w;
-        point += (a + b + c) * (w / 3.0);
-        area += w;
-    }
-    let normal = normal.normalize_or_zero();
-    let point = point / area;
-    if normal == Vec3::ZERO || !point.is_finite() {
-        return None;
-    }
-    samples
-        .points
-        .iter()
-        .all(|&l| normal.dot(cell.at(l) - point).abs() <= flat)
-        .then_some((normal, point))
 }
 
 /// Whether the segment `a`–`b` meets the box `[lo, hi]` (slab clipping).
@@ -186,7 +157,16 @@ mod tests {
         let leaf = f.leaf(p, at);
         let samples = leaf.samples(f, p);
         let mut out = Vec::new();
-        rim_clips(p, &f.mesh, &leaf.cell, &leaf.tris, &samples, &mut out);
+        let mut scratch = SharpScratch::default();
+        rim_clips(
+            p,
+            &f.mesh,
+            &leaf.cell,
+            &leaf.tris,
+            &samples,
+            &mut scratch,
+            &mut out,
+        );
         out
     }
 

@@ -51,19 +51,34 @@ pub(crate) struct SharpScratch {
     face_of: Vec<u8>,
 }
 
-/// The plane voxels of the sharp feature in `cell` (gathered triangles `tris` of one closed
-/// component, global corner distances `g`, surface samples `samples`), or `None` where the leaf
-/// is smooth, curved, not one clean edge or corner, or not reproduced (see the module docs).
-pub(crate) fn sharp_voxels(
+/// The flat faces of a leaf: the groups of the triangles reaching into the cell whose normals lie
+/// within [`Params::sharp_cos`] of the group's first, each with its plane (area-weighted normal
+/// and centroid) and the mean of its samples.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FlatFaces {
+    faces: [Face; MAX_FACES],
+    centers: [Vec3; MAX_FACES],
+    count: usize,
+}
+
+impl FlatFaces {
+    /// The plane `(unit normal, point)` where the leaf holds exactly one flat face.
+    pub fn single_plane(&self) -> Option<(Vec3, Vec3)> {
+        (self.count == 1).then(|| (self.faces[0].normal, self.faces[0].point))
+    }
+}
+
+/// The flat faces of the triangles `tris` in `cell` (see [`FlatFaces`]), or `None` where they
+/// form more than [`MAX_FACES`] groups or some face's samples stray farther than
+/// [`Params::sharp_flat`] from its plane.
+pub(crate) fn flat_faces(
     p: &Params,
     mesh: &LocalMesh,
     cell: &Cell,
     tris: &[u32],
-    g: &[f32; 8],
     samples: &Samples,
     s: &mut SharpScratch,
-) -> Option<(Vec<Voxel>, Combine)> {
-    // 1. Face groups of the triangles reaching into the cell.
+) -> Option<FlatFaces> {
     const NONE: u8 = u8::MAX;
     s.face_of.clear();
     s.face_of.resize(tris.len(), NONE);
@@ -99,19 +114,14 @@ pub(crate) fn sharp_voxels(
         face.point += (a + b + c) * (w / 3.0);
         face.area += w;
     }
-    if count < 2 {
-        return None;
-    }
-    let faces = &mut faces[..count];
-    for f in faces.iter_mut() {
+    for f in faces[..count].iter_mut() {
         f.normal = f.normal.normalize_or_zero();
         f.point /= f.area;
         if f.normal == Vec3::ZERO || !f.point.is_finite() {
             return None;
         }
     }
-
-    // 2. Each face flat; the mean of each face's samples, for the convexity test.
+    // Each face flat; the mean of each face's samples.
     let flat = p.sharp_flat * cell.h;
     let mut centers = [Vec3::ZERO; MAX_FACES];
     let mut n_samples = [0u32; MAX_FACES];
@@ -128,16 +138,46 @@ pub(crate) fn sharp_voxels(
         centers[f as usize] += x;
         n_samples[f as usize] += 1;
     }
+    for (c, n) in centers.iter_mut().zip(n_samples) {
+        *c /= n.max(1) as f32;
+    }
+    Some(FlatFaces {
+        faces,
+        centers,
+        count,
+    })
+}
+
+/// The plane voxels of the sharp feature in `cell` (gathered triangles `tris` of one closed
+/// component, global corner distances `g`, surface samples `samples`), or `None` where the leaf
+/// is smooth, curved, not one clean edge or corner, or not reproduced (see the module docs).
+pub(crate) fn sharp_voxels(
+    p: &Params,
+    mesh: &LocalMesh,
+    cell: &Cell,
+    tris: &[u32],
+    g: &[f32; 8],
+    samples: &Samples,
+    s: &mut SharpScratch,
+) -> Option<(Vec<Voxel>, Combine)> {
+    // 1–2. Two or three flat faces.
+    let flat_faces = flat_faces(p, mesh, cell, tris, samples, s)?;
+    let count = flat_faces.count;
+    if count < 2 {
+        return None;
+    }
+    let faces = &flat_faces.faces[..count];
+    let centers = &flat_faces.centers[..count];
+    let flat = p.sharp_flat * cell.h;
 
     // 3. Convex (every face's samples behind every other face's plane) or concave (in front).
     let mut convex = 0;
     let mut concave = 0;
     for (i, fi) in faces.iter().enumerate() {
-        for j in 0..count {
+        for (j, &cj) in centers.iter().enumerate() {
             if i == j {
                 continue;
             }
-            let cj = centers[j] / n_samples[j].max(1) as f32;
             let side = fi.normal.dot(cj - fi.point);
             if side < -flat {
                 convex += 1;
