@@ -225,6 +225,7 @@ mod tests {
     //! two planes, on clipped surfaces and on clip boundaries through the hit (tangent cases).
 
     use super::*;
+    use crate::ray_voxel::tests::{config, f64_at, point_strategy, unit};
     use crate::ray_voxel::{intersect_voxel, unit_cube_span};
     use proptest::prelude::*;
     use proptest::test_runner::TestCaseError;
@@ -263,17 +264,6 @@ mod tests {
         origin: Vec3,
         dir: Vec3,
         t1: f32,
-    }
-
-    fn f64_at(c: &[f32; 8], o: Vec3, d: Vec3, t: f64) -> f64 {
-        let p = [0, 1, 2].map(|k| o[k] as f64 + t * d[k] as f64);
-        let c = c.map(|v| v as f64);
-        let l = |a: f64, b: f64, t: f64| a + (b - a) * t;
-        let c00 = l(c[0], c[1], p[2]);
-        let c01 = l(c[2], c[3], p[2]);
-        let c10 = l(c[4], c[5], p[2]);
-        let c11 = l(c[6], c[7], p[2]);
-        l(l(c00, c01, p[1]), l(c10, c11, p[1]), p[0])
     }
 
     fn scale_of(c: &[f32; 8]) -> f64 {
@@ -437,10 +427,6 @@ mod tests {
         Ok(got)
     }
 
-    fn unit(v: [f32; 3]) -> Vec3 {
-        Vec3::from(v).try_normalize().unwrap_or(Vec3::X)
-    }
-
     /// The case of a ray through `target` from `back` units before it, clipped to the cube and
     /// re-based at the entry point (as the traversal does: s = t − t_enter).
     fn case_through(
@@ -501,22 +487,6 @@ mod tests {
             prop_oneof![Just(1.0f32), 0.05f32..20.0],
         )
             .prop_map(|(v, len)| unit(v) * len)
-    }
-
-    fn point_strategy() -> impl Strategy<Value = Vec3> {
-        proptest::array::uniform3(0.0f32..=1.0).prop_map(Vec3::from)
-    }
-
-    fn config(cases: u32) -> ProptestConfig {
-        let cases = std::env::var("PROPTEST_CASES")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(cases);
-        ProptestConfig {
-            cases,
-            failure_persistence: None,
-            ..ProptestConfig::default()
-        }
     }
 
     proptest! {

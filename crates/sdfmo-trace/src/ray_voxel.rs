@@ -352,7 +352,7 @@ pub(crate) fn min_max(c: &[f32; 8]) -> (f32, f32) {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     //! The kernel against an f64 oracle (dense sampling plus bisection), on random voxels and
     //! rays and on the hard families: tangent and double roots, axis-parallel rays, rays that
     //! start inside the cube or on a face, all-near-zero and exactly-zero values, degenerate
@@ -372,7 +372,8 @@ mod tests {
     /// Slope (per voxel unit, relative to the largest |corner|) from which a crossing is clear.
     const CLEAR_SLOPE: f64 = 0.05;
 
-    fn f64_at(c: &[f32; 8], o: Vec3, d: Vec3, t: f64) -> f64 {
+    /// The trilinear interpolant of `c` at `o + t·d`, in f64: the oracles' reference.
+    pub(crate) fn f64_at(c: &[f32; 8], o: Vec3, d: Vec3, t: f64) -> f64 {
         let p = [0, 1, 2].map(|k| o[k] as f64 + t * d[k] as f64);
         let c = c.map(|v| v as f64);
         let l = |a: f64, b: f64, t: f64| a + (b - a) * t;
@@ -519,7 +520,7 @@ mod tests {
     }
 
     /// A unit vector from three numbers, or +x when they are all tiny.
-    fn unit(v: [f32; 3]) -> Vec3 {
+    pub(crate) fn unit(v: [f32; 3]) -> Vec3 {
         Vec3::from(v).try_normalize().unwrap_or(Vec3::X)
     }
 
@@ -567,12 +568,12 @@ mod tests {
             .prop_map(|(v, len)| unit(v) * len)
     }
 
-    fn point_strategy() -> impl Strategy<Value = Vec3> {
+    pub(crate) fn point_strategy() -> impl Strategy<Value = Vec3> {
         proptest::array::uniform3(0.0f32..=1.0).prop_map(Vec3::from)
     }
 
     /// `cases` per suite, or `PROPTEST_CASES` from the environment for a longer run.
-    fn config(cases: u32) -> ProptestConfig {
+    pub(crate) fn config(cases: u32) -> ProptestConfig {
         let cases = std::env::var("PROPTEST_CASES")
             .ok()
             .and_then(|v| v.parse().ok())
