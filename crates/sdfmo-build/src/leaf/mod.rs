@@ -317,9 +317,19 @@ pub fn multi_leaf(
     }
     let gq = p.q8(g);
     let svo = svo_fit(&gq, &s.samples, &cell);
-    // 2. Components, and the free space between them that the SVO voxel fills (a gap the
-    //    samples on the surfaces cannot see).
+    // 2. Components; a sharp feature of one of them; the free space between them that the SVO
+    //    voxel fills (a gap the samples on the surfaces cannot see).
     let k = s.components.find(global, tris);
+    // A sharp edge or corner of one closed component: one plane voxel per face.
+    if k == 1 && !open_near && p.sharp {
+        if let Some(voxels) = sharp::sharp_voxels(p, mesh, &cell, tris, g, &s.samples, &mut s.sharp)
+        {
+            return LeafResult {
+                voxels,
+                cap_hit: false,
+            };
+        }
+    }
     // (A leaf whose SVO voxel does not cross zero is dropped: it closes nothing.)
     if p.crosses(g) {
         s.gaps
@@ -328,17 +338,6 @@ pub fn multi_leaf(
         s.gaps.points.clear();
     }
     let svo_closed = s.gaps.points.len();
-    // A sharp edge or corner of one closed component: one plane voxel per face.
-    if k == 1 && !open_near && p.sharp {
-        if let Some((voxels, _)) =
-            sharp::sharp_voxels(p, mesh, &cell, tris, g, &s.samples, &mut s.sharp)
-        {
-            return LeafResult {
-                voxels,
-                cap_hit: false,
-            };
-        }
-    }
     if svo.max_gap <= p.accept && !open_near && svo_closed == 0 {
         return svo_leaf(p, g);
     }

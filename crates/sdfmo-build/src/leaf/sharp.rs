@@ -38,7 +38,7 @@ struct Face {
 
 /// How the plane voxels of a sharp feature combine.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Combine {
+enum Combine {
     /// Convex: the solid is the intersection of the faces' half-spaces (clip bits).
     Intersect,
     /// Concave: the solid is their union (plain volume voxels).
@@ -159,7 +159,7 @@ pub(crate) fn sharp_voxels(
     g: &[f32; 8],
     samples: &Samples,
     s: &mut SharpScratch,
-) -> Option<(Vec<Voxel>, Combine)> {
+) -> Option<Vec<Voxel>> {
     // 1–2. Two or three flat faces.
     let flat_faces = flat_faces(p, mesh, cell, tris, samples, s)?;
     let count = flat_faces.count;
@@ -228,7 +228,7 @@ pub(crate) fn sharp_voxels(
     if !voxels.iter().any(|v| p.crosses(&v.corners)) {
         return None;
     }
-    Some((voxels, combine))
+    Some(voxels)
 }
 
 #[cfg(test)]
@@ -238,7 +238,7 @@ mod tests {
     use sdfmo_format::ValueBits;
     use sdfmo_mesh::{procedural, TriMesh};
 
-    fn sharp_at(f: &Fixture, p: &Params, at: Vec3) -> Option<(Vec<Voxel>, Combine)> {
+    fn sharp_at(f: &Fixture, p: &Params, at: Vec3) -> Option<Vec<Voxel>> {
         let leaf = f.leaf(p, at);
         let samples = leaf.samples(f, p);
         sharp_voxels(
@@ -257,13 +257,14 @@ mod tests {
         let f = Fixture::new(procedural::box_mesh(Vec3::splat(-0.6), Vec3::splat(0.4)));
         let p = Params::new(3, ValueBits::Eight, 8);
         // The edge x = y = 0.4 runs through the cell [0.25, 0.5] × [0.25, 0.5] × [0, 0.25].
-        let (v, c) = sharp_at(&f, &p, Vec3::new(0.3, 0.3, 0.1)).expect("an edge");
-        assert_eq!(c, Combine::Intersect);
+        // Intersected: every voxel is an intersect voxel (volume + clip).
+        let v = sharp_at(&f, &p, Vec3::new(0.3, 0.3, 0.1)).expect("an edge");
         assert_eq!(v.len(), 2);
         assert!(v.iter().all(|v| v.clip && !v.surface));
         // The corner (0.4, 0.4, 0.4).
-        let (v, c) = sharp_at(&f, &p, Vec3::splat(0.3)).expect("a corner");
-        assert_eq!((v.len(), c), (3, Combine::Intersect));
+        let v = sharp_at(&f, &p, Vec3::splat(0.3)).expect("a corner");
+        assert_eq!(v.len(), 3);
+        assert!(v.iter().all(|v| v.clip && !v.surface));
         // A flat face: nothing sharp.
         assert!(sharp_at(&f, &p, Vec3::new(0.3, 0.1, 0.1)).is_none());
     }
@@ -304,8 +305,9 @@ mod tests {
         ]);
         let f = Fixture::new(l_shape);
         let p = Params::new(3, ValueBits::Eight, 8);
-        let (v, c) = sharp_at(&f, &p, Vec3::new(0.1, 0.4, 0.1)).expect("an inner edge");
-        assert_eq!((v.len(), c), (2, Combine::Union));
+        // United: plain volume voxels.
+        let v = sharp_at(&f, &p, Vec3::new(0.1, 0.4, 0.1)).expect("an inner edge");
+        assert_eq!(v.len(), 2);
         assert!(v.iter().all(|v| !v.clip && !v.surface));
     }
 
