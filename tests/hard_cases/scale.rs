@@ -188,20 +188,63 @@ fn power_of_two_scales_give_identical_voxels() {
     }
 }
 
-/// Scaling the input by 1e-4 or 1e4 perturbs the normalised coordinates by about one ulp, and
-/// that flips the multi-octree's per-leaf decisions (two surface voxels from splitting a thin
-/// component ↔ one volume voxel; leaf kept ↔ dropped) where the rotated plate is 0.3 of a leaf
-/// thick. The SVO (same distances) is identical, so the instability is in the multi-specific
-/// decisions, not in the distance field.
+/// Scaling the input by 1e-4 or 1e4 perturbs the normalised coordinates by about one ulp. The
+/// multi-octree's decisions used to flip under it (26 + 29 leaves of the plate+sphere, 6 and
+/// 14 + 9 of the demo part): a plate 0.3 of a leaf thick split or not, surface on a cell face
+/// sampled on one side only, a corner in the plane of an open sheet beyond its rim signed by
+/// rounding noise. The SVO (same distances) was always identical.
 #[test]
-#[ignore = "bug: multi-octree decisions flip under 1-ulp input changes. Since issue 11's plane voxels \
-            the plate+sphere (depth 5) is identical at 1e-4 and 1e4 (was 26 + 29 leaves, 24.10 dB); \
-            the demo at depth 6 still differs: 6 leaves only in one octree at 1e-4 (PSNR inf), 14 + 9 \
-            at 1e4 (66.19 dB), e.g. leaf [9, 17, 53] with or without a rim's clip-only voxel (the \
-            demo's sheet has boundary edges on cell faces); the SVO is identical at every scale"]
 fn multi_octree_is_identical_at_scales_1e_minus_4_1_and_1e4() {
     assert_identical(&scales("plate+sphere", &plate_and_sphere(), 5, MULTI), 5);
     assert_identical(&scales("demo", &procedural::demo_part(), 6, MULTI), 6);
+}
+
+/// Issue 11's "stable decisions" in its own words: the same octree, up to corner rounding,
+/// under a one-ulp change of any vertex. Every coordinate of every vertex moves one ulp up,
+/// down or not at all (chosen by a hash of the position, so welded copies move alike), in
+/// three draws, for both methods, on the demo part (axis-aligned faces and rims on cell faces)
+/// at depths 6–8 and the rotated plate + sphere at depths 5–6. Before the face slack and the
+/// undecided side (session 6) the demo at depth 6 differed in 53 + 70 leaves. Not asserted: the
+/// plate + sphere at depth 7, where one leaf of the 0.01-thick rotated plate flips between the
+/// SVO voxel and its two face voxels under draw 2 (a score threshold crossed because one
+/// corner rounds to the next quantisation step: a decision on quantised values cannot be
+/// continuous everywhere).
+#[test]
+fn one_ulp_vertex_nudges_give_the_same_octree() {
+    fn nudge(p: Vec3, seed: u32) -> Vec3 {
+        let step = |v: f32, k: u32| {
+            let h = (v.to_bits() ^ seed.wrapping_mul(0x9e37_79b9)).wrapping_mul(0x85eb_ca6b) ^ k;
+            match h.wrapping_mul(0xc2b2_ae35) >> 30 {
+                0 => v.next_up(),
+                1 => v.next_down(),
+                _ => v,
+            }
+        };
+        Vec3::new(step(p.x, 1), step(p.y, 2), step(p.z, 3))
+    }
+    for (name, part, depth) in [
+        ("demo", procedural::demo_part(), 6),
+        ("demo", procedural::demo_part(), 7),
+        ("demo", procedural::demo_part(), 8),
+        ("plate+sphere", plate_and_sphere(), 6),
+        ("plate+sphere", plate_and_sphere(), 7),
+        ("plate+sphere", plate_and_sphere(), 5),
+    ] {
+        for (mname, method) in METHODS {
+            let unit = build(&part, depth, method);
+            for seed in 1..=3 {
+                let moved = build(&part.transformed(|p| nudge(p, seed)), depth, method);
+                let d = diff(&unit, &moved);
+                let what = format!("{name} {mname} depth {depth} nudge {seed}");
+                assert_eq!(d.leaves_only_in_one, 0, "{what}: {d:?}");
+                assert_eq!(d.leaves_differing_voxels, 0, "{what}: {d:?}");
+                assert!(
+                    d.max_corner_diff <= quant_step(depth) * 1.01,
+                    "{what}: {d:?}"
+                );
+            }
+        }
+    }
 }
 
 /// A copy of the demo part moved by +1e5 along x. At 1e5 an f32 has a spacing of 2⁻⁷, so the

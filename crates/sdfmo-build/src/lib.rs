@@ -156,6 +156,29 @@ pub fn margins(depth: u8, bits: ValueBits, method: Method) -> (f32, f32) {
     }
 }
 
+/// The normalised vertex `p` rounded to a grid of `2^-(depth + 10)` for 8-bit corners (a
+/// 2048th of a leaf edge, against a quantisation half-step of a 147th) or `2^-(depth + 18)` for
+/// 16-bit ones (against a 37,800th); not at all where that grid would be finer than `2^-22`
+/// (four f32 ulps at 1: the snap would round nothing away). The multi-octree's decisions are
+/// discrete (a component reaches a cell or not, a corner lies on one side of a sheet's plane or
+/// the other), and CAD parts put faces, rims and corners exactly on cell faces, where one ulp
+/// of input rounding (a scaled, translated or re-exported copy of the same part) would decide
+/// them. Cell faces lie on this grid, so such features snap back onto them exactly; the
+/// vertices move by at most half a step, well below the corner quantisation.
+fn snap_to_grid(p: Vec3, depth: u8, bits: ValueBits) -> Vec3 {
+    let below_quantisation = match bits {
+        ValueBits::Eight => 10,
+        ValueBits::Sixteen => 18,
+    };
+    let exponent = i32::from(depth) + below_quantisation;
+    if exponent > 22 {
+        return p;
+    }
+    let scale = 2f32.powi(exponent);
+    // Exact: |p| <= 1 keeps p * 2^22 below 2^24.
+    (p * scale).round() / scale
+}
+
 /// Shallowest depth [`build`] accepts: depth 0 would be one leaf for the whole root cube.
 pub const MIN_DEPTH: u8 = 1;
 
@@ -389,6 +412,8 @@ fn build_in_pool(
     // 1. Normalise.
     let t = Instant::now();
     let (norm_mesh, norm) = mesh.normalized(settings.margin);
+    // Both methods: where the multi-octree has nothing to add it must equal the SVO.
+    let norm_mesh = norm_mesh.transformed(|p| snap_to_grid(p, depth, settings.bits));
     let local = LocalMesh::new(&norm_mesh);
     phases.push(("normalize".to_string(), ms(t)));
     report(0.03);
