@@ -2,7 +2,7 @@
 //! sheet's silhouette matches the mesh's. Flat and bent open sheets (procedural), tilted so the
 //! cameras see their faces, depths 7–9: the multi-octree's mask against the mesh's, beside the
 //! SVO's (IoU, and pixels the octree adds outside the mesh's silhouette). The multi-octree's
-//! IoU must be at least the SVO's and it must add no more pixels.
+//! IoU must be at least the SVO's, and the pixels it adds at most 0.1 % of the mesh's.
 //!
 //! `cargo test --release --test hard_cases -- --ignored --nocapture rim_table` prints the table
 //! of `docs/results/hard-cases.md` (512² images); the CI test runs depth 7 at 128².
@@ -71,11 +71,11 @@ fn check(depth: u8, size: u32, table: bool) {
             multi.0 >= svo.0,
             "{what}: the multi-octree's IoU is below the SVO's"
         );
-        // Issue 11 aims at ≤ 0.1 % of the silhouette; not met yet (0.3–1.2 %, one-pixel steps
-        // along the rims, see docs/results/hard-cases.md): bounded here by the SVO's.
+        // Issue 11's bound: at most 0.1 % of the silhouette (docs/results/hard-cases.md).
         assert!(
-            multi.1 <= svo.1,
-            "{what}: the multi-octree adds {multi_extra_pct:.3} % of the silhouette, more than the SVO"
+            multi_extra_pct <= 0.1 && multi.1 <= svo.1,
+            "{what}: the multi-octree adds {multi_extra_pct:.3} % of the silhouette (SVO: {} px)",
+            svo.1
         );
     }
 }

@@ -10,7 +10,7 @@
 use std::sync::OnceLock;
 
 use glam::Vec3;
-use sdfmo_distance::{MeshDistance, SignMode};
+use sdfmo_distance::{sign_by_pseudo_normal, MeshDistance, SignMode};
 use sdfmo_mesh::{EdgeAdjacency, TriMesh};
 
 use crate::local::LocalMesh;
@@ -72,6 +72,17 @@ impl Components {
         }
     }
 
+    /// Whether global component `c` alone encloses `p` (its winding number is above ½; for an
+    /// open component, only where it nearly closes around `p`); `None` where its distance
+    /// structure was refused.
+    pub fn winding_inside(&self, local: &LocalMesh, c: u32, p: Vec3) -> Option<bool> {
+        let members = &self.members[c as usize];
+        self.dists[c as usize]
+            .get_or_init(|| component_distance(local, members))
+            .as_ref()
+            .map(|d| d.winding_inside(p))
+    }
+
     /// Signed distance from `p` to global component `c`, starting from triangle `hint` (a
     /// global id in that component). Signed by the pseudo-normal of the closest feature when it
     /// is clean or the component is open, else by the component's winding number.
@@ -90,12 +101,7 @@ impl Components {
         // The component mesh keeps each triangle's vertex order, so the feature is the same.
         let f = cp.feature;
         if self.open[c as usize] || local.feature_is_clean(t as usize, f) {
-            let n = local.pseudo_normal(t as usize, f);
-            if (p - cp.point).dot(n) < 0.0 {
-                -cp.distance
-            } else {
-                cp.distance
-            }
+            sign_by_pseudo_normal(p, &cp, local.pseudo_normal(t as usize, f))
         } else {
             dist.sign_closest(p, &cp)
         }

@@ -104,6 +104,22 @@ impl LocalMesh {
         sign_by_pseudo_normal(p, &c, self.pseudo_normal(c.triangle as usize, c.feature))
     }
 
+    /// Distance from `p` to the open sheet `subset` continued past its rims: the offset from the
+    /// closest point along the normal of the face it lies on. Inside a face's Voronoi region
+    /// that is the signed distance; beyond a rim it is the distance to the plane of the rim's
+    /// face (the sheet's tangent continuation) where the true distance bends around the
+    /// boundary edge. Signed by the face's own orientation. `f32::INFINITY` for an empty subset.
+    #[inline]
+    pub fn sheet_continuation_distance(&self, subset: &[u32], p: Vec3) -> f32 {
+        let c = self
+            .slices()
+            .closest_point_in_subset(subset, p, f32::INFINITY);
+        if !c.is_found() {
+            return f32::INFINITY;
+        }
+        (p - c.point).dot(self.face_normal[c.triangle as usize])
+    }
+
     /// The closest point to `p` on the triangles `subset` nearer than `cap`, if any.
     #[inline]
     pub fn closest_point_subset(&self, subset: &[u32], p: Vec3, cap: f32) -> Option<Vec3> {

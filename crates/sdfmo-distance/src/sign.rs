@@ -56,7 +56,7 @@ impl MeshDistance {
     /// rims and seams of an open or non-manifold mesh w is close to 0 or 1); only the others are
     /// recomputed with the full [`WINDING_BETA`].
     #[inline]
-    pub(crate) fn winding_inside(&self, p: Vec3) -> bool {
+    pub fn winding_inside(&self, p: Vec3) -> bool {
         let coarse = self.winding_number_scaled(p, COARSE_FAR_SCALE);
         if (coarse - 0.5).abs() > COARSE_WINDING_MARGIN {
             coarse > 0.5

@@ -320,6 +320,39 @@ pub fn multi_leaf(
     // 2. Components; a sharp feature of one of them; the free space between them that the SVO
     //    voxel fills (a gap the samples on the surfaces cannot see).
     let k = s.components.find(global, tris);
+    // One open surface meets the cell and the SVO voxel's negative side is not enclosed by it
+    // (a corner it calls inside where the surface's winding number says outside): the back of
+    // an open sheet, which a ray can reach without crossing the sheet. As a volume voxel the
+    // SVO voxel would stop such a ray where it enters the leaf from its empty neighbour, a
+    // wall up to a voxel off the sheet (a curved sheet's silhouette). There the SVO voxel is
+    // a surface voxel (no inside). Where the inside is enclosed (a nearly closed open surface:
+    // the teapot) it stays a volume voxel, which keeps the surface watertight.
+    // Judged at the corner the voxel calls most deeply inside (one winding number per leaf,
+    // and only where the SVO voxel is kept).
+    let open_comp = (k == 1)
+        .then(|| s.components.global_ids[0])
+        .filter(|&c| global.open[c as usize]);
+    let back_of_open_sheet = |gq: &[f32; 8]| {
+        let Some(comp) = open_comp else {
+            return false;
+        };
+        let (deepest, &gv) = gq
+            .iter()
+            .enumerate()
+            .min_by(|a, b| a.1.total_cmp(b.1))
+            .expect("eight corners");
+        gv < 0.0
+            && global
+                .winding_inside(mesh, comp, cell.corners()[deepest])
+                .is_some_and(|inside| !inside)
+    };
+    let svo_voxel = |p: &Params, g: &[f32; 8]| {
+        let mut r = svo_leaf(p, g);
+        if !r.voxels.is_empty() && back_of_open_sheet(&p.q8(g)) {
+            r.voxels[0].surface = true;
+        }
+        r
+    };
     // A sharp edge or corner of one closed component: one plane voxel per face.
     if k == 1 && !open_near && p.sharp {
         if let Some(voxels) = sharp::sharp_voxels(p, mesh, &cell, tris, g, &s.samples, &mut s.sharp)
@@ -339,7 +372,7 @@ pub fn multi_leaf(
     }
     let svo_closed = s.gaps.points.len();
     if svo.max_gap <= p.accept && !open_near && svo_closed == 0 {
-        return svo_leaf(p, g);
+        return svo_voxel(p, g);
     }
 
     // 3. One (or two) voxels per component.
@@ -355,7 +388,7 @@ pub fn multi_leaf(
     );
     if k == 1 && s.cands.len() == 1 && !s.cands[0].surface {
         // One component, one volume voxel: that is the SVO voxel.
-        return svo_leaf(p, g);
+        return svo_voxel(p, g);
     }
 
     // 4. Reduction: voxels that cannot be hit, hidden voxels, then the cap.
@@ -366,7 +399,7 @@ pub fn multi_leaf(
         reduce::merge_to_cap(p, &mut s.cands);
     }
     if s.cands.is_empty() {
-        return svo_leaf(p, g);
+        return svo_voxel(p, g);
     }
 
     // 5. Earn its place.
@@ -400,7 +433,7 @@ pub fn multi_leaf(
             cap_hit,
         }
     } else {
-        let mut r = svo_leaf(p, g);
+        let mut r = svo_voxel(p, g);
         r.cap_hit = cap_hit;
         r
     };

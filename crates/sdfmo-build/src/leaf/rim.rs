@@ -18,6 +18,7 @@ use sdfmo_format::Voxel;
 use super::samples::Samples;
 use super::sharp::{flat_faces, SharpScratch};
 use super::{Cell, Params};
+use crate::geom::zero_set_gap;
 use crate::local::LocalMesh;
 
 /// Most rim lines (clip voxels) per leaf: a convex corner of a sheet.
@@ -89,11 +90,28 @@ pub(crate) fn rim_clips(
     // A flat sheet's own voxel becomes its plane: near the rim the distance to the sheet bends
     // around the boundary edge, and its interpolant with it; the plane, cut by the clips, is
     // exact.
-    if let Some(sheet) = out.first_mut().filter(|v| v.surface && !v.clip) {
+    // The SVO voxel, where it won, too: the global distance bends around the rim as well, and
+    // its zero set with it, which the clip cannot straighten (a silhouette a fraction of a
+    // voxel out along the rim); as the plane it becomes a surface voxel (a sheet has no inside).
+    if let Some(sheet) = out.first_mut().filter(|v| !v.clip) {
         let plane =
             flat_faces(p, mesh, cell, tris, samples, scratch).and_then(|f| f.single_plane());
-        if let Some((normal, point)) = plane {
-            let c = corners.map(|x| normal.dot(x - point));
+        let continued = match plane {
+            Some((normal, point)) => Some(corners.map(|x| normal.dot(x - point))),
+            // A curved sheet: its continuation past the rim, kept where it fits the samples
+            // as well as the accepted SVO voxel must.
+            None => {
+                let c = corners.map(|x| mesh.sheet_continuation_distance(tris, x));
+                let q = p.q8(&c);
+                let fits = c.iter().all(|v| v.is_finite())
+                    && samples
+                        .points
+                        .iter()
+                        .all(|&l| zero_set_gap(&q, l, cell.h) <= p.accept);
+                fits.then_some(c)
+            }
+        };
+        if let Some(c) = continued {
             // Keep the orientation of the sheet's own voxel (either sign is the same surface).
             let same = c
                 .iter()
@@ -103,6 +121,10 @@ pub(crate) fn rim_clips(
                 >= 0.0;
             sheet.corners = if same { c } else { c.map(|v| -v) };
         }
+        // An open sheet has no inside: as a volume voxel the SVO voxel's negative side would
+        // stop a ray entering the leaf there (where the leaf beyond the rim is dropped, at the
+        // leaf's face: a wall a voxel off the sheet).
+        sheet.surface = true;
     }
     for plane in &planes[..count] {
         // The sheet lies on the inner side: no sample beyond the plane.
