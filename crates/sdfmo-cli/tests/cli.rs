@@ -57,9 +57,12 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
-/// Succeeds and prints exactly one JSON object on stdout.
+/// Run with `--json` appended (every JSON test wants it last): succeeds and prints exactly one
+/// JSON object on stdout.
 fn json_ok<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Value {
-    let o = sdfmo(args);
+    let mut args: Vec<&std::ffi::OsStr> = args.iter().map(AsRef::as_ref).collect();
+    args.push("--json".as_ref());
+    let o = sdfmo(&args);
     assert!(
         o.status.success(),
         "exit {:?}: {}",
@@ -114,7 +117,7 @@ fn cube_obj(dir: &Path) -> PathBuf {
 #[test]
 fn info_of_a_generated_cube_and_the_demo_part() {
     let (_dir, cube) = with_cube("info");
-    let j = json_ok(&os!["info", cube, "--json"]);
+    let j = json_ok(&os!["info", cube]);
     keys(
         &j,
         &[
@@ -136,7 +139,7 @@ fn info_of_a_generated_cube_and_the_demo_part() {
     assert_eq!(j["bounds"]["min"], serde_json::json!([0.0, 0.0, 0.0]));
     assert_eq!(j["bounds"]["max"], serde_json::json!([1.0, 1.0, 1.0]));
 
-    let demo = json_ok(&["info", "--json"]);
+    let demo = json_ok(&["info"]);
     assert!(demo["triangles"].as_u64().unwrap() > 12);
     assert!(demo["parts"].as_u64().unwrap() >= 1);
 
@@ -182,7 +185,7 @@ fn distance_signs_output_file_and_malformed_lines() {
     )
     .unwrap();
     let out = dir.join("d.txt");
-    let j = json_ok(&os!["distance", cube, "--points", pts, "-o", out, "--json"]);
+    let j = json_ok(&os!["distance", cube, "--points", pts, "-o", out]);
     keys(&j, &["points", "query_ms"]);
     assert_eq!(j["points"], 3);
     let d: Vec<f32> = std::fs::read_to_string(&out)
@@ -195,9 +198,7 @@ fn distance_signs_output_file_and_malformed_lines() {
     assert!((d[1] - 0.55).abs() < 1e-4, "outside: {}", d[1]);
     assert!((d[2] + 0.05).abs() < 1e-4, "near a face: {}", d[2]);
     // Without -o, --json carries the distances.
-    let j = json_ok(&os![
-        "distance", cube, "--points", pts, "--sign", "winding", "--json",
-    ]);
+    let j = json_ok(&os!["distance", cube, "--points", pts, "--sign", "winding"]);
     assert_eq!(j["distances"].as_array().unwrap().len(), 3);
     assert_eq!(j["sign"], "winding");
 
@@ -257,7 +258,6 @@ fn build_render_and_compare_the_demo_part() {
             "2",
             "-o",
             smo,
-            "--json",
         ]);
         keys(
             &j,
@@ -283,7 +283,7 @@ fn build_render_and_compare_the_demo_part() {
     // --views paper numbers the files before the extension.
     let views = dir.join("v.png");
     let j = json_ok(&os![
-        "render", smo, "--views", "paper", "--size", "32x24", "-o", views, "--json",
+        "render", smo, "--views", "paper", "--size", "32x24", "-o", views,
     ]);
     assert_eq!(j["views"].as_array().unwrap().len(), 4);
     assert!(!views.exists());
@@ -305,7 +305,6 @@ fn build_render_and_compare_the_demo_part() {
         "--size=40x30",
         "-o",
         dir.join("mask.png"),
-        "--json",
     ]);
     keys(&mask, &["render_ms", "counters"]);
     assert_eq!(mask["counters"]["normal_evals"], 0);
@@ -318,7 +317,6 @@ fn build_render_and_compare_the_demo_part() {
         "--size=40x30",
         "-o",
         dir.join("lit.png"),
-        "--json",
     ]);
     assert!(lit["counters"]["normal_evals"].as_u64().unwrap() > 0);
     assert!(lit["counters"]["shadow_rays"].as_u64().unwrap() > 0);
@@ -331,7 +329,6 @@ fn build_render_and_compare_the_demo_part() {
         "--size=40x30",
         "-o",
         reference,
-        "--json",
     ]);
     keys(&j, &["render_ms", "counters"]);
     let heat = dir.join("heat.png");
@@ -341,14 +338,13 @@ fn build_render_and_compare_the_demo_part() {
         dir.join("lit.png"),
         "--heatmap",
         heat,
-        "--json",
     ]);
     assert!(c["psnr"].as_f64().unwrap() > 5.0, "{c}");
     let flip = c["flip"].as_f64().unwrap();
     assert!((0.0..1.0).contains(&flip), "{c}");
     assert_eq!(image::open(&heat).unwrap().width(), 40);
     // Identical images: infinite PSNR is written as null with a flag (JSON has no infinity).
-    let same = json_ok(&os!["compare", reference, reference, "--json"]);
+    let same = json_ok(&os!["compare", reference, reference]);
     assert_eq!(same["psnr"], Value::Null);
     assert_eq!(same["identical"], true);
     assert_eq!(same["flip"], 0.0);
@@ -370,7 +366,6 @@ fn a_tiny_sweep_writes_every_output() {
         "2",
         "-o",
         out,
-        "--json",
     ]);
     assert_eq!(j["rows"].as_array().unwrap().len(), 4);
     let results: Value =
@@ -453,9 +448,9 @@ fn walk(dir: &Path) -> Vec<PathBuf> {
 fn shared_data_parts_and_sign() {
     // The shared test meshes, as `build.rs` resolved them (`sdfmo-testdata`).
     let data = PathBuf::from(env!("SDFMO_TEST_DATA_DIR"));
-    let j = json_ok(&os!["info", data.join("abc5_parts.glb"), "--json"]);
+    let j = json_ok(&os!["info", data.join("abc5_parts.glb")]);
     assert_eq!(j["parts"], 10);
-    let j = json_ok(&os!["info", data.join("teapot.obj"), "--json"]);
+    let j = json_ok(&os!["info", data.join("teapot.obj")]);
     assert_eq!(j["watertight"], false);
     assert!(j["boundary_edges"].as_u64().unwrap() > 0);
 }

@@ -33,6 +33,15 @@ fn gltf_with_uri(uri: &str) -> String {
     )
 }
 
+/// Runs `sdfmo build -d DEPTH -o OUT` on the demo part (a setup step, not a case).
+fn build_demo(depth: &str, out: &Path) -> std::process::Output {
+    Command::new(SDFMO)
+        .args(["build", "-d", depth, "-o"])
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
 fn mkfifo(path: &Path) {
     let ok = Command::new("mkfifo")
         .arg(path)
@@ -169,36 +178,21 @@ fn hostile_catalogue() {
 
     let mut cases = Vec::new();
     // 1. glTF buffer URIs that leave the model's folder, or name no regular file.
+    #[rustfmt::skip]
     let uris: [(&str, &str, &'static str); 16] = [
         ("plain_dotdot", "../secret.bin", "climbs out"),
-        (
-            "deep_dotdot",
-            "../../../../../../../../etc/passwd",
-            "climbs out",
-        ),
+        ("deep_dotdot", "../../../../../../../../etc/passwd", "climbs out"),
         ("percent_dots", "%2e%2e/secret.bin", "climbs out"),
         ("percent_all", "%2E%2E%2Fsecret.bin", "climbs out"),
         ("percent_absolute", "%2Fetc%2Fpasswd", "absolute path"),
-        (
-            "absolute",
-            "/etc/passwd",
-            "only data: URIs and relative paths",
-        ),
-        (
-            "file_scheme",
-            "file:///etc/passwd",
-            "only data: URIs and relative paths",
-        ),
+        ("absolute", "/etc/passwd", "only data: URIs and relative paths"),
+        ("file_scheme", "file:///etc/passwd", "only data: URIs and relative paths"),
         ("inner_dotdot", "sub/../../secret.bin", "climbs out"),
         ("backslash", "..\\secret.bin", "backslashes"),
         ("nul", "tri%00.bin", "NUL"),
         ("bad_utf8", "%ff%fe.bin", "not UTF-8"),
         ("symlink_out", "link_out.bin", "symbolic link leads out"),
-        (
-            "symlink_dev_zero",
-            "link_zero.bin",
-            "symbolic link leads out",
-        ),
+        ("symlink_dev_zero", "link_zero.bin", "symbolic link leads out"),
         ("fifo_buffer", "pipe.bin", "FIFO"),
         ("directory_buffer", "sub", "a directory"),
         ("missing_buffer", "nothing.bin", "No such file"),
@@ -211,11 +205,7 @@ fn hostile_catalogue() {
 
     // 2. Special files and links as outputs.
     let smo = out.join("in.smo");
-    let o = Command::new(SDFMO)
-        .args(["build", "-d", "5", "-o"])
-        .arg(&smo)
-        .output()
-        .unwrap();
+    let o = build_demo("5", &smo);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let fifo_smo = out.join("fifo.smo");
     let fifo_png = out.join("fifo.png");
@@ -231,63 +221,21 @@ fn hostile_catalogue() {
     let points = root.join("points.txt");
     std::fs::write(&points, "0 0 0\n").unwrap();
     let cube = model.join("ok_tri_bin.gltf");
-    cases.extend([
-        case(
-            "build -o fifo",
-            &[&"build", &"-d", &"4", &"-o", &fifo_smo],
-            "FIFO",
-        ),
-        case(
-            "render -o fifo",
-            &[&"render", &smo, &"-o", &fifo_png],
-            "FIFO",
-        ),
-        case(
-            "render -o /dev/null",
-            &[&"render", &smo, &"-o", &"/dev/null"],
-            "character device",
-        ),
-        case(
-            "build -o /dev/full",
-            &[&"build", &"-d", &"4", &"-o", &"/dev/full"],
-            "character device",
-        ),
-        case(
-            "build -o link to fifo",
-            &[&"build", &"-d", &"4", &"-o", &out.join("to_fifo.smo")],
-            "FIFO",
-        ),
-        case(
-            "build -o dangling link",
-            &[&"build", &"-d", &"4", &"-o", &out.join("dangling.smo")],
-            "does not exist",
-        ),
-        case(
-            "render -o directory",
-            &[&"render", &smo, &"-o", &out.join("dir.png")],
-            "a directory",
-        ),
-        case(
-            "render --exr fifo writes no png either",
-            &[&"render", &smo, &"-o", &png, &"--exr", &fifo_exr],
-            "FIFO",
-        ),
-        case(
-            "distance -o fifo",
-            &[&"distance", &cube, &"--points", &points, &"-o", &fifo_txt],
-            "FIFO",
-        ),
-        case(
-            "compare --heatmap fifo",
-            &[&"compare", &"a.png", &"b.png", &"--heatmap", &fifo_png],
-            "FIFO",
-        ),
-        case(
-            "build -o trailing slash",
-            &[&"build", &"-d", &"4", &"-o", &"adir/"],
-            "ends with a path separator",
-        ),
-    ]);
+    #[rustfmt::skip]
+    let group = [
+        case("build -o fifo", &[&"build", &"-d", &"4", &"-o", &fifo_smo], "FIFO"),
+        case("render -o fifo", &[&"render", &smo, &"-o", &fifo_png], "FIFO"),
+        case("render -o /dev/null", &[&"render", &smo, &"-o", &"/dev/null"], "character device"),
+        case("build -o /dev/full", &[&"build", &"-d", &"4", &"-o", &"/dev/full"], "character device"),
+        case("build -o link to fifo", &[&"build", &"-d", &"4", &"-o", &out.join("to_fifo.smo")], "FIFO"),
+        case("build -o dangling link", &[&"build", &"-d", &"4", &"-o", &out.join("dangling.smo")], "does not exist"),
+        case("render -o directory", &[&"render", &smo, &"-o", &out.join("dir.png")], "a directory"),
+        case("render --exr fifo writes no png either", &[&"render", &smo, &"-o", &png, &"--exr", &fifo_exr], "FIFO"),
+        case("distance -o fifo", &[&"distance", &cube, &"--points", &points, &"-o", &fifo_txt], "FIFO"),
+        case("compare --heatmap fifo", &[&"compare", &"a.png", &"b.png", &"--heatmap", &fifo_png], "FIFO"),
+        case("build -o trailing slash", &[&"build", &"-d", &"4", &"-o", &"adir/"], "ends with a path separator"),
+    ];
+    cases.extend(group);
     let mut device = None;
     if is_root() {
         let dev = out.join("null.smo");
@@ -316,125 +264,35 @@ fn hostile_catalogue() {
     mkfifo(&fifo_smo_in);
     let fifo_points = root.join("points.fifo");
     mkfifo(&fifo_points);
-    cases.extend([
-        case(
-            "info /dev/zero",
-            &[&"info", &"/dev/zero"],
-            "character device",
-        ),
-        case(
-            "render /dev/zero",
-            &[&"render", &"/dev/zero", &"-o", &png],
-            "character device",
-        ),
-        case(
-            "distance --points /dev/zero",
-            &[&"distance", &cube, &"--points", &"/dev/zero"],
-            "character device",
-        ),
+    #[rustfmt::skip]
+    let group = [
+        case("info /dev/zero", &[&"info", &"/dev/zero"], "character device"),
+        case("render /dev/zero", &[&"render", &"/dev/zero", &"-o", &png], "character device"),
+        case("distance --points /dev/zero", &[&"distance", &cube, &"--points", &"/dev/zero"], "character device"),
         case("info fifo", &[&"info", &fifo_in], "FIFO"),
-        case(
-            "render fifo",
-            &[&"render", &fifo_smo_in, &"-o", &png],
-            "FIFO",
-        ),
-        case(
-            "distance --points fifo",
-            &[&"distance", &cube, &"--points", &fifo_points],
-            "FIFO",
-        ),
-        case(
-            "compare /dev/zero",
-            &[&"compare", &"/dev/zero", &"/dev/zero"],
-            "character device",
-        ),
+        case("render fifo", &[&"render", &fifo_smo_in, &"-o", &png], "FIFO"),
+        case("distance --points fifo", &[&"distance", &cube, &"--points", &fifo_points], "FIFO"),
+        case("compare /dev/zero", &[&"compare", &"/dev/zero", &"/dev/zero"], "character device"),
         case("info directory", &[&"info", &model], "a directory"),
-    ]);
+    ];
+    cases.extend(group);
 
     // 4. Out-of-range parameters, refused before any work.
-    cases.extend([
-        case(
-            "depth 0",
-            &[&"build", &"-d", &"0", &"-o", &out.join("d0.smo")],
-            "1..=16",
-        ),
-        case(
-            "depth -1",
-            &[&"build", &"-d", &"-1", &"-o", &out.join("d.smo")],
-            "1..=16",
-        ),
-        case(
-            "depth 17",
-            &[&"build", &"-d", &"17", &"-o", &out.join("d.smo")],
-            "1..=16",
-        ),
-        case(
-            "max voxels 0",
-            &[
-                &"build",
-                &"-d",
-                &"4",
-                &"--max-voxels",
-                &"0",
-                &"-o",
-                &out.join("m.smo"),
-            ],
-            "1..=255",
-        ),
-        case(
-            "ao 100000",
-            &[&"render", &smo, &"-o", &png, &"--ao", &"100000"],
-            "0..=1024",
-        ),
-        case(
-            "sweep depths beyond 16",
-            &[&"sweep", &"--depths", &"15..20", &"-o", &out.join("sweep")],
-            "within 1..=16",
-        ),
-        case(
-            "tiny memory budget",
-            &[
-                &"build",
-                &"-d",
-                &"6",
-                &"--max-memory",
-                &"1M",
-                &"-o",
-                &out.join("b.smo"),
-            ],
-            "more than the budget",
-        ),
-        case(
-            "build -o wrong extension",
-            &[&"build", &"-d", &"4", &"-o", &out.join("x.png")],
-            "must end in .smo",
-        ),
-        case(
-            "render -o jpg",
-            &[&"render", &smo, &"-o", &out.join("x.jpg")],
-            "must end in .png",
-        ),
-        case(
-            "ambient occlusion in mask mode",
-            &[
-                &"render", &smo, &"-o", &png, &"--mode", &"mask", &"--ao", &"4",
-            ],
-            "lambert only",
-        ),
-        case(
-            "shadows in normal mode",
-            &[
-                &"render",
-                &smo,
-                &"-o",
-                &png,
-                &"--mode",
-                &"normal",
-                &"--shadows",
-            ],
-            "lambert only",
-        ),
-    ]);
+    #[rustfmt::skip]
+    let group = [
+        case("depth 0", &[&"build", &"-d", &"0", &"-o", &out.join("d0.smo")], "1..=16"),
+        case("depth -1", &[&"build", &"-d", &"-1", &"-o", &out.join("d.smo")], "1..=16"),
+        case("depth 17", &[&"build", &"-d", &"17", &"-o", &out.join("d.smo")], "1..=16"),
+        case("max voxels 0", &[&"build", &"-d", &"4", &"--max-voxels", &"0", &"-o", &out.join("m.smo")], "1..=255"),
+        case("ao 100000", &[&"render", &smo, &"-o", &png, &"--ao", &"100000"], "0..=1024"),
+        case("sweep depths beyond 16", &[&"sweep", &"--depths", &"15..20", &"-o", &out.join("sweep")], "within 1..=16"),
+        case("tiny memory budget", &[&"build", &"-d", &"6", &"--max-memory", &"1M", &"-o", &out.join("b.smo")], "more than the budget"),
+        case("build -o wrong extension", &[&"build", &"-d", &"4", &"-o", &out.join("x.png")], "must end in .smo"),
+        case("render -o jpg", &[&"render", &smo, &"-o", &out.join("x.jpg")], "must end in .png"),
+        case("ambient occlusion in mask mode", &[&"render", &smo, &"-o", &png, &"--mode", &"mask", &"--ao", &"4"], "lambert only"),
+        case("shadows in normal mode", &[&"render", &smo, &"-o", &png, &"--mode", &"normal", &"--shadows"], "lambert only"),
+    ];
+    cases.extend(group);
 
     // 5. Builds too deep for the memory: `deep_builds_are_refused_in_seconds`, below.
 
@@ -560,11 +418,7 @@ fn a_full_disk_loses_nothing() {
         return;
     }
     let old = mnt.join("keep.smo");
-    let o = Command::new(SDFMO)
-        .args(["build", "-d", "4", "-o"])
-        .arg(&old)
-        .output()
-        .unwrap();
+    let o = build_demo("4", &old);
     let result = std::panic::catch_unwind(|| {
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let before = std::fs::read(&old).unwrap();

@@ -90,6 +90,20 @@ fn rotate_feature((q, f): (Vec3, Feature), r: u8) -> (Vec3, Feature) {
 /// Ericson's region method with the vertices in the given order.
 #[inline(always)]
 fn closest_point_ordered(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> (Vec3, Feature) {
+    // The three edge regions are one rule: `p` lies beyond the edge `from + u·e` (`v ≤ 0`) and
+    // between its ends (`s, t ≥ 0`, with `s + t = |e|²`: the foot is at `u = s / (s + t)`).
+    // `s + t = 0` only on a degenerate edge: then the edges decide. (AB and CA pass `t = -d`:
+    // `x + -d` is `x - d` to the bit.)
+    let edge_region = |v: f32, s: f32, t: f32, from: Vec3, e: Vec3, k: u8| {
+        if v <= 0.0 && s >= 0.0 && t >= 0.0 {
+            let den = s + t;
+            if den > 0.0 {
+                return Some((from + e * (s / den), Feature::Edge(k)));
+            }
+            return Some(closest_on_edges(p, a, b, c));
+        }
+        None
+    };
     let ab = b - a;
     let ac = c - a;
     let ap = p - a;
@@ -107,13 +121,9 @@ fn closest_point_ordered(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> (Vec3, Feature) 
         return (b, Feature::Vertex(1));
     }
     let vc = d1 * d4 - d3 * d2;
-    // Region of edge AB: d1 - d3 = |ab|² > 0 unless A = B.
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let den = d1 - d3;
-        if den > 0.0 {
-            return (a + ab * (d1 / den), Feature::Edge(0));
-        }
-        return closest_on_edges(p, a, b, c);
+    // Region of edge AB: d1 - d3 = |ab|².
+    if let Some(q) = edge_region(vc, d1, -d3, a, ab, 0) {
+        return q;
     }
     let cp = p - c;
     let d5 = ab.dot(cp);
@@ -123,24 +133,14 @@ fn closest_point_ordered(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> (Vec3, Feature) 
         return (c, Feature::Vertex(2));
     }
     let vb = d5 * d2 - d1 * d6;
-    // Region of edge CA: d2 - d6 = |ac|² > 0 unless A = C.
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let den = d2 - d6;
-        if den > 0.0 {
-            return (a + ac * (d2 / den), Feature::Edge(2));
-        }
-        return closest_on_edges(p, a, b, c);
+    // Region of edge CA: d2 - d6 = |ac|².
+    if let Some(q) = edge_region(vb, d2, -d6, a, ac, 2) {
+        return q;
     }
     let va = d3 * d6 - d5 * d4;
-    let e4 = d4 - d3;
-    let e5 = d5 - d6;
-    // Region of edge BC: e4 + e5 = |bc|² > 0 unless B = C.
-    if va <= 0.0 && e4 >= 0.0 && e5 >= 0.0 {
-        let den = e4 + e5;
-        if den > 0.0 {
-            return (b + (c - b) * (e4 / den), Feature::Edge(1));
-        }
-        return closest_on_edges(p, a, b, c);
+    // Region of edge BC: (d4 - d3) + (d5 - d6) = |bc|².
+    if let Some(q) = edge_region(va, d4 - d3, d5 - d6, b, c - b, 1) {
+        return q;
     }
     // Face region: va + vb + vc = |ab × ac|².
     let den = va + vb + vc;

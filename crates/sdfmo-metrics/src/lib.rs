@@ -187,36 +187,27 @@ mod tests {
     use super::*;
     use image::RgbImage;
 
+    /// Each refused pair (reference then test width and height) is named by its error's
+    /// variant and fields (its `Debug` form) and message: both sizes on a mismatch, which image
+    /// is empty.
     #[test]
-    fn check_pair_names_both_sizes_on_mismatch() {
-        let err = check_pair(&RgbImage::new(4, 3), &RgbImage::new(3, 4)).unwrap_err();
-        assert!(matches!(
-            err,
-            MetricsError::SizeMismatch {
-                reference_width: 4,
-                reference_height: 3,
-                test_width: 3,
-                test_height: 4
-            }
-        ));
-        assert_eq!(
-            err.to_string(),
-            "image sizes differ: reference is 4×3, test is 3×4"
-        );
-    }
-
-    #[test]
-    fn check_pair_rejects_empty_images_naming_which() {
-        let err = check_pair(&RgbImage::new(0, 5), &RgbImage::new(0, 5)).unwrap_err();
-        assert!(matches!(
-            err,
-            MetricsError::EmptyImage {
-                role: ImageRole::Reference,
-                width: 0,
-                height: 5
-            }
-        ));
-        assert_eq!(err.to_string(), "the reference image is empty (0×5)");
+    fn check_pair_names_the_sizes_of_a_refused_pair() {
+        for ([rw, rh, tw, th], fields, message) in [
+            (
+                [4, 3, 3, 4],
+                "SizeMismatch { reference_width: 4, reference_height: 3, test_width: 3, test_height: 4 }",
+                "image sizes differ: reference is 4×3, test is 3×4",
+            ),
+            (
+                [0, 5, 0, 5],
+                "EmptyImage { role: Reference, width: 0, height: 5 }",
+                "the reference image is empty (0×5)",
+            ),
+        ] {
+            let err = check_pair(&RgbImage::new(rw, rh), &RgbImage::new(tw, th)).unwrap_err();
+            assert_eq!(format!("{err:?}"), fields);
+            assert_eq!(err.to_string(), message);
+        }
         assert_eq!(
             check_pair(&RgbImage::new(2, 7), &RgbImage::new(2, 7)).unwrap(),
             (2, 7)

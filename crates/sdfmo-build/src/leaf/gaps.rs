@@ -125,16 +125,9 @@ fn is_free(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::leaf::test_meshes::Fixture;
+    use crate::leaf::test_meshes::{two_boxes, Fixture};
     use sdfmo_format::ValueBits;
     use sdfmo_mesh::{procedural, TriMesh};
-
-    /// Two boxes whose faces x = 0.05 and x = 0.15 bound a gap of 0.4 of a depth-3 cell.
-    fn two_boxes() -> Fixture {
-        let a = procedural::box_mesh(Vec3::new(-0.5, -0.5, -0.5), Vec3::new(0.05, 0.5, 0.5));
-        let b = procedural::box_mesh(Vec3::new(0.15, -0.5, -0.5), Vec3::new(0.6, 0.5, 0.5));
-        Fixture::new(TriMesh::merge(&[a, b]))
-    }
 
     fn gaps_of(f: &Fixture, p: &Params, at: Vec3) -> (GapPoints, crate::leaf::test_meshes::Leaf) {
         let leaf = f.leaf(p, at);
@@ -149,7 +142,7 @@ mod tests {
 
     #[test]
     fn gap_points_lie_in_the_gap_the_svo_voxel_closes() {
-        let f = two_boxes();
+        let f = two_boxes(true);
         let p = Params::new(3, ValueBits::Eight, 8);
         let (g, leaf) = gaps_of(&f, &p, Vec3::new(0.1, 0.1, 0.1));
         assert!(!g.points.is_empty());

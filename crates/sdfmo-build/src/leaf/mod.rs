@@ -490,10 +490,7 @@ mod tests {
     /// volume voxel each; a cell on one box's flat face gets the SVO voxel.
     #[test]
     fn separate_parts_closer_than_a_cell_keep_their_gap() {
-        use sdfmo_mesh::{procedural, TriMesh};
-        let a = procedural::box_mesh(Vec3::new(-0.5, -0.5, -0.5), Vec3::new(0.05, 0.5, 0.5));
-        let b = procedural::box_mesh(Vec3::new(0.15, -0.5, -0.5), Vec3::new(0.6, 0.5, 0.5));
-        let f = test_meshes::Fixture::new(TriMesh::merge(&[a, b]));
+        let f = test_meshes::two_boxes(true);
         let p = Params::new(3, ValueBits::Eight, 8);
         let mut s = Scratch::default();
         let leaf = f.leaf(&p, Vec3::new(0.1, 0.1, 0.1));

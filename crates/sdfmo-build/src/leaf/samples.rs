@@ -108,18 +108,23 @@ pub(crate) fn svo_fit(gq: &[f32; 8], samples: &Samples, cell: &Cell) -> SvoFit {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::leaf::test_meshes::Fixture;
+    use crate::leaf::test_meshes::{Fixture, Leaf};
     use sdfmo_format::ValueBits;
     use sdfmo_mesh::procedural;
+
+    /// A box of half-edge 0.3 and its depth-3 leaf containing `point`.
+    fn box_leaf(point: Vec3) -> (Fixture, Params, Leaf) {
+        let f = Fixture::new(procedural::box_mesh(Vec3::splat(-0.3), Vec3::splat(0.3)));
+        let p = Params::new(3, ValueBits::Eight, 8);
+        let leaf = f.leaf(&p, point);
+        (f, p, leaf)
+    }
 
     #[test]
     fn samples_lie_on_the_clipped_surface() {
         // A box face crossing the cell: every sample is on the face plane, inside the cell.
-        let f = Fixture::new(procedural::box_mesh(Vec3::splat(-0.3), Vec3::splat(0.3)));
-        let p = Params::new(3, ValueBits::Eight, 8);
-        let leaf = f.leaf(&p, Vec3::new(0.3, 0.1, 0.1));
-        let mut s = Samples::default();
-        s.collect(&p, &f.mesh, &leaf.cell, &leaf.tris);
+        let (f, p, leaf) = box_leaf(Vec3::new(0.3, 0.1, 0.1));
+        let s = leaf.samples(&f, &p);
         assert!(s.len() >= 4);
         for (l, t) in s.iter() {
             assert!(l.cmpge(Vec3::splat(-1e-5)).all() && l.cmple(Vec3::splat(1.0 + 1e-5)).all());
@@ -131,14 +136,10 @@ mod tests {
 
     #[test]
     fn midpoints_only_for_few_triangles() {
-        let f = Fixture::new(procedural::box_mesh(Vec3::splat(-0.3), Vec3::splat(0.3)));
-        let mut p = Params::new(3, ValueBits::Eight, 8);
-        let leaf = f.leaf(&p, Vec3::new(0.3, 0.1, 0.1));
-        let mut rich = Samples::default();
-        rich.collect(&p, &f.mesh, &leaf.cell, &leaf.tris);
+        let (f, mut p, leaf) = box_leaf(Vec3::new(0.3, 0.1, 0.1));
+        let rich = leaf.samples(&f, &p);
         p.rich_samples_below = 0;
-        let mut plain = Samples::default();
-        plain.collect(&p, &f.mesh, &leaf.cell, &leaf.tris);
+        let plain = leaf.samples(&f, &p);
         // Per polygon of n vertices: 1 + n samples, plus n midpoints when rich.
         let polygons = rich.len() - plain.len();
         assert!(polygons > 0);
@@ -148,9 +149,7 @@ mod tests {
 
     #[test]
     fn a_cell_off_the_surface_has_no_samples() {
-        let f = Fixture::new(procedural::box_mesh(Vec3::splat(-0.3), Vec3::splat(0.3)));
-        let p = Params::new(3, ValueBits::Eight, 8);
-        let leaf = f.leaf(&p, Vec3::new(0.8, 0.8, 0.8));
+        let (f, p, leaf) = box_leaf(Vec3::new(0.8, 0.8, 0.8));
         let mut s = Samples::default();
         s.collect(&p, &f.mesh, &leaf.cell, &f.all_triangles());
         assert!(s.is_empty());

@@ -292,49 +292,20 @@ mod tests {
     fn reach_measures_the_zero_set_against_the_mesh() {
         let (f, p, leaf, exact, off) = face_case();
         let mut zeros = Vec::new();
-        let r = zero_reach(
-            &p,
-            &f.mesh,
-            &leaf.tris,
-            &leaf.cell,
-            &[exact],
-            &[false],
-            &mut zeros,
-        );
+        let reach = |qs: &[[f32; 8]], surf: &[bool], zeros: &mut Vec<Vec3>| {
+            zero_reach(&p, &f.mesh, &leaf.tris, &leaf.cell, qs, surf, zeros)
+        };
+        let r = reach(&[exact], &[false], &mut zeros);
         assert!(r < 1e-3 * p.h, "{r}");
         assert!(!zeros.is_empty());
-        let r = zero_reach(
-            &p,
-            &f.mesh,
-            &leaf.tris,
-            &leaf.cell,
-            &[off],
-            &[false],
-            &mut zeros,
-        );
+        let r = reach(&[off], &[false], &mut zeros);
         assert!((r - 0.4 * p.h).abs() < 0.01 * p.h, "{r}");
         // The shifted zero set lies inside the exact volume voxel: hidden, it reaches nowhere.
         let both = [exact, off];
-        let r = zero_reach(
-            &p,
-            &f.mesh,
-            &leaf.tris,
-            &leaf.cell,
-            &both,
-            &[false, false],
-            &mut zeros,
-        );
+        let r = reach(&both, &[false, false], &mut zeros);
         assert!(r < 1e-3 * p.h, "{r}");
         // A surface voxel hides nothing.
-        let r = zero_reach(
-            &p,
-            &f.mesh,
-            &leaf.tris,
-            &leaf.cell,
-            &both,
-            &[true, false],
-            &mut zeros,
-        );
+        let r = reach(&both, &[true, false], &mut zeros);
         assert!((r - 0.4 * p.h).abs() < 0.01 * p.h, "{r}");
     }
 

@@ -211,20 +211,19 @@ fn thin_split(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::leaf::test_meshes::Fixture;
+    use crate::leaf::test_meshes::{two_boxes, Fixture, Leaf};
     use sdfmo_format::ValueBits;
-    use sdfmo_mesh::{procedural, TriMesh};
+    use sdfmo_mesh::procedural;
 
-    /// Two boxes 0.1 apart (closer than the depth-3 cell of 0.25) meeting one cell.
-    fn two_boxes(parts: bool) -> Fixture {
-        let a = procedural::box_mesh(Vec3::new(-0.5, -0.5, -0.5), Vec3::new(0.05, 0.5, 0.5));
-        let b = procedural::box_mesh(Vec3::new(0.15, -0.5, -0.5), Vec3::new(0.6, 0.5, 0.5));
-        let mut m = TriMesh::merge(&[a, b]);
-        if !parts {
-            let (p, t, q) = m.into_arrays();
-            m = TriMesh::new(p, t, vec![0; q.len()]).unwrap();
-        }
-        Fixture::new(m)
+    /// A plate thinner than the depth-3 cell y ∈ [0, 0.25], inside it, and that leaf.
+    fn thin_plate() -> (Fixture, Params, Leaf) {
+        let f = Fixture::new(procedural::box_mesh(
+            Vec3::new(-0.9, 0.1, -0.9),
+            Vec3::new(0.9, 0.15, 0.9),
+        ));
+        let p = Params::new(3, ValueBits::Eight, 8);
+        let leaf = f.leaf(&p, Vec3::new(0.1, 0.12, 0.1));
+        (f, p, leaf)
     }
 
     #[test]
@@ -247,14 +246,9 @@ mod tests {
 
     #[test]
     fn pieces_of_one_global_component_are_one() {
-        // A plate thinner than the depth-3 cell y ∈ [0, 0.25], inside it: the leaf sees its two
-        // faces as separate pieces (the rim is far outside); they are one global component.
-        let f = Fixture::new(procedural::box_mesh(
-            Vec3::new(-0.9, 0.1, -0.9),
-            Vec3::new(0.9, 0.15, 0.9),
-        ));
-        let p = Params::new(3, ValueBits::Eight, 8);
-        let leaf = f.leaf(&p, Vec3::new(0.1, 0.12, 0.1));
+        // The leaf sees the plate's two faces as separate pieces (the rim is far outside); they
+        // are one global component.
+        let (f, _, leaf) = thin_plate();
         let mut c = LeafComponents::default();
         assert_eq!(c.find(&f.global, &leaf.tris), 1);
         assert_eq!(c.members[0].len(), leaf.tris.len());
@@ -263,12 +257,7 @@ mod tests {
 
     #[test]
     fn a_plate_thinner_than_the_cell_splits_into_two_surface_voxels() {
-        let f = Fixture::new(procedural::box_mesh(
-            Vec3::new(-0.9, 0.1, -0.9),
-            Vec3::new(0.9, 0.15, 0.9),
-        ));
-        let p = Params::new(3, ValueBits::Eight, 8);
-        let leaf = f.leaf(&p, Vec3::new(0.1, 0.12, 0.1));
+        let (f, p, leaf) = thin_plate();
         let cands = leaf.candidates(&f, &p);
         assert_eq!(cands.len(), 2, "{cands:?}");
         assert!(cands.iter().all(|c| c.surface && c.comp == 0));

@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 use sdfmo_distance::{MeshDistance, SignMode};
-use sdfmo_mesh::TriMesh;
+use sdfmo_mesh::{procedural, TriMesh};
 
 use super::samples::Samples;
 use super::split::{candidate_voxels, LeafComponents};
@@ -60,6 +60,19 @@ impl Fixture {
             g,
         }
     }
+}
+
+/// Two boxes whose faces x = 0.05 and x = 0.15 bound a gap of 0.1 (0.4 of a depth-3 cell), as
+/// two mesh parts, or as one part (`parts == false`).
+pub fn two_boxes(parts: bool) -> Fixture {
+    let a = procedural::box_mesh(Vec3::new(-0.5, -0.5, -0.5), Vec3::new(0.05, 0.5, 0.5));
+    let b = procedural::box_mesh(Vec3::new(0.15, -0.5, -0.5), Vec3::new(0.6, 0.5, 0.5));
+    let mut m = TriMesh::merge(&[a, b]);
+    if !parts {
+        let (p, t, q) = m.into_arrays();
+        m = TriMesh::new(p, t, vec![0; q.len()]).unwrap();
+    }
+    Fixture::new(m)
 }
 
 impl Leaf {
