@@ -172,31 +172,21 @@ fn packet<B: AsRef<[u8]>, const STEP: u8>(
                 if alive == 0 {
                     return out;
                 }
-            } else if let Some(next) = if STEP == AVX2 {
-                #[cfg(target_arch = "x86_64")]
-                // SAFETY: STEP = AVX2 only in `packet_avx2`, called once AVX2 is detected.
-                unsafe {
-                    packet_step_avx2(octree, &cell, lanes, o, &consts, &mut stack)
-                }
-                #[cfg(not(target_arch = "x86_64"))]
-                {
-                    packet_step(octree, &cell, lanes, o, &consts, &mut stack)
-                }
-            } else if STEP == SSE2 {
-                #[cfg(target_arch = "x86_64")]
-                // SAFETY: SSE2 is part of the x86-64 baseline.
-                unsafe {
-                    packet_step_wide::<Sse2, B>(octree, &cell, lanes, o, &consts, &mut stack)
-                }
-                #[cfg(not(target_arch = "x86_64"))]
-                {
-                    packet_step(octree, &cell, lanes, o, &consts, &mut stack)
-                }
             } else {
-                packet_step(octree, &cell, lanes, o, &consts, &mut stack)
-            } {
-                cell = next;
-                continue;
+                let mut children = Children::new(octree, &cell, lanes, o, &consts, &mut stack);
+                match STEP {
+                    // SAFETY: STEP = AVX2 only in `packet_avx2`, called once AVX2 is detected.
+                    #[cfg(target_arch = "x86_64")]
+                    AVX2 => unsafe { packet_step_avx2(&mut children) },
+                    // SAFETY: SSE2 is part of the x86-64 baseline.
+                    #[cfg(target_arch = "x86_64")]
+                    SSE2 => unsafe { packet_step_wide::<Sse2, B>(&mut children) },
+                    _ => packet_step(&mut children),
+                }
+                if let Some(next) = children.pending {
+                    cell = next;
+                    continue;
+                }
             }
         }
         match stack.pop() {
@@ -314,16 +304,21 @@ fn packet_leaf_voxels<B: AsRef<[u8]>>(
     }
 }
 
-/// The children of one inner node as a step emits them, farthest first (in the reverse of
-/// [`NEAR_TO_FAR`] from the octant `near` holding the common origin; either side where it lies
-/// on a mid-plane: no ray with t ≥ 0 then crosses that plane inside a span): each present child
-/// with the lanes that visit it and their spans; the nearest is kept back in `pending` for the
-/// walk to take, the others go on the stack.
+/// One inner node being split for a packet's `lanes`, and its children as a step emits them,
+/// farthest first (in the reverse of [`NEAR_TO_FAR`] from the octant `near` holding the common
+/// origin; either side where it lies on a mid-plane: no ray with t ≥ 0 then crosses that plane
+/// inside a span): each present child with the lanes that visit it and their spans. The
+/// nearest is kept back in `pending` for the walk to take, the others go on the stack.
 struct Children<'a, B: AsRef<[u8]>> {
     octree: &'a Octree<B>,
     cell: &'a PacketCell,
+    lanes: u32,
+    consts: &'a Lanes,
+    stack: &'a mut PacketStack,
     half: f32,
     mid: Vec3,
+    /// From the common origin to `mid`.
+    d: Vec3,
     mask: u32,
     near: u32,
     first: Option<u32>,
@@ -332,7 +327,14 @@ struct Children<'a, B: AsRef<[u8]>> {
 
 impl<'a, B: AsRef<[u8]>> Children<'a, B> {
     #[inline(always)]
-    fn new(octree: &'a Octree<B>, cell: &'a PacketCell, o: Vec3) -> Self {
+    fn new(
+        octree: &'a Octree<B>,
+        cell: &'a PacketCell,
+        lanes: u32,
+        o: Vec3,
+        consts: &'a Lanes,
+        stack: &'a mut PacketStack,
+    ) -> Self {
         let half = 0.5 * cell.size;
         let mid = cell.min + Vec3::splat(half);
         let near =
@@ -340,8 +342,12 @@ impl<'a, B: AsRef<[u8]>> Children<'a, B> {
         Children {
             octree,
             cell,
+            lanes,
+            consts,
+            stack,
             half,
             mid,
+            d: mid - o,
             mask: u32::from(octree.child_mask(cell.node)),
             near,
             first: None,
@@ -356,14 +362,7 @@ impl<'a, B: AsRef<[u8]>> Children<'a, B> {
 
     /// The present child `c`, visited by `lanes` over their spans.
     #[inline(always)]
-    fn add(
-        &mut self,
-        c: u32,
-        lanes: u32,
-        t_enter: [f32; PACKET_SIZE],
-        t_exit: [f32; PACKET_SIZE],
-        stack: &mut PacketStack,
-    ) {
+    fn add(&mut self, c: u32, lanes: u32, t_enter: [f32; PACKET_SIZE], t_exit: [f32; PACKET_SIZE]) {
         let (octree, node) = (self.octree, self.cell.node);
         let first = *self
             .first
@@ -378,24 +377,15 @@ impl<'a, B: AsRef<[u8]>> Children<'a, B> {
             t_enter,
             t_exit,
         };
-        stack.defer(&mut self.pending, child);
+        self.stack.defer(&mut self.pending, child);
     }
 }
 
-/// One inner node for a packet: each present child with the lanes that visit it and their
-/// spans (those of the single-ray step, see [`crate::traversal`]); the nearest is returned, the
-/// others are pushed farthest first.
+/// One inner node for a packet, lane by lane: each present child with the lanes that visit it
+/// and their spans (those of the single-ray step, see [`crate::traversal`]).
 #[inline(always)]
-fn packet_step<B: AsRef<[u8]>>(
-    octree: &Octree<B>,
-    cell: &PacketCell,
-    lanes: u32,
-    o: Vec3,
-    consts: &Lanes,
-    stack: &mut PacketStack,
-) -> Option<PacketCell> {
-    let mut children = Children::new(octree, cell, o);
-    let d = children.mid - o;
+fn packet_step<B: AsRef<[u8]>>(children: &mut Children<'_, B>) {
+    let (cell, consts, d) = (children.cell, children.consts, children.d);
 
     // Each lane walks its own child sequence with the single-ray split of its span (entry
     // octant, the crossings inside (t_enter, t_exit) sorted by the same stable network, each
@@ -404,7 +394,7 @@ fn packet_step<B: AsRef<[u8]>>(
     let mut visit = [0u32; 8];
     let mut t_enter = [[0.0f32; PACKET_SIZE]; 8];
     let mut t_exit = [[0.0f32; PACKET_SIZE]; 8];
-    let mut rest = lanes;
+    let mut rest = children.lanes;
     while rest != 0 {
         let l = rest.trailing_zeros() as usize;
         let bit = rest & rest.wrapping_neg();
@@ -436,10 +426,9 @@ fn packet_step<B: AsRef<[u8]>>(
         let c = children.near ^ flip;
         let i = c as usize;
         if visit[i] != 0 && children.present(c) {
-            children.add(c, visit[i], t_enter[i], t_exit[i], stack);
+            children.add(c, visit[i], t_enter[i], t_exit[i]);
         }
     }
-    children.pending
 }
 
 /// Declares [`Lanes8`], the operations of the vector step on the packet's eight lanes, and
@@ -586,16 +575,8 @@ lanes8! {
 /// The CPU has `V`'s instruction set.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn packet_step_wide<V: Lanes8, B: AsRef<[u8]>>(
-    octree: &Octree<B>,
-    cell: &PacketCell,
-    lanes: u32,
-    o: Vec3,
-    consts: &Lanes,
-    stack: &mut PacketStack,
-) -> Option<PacketCell> {
-    let mut children = Children::new(octree, cell, o);
-    let d = children.mid - o;
+unsafe fn packet_step_wide<V: Lanes8, B: AsRef<[u8]>>(children: &mut Children<'_, B>) {
+    let (cell, consts, d) = (children.cell, children.consts, children.d);
     // SAFETY: the caller guarantees V's instruction set.
     unsafe {
         let te = V::load(&cell.t_enter);
@@ -651,7 +632,7 @@ unsafe fn packet_step_wide<V: Lanes8, B: AsRef<[u8]>>(
             }
             let cv = V::splat_u(c);
             let h = seq.map(|s| V::eq_u(s, cv));
-            let visit = V::movemask(V::or(V::or(h[0], h[1]), V::or(h[2], h[3]))) & lanes;
+            let visit = V::movemask(V::or(V::or(h[0], h[1]), V::or(h[2], h[3]))) & children.lanes;
             if visit == 0 {
                 continue;
             }
@@ -661,10 +642,9 @@ unsafe fn packet_step_wide<V: Lanes8, B: AsRef<[u8]>>(
             let t_b = V::sel(h[0], b[1], V::sel(h[1], b[2], V::sel(h[2], b[3], b[4])));
             V::store(t_a, &mut t_enter);
             V::store(t_b, &mut t_exit);
-            children.add(c, visit, t_enter, t_exit, stack);
+            children.add(c, visit, t_enter, t_exit);
         }
     }
-    children.pending
 }
 
 /// [`packet_step_wide`] with AVX2 lanes, compiled for AVX2 CPUs (the AVX comparison predicates
@@ -675,16 +655,9 @@ unsafe fn packet_step_wide<V: Lanes8, B: AsRef<[u8]>>(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn packet_step_avx2<B: AsRef<[u8]>>(
-    octree: &Octree<B>,
-    cell: &PacketCell,
-    lanes: u32,
-    o: Vec3,
-    consts: &Lanes,
-    stack: &mut PacketStack,
-) -> Option<PacketCell> {
+unsafe fn packet_step_avx2<B: AsRef<[u8]>>(children: &mut Children<'_, B>) {
     // SAFETY: the CPU has AVX2 (this function's contract).
-    unsafe { packet_step_wide::<Avx2, B>(octree, cell, lanes, o, consts, stack) }
+    unsafe { packet_step_wide::<Avx2, B>(children) }
 }
 
 #[cfg(test)]
