@@ -664,71 +664,8 @@ unsafe fn packet_step_avx2<B: AsRef<[u8]>>(children: &mut Children<'_, B>) {
 mod tests {
     use super::*;
     use crate::traversal::intersect;
+    use crate::traversal::tests::{octree_from_sdfs, same_hit};
     use crate::Ray;
-    use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, ValueBits, Voxel};
-
-    /// A signed distance with the surface and clip bits of its voxels.
-    type Field<'a> = (&'a dyn Fn(Vec3) -> f32, bool, bool);
-
-    /// Leaves where `sdfs` come within a cell diagonal of zero, one voxel per SDF (with its
-    /// surface and clip bits).
-    fn octree_from_sdfs(depth: u8, sdfs: &[Field<'_>]) -> PackedOctree {
-        let n = 1u32 << depth;
-        let h = 2.0 / n as f32;
-        let mut leaves = Vec::new();
-        for x in 0..n {
-            for y in 0..n {
-                for z in 0..n {
-                    let min = Vec3::new(x as f32, y as f32, z as f32) * h - Vec3::ONE;
-                    let mut voxels = Vec::new();
-                    for &(sdf, surface, clip) in sdfs {
-                        if sdf(min + Vec3::splat(0.5 * h)).abs() > h * 0.87 {
-                            continue;
-                        }
-                        let corners = core::array::from_fn(|i| {
-                            let c =
-                                Vec3::new((i >> 2) as f32, ((i >> 1) & 1) as f32, (i & 1) as f32);
-                            sdf(min + c * h)
-                        });
-                        voxels.push(Voxel {
-                            corners,
-                            surface,
-                            clip,
-                        });
-                    }
-                    // A leaf of clip-only voxels alone is not a valid leaf.
-                    if !voxels.iter().all(|v| v.surface && v.clip) {
-                        leaves.push(LeafInput {
-                            coord: [x, y, z],
-                            voxels,
-                        });
-                    }
-                }
-            }
-        }
-        let meta = OctreeMeta {
-            depth,
-            bits: ValueBits::Sixteen,
-            center: Vec3::ZERO,
-            scale: 1.0,
-        };
-        PackedOctree::from_leaves(meta, leaves).unwrap()
-    }
-
-    fn same_hit(a: Option<Hit>, b: Option<Hit>) -> bool {
-        match (a, b) {
-            (None, None) => true,
-            (Some(a), Some(b)) => {
-                a.t.to_bits() == b.t.to_bits()
-                    && a.voxel == b.voxel
-                    && a.cell_min.to_array().map(f32::to_bits)
-                        == b.cell_min.to_array().map(f32::to_bits)
-                    && a.cell_size.to_bits() == b.cell_size.to_bits()
-                    && a.surface == b.surface
-            }
-            _ => false,
-        }
-    }
 
     #[test]
     fn packets_hit_exactly_like_single_rays() {

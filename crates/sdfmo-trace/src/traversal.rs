@@ -455,7 +455,7 @@ pub(crate) fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     //! Traversal against brute force over every voxel of small octrees built from sampled
     //! analytic SDFs.
 
@@ -481,9 +481,12 @@ mod tests {
         )
     }
 
-    /// Leaves whose corner samples of `sdfs` (one voxel per SDF that changes sign, or comes
-    /// within a cell diagonal of zero) are kept.
-    fn octree_from_sdfs(depth: u8, sdfs: &[(&dyn Fn(Vec3) -> f32, bool)]) -> PackedOctree {
+    /// A signed distance with the surface and clip bits of its voxels.
+    pub(crate) type Field<'a> = (&'a dyn Fn(Vec3) -> f32, bool, bool);
+
+    /// Leaves where `sdfs` come within a cell diagonal of zero, one voxel per SDF (with its
+    /// surface and clip bits) sampled at the cell corners.
+    pub(crate) fn octree_from_sdfs(depth: u8, sdfs: &[Field<'_>]) -> PackedOctree {
         let n = 1u32 << depth;
         let mut leaves = Vec::new();
         for x in 0..n {
@@ -491,7 +494,7 @@ mod tests {
                 for z in 0..n {
                     let (min, h) = cell_min([x, y, z], depth);
                     let mut voxels = Vec::new();
-                    for &(sdf, surface) in sdfs {
+                    for &(sdf, surface, clip) in sdfs {
                         if sdf(min + Vec3::splat(0.5 * h)).abs() > h * 0.87 {
                             continue;
                         }
@@ -503,10 +506,11 @@ mod tests {
                         voxels.push(Voxel {
                             corners,
                             surface,
-                            clip: false,
+                            clip,
                         });
                     }
-                    if !voxels.is_empty() {
+                    // A leaf of clip-only voxels alone is not a valid leaf.
+                    if !voxels.iter().all(|v| v.surface && v.clip) {
                         leaves.push(LeafInput {
                             coord: [x, y, z],
                             voxels,
@@ -727,7 +731,7 @@ mod tests {
 
     /// Bit-level equality of two optional hits (`t` and `cell_min` compared as bits, so `-0.0`
     /// and `0.0` differ).
-    fn same_hit(a: Option<Hit>, b: Option<Hit>) -> bool {
+    pub(crate) fn same_hit(a: Option<Hit>, b: Option<Hit>) -> bool {
         match (a, b) {
             (None, None) => true,
             (Some(a), Some(b)) => {
@@ -748,8 +752,15 @@ mod tests {
         let b = |p: Vec3| (p - Vec3::new(0.2, 0.1, 0.0)).length() - 0.45;
         let sheet = |p: Vec3| p.dot(Vec3::new(0.3, 1.0, 0.2).normalize()) - 0.05;
         let octrees = [
-            octree_from_sdfs(5, &[(&a, false)]),
-            octree_from_sdfs(4, &[(&a, false), (&b, false), (&sheet, true)]),
+            octree_from_sdfs(5, &[(&a, false, false)]),
+            octree_from_sdfs(
+                4,
+                &[
+                    (&a, false, false),
+                    (&b, false, false),
+                    (&sheet, true, false),
+                ],
+            ),
         ];
         let mut rng = ChaCha8Rng::seed_from_u64(11);
         let mut rays = Vec::new();
@@ -838,7 +849,7 @@ mod tests {
         // An off-centre small sphere: its box is much smaller than the root cube.
         let c = Vec3::new(0.3, -0.2, 0.1);
         let sphere = move |p: Vec3| (p - c).length() - 0.25;
-        let octree = octree_from_sdfs(5, &[(&sphere, false)]);
+        let octree = octree_from_sdfs(5, &[(&sphere, false, false)]);
         let depth = octree.depth();
         let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
         for (coord, _) in octree.leaves() {
@@ -880,7 +891,7 @@ mod tests {
     #[test]
     fn sphere_matches_brute_force() {
         let sphere = |p: Vec3| p.length() - 0.7;
-        let octree = octree_from_sdfs(5, &[(&sphere, false)]);
+        let octree = octree_from_sdfs(5, &[(&sphere, false, false)]);
         let hits = compare_with_brute_force(&octree, 1500, 1);
         assert!(hits > 300, "{hits} hits");
     }
@@ -889,7 +900,7 @@ mod tests {
     fn zero_copy_view_traces_like_the_owned_octree() {
         let a = |p: Vec3| (p - Vec3::new(-0.15, 0.0, 0.0)).length() - 0.5;
         let sheet = |p: Vec3| p.dot(Vec3::new(0.3, 1.0, 0.2).normalize()) - 0.05;
-        let octree = octree_from_sdfs(4, &[(&a, false), (&sheet, true)]);
+        let octree = octree_from_sdfs(4, &[(&a, false, false), (&sheet, true, false)]);
         let bytes = octree.to_bytes();
         let view = PackedOctreeView::new(&bytes).unwrap();
         let mut rng = ChaCha8Rng::seed_from_u64(4);
@@ -917,7 +928,14 @@ mod tests {
         let a = |p: Vec3| (p - Vec3::new(-0.15, 0.0, 0.0)).length() - 0.5;
         let b = |p: Vec3| (p - Vec3::new(0.2, 0.1, 0.0)).length() - 0.45;
         let sheet = |p: Vec3| p.dot(Vec3::new(0.3, 1.0, 0.2).normalize()) - 0.05;
-        let octree = octree_from_sdfs(4, &[(&a, false), (&b, false), (&sheet, true)]);
+        let octree = octree_from_sdfs(
+            4,
+            &[
+                (&a, false, false),
+                (&b, false, false),
+                (&sheet, true, false),
+            ],
+        );
         assert!(octree.voxel_count() > octree.leaf_count() + 50);
         let hits = compare_with_brute_force(&octree, 1500, 2);
         assert!(hits > 300, "{hits} hits");
@@ -926,7 +944,7 @@ mod tests {
     #[test]
     fn axis_aligned_rays_between_and_on_cell_planes() {
         let sphere = |p: Vec3| p.length() - 0.6;
-        let octree = octree_from_sdfs(4, &[(&sphere, false)]);
+        let octree = octree_from_sdfs(4, &[(&sphere, false, false)]);
         // Along ±z through a grid of points, including exactly on cell planes (multiples of
         // 1/8) where the ray runs inside the shared faces of neighbouring cells.
         for i in -8..=8 {
@@ -958,7 +976,7 @@ mod tests {
     #[test]
     fn rays_starting_inside_a_solid_hit_at_t_min() {
         let sphere = |p: Vec3| p.length() - 0.7;
-        let octree = octree_from_sdfs(5, &[(&sphere, false)]);
+        let octree = octree_from_sdfs(5, &[(&sphere, false, false)]);
         // From a point just inside the surface (its leaf is stored), any direction.
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         for _ in 0..200 {
@@ -989,7 +1007,7 @@ mod tests {
                 let mut centre = Vec3::ZERO;
                 centre[axis] = 0.5 * sign;
                 let sphere = move |p: Vec3| (p - centre).length() - 0.3;
-                let octree = octree_from_sdfs(4, &[(&sphere, false)]);
+                let octree = octree_from_sdfs(4, &[(&sphere, false, false)]);
                 let mut origin = Vec3::new(0.013, -0.021, 0.017);
                 origin[axis] = 0.0;
                 let mut dir = Vec3::ZERO;
@@ -1007,7 +1025,7 @@ mod tests {
     #[test]
     fn empty_and_nan_inputs() {
         let sphere = |p: Vec3| p.length() - 0.7;
-        let octree = octree_from_sdfs(3, &[(&sphere, false)]);
+        let octree = octree_from_sdfs(3, &[(&sphere, false, false)]);
         let ray = Ray {
             origin: Vec3::new(0.0, 0.0, -3.0),
             dir: Vec3::Z,
