@@ -14,7 +14,7 @@ use glam::Vec3;
 use sdfmo_build::{build, BuildSettings, Method};
 use sdfmo_format::PackedOctree;
 use sdfmo_mesh::{load_mesh, procedural, TriMesh};
-use sdfmo_trace::{intersect, intersect_voxel, Ray};
+use sdfmo_trace::{intersect, Ray};
 
 #[path = "support/kernel_cases.rs"]
 mod kernel_cases;
@@ -26,32 +26,11 @@ fn bench_kernel(c: &mut Criterion) {
         .warm_up_time(Duration::from_millis(500));
     for (label, share) in [("volume", 0.0), ("surface", 1.0)] {
         let cases = kernel_cases(4096, share);
-        let hits = cases
-            .iter()
-            .filter(|k| {
-                intersect_voxel(&k.corners, k.origin, k.dir, k.t0, k.t1, k.surface).is_some()
-            })
-            .count();
+        let hits = kernel_cases::hits(&cases);
         assert!(hits > 1000, "{label}: only {hits} hits");
         eprintln!("kernel/{label}: {hits} of {} rays hit", cases.len());
         g.throughput(Throughput::Elements(cases.len() as u64));
-        g.bench_function(label, |b| {
-            b.iter(|| {
-                let mut n = 0u32;
-                for k in &cases {
-                    let r = intersect_voxel(
-                        black_box(&k.corners),
-                        black_box(k.origin),
-                        black_box(k.dir),
-                        k.t0,
-                        k.t1,
-                        k.surface,
-                    );
-                    n += u32::from(r.is_some());
-                }
-                n
-            })
-        });
+        g.bench_function(label, |b| b.iter(|| kernel_cases::hits(&cases)));
     }
     g.finish();
 }

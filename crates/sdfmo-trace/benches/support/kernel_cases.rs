@@ -1,10 +1,12 @@
 //! Random ray–voxel kernel cases, shared by the `trace` bench and the `kernel_speed` example
 //! (included with `#[path]`: benches and examples cannot import each other).
 
+use std::hint::black_box;
+
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use sdfmo_trace::unit_cube_span;
+use sdfmo_trace::{intersect_voxel, unit_cube_span};
 
 /// One call of the kernel: corners, ray and segment, voxel kind.
 pub struct KernelCase {
@@ -53,4 +55,21 @@ pub fn kernel_cases(n: usize, surface_share: f64) -> Vec<KernelCase> {
         });
     }
     out
+}
+
+/// The kernel on every case (inputs behind `black_box`): how many hit.
+pub fn hits(cases: &[KernelCase]) -> u32 {
+    let mut n = 0;
+    for k in cases {
+        let r = intersect_voxel(
+            black_box(&k.corners),
+            black_box(k.origin),
+            black_box(k.dir),
+            k.t0,
+            k.t1,
+            k.surface,
+        );
+        n += u32::from(r.is_some());
+    }
+    n
 }
