@@ -11,60 +11,14 @@ use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 use sdfmo_build::{build, BuildSettings, Method};
 use sdfmo_format::PackedOctree;
 use sdfmo_mesh::{load_mesh, procedural, TriMesh};
-use sdfmo_trace::{intersect, intersect_voxel, unit_cube_span, Ray};
+use sdfmo_trace::{intersect, Ray};
 
-struct KernelCase {
-    corners: [f32; 8],
-    origin: Vec3,
-    dir: Vec3,
-    t0: f32,
-    t1: f32,
-    surface: bool,
-}
-
-/// Voxels whose corners change sign (the early-out does not apply), rays through the cube.
-fn kernel_cases(n: usize, surface_share: f64) -> Vec<KernelCase> {
-    let mut rng = ChaCha8Rng::seed_from_u64(7);
-    let mut out = Vec::with_capacity(n);
-    while out.len() < n {
-        let corners: [f32; 8] = core::array::from_fn(|_| rng.random_range(-1.0..1.0));
-        let (lo, hi) = corners
-            .iter()
-            .fold((f32::MAX, f32::MIN), |(a, b), &c| (a.min(c), b.max(c)));
-        if lo > 0.0 || hi < 0.0 {
-            continue;
-        }
-        let dir = Vec3::new(
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-            rng.random_range(-1.0..1.0),
-        )
-        .normalize();
-        let target = Vec3::new(
-            rng.random_range(0.0..1.0),
-            rng.random_range(0.0..1.0),
-            rng.random_range(0.0..1.0),
-        );
-        let origin = target - dir * 3.0;
-        let Some((t0, t1)) = unit_cube_span(origin, dir) else {
-            continue;
-        };
-        out.push(KernelCase {
-            corners,
-            origin,
-            dir,
-            t0,
-            t1,
-            surface: rng.random_bool(surface_share),
-        });
-    }
-    out
-}
+#[path = "support/kernel_cases.rs"]
+mod kernel_cases;
+use kernel_cases::kernel_cases;
 
 fn bench_kernel(c: &mut Criterion) {
     let mut g = c.benchmark_group("kernel");
@@ -72,32 +26,11 @@ fn bench_kernel(c: &mut Criterion) {
         .warm_up_time(Duration::from_millis(500));
     for (label, share) in [("volume", 0.0), ("surface", 1.0)] {
         let cases = kernel_cases(4096, share);
-        let hits = cases
-            .iter()
-            .filter(|k| {
-                intersect_voxel(&k.corners, k.origin, k.dir, k.t0, k.t1, k.surface).is_some()
-            })
-            .count();
+        let hits = kernel_cases::hits(&cases);
         assert!(hits > 1000, "{label}: only {hits} hits");
         eprintln!("kernel/{label}: {hits} of {} rays hit", cases.len());
         g.throughput(Throughput::Elements(cases.len() as u64));
-        g.bench_function(label, |b| {
-            b.iter(|| {
-                let mut n = 0u32;
-                for k in &cases {
-                    let r = intersect_voxel(
-                        black_box(&k.corners),
-                        black_box(k.origin),
-                        black_box(k.dir),
-                        k.t0,
-                        k.t1,
-                        k.surface,
-                    );
-                    n += u32::from(r.is_some());
-                }
-                n
-            })
-        });
+        g.bench_function(label, |b| b.iter(|| kernel_cases::hits(&cases)));
     }
     g.finish();
 }

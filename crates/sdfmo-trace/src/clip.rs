@@ -225,7 +225,7 @@ mod tests {
     //! two planes, on clipped surfaces and on clip boundaries through the hit (tangent cases).
 
     use super::*;
-    use crate::ray_voxel::tests::{config, f64_at, point_strategy, unit};
+    use crate::ray_voxel::tests::{bisect, config, f64_at, point_strategy, unit};
     use crate::ray_voxel::{intersect_voxel, unit_cube_span};
     use proptest::prelude::*;
     use proptest::test_runner::TestCaseError;
@@ -360,16 +360,7 @@ mod tests {
             }
             for k in 1..fs.len() {
                 if changed(fs[k - 1], fs[k]) {
-                    let (mut a, mut b) = (ts[k - 1], ts[k]);
-                    let fa = fs[k - 1];
-                    for _ in 0..80 {
-                        let m = 0.5 * (a + b);
-                        if changed(fa, f(m)) {
-                            b = m;
-                        } else {
-                            a = m;
-                        }
-                    }
+                    let b = bisect(f, changed, (ts[k - 1], fs[k - 1]), ts[k]);
                     let h = 1e-6 / dlen;
                     let slope = ((f(b + h) - f(b - h)) / (2.0 * h)).abs() / dlen;
                     // Clear: steep, and not at the very start (where the start rule decides).

@@ -23,15 +23,13 @@
 //! The unit test `packets_hit_exactly_like_single_rays` checks it against [`intersect`] on many
 //! cameras (eyes on and off the root's mid-planes, axis-parallel rays, partial packets).
 
-use core::mem::MaybeUninit;
-
 use glam::Vec3;
 use sdfmo_format::{NodeRef, Octree, MAX_DEPTH};
 
 use crate::ray_voxel::{intersect_prepared, prepare_voxel, PreparedVoxel};
 #[cfg(doc)]
 use crate::traversal::intersect;
-use crate::traversal::{box_span, le, safe_inv, Hit};
+use crate::traversal::{child_at, le, root_span, split_span, CellStack, Hit};
 
 /// Rays per packet (lanes).
 pub const PACKET_SIZE: usize = 8;
@@ -39,6 +37,9 @@ pub const PACKET_SIZE: usize = 8;
 /// Stack capacity: a node pushes at most seven children and continues with the eighth, so a
 /// descent to depth `d` holds at most `7d + 1` entries; [`MAX_DEPTH`] bounds `d`.
 const PACKET_STACK: usize = 7 * MAX_DEPTH as usize + 2;
+
+/// The cells a packet has still to visit.
+type PacketStack = CellStack<PacketCell, PACKET_STACK>;
 
 /// Children in order of the number of bits that differ from the near octant (0, then the three
 /// one-bit flips, the three two-bit flips, the far octant).
@@ -138,8 +139,7 @@ fn packet<B: AsRef<[u8]>, const STEP: u8>(
     let mut alive = 0u32;
     for (l, d) in dirs.iter().enumerate() {
         // The single-ray set-up, lane by lane.
-        let inv = Vec3::new(safe_inv(d.x), safe_inv(d.y), safe_inv(d.z));
-        let (te, tx) = box_span(Vec3::splat(-1.0), 2.0, o, inv, 0.0, t_max);
+        let (inv, te, tx) = root_span(o, *d, 0.0, t_max);
         consts.inv[0][l] = inv.x;
         consts.inv[1][l] = inv.y;
         consts.inv[2][l] = inv.z;
@@ -155,8 +155,7 @@ fn packet<B: AsRef<[u8]>, const STEP: u8>(
         return out;
     }
 
-    let mut stack = [const { MaybeUninit::<PacketCell>::uninit() }; PACKET_STACK];
-    let mut sp = 0usize;
+    let mut stack = PacketStack::new();
     let mut cell = PacketCell {
         node: root,
         min: Vec3::splat(-1.0),
@@ -173,39 +172,27 @@ fn packet<B: AsRef<[u8]>, const STEP: u8>(
                 if alive == 0 {
                     return out;
                 }
-            } else if let Some(next) = if STEP == AVX2 {
-                #[cfg(target_arch = "x86_64")]
-                // SAFETY: STEP = AVX2 only in `packet_avx2`, called once AVX2 is detected.
-                unsafe {
-                    packet_step_avx2(octree, &cell, lanes, o, &consts, &mut stack, &mut sp)
-                }
-                #[cfg(not(target_arch = "x86_64"))]
-                {
-                    packet_step(octree, &cell, lanes, o, &consts, &mut stack, &mut sp)
-                }
-            } else if STEP == SSE2 {
-                #[cfg(target_arch = "x86_64")]
-                {
-                    packet_step_sse2(octree, &cell, lanes, o, &consts, &mut stack, &mut sp)
-                }
-                #[cfg(not(target_arch = "x86_64"))]
-                {
-                    packet_step(octree, &cell, lanes, o, &consts, &mut stack, &mut sp)
-                }
             } else {
-                packet_step(octree, &cell, lanes, o, &consts, &mut stack, &mut sp)
-            } {
-                cell = next;
-                continue;
+                let mut children = Children::new(octree, &cell, lanes, o, &consts, &mut stack);
+                match STEP {
+                    // SAFETY: STEP = AVX2 only in `packet_avx2`, called once AVX2 is detected.
+                    #[cfg(target_arch = "x86_64")]
+                    AVX2 => unsafe { packet_step_avx2(&mut children) },
+                    // SAFETY: SSE2 is part of the x86-64 baseline.
+                    #[cfg(target_arch = "x86_64")]
+                    SSE2 => unsafe { packet_step_wide::<Sse2, B>(&mut children) },
+                    _ => packet_step(&mut children),
+                }
+                if let Some(next) = children.pending {
+                    cell = next;
+                    continue;
+                }
             }
         }
-        if sp == 0 {
-            return out;
+        match stack.pop() {
+            Some(next) => cell = next,
+            None => return out,
         }
-        sp -= 1;
-        // SAFETY: `stack[sp]` was written: `sp` only grows by one right after writing
-        // `stack[sp]`, so every entry below it is initialised.
-        cell = unsafe { stack[sp].assume_init() };
     }
 }
 
@@ -317,30 +304,97 @@ fn packet_leaf_voxels<B: AsRef<[u8]>>(
     }
 }
 
-/// One inner node for a packet: each present child with the lanes that visit it and their
-/// spans (those of the single-ray step, see [`crate::traversal`]); the nearest is returned, the
-/// others are pushed farthest first.
-#[inline(always)]
-fn packet_step<B: AsRef<[u8]>>(
-    octree: &Octree<B>,
-    cell: &PacketCell,
+/// One inner node being split for a packet's `lanes`, and its children as a step emits them,
+/// farthest first (in the reverse of [`NEAR_TO_FAR`] from the octant `near` holding the common
+/// origin; either side where it lies on a mid-plane: no ray with t ≥ 0 then crosses that plane
+/// inside a span): each present child with the lanes that visit it and their spans. The
+/// nearest is kept back in `pending` for the walk to take, the others go on the stack.
+struct Children<'a, B: AsRef<[u8]>> {
+    octree: &'a Octree<B>,
+    cell: &'a PacketCell,
     lanes: u32,
-    o: Vec3,
-    consts: &Lanes,
-    stack: &mut [MaybeUninit<PacketCell>; PACKET_STACK],
-    sp: &mut usize,
-) -> Option<PacketCell> {
-    let half = 0.5 * cell.size;
-    let mid = cell.min + Vec3::splat(half);
-    let d = mid - o;
+    consts: &'a Lanes,
+    stack: &'a mut PacketStack,
+    half: f32,
+    mid: Vec3,
+    /// From the common origin to `mid`.
+    d: Vec3,
+    mask: u32,
+    near: u32,
+    first: Option<u32>,
+    pending: Option<PacketCell>,
+}
 
-    // Each lane walks its own child sequence as the single-ray step does (entry octant, the
-    // crossings inside (t_enter, t_exit) sorted by the same stable network, each flipping its
-    // bit) and marks the children it visits with its span. Only the packet's live lanes run.
+impl<'a, B: AsRef<[u8]>> Children<'a, B> {
+    #[inline(always)]
+    fn new(
+        octree: &'a Octree<B>,
+        cell: &'a PacketCell,
+        lanes: u32,
+        o: Vec3,
+        consts: &'a Lanes,
+        stack: &'a mut PacketStack,
+    ) -> Self {
+        let half = 0.5 * cell.size;
+        let mid = cell.min + Vec3::splat(half);
+        let near =
+            u32::from(o.x >= mid.x) << 2 | u32::from(o.y >= mid.y) << 1 | u32::from(o.z >= mid.z);
+        Children {
+            octree,
+            cell,
+            lanes,
+            consts,
+            stack,
+            half,
+            mid,
+            d: mid - o,
+            mask: u32::from(octree.child_mask(cell.node)),
+            near,
+            first: None,
+            pending: None,
+        }
+    }
+
+    #[inline(always)]
+    fn present(&self, c: u32) -> bool {
+        self.mask >> c & 1 != 0
+    }
+
+    /// The present child `c`, visited by `lanes` over their spans.
+    #[inline(always)]
+    fn add(&mut self, c: u32, lanes: u32, t_enter: [f32; PACKET_SIZE], t_exit: [f32; PACKET_SIZE]) {
+        let (octree, node) = (self.octree, self.cell.node);
+        let first = *self
+            .first
+            .get_or_insert_with(|| octree.first_child_index(node));
+        // Exact, as in the single-ray step.
+        let (node, min) = child_at(first, self.mask, c, self.cell.min, self.mid);
+        let child = PacketCell {
+            node,
+            min,
+            size: self.half,
+            lanes,
+            t_enter,
+            t_exit,
+        };
+        self.stack.defer(&mut self.pending, child);
+    }
+}
+
+/// One inner node for a packet, lane by lane: each present child with the lanes that visit it
+/// and their spans (those of the single-ray step, see [`crate::traversal`]).
+#[inline(always)]
+fn packet_step<B: AsRef<[u8]>>(children: &mut Children<'_, B>) {
+    let (cell, consts, d) = (children.cell, children.consts, children.d);
+
+    // Each lane walks its own child sequence with the single-ray split of its span (entry
+    // octant, the crossings inside (t_enter, t_exit) sorted by the same stable network, each
+    // flipping its bit) and marks the children it visits with its span. Only the packet's live
+    // lanes run.
     let mut visit = [0u32; 8];
     let mut t_enter = [[0.0f32; PACKET_SIZE]; 8];
     let mut t_exit = [[0.0f32; PACKET_SIZE]; 8];
-    let mut rest = lanes;
+    let mut rest = children.lanes;
     while rest != 0 {
         let l = rest.trailing_zeros() as usize;
         let bit = rest & rest.wrapping_neg();
@@ -351,23 +405,8 @@ fn packet_step<B: AsRef<[u8]>>(
             d.y * consts.inv[1][l],
             d.z * consts.inv[2][l],
         );
-        let behind =
-            u32::from(tm.x <= te) << 2 | u32::from(tm.y <= te) << 1 | u32::from(tm.z <= te);
-        // `&`, not `&&`: no branch.
-        let crossed = |t: f32| (t > te) & (t < tx);
-        let (mut k0, mut b0) = if crossed(tm.x) { (tm.x, 4u32) } else { (tx, 0) };
-        let (mut k1, mut b1) = if crossed(tm.y) { (tm.y, 2u32) } else { (tx, 0) };
-        let (mut k2, mut b2) = if crossed(tm.z) { (tm.z, 1u32) } else { (tx, 0) };
-        if k1 < k0 {
-            (k0, k1, b0, b1) = (k1, k0, b1, b0);
-        }
-        if k2 < k1 {
-            (k1, k2, b1, b2) = (k2, k1, b2, b1);
-        }
-        if k1 < k0 {
-            (k0, k1, b0, b1) = (k1, k0, b1, b0);
-        }
-        let mut c = (behind ^ consts.negative[l]) as usize;
+        let (behind, [k0, k1, k2], [b0, b1, b2]) = split_span(tm, te, tx);
+        let mut c = (u32::from(behind) ^ consts.negative[l]) as usize;
         visit[c] |= bit;
         t_enter[c][l] = te;
         t_exit[c][l] = k0;
@@ -383,434 +422,250 @@ fn packet_step<B: AsRef<[u8]>>(
         }
     }
 
-    let mask = u32::from(octree.child_mask(cell.node));
-    // The octant holding the origin (either side where it lies on a mid-plane: no ray with
-    // t ≥ 0 then crosses that plane inside a span).
-    let near =
-        u32::from(o.x >= mid.x) << 2 | u32::from(o.y >= mid.y) << 1 | u32::from(o.z >= mid.z);
-    let mut first = None;
-    let mut pending: Option<PacketCell> = None;
     for &flip in NEAR_TO_FAR.iter().rev() {
-        let c = near ^ flip;
-        if visit[c as usize] == 0 || mask >> c & 1 == 0 {
-            continue;
-        }
-        let first = *first.get_or_insert_with(|| octree.first_child_index(cell.node));
-        let below = mask & ((1u32 << c) - 1);
-        let child = PacketCell {
-            node: NodeRef::from_index(first + below.count_ones()),
-            // Exact, as in the single-ray step.
-            min: Vec3::new(
-                if c & 4 != 0 { mid.x } else { cell.min.x },
-                if c & 2 != 0 { mid.y } else { cell.min.y },
-                if c & 1 != 0 { mid.z } else { cell.min.z },
-            ),
-            size: half,
-            lanes: visit[c as usize],
-            t_enter: t_enter[c as usize],
-            t_exit: t_exit[c as usize],
-        };
-        if let Some(p) = pending.replace(child) {
-            if *sp < PACKET_STACK {
-                stack[*sp].write(p);
-                *sp += 1;
-            }
+        let c = children.near ^ flip;
+        let i = c as usize;
+        if visit[i] != 0 && children.present(c) {
+            children.add(c, visit[i], t_enter[i], t_exit[i]);
         }
     }
-    pending
 }
 
-/// [`packet_step`] with SSE2 (part of every x86-64 CPU), all eight lanes in two registers:
-/// the same comparisons and the same f32 products lane by lane (SSE2 arithmetic is IEEE like
-/// the scalar code, and its comparisons are false on NaN like Rust's), so the same children,
-/// spans and bits. Lanes outside `lanes` are computed too and masked off.
+/// Declares [`Lanes8`], the operations of the vector step on the packet's eight lanes, and
+/// implements it for [`Sse2`] and [`Avx2`] from one table: a row per operation, its SSE2 form
+/// (two registers of four lanes, `pair` applying a form to each) and its AVX2 form.
+#[cfg(target_arch = "x86_64")]
+macro_rules! lanes8 {
+    ($(fn $op:ident($($arg:ident: $ty:ty),*) -> $ret:ty { sse2: $sse2:expr, avx2: $avx2:expr })*) => {
+        /// The packet's eight f32 lanes (or u32 lanes in the same bits) in SIMD registers, for
+        /// [`packet_step_wide`]. Comparisons give all-ones or all-zero lanes and are false on
+        /// NaN (ordered predicates), like Rust's; arithmetic is IEEE, like the scalar code.
+        ///
+        /// # Safety
+        /// Every operation needs the type's instruction set on the running CPU.
+        trait Lanes8: Copy {
+            $(unsafe fn $op($($arg: $ty),*) -> $ret;)*
+        }
+        impl Lanes8 for Sse2 {
+            $(
+                #[inline(always)]
+                unsafe fn $op($($arg: $ty),*) -> $ret {
+                    // SAFETY: the caller guarantees SSE2 (loads and stores: eight f32/u32 of
+                    // a PACKET_SIZE array, unaligned).
+                    unsafe { $sse2 }
+                }
+            )*
+        }
+        impl Lanes8 for Avx2 {
+            $(
+                #[inline(always)]
+                unsafe fn $op($($arg: $ty),*) -> $ret {
+                    // SAFETY: the caller guarantees AVX2 (loads and stores as above).
+                    unsafe { $avx2 }
+                }
+            )*
+        }
+    };
+}
+
+/// Eight lanes as two SSE2 registers (part of every x86-64 CPU).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+struct Sse2([core::arch::x86_64::__m128; 2]);
+
+/// Eight lanes as one AVX register (CPUs with AVX2).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+struct Avx2(core::arch::x86_64::__m256);
+
+/// `f` on each half of an [`Sse2`].
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn pair(f: impl Fn(usize) -> core::arch::x86_64::__m128) -> Sse2 {
+    Sse2([f(0), f(1)])
+}
+
+#[cfg(target_arch = "x86_64")]
+use core::arch::x86_64::*;
+
+#[cfg(target_arch = "x86_64")]
+const _: () = assert!(
+    PACKET_SIZE == 8,
+    "two SSE registers or one AVX register of lanes"
+);
+
+#[cfg(target_arch = "x86_64")]
+lanes8! {
+    fn splat(x: f32) -> Self { sse2: pair(|_| _mm_set1_ps(x)), avx2: Avx2(_mm256_set1_ps(x)) }
+    fn splat_u(x: u32) -> Self {
+        sse2: pair(|_| _mm_castsi128_ps(_mm_set1_epi32(x as i32))),
+        avx2: Avx2(_mm256_castsi256_ps(_mm256_set1_epi32(x as i32)))
+    }
+    fn load(a: &[f32; PACKET_SIZE]) -> Self {
+        sse2: pair(|h| _mm_loadu_ps(a.as_ptr().add(4 * h))),
+        avx2: Avx2(_mm256_loadu_ps(a.as_ptr()))
+    }
+    fn load_u(a: &[u32; PACKET_SIZE]) -> Self {
+        sse2: pair(|h| _mm_castsi128_ps(_mm_loadu_si128(a.as_ptr().add(4 * h).cast()))),
+        avx2: Avx2(_mm256_castsi256_ps(_mm256_loadu_si256(a.as_ptr().cast())))
+    }
+    fn store(v: Self, a: &mut [f32; PACKET_SIZE]) -> () {
+        sse2: (0..2).for_each(|h| _mm_storeu_ps(a.as_mut_ptr().add(4 * h), v.0[h])),
+        avx2: _mm256_storeu_ps(a.as_mut_ptr(), v.0)
+    }
+    fn mul(a: Self, b: Self) -> Self {
+        sse2: pair(|h| _mm_mul_ps(a.0[h], b.0[h])),
+        avx2: Avx2(_mm256_mul_ps(a.0, b.0))
+    }
+    fn le(a: Self, b: Self) -> Self {
+        sse2: pair(|h| _mm_cmple_ps(a.0[h], b.0[h])),
+        avx2: Avx2(_mm256_cmp_ps::<_CMP_LE_OQ>(a.0, b.0))
+    }
+    fn lt(a: Self, b: Self) -> Self {
+        sse2: pair(|h| _mm_cmplt_ps(a.0[h], b.0[h])),
+        avx2: Avx2(_mm256_cmp_ps::<_CMP_LT_OQ>(a.0, b.0))
+    }
+    fn gt(a: Self, b: Self) -> Self {
+        sse2: pair(|h| _mm_cmpgt_ps(a.0[h], b.0[h])),
+        avx2: Avx2(_mm256_cmp_ps::<_CMP_GT_OQ>(a.0, b.0))
+    }
+    fn and(a: Self, b: Self) -> Self {
+        sse2: pair(|h| _mm_and_ps(a.0[h], b.0[h])),
+        avx2: Avx2(_mm256_and_ps(a.0, b.0))
+    }
+    fn or(a: Self, b: Self) -> Self {
+        sse2: pair(|h| _mm_or_ps(a.0[h], b.0[h])),
+        avx2: Avx2(_mm256_or_ps(a.0, b.0))
+    }
+    fn and_u(a: Self, b: Self) -> Self {
+        sse2: pair(|h| _mm_castsi128_ps(_mm_and_si128(_mm_castps_si128(a.0[h]), _mm_castps_si128(b.0[h])))),
+        avx2: Avx2(_mm256_castsi256_ps(_mm256_and_si256(_mm256_castps_si256(a.0), _mm256_castps_si256(b.0))))
+    }
+    fn or_u(a: Self, b: Self) -> Self {
+        sse2: pair(|h| _mm_castsi128_ps(_mm_or_si128(_mm_castps_si128(a.0[h]), _mm_castps_si128(b.0[h])))),
+        avx2: Avx2(_mm256_castsi256_ps(_mm256_or_si256(_mm256_castps_si256(a.0), _mm256_castps_si256(b.0))))
+    }
+    fn xor_u(a: Self, b: Self) -> Self {
+        sse2: pair(|h| _mm_castsi128_ps(_mm_xor_si128(_mm_castps_si128(a.0[h]), _mm_castps_si128(b.0[h])))),
+        avx2: Avx2(_mm256_castsi256_ps(_mm256_xor_si256(_mm256_castps_si256(a.0), _mm256_castps_si256(b.0))))
+    }
+    fn eq_u(a: Self, b: Self) -> Self {
+        sse2: pair(|h| _mm_castsi128_ps(_mm_cmpeq_epi32(_mm_castps_si128(a.0[h]), _mm_castps_si128(b.0[h])))),
+        avx2: Avx2(_mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_castps_si256(a.0), _mm256_castps_si256(b.0))))
+    }
+    fn sel(m: Self, a: Self, b: Self) -> Self {
+        sse2: pair(|h| _mm_or_ps(_mm_and_ps(m.0[h], a.0[h]), _mm_andnot_ps(m.0[h], b.0[h]))),
+        avx2: Avx2(_mm256_blendv_ps(b.0, a.0, m.0))
+    }
+    fn movemask(a: Self) -> u32 {
+        sse2: (_mm_movemask_ps(a.0[0]) | _mm_movemask_ps(a.0[1]) << 4) as u32,
+        avx2: _mm256_movemask_ps(a.0) as u32
+    }
+}
+
+/// [`packet_step`] with SIMD ([`Sse2`] or [`Avx2`] lanes), all eight lanes at once: the same
+/// comparisons and the same f32 products lane by lane, so the same children, spans and bits.
+/// Lanes outside `lanes` are computed too and masked off.
 ///
 /// Each lane's child sequence is kept as four octants (`seq[p]`: after p crossings; 8 where
 /// there is no p-th crossing) and five bounds (`t_enter`, the three sorted keys, `t_exit`); a
 /// child is visited by the lanes whose sequence holds it, over `[bound p, bound p + 1]`.
+///
+/// # Safety
+/// The CPU has `V`'s instruction set.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn packet_step_sse2<B: AsRef<[u8]>>(
-    octree: &Octree<B>,
-    cell: &PacketCell,
-    lanes: u32,
-    o: Vec3,
-    consts: &Lanes,
-    stack: &mut [MaybeUninit<PacketCell>; PACKET_STACK],
-    sp: &mut usize,
-) -> Option<PacketCell> {
-    use core::arch::x86_64::*;
-    const HALVES: usize = PACKET_SIZE / 4;
-
-    let half = 0.5 * cell.size;
-    let mid = cell.min + Vec3::splat(half);
-    let d = mid - o;
-    let mask = u32::from(octree.child_mask(cell.node));
-    let near =
-        u32::from(o.x >= mid.x) << 2 | u32::from(o.y >= mid.y) << 1 | u32::from(o.z >= mid.z);
-
-    // SAFETY: SSE2 is part of the x86-64 baseline; every load and store below reads or writes
-    // four f32/u32 inside an array of PACKET_SIZE (= 4 · HALVES) elements (unaligned access).
+unsafe fn packet_step_wide<V: Lanes8, B: AsRef<[u8]>>(children: &mut Children<'_, B>) {
+    let (cell, consts, d) = (children.cell, children.consts, children.d);
+    // SAFETY: the caller guarantees V's instruction set.
     unsafe {
-        let sel =
-            |m: __m128, a: __m128, b: __m128| _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b));
-        let seli = |m: __m128i, a: __m128i, b: __m128i| {
-            _mm_or_si128(_mm_and_si128(m, a), _mm_andnot_si128(m, b))
+        let te = V::load(&cell.t_enter);
+        let tx = V::load(&cell.t_exit);
+        let tmx = V::mul(V::splat(d.x), V::load(&consts.inv[0]));
+        let tmy = V::mul(V::splat(d.y), V::load(&consts.inv[1]));
+        let tmz = V::mul(V::splat(d.z), V::load(&consts.inv[2]));
+        let bits = |m: V, b: u32| V::and_u(m, V::splat_u(b));
+        // Entry octant: `tm ≤ te` (behind), xor the negative axes.
+        let behind = V::or_u(
+            V::or_u(bits(V::le(tmx, te), 4), bits(V::le(tmy, te), 2)),
+            bits(V::le(tmz, te), 1),
+        );
+        let o0 = V::xor_u(behind, V::load_u(&consts.negative));
+        // Crossings inside (te, tx): key tm and the axis bit, else key tx and bit 0.
+        let crossed = |t: V| V::and(V::gt(t, te), V::lt(t, tx));
+        let (cx, cy, cz) = (crossed(tmx), crossed(tmy), crossed(tmz));
+        let (mut k0, mut k1, mut k2) = (
+            V::sel(cx, tmx, tx),
+            V::sel(cy, tmy, tx),
+            V::sel(cz, tmz, tx),
+        );
+        let (mut b0, mut b1, mut b2) = (bits(cx, 4), bits(cy, 2), bits(cz, 1));
+        // The stable network: swap where the later key is strictly smaller.
+        let sort = |ka: V, kb: V, ba: V, bb: V| {
+            let s = V::lt(kb, ka);
+            (
+                V::sel(s, kb, ka),
+                V::sel(s, ka, kb),
+                V::sel(s, bb, ba),
+                V::sel(s, ba, bb),
+            )
         };
-        let zero = _mm_setzero_si128();
-        let none = _mm_set1_epi32(8);
-        let mut seq = [[zero; HALVES]; 4];
-        let mut bound = [[_mm_setzero_ps(); HALVES]; 5];
-        for h in 0..HALVES {
-            let te = _mm_loadu_ps(cell.t_enter.as_ptr().add(4 * h));
-            let tx = _mm_loadu_ps(cell.t_exit.as_ptr().add(4 * h));
-            let tmx = _mm_mul_ps(
-                _mm_set1_ps(d.x),
-                _mm_loadu_ps(consts.inv[0].as_ptr().add(4 * h)),
-            );
-            let tmy = _mm_mul_ps(
-                _mm_set1_ps(d.y),
-                _mm_loadu_ps(consts.inv[1].as_ptr().add(4 * h)),
-            );
-            let tmz = _mm_mul_ps(
-                _mm_set1_ps(d.z),
-                _mm_loadu_ps(consts.inv[2].as_ptr().add(4 * h)),
-            );
-            // Entry octant: `tm ≤ te` (behind), xor the negative axes.
-            let behind = _mm_or_si128(
-                _mm_or_si128(
-                    _mm_and_si128(_mm_castps_si128(_mm_cmple_ps(tmx, te)), _mm_set1_epi32(4)),
-                    _mm_and_si128(_mm_castps_si128(_mm_cmple_ps(tmy, te)), _mm_set1_epi32(2)),
-                ),
-                _mm_and_si128(_mm_castps_si128(_mm_cmple_ps(tmz, te)), _mm_set1_epi32(1)),
-            );
-            let negative = _mm_loadu_si128(consts.negative.as_ptr().add(4 * h).cast());
-            let o0 = _mm_xor_si128(behind, negative);
-            // Crossings inside (te, tx): key tm and the axis bit, else key tx and bit 0.
-            let crossed = |t: __m128| _mm_and_ps(_mm_cmpgt_ps(t, te), _mm_cmplt_ps(t, tx));
-            let (cx, cy, cz) = (crossed(tmx), crossed(tmy), crossed(tmz));
-            let mut k0 = sel(cx, tmx, tx);
-            let mut k1 = sel(cy, tmy, tx);
-            let mut k2 = sel(cz, tmz, tx);
-            let mut b0 = _mm_and_si128(_mm_castps_si128(cx), _mm_set1_epi32(4));
-            let mut b1 = _mm_and_si128(_mm_castps_si128(cy), _mm_set1_epi32(2));
-            let mut b2 = _mm_and_si128(_mm_castps_si128(cz), _mm_set1_epi32(1));
-            // The stable network: swap where the later key is strictly smaller.
-            let s = _mm_cmplt_ps(k1, k0);
-            let si = _mm_castps_si128(s);
-            (k0, k1, b0, b1) = (
-                sel(s, k1, k0),
-                sel(s, k0, k1),
-                seli(si, b1, b0),
-                seli(si, b0, b1),
-            );
-            let s = _mm_cmplt_ps(k2, k1);
-            let si = _mm_castps_si128(s);
-            (k1, k2, b1, b2) = (
-                sel(s, k2, k1),
-                sel(s, k1, k2),
-                seli(si, b2, b1),
-                seli(si, b1, b2),
-            );
-            let s = _mm_cmplt_ps(k1, k0);
-            let si = _mm_castps_si128(s);
-            (k0, k1, b0, b1) = (
-                sel(s, k1, k0),
-                sel(s, k0, k1),
-                seli(si, b1, b0),
-                seli(si, b0, b1),
-            );
-            let o1 = _mm_xor_si128(o0, b0);
-            let o2 = _mm_xor_si128(o1, b1);
-            let o3 = _mm_xor_si128(o2, b2);
-            seq[0][h] = o0;
-            seq[1][h] = seli(_mm_cmpeq_epi32(b0, zero), none, o1);
-            seq[2][h] = seli(_mm_cmpeq_epi32(b1, zero), none, o2);
-            seq[3][h] = seli(_mm_cmpeq_epi32(b2, zero), none, o3);
-            bound[0][h] = te;
-            bound[1][h] = k0;
-            bound[2][h] = k1;
-            bound[3][h] = k2;
-            bound[4][h] = tx;
-        }
+        (k0, k1, b0, b1) = sort(k0, k1, b0, b1);
+        (k1, k2, b1, b2) = sort(k1, k2, b1, b2);
+        (k0, k1, b0, b1) = sort(k0, k1, b0, b1);
+        let o1 = V::xor_u(o0, b0);
+        let o2 = V::xor_u(o1, b1);
+        let o3 = V::xor_u(o2, b2);
+        let (zero, none) = (V::splat_u(0), V::splat_u(8));
+        let seq = [
+            o0,
+            V::sel(V::eq_u(b0, zero), none, o1),
+            V::sel(V::eq_u(b1, zero), none, o2),
+            V::sel(V::eq_u(b2, zero), none, o3),
+        ];
+        let b = [te, k0, k1, k2, tx];
 
-        let mut first = None;
-        let mut pending: Option<PacketCell> = None;
         for &flip in NEAR_TO_FAR.iter().rev() {
-            let c = near ^ flip;
-            if mask >> c & 1 == 0 {
+            let c = children.near ^ flip;
+            if !children.present(c) {
                 continue;
             }
-            let cv = _mm_set1_epi32(c as i32);
-            let mut visit = 0u32;
-            let mut t_enter = [0.0f32; PACKET_SIZE];
-            let mut t_exit = [0.0f32; PACKET_SIZE];
-            for h in 0..HALVES {
-                let h0 = _mm_castsi128_ps(_mm_cmpeq_epi32(seq[0][h], cv));
-                let h1 = _mm_castsi128_ps(_mm_cmpeq_epi32(seq[1][h], cv));
-                let h2 = _mm_castsi128_ps(_mm_cmpeq_epi32(seq[2][h], cv));
-                let h3 = _mm_castsi128_ps(_mm_cmpeq_epi32(seq[3][h], cv));
-                let any = _mm_or_ps(_mm_or_ps(h0, h1), _mm_or_ps(h2, h3));
-                visit |= (_mm_movemask_ps(any) as u32) << (4 * h);
-                let b = &bound;
-                let t_a = sel(h0, b[0][h], sel(h1, b[1][h], sel(h2, b[2][h], b[3][h])));
-                let t_b = sel(h0, b[1][h], sel(h1, b[2][h], sel(h2, b[3][h], b[4][h])));
-                _mm_storeu_ps(t_enter.as_mut_ptr().add(4 * h), t_a);
-                _mm_storeu_ps(t_exit.as_mut_ptr().add(4 * h), t_b);
-            }
-            visit &= lanes;
+            let cv = V::splat_u(c);
+            let h = seq.map(|s| V::eq_u(s, cv));
+            let visit = V::movemask(V::or(V::or(h[0], h[1]), V::or(h[2], h[3]))) & children.lanes;
             if visit == 0 {
                 continue;
             }
-            let first = *first.get_or_insert_with(|| octree.first_child_index(cell.node));
-            let below = mask & ((1u32 << c) - 1);
-            let child = PacketCell {
-                node: NodeRef::from_index(first + below.count_ones()),
-                // Exact, as in the single-ray step.
-                min: Vec3::new(
-                    if c & 4 != 0 { mid.x } else { cell.min.x },
-                    if c & 2 != 0 { mid.y } else { cell.min.y },
-                    if c & 1 != 0 { mid.z } else { cell.min.z },
-                ),
-                size: half,
-                lanes: visit,
-                t_enter,
-                t_exit,
-            };
-            if let Some(p) = pending.replace(child) {
-                if *sp < PACKET_STACK {
-                    stack[*sp].write(p);
-                    *sp += 1;
-                }
-            }
+            let mut t_enter = [0.0f32; PACKET_SIZE];
+            let mut t_exit = [0.0f32; PACKET_SIZE];
+            let t_a = V::sel(h[0], b[0], V::sel(h[1], b[1], V::sel(h[2], b[2], b[3])));
+            let t_b = V::sel(h[0], b[1], V::sel(h[1], b[2], V::sel(h[2], b[3], b[4])));
+            V::store(t_a, &mut t_enter);
+            V::store(t_b, &mut t_exit);
+            children.add(c, visit, t_enter, t_exit);
         }
-        pending
     }
 }
 
-/// [`packet_step_sse2`] with AVX2: the eight lanes in one register (the same comparisons and
-/// products; the AVX comparison predicates used are the ordered ones, false on NaN like SSE's).
+/// [`packet_step_wide`] with AVX2 lanes, compiled for AVX2 CPUs (the AVX comparison predicates
+/// used are the ordered ones, false on NaN like SSE's).
+///
+/// # Safety
+/// The CPU has AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn packet_step_avx2<B: AsRef<[u8]>>(
-    octree: &Octree<B>,
-    cell: &PacketCell,
-    lanes: u32,
-    o: Vec3,
-    consts: &Lanes,
-    stack: &mut [MaybeUninit<PacketCell>; PACKET_STACK],
-    sp: &mut usize,
-) -> Option<PacketCell> {
-    use core::arch::x86_64::*;
-    const _: () = assert!(PACKET_SIZE == 8, "one AVX register of lanes");
-
-    let half = 0.5 * cell.size;
-    let mid = cell.min + Vec3::splat(half);
-    let d = mid - o;
-    let mask = u32::from(octree.child_mask(cell.node));
-    let near =
-        u32::from(o.x >= mid.x) << 2 | u32::from(o.y >= mid.y) << 1 | u32::from(o.z >= mid.z);
-
-    // SAFETY (the caller guarantees AVX2): every load and store reads or writes eight f32/u32 of
-    // an array of PACKET_SIZE = 8 elements (unaligned access).
-    unsafe {
-        let sel = |m: __m256, a: __m256, b: __m256| _mm256_blendv_ps(b, a, m);
-        let seli = |m: __m256i, a: __m256i, b: __m256i| {
-            _mm256_castps_si256(_mm256_blendv_ps(
-                _mm256_castsi256_ps(b),
-                _mm256_castsi256_ps(a),
-                _mm256_castsi256_ps(m),
-            ))
-        };
-        let zero = _mm256_setzero_si256();
-        let none = _mm256_set1_epi32(8);
-        let te = _mm256_loadu_ps(cell.t_enter.as_ptr());
-        let tx = _mm256_loadu_ps(cell.t_exit.as_ptr());
-        let tmx = _mm256_mul_ps(_mm256_set1_ps(d.x), _mm256_loadu_ps(consts.inv[0].as_ptr()));
-        let tmy = _mm256_mul_ps(_mm256_set1_ps(d.y), _mm256_loadu_ps(consts.inv[1].as_ptr()));
-        let tmz = _mm256_mul_ps(_mm256_set1_ps(d.z), _mm256_loadu_ps(consts.inv[2].as_ptr()));
-        let bits =
-            |m: __m256, b: i32| _mm256_and_si256(_mm256_castps_si256(m), _mm256_set1_epi32(b));
-        // Entry octant: `tm ≤ te` (behind), xor the negative axes.
-        let behind = _mm256_or_si256(
-            _mm256_or_si256(
-                bits(_mm256_cmp_ps::<_CMP_LE_OQ>(tmx, te), 4),
-                bits(_mm256_cmp_ps::<_CMP_LE_OQ>(tmy, te), 2),
-            ),
-            bits(_mm256_cmp_ps::<_CMP_LE_OQ>(tmz, te), 1),
-        );
-        let negative = _mm256_loadu_si256(consts.negative.as_ptr().cast());
-        let o0 = _mm256_xor_si256(behind, negative);
-        // Crossings inside (te, tx): key tm and the axis bit, else key tx and bit 0.
-        let crossed = |t: __m256| {
-            _mm256_and_ps(
-                _mm256_cmp_ps::<_CMP_GT_OQ>(t, te),
-                _mm256_cmp_ps::<_CMP_LT_OQ>(t, tx),
-            )
-        };
-        let (cx, cy, cz) = (crossed(tmx), crossed(tmy), crossed(tmz));
-        let mut k0 = sel(cx, tmx, tx);
-        let mut k1 = sel(cy, tmy, tx);
-        let mut k2 = sel(cz, tmz, tx);
-        let mut b0 = bits(cx, 4);
-        let mut b1 = bits(cy, 2);
-        let mut b2 = bits(cz, 1);
-        // The stable network: swap where the later key is strictly smaller.
-        let s = _mm256_cmp_ps::<_CMP_LT_OQ>(k1, k0);
-        let si = _mm256_castps_si256(s);
-        (k0, k1, b0, b1) = (
-            sel(s, k1, k0),
-            sel(s, k0, k1),
-            seli(si, b1, b0),
-            seli(si, b0, b1),
-        );
-        let s = _mm256_cmp_ps::<_CMP_LT_OQ>(k2, k1);
-        let si = _mm256_castps_si256(s);
-        (k1, k2, b1, b2) = (
-            sel(s, k2, k1),
-            sel(s, k1, k2),
-            seli(si, b2, b1),
-            seli(si, b1, b2),
-        );
-        let s = _mm256_cmp_ps::<_CMP_LT_OQ>(k1, k0);
-        let si = _mm256_castps_si256(s);
-        (k0, k1, b0, b1) = (
-            sel(s, k1, k0),
-            sel(s, k0, k1),
-            seli(si, b1, b0),
-            seli(si, b0, b1),
-        );
-        let o1 = _mm256_xor_si256(o0, b0);
-        let o2 = _mm256_xor_si256(o1, b1);
-        let o3 = _mm256_xor_si256(o2, b2);
-        let seq = [
-            o0,
-            seli(_mm256_cmpeq_epi32(b0, zero), none, o1),
-            seli(_mm256_cmpeq_epi32(b1, zero), none, o2),
-            seli(_mm256_cmpeq_epi32(b2, zero), none, o3),
-        ];
-        let bound = [te, k0, k1, k2, tx];
-
-        let mut first = None;
-        let mut pending: Option<PacketCell> = None;
-        for &flip in NEAR_TO_FAR.iter().rev() {
-            let c = near ^ flip;
-            if mask >> c & 1 == 0 {
-                continue;
-            }
-            let cv = _mm256_set1_epi32(c as i32);
-            let h0 = _mm256_castsi256_ps(_mm256_cmpeq_epi32(seq[0], cv));
-            let h1 = _mm256_castsi256_ps(_mm256_cmpeq_epi32(seq[1], cv));
-            let h2 = _mm256_castsi256_ps(_mm256_cmpeq_epi32(seq[2], cv));
-            let h3 = _mm256_castsi256_ps(_mm256_cmpeq_epi32(seq[3], cv));
-            let any = _mm256_or_ps(_mm256_or_ps(h0, h1), _mm256_or_ps(h2, h3));
-            let visit = _mm256_movemask_ps(any) as u32 & lanes;
-            if visit == 0 {
-                continue;
-            }
-            let b = &bound;
-            let mut t_enter = [0.0f32; PACKET_SIZE];
-            let mut t_exit = [0.0f32; PACKET_SIZE];
-            let t_a = sel(h0, b[0], sel(h1, b[1], sel(h2, b[2], b[3])));
-            let t_b = sel(h0, b[1], sel(h1, b[2], sel(h2, b[3], b[4])));
-            _mm256_storeu_ps(t_enter.as_mut_ptr(), t_a);
-            _mm256_storeu_ps(t_exit.as_mut_ptr(), t_b);
-            let first = *first.get_or_insert_with(|| octree.first_child_index(cell.node));
-            let below = mask & ((1u32 << c) - 1);
-            let child = PacketCell {
-                node: NodeRef::from_index(first + below.count_ones()),
-                // Exact, as in the single-ray step.
-                min: Vec3::new(
-                    if c & 4 != 0 { mid.x } else { cell.min.x },
-                    if c & 2 != 0 { mid.y } else { cell.min.y },
-                    if c & 1 != 0 { mid.z } else { cell.min.z },
-                ),
-                size: half,
-                lanes: visit,
-                t_enter,
-                t_exit,
-            };
-            if let Some(p) = pending.replace(child) {
-                if *sp < PACKET_STACK {
-                    stack[*sp].write(p);
-                    *sp += 1;
-                }
-            }
-        }
-        pending
-    }
+unsafe fn packet_step_avx2<B: AsRef<[u8]>>(children: &mut Children<'_, B>) {
+    // SAFETY: the CPU has AVX2 (this function's contract).
+    unsafe { packet_step_wide::<Avx2, B>(children) }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::traversal::intersect;
+    use crate::traversal::tests::{octree_from_sdfs, same_hit};
     use crate::Ray;
-    use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, ValueBits, Voxel};
-
-    /// A signed distance with the surface and clip bits of its voxels.
-    type Field<'a> = (&'a dyn Fn(Vec3) -> f32, bool, bool);
-
-    /// Leaves where `sdfs` come within a cell diagonal of zero, one voxel per SDF (with its
-    /// surface and clip bits).
-    fn octree_from_sdfs(depth: u8, sdfs: &[Field<'_>]) -> PackedOctree {
-        let n = 1u32 << depth;
-        let h = 2.0 / n as f32;
-        let mut leaves = Vec::new();
-        for x in 0..n {
-            for y in 0..n {
-                for z in 0..n {
-                    let min = Vec3::new(x as f32, y as f32, z as f32) * h - Vec3::ONE;
-                    let mut voxels = Vec::new();
-                    for &(sdf, surface, clip) in sdfs {
-                        if sdf(min + Vec3::splat(0.5 * h)).abs() > h * 0.87 {
-                            continue;
-                        }
-                        let corners = core::array::from_fn(|i| {
-                            let c =
-                                Vec3::new((i >> 2) as f32, ((i >> 1) & 1) as f32, (i & 1) as f32);
-                            sdf(min + c * h)
-                        });
-                        voxels.push(Voxel {
-                            corners,
-                            surface,
-                            clip,
-                        });
-                    }
-                    // A leaf of clip-only voxels alone is not a valid leaf.
-                    if !voxels.iter().all(|v| v.surface && v.clip) {
-                        leaves.push(LeafInput {
-                            coord: [x, y, z],
-                            voxels,
-                        });
-                    }
-                }
-            }
-        }
-        let meta = OctreeMeta {
-            depth,
-            bits: ValueBits::Sixteen,
-            center: Vec3::ZERO,
-            scale: 1.0,
-        };
-        PackedOctree::from_leaves(meta, leaves).unwrap()
-    }
-
-    fn same_hit(a: Option<Hit>, b: Option<Hit>) -> bool {
-        match (a, b) {
-            (None, None) => true,
-            (Some(a), Some(b)) => {
-                a.t.to_bits() == b.t.to_bits()
-                    && a.voxel == b.voxel
-                    && a.cell_min.to_array().map(f32::to_bits)
-                        == b.cell_min.to_array().map(f32::to_bits)
-                    && a.cell_size.to_bits() == b.cell_size.to_bits()
-                    && a.surface == b.surface
-            }
-            _ => false,
-        }
-    }
 
     #[test]
     fn packets_hit_exactly_like_single_rays() {

@@ -384,6 +384,25 @@ pub(crate) mod tests {
         l(l(c00, c01, p[1]), l(c10, c11, p[1]), p[0])
     }
 
+    /// The oracles' root between two samples where `changed(f(a), f(b))`: 80 bisection steps
+    /// from `(a, f(a))` and `b`, keeping `changed(f(a), f(m))` on the `b` side.
+    pub(crate) fn bisect(
+        f: impl Fn(f64) -> f64,
+        changed: impl Fn(f64, f64) -> bool,
+        (mut a, fa): (f64, f64),
+        mut b: f64,
+    ) -> f64 {
+        for _ in 0..80 {
+            let m = 0.5 * (a + b);
+            if changed(fa, f(m)) {
+                b = m;
+            } else {
+                a = m;
+            }
+        }
+        b
+    }
+
     #[derive(Clone, Debug)]
     struct Case {
         corners: [f32; 8],
@@ -456,17 +475,7 @@ pub(crate) mod tests {
         } else {
             for i in 1..fs.len() {
                 if changed(fs[i - 1], fs[i]) {
-                    let (mut a, mut b) = (ts[i - 1], ts[i]);
-                    let fa = fs[i - 1];
-                    for _ in 0..80 {
-                        let m = 0.5 * (a + b);
-                        if changed(fa, f(m)) {
-                            b = m;
-                        } else {
-                            a = m;
-                        }
-                    }
-                    oracle = Some(b);
+                    oracle = Some(bisect(f, changed, (ts[i - 1], fs[i - 1]), ts[i]));
                     break;
                 }
             }

@@ -128,15 +128,7 @@ pub fn occupied_bounds<B: AsRef<[u8]>>(octree: &Octree<B>, levels: u8) -> Option
 /// traversal). Conservative callers pad the box.
 #[inline]
 pub fn ray_meets_box(ray: &Ray, lo: Vec3, hi: Vec3, t_min: f32, t_max: f32) -> bool {
-    let inv = Vec3::new(
-        safe_inv(ray.dir.x),
-        safe_inv(ray.dir.y),
-        safe_inv(ray.dir.z),
-    );
-    let ta = (lo - ray.origin) * inv;
-    let tb = (hi - ray.origin) * inv;
-    let t_enter = ta.min(tb).max_element().max(t_min);
-    let t_exit = ta.max(tb).min_element().min(t_max);
+    let (t_enter, t_exit) = box_span(lo, hi, ray.origin, inv_dir(ray.dir), t_min, t_max);
     le(t_enter, t_exit)
 }
 
@@ -156,21 +148,157 @@ pub(crate) fn safe_inv(d: f32) -> f32 {
     }
 }
 
-/// The ray's span in the box `[min, min + size]³`, clipped to `[t_min, t_max]`.
+/// The inverse direction for the plane crossing times: [`safe_inv`] on each component.
+#[inline]
+pub(crate) fn inv_dir(d: Vec3) -> Vec3 {
+    Vec3::new(safe_inv(d.x), safe_inv(d.y), safe_inv(d.z))
+}
+
+/// The ray's span in the box `[lo, hi]`, clipped to `[t_min, t_max]`.
 #[inline]
 pub(crate) fn box_span(
-    min: Vec3,
-    size: f32,
+    lo: Vec3,
+    hi: Vec3,
     origin: Vec3,
     inv: Vec3,
     t_min: f32,
     t_max: f32,
 ) -> (f32, f32) {
-    let ta = (min - origin) * inv;
-    let tb = (min + Vec3::splat(size) - origin) * inv;
+    let ta = (lo - origin) * inv;
+    let tb = (hi - origin) * inv;
     let t_enter = ta.min(tb).max_element().max(t_min);
     let t_exit = ta.max(tb).min_element().min(t_max);
     (t_enter, t_exit)
+}
+
+/// The ray's span in the root cube `[-1, 1]³` clipped to `[t_min, t_max]`, with its inverse
+/// direction: the set-up of every walk of the octree, one ray or a packet lane.
+#[inline]
+pub(crate) fn root_span(origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> (Vec3, f32, f32) {
+    let inv = inv_dir(dir);
+    let (t_enter, t_exit) = box_span(Vec3::splat(-1.0), Vec3::ONE, origin, inv, t_min, t_max);
+    (inv, t_enter, t_exit)
+}
+
+/// The root cell with the ray's span in it, and the ray's inverse direction; `None` for an
+/// empty octree or span (NaN input included).
+#[inline(always)]
+fn root_cell<B: AsRef<[u8]>>(
+    octree: &Octree<B>,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+) -> Option<(Cell, Vec3)> {
+    let root = octree.root()?;
+    // Also rejects a NaN bound (f32::max/min would ignore it).
+    if !le(t_min, t_max) {
+        return None;
+    }
+    let (inv, t_enter, t_exit) = root_span(ray.origin, ray.dir, t_min, t_max);
+    // Also rejects NaN.
+    if !le(t_enter, t_exit) {
+        return None;
+    }
+    let cell = Cell {
+        node: root,
+        min: Vec3::splat(-1.0),
+        size: 2.0,
+        t_enter,
+        t_exit,
+    };
+    Some((cell, inv))
+}
+
+/// The cells waiting for a walk of the octree (single rays and packets), nearest on top, in a
+/// fixed array on the machine stack; a push beyond `N` is dropped (the callers' `N` bounds the
+/// depth-first walk, so it never is).
+pub(crate) struct CellStack<T, const N: usize> {
+    cells: [MaybeUninit<T>; N],
+    len: usize,
+}
+
+impl<T: Copy, const N: usize> CellStack<T, N> {
+    /// An empty stack. Not initialised up front: zeroing the whole stack for every ray cost
+    /// about a sixth of the traversal time (perf, abc1 depth 9, paper view).
+    #[inline(always)]
+    pub(crate) fn new() -> Self {
+        CellStack {
+            cells: [const { MaybeUninit::uninit() }; N],
+            len: 0,
+        }
+    }
+
+    #[inline(always)]
+    pub(crate) fn push(&mut self, cell: T) {
+        if self.len < N {
+            self.cells[self.len].write(cell);
+            self.len += 1;
+        }
+    }
+
+    /// A node's children come farthest first: each becomes `pending` and the one it replaces is
+    /// pushed, so the nearest is left in `pending` for the walk to take without a round trip
+    /// through the stack.
+    #[inline(always)]
+    pub(crate) fn defer(&mut self, pending: &mut Option<T>, cell: T) {
+        if let Some(p) = pending.replace(cell) {
+            self.push(p);
+        }
+    }
+
+    #[inline(always)]
+    pub(crate) fn pop(&mut self) -> Option<T> {
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        // SAFETY: `len < N` (it only grows by one, and only while below `N`) and `cells[len]`
+        // was written (`len` grows right after writing `cells[len]`, so every entry below it
+        // is initialised). Unchecked: the bounds check cost 0.4 % of a shadow-ray frame.
+        Some(unsafe { self.cells.get_unchecked(self.len).assume_init() })
+    }
+}
+
+/// Child `oct` (octant bits x = 4, y = 2, z = 1) of an inner node with child `mask` whose
+/// children are stored from index `first` (contiguously, in octant order): its node and the min
+/// corner of its cell, for a node cell at `min` with centre `mid`.
+#[inline(always)]
+pub(crate) fn child_at(first: u32, mask: u32, oct: u32, min: Vec3, mid: Vec3) -> (NodeRef, Vec3) {
+    let below = mask & ((1u32 << oct) - 1);
+    let node = NodeRef::from_index(first + below.count_ones());
+    // `min + 1·half` is `mid` and `min + 0·half` is `min` (never −0: cells start at −1 and grow
+    // by positive halves), so selecting is exact.
+    let min = Vec3::new(
+        if oct & 4 != 0 { mid.x } else { min.x },
+        if oct & 2 != 0 { mid.y } else { min.y },
+        if oct & 1 != 0 { mid.z } else { min.z },
+    );
+    (node, min)
+}
+
+/// A ray's span `(te, tx)` in a node split at the node's mid-planes, crossed at `tm`: the axes
+/// whose plane lies behind the entry point (`tm ≤ te`, as octant bits), and the three sort keys
+/// and axis bits in crossing order. A plane crossed inside `(te, tx)` has the key `tm`; the
+/// others get the key `tx` and bit 0, which sort after every crossing (a crossing is < tx) and
+/// end the sequence, so key `i` ends the child after `i` crossings. Equal times keep the axis
+/// order x, y, z (a stable three-comparator network: strict comparisons).
+#[inline(always)]
+pub(crate) fn split_span(tm: Vec3, te: f32, tx: f32) -> (u8, [f32; 3], [u8; 3]) {
+    let behind = u8::from(tm.x <= te) << 2 | u8::from(tm.y <= te) << 1 | u8::from(tm.z <= te);
+    let crossed = |t: f32| t > te && t < tx;
+    let (mut k0, mut b0) = if crossed(tm.x) { (tm.x, 4u8) } else { (tx, 0) };
+    let (mut k1, mut b1) = if crossed(tm.y) { (tm.y, 2u8) } else { (tx, 0) };
+    let (mut k2, mut b2) = if crossed(tm.z) { (tm.z, 1u8) } else { (tx, 0) };
+    if k1 < k0 {
+        (k0, k1, b0, b1) = (k1, k0, b1, b0);
+    }
+    if k2 < k1 {
+        (k1, k2, b1, b2) = (k2, k1, b2, b1);
+    }
+    if k1 < k0 {
+        (k0, k1, b0, b1) = (k1, k0, b1, b0);
+    }
+    (behind, [k0, k1, k2], [b0, b1, b2])
 }
 
 #[inline(always)]
@@ -180,53 +308,24 @@ fn traverse<B: AsRef<[u8]>, const ANY: bool>(
     t_min: f32,
     t_max: f32,
 ) -> Option<Hit> {
-    let root = octree.root()?;
-    // Also rejects a NaN bound (f32::max/min would ignore it).
-    if !le(t_min, t_max) {
-        return None;
-    }
+    let (mut cell, inv) = root_cell(octree, ray, t_min, t_max)?;
     let (o, d) = (ray.origin, ray.dir);
-    let inv = Vec3::new(safe_inv(d.x), safe_inv(d.y), safe_inv(d.z));
-    let (t_enter, t_exit) = box_span(Vec3::splat(-1.0), 2.0, o, inv, t_min, t_max);
-    // Also rejects NaN.
-    if !le(t_enter, t_exit) {
-        return None;
-    }
     // Axes along which the ray moves towards − (bit 4 = x, 2 = y, 1 = z, as in octants): on
     // those a mid-plane crossed at tm ≤ t puts the ray on the lower side at t, on the others on
     // the upper side.
     let negative = u8::from(inv.x < 0.0) << 2 | u8::from(inv.y < 0.0) << 1 | u8::from(inv.z < 0.0);
-
-    // Not initialised up front: zeroing the whole stack for every ray cost about a sixth of the
-    // traversal time (perf, abc1 depth 9, paper view). Only entries below `sp` are read.
-    let mut stack = [const { MaybeUninit::<Cell>::uninit() }; STACK_SIZE];
-    let mut sp = 0usize;
-    let mut cell = Cell {
-        node: root,
-        min: Vec3::splat(-1.0),
-        size: 2.0,
-        t_enter,
-        t_exit,
-    };
-
+    let mut stack = CellStack::<Cell, STACK_SIZE>::new();
     loop {
         if octree.is_leaf(cell.node) {
             if let Some(hit) = leaf_hit::<B, ANY>(octree, &cell, o, d) {
                 return Some(hit);
             }
-        } else if let Some(next) = inner_step(octree, &cell, o, inv, negative, &mut stack, &mut sp)
-        {
+        } else if let Some(next) = inner_step(octree, &cell, o, inv, negative, &mut stack) {
             // The nearest child goes straight to `cell` (no round trip through the stack).
             cell = next;
             continue;
         }
-        if sp == 0 {
-            return None;
-        }
-        sp -= 1;
-        // SAFETY: `stack[sp]` was written: `sp` only grows by one right after writing
-        // `stack[sp]`, so every entry below it is initialised.
-        cell = unsafe { stack[sp].assume_init() };
+        cell = stack.pop()?;
     }
 }
 
@@ -252,38 +351,17 @@ fn inner_step<B: AsRef<[u8]>>(
     o: Vec3,
     inv: Vec3,
     negative: u8,
-    stack: &mut [MaybeUninit<Cell>; STACK_SIZE],
-    sp: &mut usize,
+    stack: &mut CellStack<Cell, STACK_SIZE>,
 ) -> Option<Cell> {
     let half = 0.5 * cell.size;
     let mid = cell.min + Vec3::splat(half);
-    let tm = (mid - o) * inv;
     let (te, tx) = (cell.t_enter, cell.t_exit);
-
-    // Entry octant: `tm ≤ te` says the plane is behind the entry point.
-    let behind = u8::from(tm.x <= te) << 2 | u8::from(tm.y <= te) << 1 | u8::from(tm.z <= te);
-    let octant = behind ^ negative;
-
-    // Crossings inside (te, tx); the others get the key `tx` and bit 0, which sort after every
-    // crossing (a crossing is < tx) and end the sequence.
-    let crossed = |t: f32| t > te && t < tx;
-    let (mut k0, mut b0) = if crossed(tm.x) { (tm.x, 4u8) } else { (tx, 0) };
-    let (mut k1, mut b1) = if crossed(tm.y) { (tm.y, 2u8) } else { (tx, 0) };
-    let (mut k2, mut b2) = if crossed(tm.z) { (tm.z, 1u8) } else { (tx, 0) };
-    // Stable three-comparator network (strict comparisons keep x, y, z order on ties).
-    if k1 < k0 {
-        (k0, k1, b0, b1) = (k1, k0, b1, b0);
-    }
-    if k2 < k1 {
-        (k1, k2, b1, b2) = (k2, k1, b2, b1);
-    }
-    if k1 < k0 {
-        (k0, k1, b0, b1) = (k1, k0, b1, b0);
-    }
+    let (behind, [k0, k1, k2], [b0, b1, b2]) = split_span((mid - o) * inv, te, tx);
 
     let mask = octree.child_mask(cell.node);
-    // The octants along the ray (each flips the next crossed bit) and which are present.
-    let o0 = octant;
+    // The octants along the ray (entry octant, then each flips the next crossed bit) and which
+    // are present.
+    let o0 = behind ^ negative;
     let o1 = o0 ^ b0;
     let o2 = o1 ^ b1;
     let o3 = o2 ^ b2;
@@ -295,19 +373,13 @@ fn inner_step<B: AsRef<[u8]>>(
     if !(p0 | p1 | p2 | p3) {
         return None;
     }
-    // Children are stored contiguously in octant order: one read of the node's group.
+    // One read of the node's group.
     let first = octree.first_child_index(cell.node);
     let child = |oct: u8, t_a: f32, t_b: f32| {
-        let below = u32::from(mask) & ((1u32 << oct) - 1);
+        let (node, min) = child_at(first, u32::from(mask), u32::from(oct), cell.min, mid);
         Cell {
-            node: NodeRef::from_index(first + below.count_ones()),
-            // `min + 1·half` is `mid` and `min + 0·half` is `min` (never −0: cells start at −1
-            // and grow by positive halves), so selecting is exact.
-            min: Vec3::new(
-                if oct & 4 != 0 { mid.x } else { cell.min.x },
-                if oct & 2 != 0 { mid.y } else { cell.min.y },
-                if oct & 1 != 0 { mid.z } else { cell.min.z },
-            ),
+            node,
+            min,
             size: half,
             t_enter: t_a,
             t_exit: t_b,
@@ -315,26 +387,17 @@ fn inner_step<B: AsRef<[u8]>>(
     };
     // Farthest first; the nearest present child is kept back and returned.
     let mut pending: Option<Cell> = None;
-    let mut push = |c: Cell, pending: &mut Option<Cell>| {
-        if let Some(p) = pending.replace(c) {
-            if *sp < STACK_SIZE {
-                stack[*sp].write(p);
-                *sp += 1;
-            }
-        }
-    };
     if p3 {
-        push(child(o3, k2, tx), &mut pending);
+        stack.defer(&mut pending, child(o3, k2, tx));
     }
-    // (An uncrossed key is `tx`, so `k_i` ends child `i` whether or not plane `i` is crossed.)
     if p2 {
-        push(child(o2, k1, k2), &mut pending);
+        stack.defer(&mut pending, child(o2, k1, k2));
     }
     if p1 {
-        push(child(o1, k0, k1), &mut pending);
+        stack.defer(&mut pending, child(o1, k0, k1));
     }
     if p0 {
-        push(child(o0, te, k0), &mut pending);
+        stack.defer(&mut pending, child(o0, te, k0));
     }
     pending
 }
@@ -392,7 +455,7 @@ pub(crate) fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     //! Traversal against brute force over every voxel of small octrees built from sampled
     //! analytic SDFs.
 
@@ -418,9 +481,12 @@ mod tests {
         )
     }
 
-    /// Leaves whose corner samples of `sdfs` (one voxel per SDF that changes sign, or comes
-    /// within a cell diagonal of zero) are kept.
-    fn octree_from_sdfs(depth: u8, sdfs: &[(&dyn Fn(Vec3) -> f32, bool)]) -> PackedOctree {
+    /// A signed distance with the surface and clip bits of its voxels.
+    pub(crate) type Field<'a> = (&'a dyn Fn(Vec3) -> f32, bool, bool);
+
+    /// Leaves where `sdfs` come within a cell diagonal of zero, one voxel per SDF (with its
+    /// surface and clip bits) sampled at the cell corners.
+    pub(crate) fn octree_from_sdfs(depth: u8, sdfs: &[Field<'_>]) -> PackedOctree {
         let n = 1u32 << depth;
         let mut leaves = Vec::new();
         for x in 0..n {
@@ -428,7 +494,7 @@ mod tests {
                 for z in 0..n {
                     let (min, h) = cell_min([x, y, z], depth);
                     let mut voxels = Vec::new();
-                    for &(sdf, surface) in sdfs {
+                    for &(sdf, surface, clip) in sdfs {
                         if sdf(min + Vec3::splat(0.5 * h)).abs() > h * 0.87 {
                             continue;
                         }
@@ -440,10 +506,11 @@ mod tests {
                         voxels.push(Voxel {
                             corners,
                             surface,
-                            clip: false,
+                            clip,
                         });
                     }
-                    if !voxels.is_empty() {
+                    // A leaf of clip-only voxels alone is not a valid leaf.
+                    if !voxels.iter().all(|v| v.surface && v.clip) {
                         leaves.push(LeafInput {
                             coord: [x, y, z],
                             voxels,
@@ -458,16 +525,12 @@ mod tests {
     /// The nearest hit over all voxels of all leaves (the kernel on each leaf's span).
     fn brute_force(octree: &PackedOctree, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
         let depth = octree.depth();
-        let inv = Vec3::new(
-            safe_inv(ray.dir.x),
-            safe_inv(ray.dir.y),
-            safe_inv(ray.dir.z),
-        );
+        let inv = inv_dir(ray.dir);
         let mut best: Option<f32> = None;
         let mut voxel = 0u32;
         for (coord, voxels) in octree.leaves() {
             let (min, h) = cell_min(coord, depth);
-            let (te, tx) = box_span(min, h, ray.origin, inv, t_min, t_max);
+            let (te, tx) = box_span(min, min + Vec3::splat(h), ray.origin, inv, t_min, t_max);
             if !le(te, tx) {
                 voxel += voxels.len() as u32;
                 continue;
@@ -557,41 +620,21 @@ mod tests {
         hits
     }
 
-    /// The traversal as it was before the lean inner-node step (commit f8eb665), kept verbatim
-    /// as the reference the new one must match bit for bit.
+    /// The traversal as it was before the lean inner-node step (commit f8eb665), its node step
+    /// kept verbatim as the reference the new one must match bit for bit.
     fn reference_traverse<B: AsRef<[u8]>, const ANY: bool>(
         octree: &Octree<B>,
         ray: &Ray,
         t_min: f32,
         t_max: f32,
     ) -> Option<Hit> {
-        let root = octree.root()?;
-        // Also rejects a NaN bound (f32::max/min would ignore it).
-        if !le(t_min, t_max) {
-            return None;
-        }
+        // The set-up (root cell, span, inverse direction) and the stack are the traversal's.
+        let (mut cell, inv) = root_cell(octree, ray, t_min, t_max)?;
         let (o, d) = (ray.origin, ray.dir);
-        let inv = Vec3::new(safe_inv(d.x), safe_inv(d.y), safe_inv(d.z));
-        let (t_enter, t_exit) = box_span(Vec3::splat(-1.0), 2.0, o, inv, t_min, t_max);
-        // Also rejects NaN.
-        if !le(t_enter, t_exit) {
-            return None;
-        }
         // Whether the ray moves towards + along each axis (then a mid-plane crossed at tm ≤ t puts
         // the ray on the upper side at t).
         let positive = [inv.x > 0.0, inv.y > 0.0, inv.z > 0.0];
-
-        // Not initialised up front: zeroing the whole stack for every ray cost about a sixth of the
-        // traversal time (perf, abc1 depth 9, paper view). Only entries below `sp` are read.
-        let mut stack = [const { MaybeUninit::<Cell>::uninit() }; STACK_SIZE];
-        let mut sp = 0usize;
-        let mut cell = Cell {
-            node: root,
-            min: Vec3::splat(-1.0),
-            size: 2.0,
-            t_enter,
-            t_exit,
-        };
+        let mut stack = CellStack::<Cell, STACK_SIZE>::new();
 
         loop {
             // The next cell: the nearest child of an inner node goes straight to `cell` (no round
@@ -674,28 +717,21 @@ mod tests {
                     };
                     if i == 0 {
                         next = Some(c);
-                    } else if sp < STACK_SIZE {
-                        stack[sp].write(c);
-                        sp += 1;
+                    } else {
+                        stack.push(c);
                     }
                 }
             }
             cell = match next {
                 Some(c) => c,
-                None if sp > 0 => {
-                    sp -= 1;
-                    // SAFETY: `stack[sp]` was written: `sp` only grows by one right after
-                    // writing `stack[sp]`, so every entry below it is initialised.
-                    unsafe { stack[sp].assume_init() }
-                }
-                None => return None,
+                None => stack.pop()?,
             };
         }
     }
 
     /// Bit-level equality of two optional hits (`t` and `cell_min` compared as bits, so `-0.0`
     /// and `0.0` differ).
-    fn same_hit(a: Option<Hit>, b: Option<Hit>) -> bool {
+    pub(crate) fn same_hit(a: Option<Hit>, b: Option<Hit>) -> bool {
         match (a, b) {
             (None, None) => true,
             (Some(a), Some(b)) => {
@@ -716,8 +752,15 @@ mod tests {
         let b = |p: Vec3| (p - Vec3::new(0.2, 0.1, 0.0)).length() - 0.45;
         let sheet = |p: Vec3| p.dot(Vec3::new(0.3, 1.0, 0.2).normalize()) - 0.05;
         let octrees = [
-            octree_from_sdfs(5, &[(&a, false)]),
-            octree_from_sdfs(4, &[(&a, false), (&b, false), (&sheet, true)]),
+            octree_from_sdfs(5, &[(&a, false, false)]),
+            octree_from_sdfs(
+                4,
+                &[
+                    (&a, false, false),
+                    (&b, false, false),
+                    (&sheet, true, false),
+                ],
+            ),
         ];
         let mut rng = ChaCha8Rng::seed_from_u64(11);
         let mut rays = Vec::new();
@@ -806,7 +849,7 @@ mod tests {
         // An off-centre small sphere: its box is much smaller than the root cube.
         let c = Vec3::new(0.3, -0.2, 0.1);
         let sphere = move |p: Vec3| (p - c).length() - 0.25;
-        let octree = octree_from_sdfs(5, &[(&sphere, false)]);
+        let octree = octree_from_sdfs(5, &[(&sphere, false, false)]);
         let depth = octree.depth();
         let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
         for (coord, _) in octree.leaves() {
@@ -848,7 +891,7 @@ mod tests {
     #[test]
     fn sphere_matches_brute_force() {
         let sphere = |p: Vec3| p.length() - 0.7;
-        let octree = octree_from_sdfs(5, &[(&sphere, false)]);
+        let octree = octree_from_sdfs(5, &[(&sphere, false, false)]);
         let hits = compare_with_brute_force(&octree, 1500, 1);
         assert!(hits > 300, "{hits} hits");
     }
@@ -857,7 +900,7 @@ mod tests {
     fn zero_copy_view_traces_like_the_owned_octree() {
         let a = |p: Vec3| (p - Vec3::new(-0.15, 0.0, 0.0)).length() - 0.5;
         let sheet = |p: Vec3| p.dot(Vec3::new(0.3, 1.0, 0.2).normalize()) - 0.05;
-        let octree = octree_from_sdfs(4, &[(&a, false), (&sheet, true)]);
+        let octree = octree_from_sdfs(4, &[(&a, false, false), (&sheet, true, false)]);
         let bytes = octree.to_bytes();
         let view = PackedOctreeView::new(&bytes).unwrap();
         let mut rng = ChaCha8Rng::seed_from_u64(4);
@@ -885,7 +928,14 @@ mod tests {
         let a = |p: Vec3| (p - Vec3::new(-0.15, 0.0, 0.0)).length() - 0.5;
         let b = |p: Vec3| (p - Vec3::new(0.2, 0.1, 0.0)).length() - 0.45;
         let sheet = |p: Vec3| p.dot(Vec3::new(0.3, 1.0, 0.2).normalize()) - 0.05;
-        let octree = octree_from_sdfs(4, &[(&a, false), (&b, false), (&sheet, true)]);
+        let octree = octree_from_sdfs(
+            4,
+            &[
+                (&a, false, false),
+                (&b, false, false),
+                (&sheet, true, false),
+            ],
+        );
         assert!(octree.voxel_count() > octree.leaf_count() + 50);
         let hits = compare_with_brute_force(&octree, 1500, 2);
         assert!(hits > 300, "{hits} hits");
@@ -894,7 +944,7 @@ mod tests {
     #[test]
     fn axis_aligned_rays_between_and_on_cell_planes() {
         let sphere = |p: Vec3| p.length() - 0.6;
-        let octree = octree_from_sdfs(4, &[(&sphere, false)]);
+        let octree = octree_from_sdfs(4, &[(&sphere, false, false)]);
         // Along ±z through a grid of points, including exactly on cell planes (multiples of
         // 1/8) where the ray runs inside the shared faces of neighbouring cells.
         for i in -8..=8 {
@@ -926,7 +976,7 @@ mod tests {
     #[test]
     fn rays_starting_inside_a_solid_hit_at_t_min() {
         let sphere = |p: Vec3| p.length() - 0.7;
-        let octree = octree_from_sdfs(5, &[(&sphere, false)]);
+        let octree = octree_from_sdfs(5, &[(&sphere, false, false)]);
         // From a point just inside the surface (its leaf is stored), any direction.
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         for _ in 0..200 {
@@ -957,7 +1007,7 @@ mod tests {
                 let mut centre = Vec3::ZERO;
                 centre[axis] = 0.5 * sign;
                 let sphere = move |p: Vec3| (p - centre).length() - 0.3;
-                let octree = octree_from_sdfs(4, &[(&sphere, false)]);
+                let octree = octree_from_sdfs(4, &[(&sphere, false, false)]);
                 let mut origin = Vec3::new(0.013, -0.021, 0.017);
                 origin[axis] = 0.0;
                 let mut dir = Vec3::ZERO;
@@ -975,7 +1025,7 @@ mod tests {
     #[test]
     fn empty_and_nan_inputs() {
         let sphere = |p: Vec3| p.length() - 0.7;
-        let octree = octree_from_sdfs(3, &[(&sphere, false)]);
+        let octree = octree_from_sdfs(3, &[(&sphere, false, false)]);
         let ray = Ray {
             origin: Vec3::new(0.0, 0.0, -3.0),
             dir: Vec3::Z,
