@@ -7,7 +7,9 @@
 use glam::Vec3;
 use sdfmo_mesh::{EdgeAdjacency, TriMesh};
 
-use sdfmo_distance::{sign_by_pseudo_normal, triangle_boxes, Feature, TriangleSlices};
+use sdfmo_distance::{
+    sign_by_pseudo_normal, triangle_boxes, ClosestPoint, Feature, TriangleSlices,
+};
 
 /// Per-triangle data for the leaf-level work.
 #[derive(Clone, Debug)]
@@ -95,13 +97,9 @@ impl LocalMesh {
     /// empty subset.
     #[inline]
     pub fn signed_distance_subset(&self, subset: &[u32], p: Vec3) -> f32 {
-        let c = self
-            .slices()
-            .closest_point_in_subset(subset, p, f32::INFINITY);
-        if !c.is_found() {
-            return f32::INFINITY;
-        }
-        sign_by_pseudo_normal(p, &c, self.pseudo_normal(c.triangle as usize, c.feature))
+        self.closest_in_subset(subset, p, |c| {
+            sign_by_pseudo_normal(p, c, self.pseudo_normal(c.triangle as usize, c.feature))
+        })
     }
 
     /// Distance from `p` to the open sheet `subset` continued past its rims: the offset from the
@@ -111,13 +109,27 @@ impl LocalMesh {
     /// boundary edge. Signed by the face's own orientation. `f32::INFINITY` for an empty subset.
     #[inline]
     pub fn sheet_continuation_distance(&self, subset: &[u32], p: Vec3) -> f32 {
+        self.closest_in_subset(subset, p, |c| {
+            (p - c.point).dot(self.face_normal[c.triangle as usize])
+        })
+    }
+
+    /// `distance` of the closest point to `p` on `subset`; `f32::INFINITY` for an empty subset.
+    #[inline]
+    fn closest_in_subset(
+        &self,
+        subset: &[u32],
+        p: Vec3,
+        distance: impl FnOnce(&ClosestPoint) -> f32,
+    ) -> f32 {
         let c = self
             .slices()
             .closest_point_in_subset(subset, p, f32::INFINITY);
-        if !c.is_found() {
-            return f32::INFINITY;
+        if c.is_found() {
+            distance(&c)
+        } else {
+            f32::INFINITY
         }
-        (p - c.point).dot(self.face_normal[c.triangle as usize])
     }
 
     /// The closest point to `p` on the triangles `subset` nearer than `cap`, if any.
