@@ -146,13 +146,7 @@ mod tests {
             coord: [1, 1, 1],
             voxels,
         };
-        let meta = OctreeMeta {
-            depth: 1,
-            bits: ValueBits::Sixteen,
-            center: Vec3::ZERO,
-            scale: 1.0,
-        };
-        PackedOctree::from_leaves(meta, vec![leaf]).unwrap()
+        PackedOctree::from_leaves(OctreeMeta::unit(1, ValueBits::Sixteen), vec![leaf]).unwrap()
     }
 
     /// The plane x = 0.5, inside x > 0.5 (distance 0.5 − x).

@@ -465,12 +465,7 @@ pub(crate) mod tests {
     use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, Voxel};
 
     fn meta(depth: u8) -> OctreeMeta {
-        OctreeMeta {
-            depth,
-            bits: ValueBits::Sixteen,
-            center: Vec3::ZERO,
-            scale: 1.0,
-        }
+        OctreeMeta::unit(depth, ValueBits::Sixteen)
     }
 
     fn cell_min(coord: [u32; 3], depth: u8) -> (Vec3, f32) {
