@@ -32,9 +32,9 @@
 use core::ops::Range;
 
 use glam::Vec3;
-use sdfmo_format::{trilinear, trilinear_gradient, Octree};
+use sdfmo_format::{trilinear, Octree};
 
-use crate::distance::DistanceSample;
+use crate::distance::{voxel_sample, DistanceSample};
 use crate::ray_voxel::{min_max, roots_where, RayCubic};
 
 /// Slack of the clip test at a crossing, relative to the clip voxel's largest |corner|: a
@@ -176,44 +176,21 @@ pub(crate) fn distance_in_leaf<B: AsRef<[u8]>>(
     cell_min: Vec3,
     cell_size: f32,
 ) -> Option<DistanceSample> {
-    // (value, gradient, voxel, surface) of one voxel's own term.
-    let term = |v: u32, absolute: bool| {
-        let corners = octree.voxel_corners(v);
-        let value = trilinear(&corners, local);
-        let gradient = trilinear_gradient(&corners, local) / cell_size;
-        let surface = octree.voxel_is_surface(v);
-        if absolute && value < 0.0 {
-            (-value, -gradient, v, surface)
-        } else {
-            (value, gradient, v, surface)
-        }
-    };
     let mut best: Option<DistanceSample> = None;
     for i in voxels.clone() {
-        let surface = octree.voxel_is_surface(i);
-        if surface && octree.voxel_is_clip(i) {
+        if octree.voxel_is_surface(i) && octree.voxel_is_clip(i) {
             continue;
         }
-        let mut active = term(i, surface);
+        let mut active = voxel_sample(octree, i, local, cell_min, cell_size, false);
         for j in voxels.clone() {
             if j != i && octree.voxel_is_clip(j) {
-                let clip = term(j, false);
-                if clip.0 > active.0 {
+                let clip = voxel_sample(octree, j, local, cell_min, cell_size, true);
+                if clip.distance > active.distance {
                     active = clip;
                 }
             }
         }
-        let (distance, gradient, voxel, surface) = active;
-        if best.is_none_or(|b| distance < b.distance) {
-            best = Some(DistanceSample {
-                distance,
-                gradient,
-                voxel,
-                surface,
-                cell_min,
-                cell_size,
-            });
-        }
+        active.keep_if_nearer(&mut best);
     }
     best
 }
