@@ -453,6 +453,12 @@ mod tests {
             .prop_map(|(v, len)| unit(v) * len)
     }
 
+    /// The corners of a random plane `n·p = offset` (unit `n`) near the cube.
+    fn plane_strategy() -> impl Strategy<Value = [f32; 8]> {
+        (proptest::array::uniform3(-1.0f32..1.0), -0.5f32..1.5)
+            .prop_map(|(n, offset)| plane(unit(n), offset))
+    }
+
     /// A ray through a point of the cube: (target, direction, distance back from the target in
     /// units of the direction's length).
     fn ray_strategy() -> impl Strategy<Value = (Vec3, Vec3, f32)> {
@@ -482,14 +488,11 @@ mod tests {
         /// voxel of any kind; the hit must be on the solid max(a, b) ≤ 0 with the active plane.
         #[test]
         fn max_of_two_planes(
-            n1 in proptest::array::uniform3(-1.0f32..1.0),
-            n2 in proptest::array::uniform3(-1.0f32..1.0),
-            off1 in -0.5f32..1.5,
-            off2 in -0.5f32..1.5,
+            a in plane_strategy(),
+            b in plane_strategy(),
             third in extra_voxel_strategy(),
             ray in ray_strategy(),
         ) {
-            let (a, b) = (plane(unit(n1), off1), plane(unit(n2), off2));
             let mut voxels = vec![(a, Kind::Intersect), (b, Kind::Intersect)];
             voxels.extend(third);
             let Some(case) = case_through(voxels, ray) else {
@@ -512,14 +515,13 @@ mod tests {
         #[test]
         fn clipped_surfaces(
             sheet in proptest::array::uniform8(-1.0f32..1.0),
-            n in proptest::array::uniform3(-1.0f32..1.0),
-            off in -0.5f32..1.5,
+            clip in plane_strategy(),
             intersect_clip in any::<bool>(),
             other in extra_voxel_strategy(),
             ray in ray_strategy(),
         ) {
             let kind = if intersect_clip { Kind::Intersect } else { Kind::ClipOnly };
-            let mut voxels = vec![(sheet, Kind::Surface), (plane(unit(n), off), kind)];
+            let mut voxels = vec![(sheet, Kind::Surface), (clip, kind)];
             voxels.extend(other);
             if let Some(case) = case_through(voxels, ray) {
                 check(&case)?;
