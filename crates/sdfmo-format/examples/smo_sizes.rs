@@ -166,12 +166,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for (shape, plate) in [("svo", false), ("multi", true)] {
             let input = common::shape_leaves(depth, plate);
             for bits in [ValueBits::Eight, ValueBits::Sixteen] {
-                let meta = OctreeMeta {
-                    depth,
-                    bits,
-                    center: Vec3::ZERO,
-                    scale: 1.0,
-                };
+                let meta = OctreeMeta::unit(depth, bits);
                 let o = PackedOctree::from_leaves(meta, input.clone())?;
                 let s = o.section_sizes();
                 let bytes = o.to_bytes();

@@ -502,15 +502,12 @@ mod tests {
     /// corners = exact sphere distance; every third leaf gets a second, negated surface voxel.
     fn sphere_leaves(depth: u8) -> Vec<LeafInput> {
         let n = 1u32 << depth;
-        let h = 2.0 / n as f32;
         let sd = |p: Vec3| p.length() - 0.6;
         let mut out = Vec::new();
         for x in 0..n {
             for y in 0..n {
                 for z in 0..n {
-                    let lo = Vec3::new(x as f32, y as f32, z as f32) * h - 1.0;
-                    let corners: [f32; 8] =
-                        std::array::from_fn(|i| sd(lo + crate::corner_offset(i) * h));
+                    let corners = crate::cell_corners(depth, [x, y, z], sd);
                     let min = corners.iter().cloned().fold(f32::INFINITY, f32::min);
                     let max = corners.iter().cloned().fold(f32::NEG_INFINITY, f32::max);
                     if min <= 0.0 && max >= 0.0 {

@@ -63,6 +63,8 @@ mod interpolant;
 mod morton;
 mod octree;
 pub mod quant;
+#[cfg(feature = "test-support")]
+pub mod testing;
 mod validate;
 
 use glam::Vec3;
@@ -74,7 +76,7 @@ pub use file::{
     FLAG_SURFACE_VOXELS, FORMAT_VERSION_MAJOR, FORMAT_VERSION_MINOR, HEADER_FIELDS, HEADER_SIZE,
     KNOWN_FLAGS, MAGIC,
 };
-pub use interpolant::{child_coord, corner_offset, trilinear, trilinear_gradient};
+pub use interpolant::{cell_corners, child_coord, corner_offset, trilinear, trilinear_gradient};
 pub use octree::{NodeRef, Octree, PackedOctree, PackedOctreeView};
 
 /// Deepest supported octree (leaf coordinates up to 2^16 per axis).
@@ -171,6 +173,17 @@ pub struct OctreeMeta {
 }
 
 impl OctreeMeta {
+    /// An octree whose normalised frame is the model frame (`center` 0, `scale` 1): the root
+    /// cube is `[-1, 1]³` in model units, as for leaves sampled there directly.
+    pub fn unit(depth: u8, bits: ValueBits) -> OctreeMeta {
+        OctreeMeta {
+            depth,
+            bits,
+            center: Vec3::ZERO,
+            scale: 1.0,
+        }
+    }
+
     /// Checks depth and transform.
     pub fn validate(&self) -> Result<()> {
         if self.depth > MAX_DEPTH {

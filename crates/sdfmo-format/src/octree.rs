@@ -723,15 +723,9 @@ impl<B: AsRef<[u8]>> Octree<B> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::Vec3;
 
     fn meta(depth: u8) -> OctreeMeta {
-        OctreeMeta {
-            depth,
-            bits: ValueBits::Eight,
-            center: Vec3::ZERO,
-            scale: 1.0,
-        }
+        OctreeMeta::unit(depth, ValueBits::Eight)
     }
 
     fn leaf(coord: [u32; 3], n: usize) -> LeafInput {
@@ -785,13 +779,7 @@ mod tests {
                     .collect(),
             })
             .collect();
-        let meta = OctreeMeta {
-            depth: 3,
-            bits,
-            center: Vec3::ZERO,
-            scale: 1.0,
-        };
-        PackedOctree::from_leaves(meta, leaves).unwrap()
+        PackedOctree::from_leaves(OctreeMeta::unit(3, bits), leaves).unwrap()
     }
 
     /// `mixed_octree` with the clip bit on the third voxel of some leaves (a clip-only voxel,

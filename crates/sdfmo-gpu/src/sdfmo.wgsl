@@ -392,6 +392,17 @@ fn smo_first_root(q: SmoCubic, len: f32, surface: bool) -> f32 {
     return -1.0;
 }
 
+/// The corners divided by their largest magnitude `m` (as sdfmo_trace's prepare_voxel): the
+/// kernel's cubic is then bounded by 1, whatever the corner scale.
+fn smo_scaled_corners(c: array<f32, 8>, m: f32) -> array<f32, 8> {
+    let inv = 1.0 / m;
+    var scaled: array<f32, 8>;
+    for (var i = 0u; i < 8u; i++) {
+        scaled[i] = c[i] * inv;
+    }
+    return scaled;
+}
+
 /// The kernel on one voxel in its local frame [0,1]³: the first root in [t0, t1] with
 /// t0 ≥ 0, or −1 for none (sdfmo_trace::intersect_voxel).
 fn smo_intersect_voxel(c: array<f32, 8>, origin: vec3<f32>, dir: vec3<f32>, t0: f32, t1: f32, surface: bool) -> f32 {
@@ -412,11 +423,7 @@ fn smo_intersect_voxel(c: array<f32, 8>, origin: vec3<f32>, dir: vec3<f32>, t0: 
     if !(m >= SMO_MIN_POSITIVE) {
         return -1.0;
     }
-    let inv = 1.0 / m;
-    var scaled: array<f32, 8>;
-    for (var i = 0u; i < 8u; i++) {
-        scaled[i] = c[i] * inv;
-    }
+    let scaled = smo_scaled_corners(c, m);
     let cubic = smo_ray_cubic(scaled, origin + dir * t0, dir * len);
     let u = smo_first_root(cubic, 1.0, surface);
     if u < 0.0 {
@@ -480,11 +487,7 @@ fn smo_clipped_voxel_hit(info: SmoInfo, first: u32, count: u32, voxel: u32, c: a
     if !(m >= SMO_MIN_POSITIVE) {
         return -1.0;
     }
-    let inv = 1.0 / m;
-    var scaled: array<f32, 8>;
-    for (var i = 0u; i < 8u; i++) {
-        scaled[i] = c[i] * inv;
-    }
+    let scaled = smo_scaled_corners(c, m);
     let q = smo_ray_cubic(scaled, local_o, local_d * len);
     let g0 = q.d;
     if ((g0 < 0.0 && !surface) || (g0 == 0.0 && surface))
@@ -527,35 +530,6 @@ fn smo_clipped_voxel_hit(info: SmoInfo, first: u32, count: u32, voxel: u32, c: a
     return -1.0;
 }
 
-/// The leaf rule with clip voxels: the nearest accepted candidate over the leaf's voxels
-/// (clip-only voxels are never hit), as in sdfmo_trace::clip::leaf_hit.
-fn smo_clip_leaf_hit(info: SmoInfo, cell: SmoCell, local_o: vec3<f32>, local_d: vec3<f32>,
-                     first: u32, count: u32) -> SmoHit {
-    var best_s = cell.t_exit - cell.t_enter;
-    var hit: SmoHit;
-    hit.hit = false;
-    for (var v = first; v < first + count; v++) {
-        let surface = smo_voxel_is_surface(info, v);
-        if surface && smo_voxel_is_clip(info, v) {
-            continue;
-        }
-        let corners = smo_voxel_corners(info, v);
-        let s = smo_clipped_voxel_hit(info, first, count, v, corners, local_o, local_d, best_s, surface);
-        if s >= 0.0 && (!hit.hit || s < best_s) {
-            best_s = s;
-            hit.hit = true;
-            hit.voxel = v;
-            hit.surface = surface;
-        }
-    }
-    if hit.hit {
-        hit.t = min(cell.t_enter + best_s, cell.t_exit);
-        hit.cell_min = cell.min;
-        hit.cell_size = cell.size;
-    }
-    return hit;
-}
-
 // ---- Traversal (sdfmo-trace traversal.rs) ----
 
 fn smo_safe_inv(d: f32) -> f32 {
@@ -570,22 +544,30 @@ fn smo_inv_pow2(size: f32) -> f32 {
     return ldexp(1.0, 1 - frexp(size).exp);
 }
 
-/// The nearest hit of the leaf's voxels inside the cell's [t_enter, t_exit].
+/// The nearest hit of the leaf's voxels inside the cell's [t_enter, t_exit]; in a leaf with
+/// clip voxels the nearest candidate the clip rule accepts (clip-only voxels are never hit), as
+/// in sdfmo_trace::clip::leaf_hit. One loop for both: they differ only in the voxel test.
 fn smo_leaf_hit(info: SmoInfo, cell: SmoCell, o: vec3<f32>, d: vec3<f32>) -> SmoHit {
     let inv_size = smo_inv_pow2(cell.size);
     let local_o = (o + d * cell.t_enter - cell.min) * inv_size;
     let local_d = d * inv_size;
     let range = smo_leaf_voxels(info, cell.node);
-    if smo_any_clip(info, range.x, range.y) {
-        return smo_clip_leaf_hit(info, cell, local_o, local_d, range.x, range.y);
-    }
+    let clip = smo_any_clip(info, range.x, range.y);
     var best_s = cell.t_exit - cell.t_enter;
     var hit: SmoHit;
     hit.hit = false;
     for (var v = range.x; v < range.x + range.y; v++) {
-        let corners = smo_voxel_corners(info, v);
         let surface = smo_voxel_is_surface(info, v);
-        let s = smo_intersect_voxel(corners, local_o, local_d, 0.0, best_s, surface);
+        if clip && surface && smo_voxel_is_clip(info, v) {
+            continue;
+        }
+        let corners = smo_voxel_corners(info, v);
+        var s: f32;
+        if clip {
+            s = smo_clipped_voxel_hit(info, range.x, range.y, v, corners, local_o, local_d, best_s, surface);
+        } else {
+            s = smo_intersect_voxel(corners, local_o, local_d, 0.0, best_s, surface);
+        }
         if s >= 0.0 && (!hit.hit || s < best_s) {
             best_s = s;
             hit.hit = true;

@@ -46,7 +46,8 @@ use std::path::PathBuf;
 
 use glam::Vec3;
 use sdfmo_build::{build, BuildSettings, Method};
-use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, ValueBits, Voxel};
+use sdfmo_format::testing::{convex_cell_voxels, cube_planes, leaves_by_cell};
+use sdfmo_format::{cell_corners, OctreeMeta, PackedOctree, ValueBits, Voxel};
 use sdfmo_gpu::{GpuCamera, GpuImage, GpuMode, GpuRenderer, Shading};
 use sdfmo_mesh::TriMesh;
 use sdfmo_render::shading::{light_dir, DepthRange, AMBIENT, LIGHT_INTENSITY};
@@ -361,15 +362,6 @@ fn teapot_matches_cpu() {
     match_model("teapot", &load("teapot.obj"), &[6, 7, 8, 9]);
 }
 
-/// Corners of `f` over the leaf cell `c` at `depth`.
-fn cell_corners(depth: u8, c: [u32; 3], f: impl Fn(Vec3) -> f32) -> [f32; 8] {
-    let h = 2.0 / (1u32 << depth) as f32;
-    let lo = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) * h - 1.0;
-    core::array::from_fn(|i| {
-        f(lo + Vec3::new((i >> 2) as f32, ((i >> 1) & 1) as f32, (i & 1) as f32) * h)
-    })
-}
-
 /// A procedural octree with clip voxels: the cube of half-edge 0.3 rotated about a skew axis
 /// (in each leaf the face planes that cut it, as intersect voxels: the cube is their `max`),
 /// and the sheet `n·p = −0.78` (normal near +z, |y| ≤ 0.5) kept where the oblique rim plane
@@ -377,71 +369,34 @@ fn cell_corners(depth: u8, c: [u32; 3], f: impl Fn(Vec3) -> f32) -> [f32; 8] {
 fn clip_octree(depth: u8, bits: ValueBits) -> PackedOctree {
     let rot = glam::Mat3::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 0.6);
     let centre = Vec3::new(0.021, 0.013, 0.037);
-    let faces: Vec<(Vec3, f32)> = (0..6)
-        .map(|k| {
-            let axis = rot.col(k / 2);
-            let n = if k % 2 == 0 { axis } else { -axis };
-            (n, n.dot(centre) + 0.3)
-        })
-        .collect();
+    let faces = cube_planes(rot, centre, 0.3);
     let sheet_n = Vec3::new(0.1, 0.15, 1.0).normalize();
     let rim_n = Vec3::new(1.0, 0.4, 0.1).normalize();
-    let n = 1u32 << depth;
-    let h = 2.0 / n as f32;
-    let mut leaves = Vec::new();
+    let h = 2.0 / (1u32 << depth) as f32;
     let mixed = |c: &[f32; 8]| c.iter().any(|&v| v > 0.0) && c.iter().any(|&v| v <= 0.0);
-    for x in 0..n {
-        for y in 0..n {
-            for z in 0..n {
-                let c = [x, y, z];
-                let mut voxels = Vec::new();
-                let mut outside = false;
-                for &(normal, d) in &faces {
-                    let corners = cell_corners(depth, c, |p| normal.dot(p) - d);
-                    if corners.iter().all(|&v| v > 0.0) {
-                        outside = true;
-                    } else if mixed(&corners) {
-                        voxels.push(Voxel {
-                            corners,
-                            surface: false,
-                            clip: true,
-                        });
-                    }
-                }
-                if outside {
-                    voxels.clear();
-                }
-                let y_lo = y as f32 * h - 1.0;
-                let sheet = cell_corners(depth, c, |p| sheet_n.dot(p) + 0.78);
-                let rim = cell_corners(depth, c, |p| rim_n.dot(p) - 0.3);
-                if mixed(&sheet) && (-0.5..0.5).contains(&y_lo) && !rim.iter().all(|&v| v > 0.0) {
-                    assert!(voxels.is_empty(), "the sheet and the cube share no leaf");
-                    voxels.push(Voxel {
-                        corners: sheet,
-                        surface: true,
-                        clip: false,
-                    });
-                    if mixed(&rim) {
-                        voxels.push(Voxel {
-                            corners: rim,
-                            surface: true,
-                            clip: true,
-                        });
-                    }
-                }
-                if !voxels.is_empty() {
-                    leaves.push(LeafInput { coord: c, voxels });
-                }
+    let leaves = leaves_by_cell(depth, |c| {
+        let mut voxels = convex_cell_voxels(depth, c, &faces);
+        let y_lo = c[1] as f32 * h - 1.0;
+        let sheet = cell_corners(depth, c, |p| sheet_n.dot(p) + 0.78);
+        let rim = cell_corners(depth, c, |p| rim_n.dot(p) - 0.3);
+        if mixed(&sheet) && (-0.5..0.5).contains(&y_lo) && !rim.iter().all(|&v| v > 0.0) {
+            assert!(voxels.is_empty(), "the sheet and the cube share no leaf");
+            voxels.push(Voxel {
+                corners: sheet,
+                surface: true,
+                clip: false,
+            });
+            if mixed(&rim) {
+                voxels.push(Voxel {
+                    corners: rim,
+                    surface: true,
+                    clip: true,
+                });
             }
         }
-    }
-    let meta = OctreeMeta {
-        depth,
-        bits,
-        center: Vec3::ZERO,
-        scale: 1.0,
-    };
-    PackedOctree::from_leaves(meta, leaves).expect("clip octree")
+        voxels
+    });
+    PackedOctree::from_leaves(OctreeMeta::unit(depth, bits), leaves).expect("clip octree")
 }
 
 #[test]

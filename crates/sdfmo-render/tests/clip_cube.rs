@@ -4,96 +4,27 @@
 //! 1e-4 leaf of the silhouette) and the faces are flat (every pixel away from an edge has its
 //! face's normal).
 
-use glam::{Mat3, Vec3};
-use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, ValueBits, Voxel};
+use glam::Vec3;
+use sdfmo_format::testing::{analytic_hit, convex_leaves, cube_planes, skew_cube, Plane};
+use sdfmo_format::{OctreeMeta, PackedOctree, ValueBits};
 use sdfmo_render::{render, Camera, Mode, OctreeScene, RenderSettings};
 
 /// Image side.
 const SIZE: u32 = 160;
 
-/// The face planes `(n, d)` (inside `n·p ≤ d`) of the cube of half-edge `r` at `c`, rotated.
-fn cube_planes(rot: Mat3, c: Vec3, r: f32) -> Vec<(Vec3, f32)> {
-    (0..6)
-        .map(|k| {
-            let axis = rot.col(k / 2);
-            let n = if k % 2 == 0 { axis } else { -axis };
-            (n, n.dot(c) + r)
-        })
-        .collect()
-}
-
-/// In each leaf, the planes that cut it as intersect voxels (the others are all ≤ 0 there and
-/// redundant, or all > 0 and the leaf is empty).
-fn cube_octree(depth: u8, planes: &[(Vec3, f32)]) -> PackedOctree {
-    let n = 1u32 << depth;
-    let h = 2.0 / n as f32;
-    let mut leaves = Vec::new();
-    for x in 0..n {
-        for y in 0..n {
-            for z in 0..n {
-                let lo = Vec3::new(x as f32, y as f32, z as f32) * h - 1.0;
-                let mut voxels = Vec::new();
-                let mut outside = false;
-                for &(normal, d) in planes {
-                    let corners: [f32; 8] = core::array::from_fn(|i| {
-                        let o = Vec3::new((i >> 2) as f32, ((i >> 1) & 1) as f32, (i & 1) as f32);
-                        normal.dot(lo + o * h) - d
-                    });
-                    if corners.iter().all(|&v| v > 0.0) {
-                        outside = true;
-                    } else if corners.iter().any(|&v| v > 0.0) {
-                        voxels.push(Voxel {
-                            corners,
-                            surface: false,
-                            clip: true,
-                        });
-                    }
-                }
-                if !outside && !voxels.is_empty() {
-                    leaves.push(LeafInput {
-                        coord: [x, y, z],
-                        voxels,
-                    });
-                }
-            }
-        }
-    }
-    let meta = OctreeMeta {
-        depth,
-        bits: ValueBits::Sixteen,
-        center: Vec3::ZERO,
-        scale: 1.0,
-    };
-    PackedOctree::from_leaves(meta, leaves).expect("cube octree")
-}
-
-/// The ray's entry into the cube grown by `grow`: (t, entry face).
-fn analytic_hit(planes: &[(Vec3, f32)], o: Vec3, d: Vec3, grow: f32) -> Option<(f32, usize)> {
-    let (mut t_in, mut t_out, mut face) = (0.0f32, f32::INFINITY, usize::MAX);
-    for (k, &(n, dist)) in planes.iter().enumerate() {
-        let (f0, df) = (n.dot(o) - dist - grow, n.dot(d));
-        if df == 0.0 {
-            if f0 > 0.0 {
-                return None;
-            }
-            continue;
-        }
-        let t = -f0 / df;
-        if df < 0.0 {
-            if t > t_in {
-                (t_in, face) = (t, k);
-            }
-        } else {
-            t_out = t_out.min(t);
-        }
-    }
-    (t_in <= t_out).then_some((t_in, face))
+/// In each leaf, the planes that cut it as intersect voxels.
+fn cube_octree(depth: u8, planes: &[Plane]) -> PackedOctree {
+    PackedOctree::from_leaves(
+        OctreeMeta::unit(depth, ValueBits::Sixteen),
+        convex_leaves(depth, planes),
+    )
+    .expect("cube octree")
 }
 
 #[test]
 fn a_cube_of_intersect_voxels_renders_sharp_and_flat() {
-    let rot = Mat3::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 0.6);
-    let planes = cube_planes(rot, Vec3::new(0.031, -0.047, 0.023), 0.513);
+    let (rot, c, r) = skew_cube();
+    let planes = cube_planes(rot, c, r);
     for depth in [4u8, 6] {
         let octree = cube_octree(depth, &planes);
         assert!(octree.has_clip_voxels());
@@ -130,10 +61,10 @@ fn a_cube_of_intersect_voxels_renders_sharp_and_flat() {
                     let on_edge = planes
                         .iter()
                         .enumerate()
-                        .any(|(k, &(m, dist))| k != face && m.dot(p) - dist > -margin);
+                        .any(|(k, m)| k != face && m.at(p) > -margin);
                     if !on_edge {
                         flat += 1;
-                        worst = worst.max((n - planes[face].0).length());
+                        worst = worst.max((n - planes[face].n).length());
                     }
                 }
             }

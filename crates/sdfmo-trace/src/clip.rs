@@ -32,9 +32,9 @@
 use core::ops::Range;
 
 use glam::Vec3;
-use sdfmo_format::{trilinear, trilinear_gradient, Octree};
+use sdfmo_format::{trilinear, Octree};
 
-use crate::distance::DistanceSample;
+use crate::distance::{voxel_sample, DistanceSample};
 use crate::ray_voxel::{min_max, roots_where, RayCubic};
 
 /// Slack of the clip test at a crossing, relative to the clip voxel's largest |corner|: a
@@ -176,44 +176,21 @@ pub(crate) fn distance_in_leaf<B: AsRef<[u8]>>(
     cell_min: Vec3,
     cell_size: f32,
 ) -> Option<DistanceSample> {
-    // (value, gradient, voxel, surface) of one voxel's own term.
-    let term = |v: u32, absolute: bool| {
-        let corners = octree.voxel_corners(v);
-        let value = trilinear(&corners, local);
-        let gradient = trilinear_gradient(&corners, local) / cell_size;
-        let surface = octree.voxel_is_surface(v);
-        if absolute && value < 0.0 {
-            (-value, -gradient, v, surface)
-        } else {
-            (value, gradient, v, surface)
-        }
-    };
     let mut best: Option<DistanceSample> = None;
     for i in voxels.clone() {
-        let surface = octree.voxel_is_surface(i);
-        if surface && octree.voxel_is_clip(i) {
+        if octree.voxel_is_surface(i) && octree.voxel_is_clip(i) {
             continue;
         }
-        let mut active = term(i, surface);
+        let mut active = voxel_sample(octree, i, local, cell_min, cell_size, false);
         for j in voxels.clone() {
             if j != i && octree.voxel_is_clip(j) {
-                let clip = term(j, false);
-                if clip.0 > active.0 {
+                let clip = voxel_sample(octree, j, local, cell_min, cell_size, true);
+                if clip.distance > active.distance {
                     active = clip;
                 }
             }
         }
-        let (distance, gradient, voxel, surface) = active;
-        if best.is_none_or(|b| distance < b.distance) {
-            best = Some(DistanceSample {
-                distance,
-                gradient,
-                voxel,
-                surface,
-                cell_min,
-                cell_size,
-            });
-        }
+        active.keep_if_nearer(&mut best);
     }
     best
 }
@@ -225,7 +202,7 @@ mod tests {
     //! two planes, on clipped surfaces and on clip boundaries through the hit (tangent cases).
 
     use super::*;
-    use crate::ray_voxel::tests::{bisect, config, f64_at, point_strategy, unit};
+    use crate::ray_voxel::tests::{bisect, config, f64_at, point_strategy, span_through, unit};
     use crate::ray_voxel::{intersect_voxel, unit_cube_span};
     use proptest::prelude::*;
     use proptest::test_runner::TestCaseError;
@@ -418,22 +395,18 @@ mod tests {
         Ok(got)
     }
 
-    /// The case of a ray through `target` from `back` units before it, clipped to the cube and
-    /// re-based at the entry point (as the traversal does: s = t − t_enter).
+    /// The case of the ray `(target, dir, back)` of [`ray_strategy`] ([`span_through`], `back`
+    /// in units of `|dir|`), re-based at the entry point (as the traversal does: s = t − t_enter).
     fn case_through(
         voxels: Vec<([f32; 8], Kind)>,
-        target: Vec3,
-        dir: Vec3,
-        back: f32,
+        (target, dir, back): (Vec3, Vec3, f32),
     ) -> Option<Case> {
-        let origin = target - dir * back;
-        let (a, b) = unit_cube_span(origin, dir)?;
-        let t0 = a.max(0.0);
-        (t0 <= b).then(|| Case {
+        let (origin, t0, t1) = span_through(target, dir, back / dir.length())?;
+        Some(Case {
             voxels,
             origin: origin + dir * t0,
             dir,
-            t1: b - t0,
+            t1: t1 - t0,
         })
     }
 
@@ -480,6 +453,23 @@ mod tests {
             .prop_map(|(v, len)| unit(v) * len)
     }
 
+    /// The corners of a random plane `n·p = offset` (unit `n`) near the cube.
+    fn plane_strategy() -> impl Strategy<Value = [f32; 8]> {
+        (proptest::array::uniform3(-1.0f32..1.0), -0.5f32..1.5)
+            .prop_map(|(n, offset)| plane(unit(n), offset))
+    }
+
+    /// A ray through a point of the cube: (target, direction, distance back from the target in
+    /// units of the direction's length).
+    fn ray_strategy() -> impl Strategy<Value = (Vec3, Vec3, f32)> {
+        (point_strategy(), dir_strategy(), 0.0f32..3.0)
+    }
+
+    /// An optional further voxel of any kind.
+    fn extra_voxel_strategy() -> impl Strategy<Value = Option<([f32; 8], Kind)>> {
+        proptest::option::of((proptest::array::uniform8(-1.0f32..1.0), kind_strategy()))
+    }
+
     proptest! {
         #![proptest_config(config(1500))]
 
@@ -487,11 +477,9 @@ mod tests {
         #[test]
         fn random_voxel_sets(
             voxels in voxels_strategy(),
-            target in point_strategy(),
-            dir in dir_strategy(),
-            back in 0.0f32..3.0,
+            ray in ray_strategy(),
         ) {
-            if let Some(case) = case_through(voxels, target, dir, back / dir.length()) {
+            if let Some(case) = case_through(voxels, ray) {
                 check(&case)?;
             }
         }
@@ -500,19 +488,14 @@ mod tests {
         /// voxel of any kind; the hit must be on the solid max(a, b) ≤ 0 with the active plane.
         #[test]
         fn max_of_two_planes(
-            n1 in proptest::array::uniform3(-1.0f32..1.0),
-            n2 in proptest::array::uniform3(-1.0f32..1.0),
-            off1 in -0.5f32..1.5,
-            off2 in -0.5f32..1.5,
-            third in proptest::option::of((proptest::array::uniform8(-1.0f32..1.0), kind_strategy())),
-            target in point_strategy(),
-            dir in dir_strategy(),
-            back in 0.0f32..3.0,
+            a in plane_strategy(),
+            b in plane_strategy(),
+            third in extra_voxel_strategy(),
+            ray in ray_strategy(),
         ) {
-            let (a, b) = (plane(unit(n1), off1), plane(unit(n2), off2));
             let mut voxels = vec![(a, Kind::Intersect), (b, Kind::Intersect)];
             voxels.extend(third);
-            let Some(case) = case_through(voxels, target, dir, back / dir.length()) else {
+            let Some(case) = case_through(voxels, ray) else {
                 return Ok(());
             };
             let got = check(&case)?;
@@ -532,18 +515,15 @@ mod tests {
         #[test]
         fn clipped_surfaces(
             sheet in proptest::array::uniform8(-1.0f32..1.0),
-            n in proptest::array::uniform3(-1.0f32..1.0),
-            off in -0.5f32..1.5,
+            clip in plane_strategy(),
             intersect_clip in any::<bool>(),
-            other in proptest::option::of((proptest::array::uniform8(-1.0f32..1.0), kind_strategy())),
-            target in point_strategy(),
-            dir in dir_strategy(),
-            back in 0.0f32..3.0,
+            other in extra_voxel_strategy(),
+            ray in ray_strategy(),
         ) {
             let kind = if intersect_clip { Kind::Intersect } else { Kind::ClipOnly };
-            let mut voxels = vec![(sheet, Kind::Surface), (plane(unit(n), off), kind)];
+            let mut voxels = vec![(sheet, Kind::Surface), (clip, kind)];
             voxels.extend(other);
-            if let Some(case) = case_through(voxels, target, dir, back / dir.length()) {
+            if let Some(case) = case_through(voxels, ray) {
                 check(&case)?;
             }
         }
@@ -559,11 +539,9 @@ mod tests {
             clip_kind in prop_oneof![Just(Kind::Intersect), Just(Kind::ClipOnly)],
             nudge in prop_oneof![Just(0.0f32), Just(1e-7), Just(-1e-7), Just(1e-5), Just(-1e-5),
                                  Just(1e-3), Just(-1e-3)],
-            target in point_strategy(),
-            dir in dir_strategy(),
-            back in 0.0f32..3.0,
+            ray in ray_strategy(),
         ) {
-            let Some(case) = case_through(vec![], target, dir, back / dir.length()) else {
+            let Some(case) = case_through(vec![], ray) else {
                 return Ok(());
             };
             let Some(s) = intersect_voxel(&corners, case.origin, case.dir, 0.0, case.t1, surface)

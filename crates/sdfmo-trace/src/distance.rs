@@ -56,6 +56,48 @@ pub struct DistanceSample {
     pub cell_size: f32,
 }
 
+impl DistanceSample {
+    /// Puts `self` in `best` unless `best` already holds a sample at most as far (the union of
+    /// a leaf's voxels: the minimum, the first of equal ones).
+    #[inline]
+    pub(crate) fn keep_if_nearer(self, best: &mut Option<DistanceSample>) {
+        if best.is_none_or(|b| self.distance < b.distance) {
+            *best = Some(self);
+        }
+    }
+}
+
+/// Voxel `v`'s own value and gradient at the local coordinates `local` of the leaf cell at
+/// `cell_min` of edge `cell_size`: unsigned for a surface voxel (`|f|`, the gradient flipped
+/// with it) unless `keep_sign` (a clip voxel's term in the clip rule is always signed).
+#[inline]
+pub(crate) fn voxel_sample<B: AsRef<[u8]>>(
+    octree: &Octree<B>,
+    v: u32,
+    local: Vec3,
+    cell_min: Vec3,
+    cell_size: f32,
+    keep_sign: bool,
+) -> DistanceSample {
+    let corners = octree.voxel_corners(v);
+    let surface = octree.voxel_is_surface(v);
+    let value = trilinear(&corners, local);
+    let gradient = trilinear_gradient(&corners, local) / cell_size;
+    let (distance, gradient) = if surface && !keep_sign && value < 0.0 {
+        (-value, -gradient)
+    } else {
+        (value, gradient)
+    };
+    DistanceSample {
+        distance,
+        gradient,
+        voxel: v,
+        surface,
+        cell_min,
+        cell_size,
+    }
+}
+
 /// The stored signed distance and its gradient at `p`, in the octree's normalised frame (the
 /// root cube is `[-1, 1]³`; a model-space point maps to `(p − meta.center) · meta.scale`).
 ///
@@ -111,26 +153,7 @@ pub fn distance_at<B: AsRef<[u8]>>(octree: &Octree<B>, p: Vec3) -> Option<Distan
     }
     let mut best: Option<DistanceSample> = None;
     for voxel in voxels {
-        let corners = octree.voxel_corners(voxel);
-        let surface = octree.voxel_is_surface(voxel);
-        let value = trilinear(&corners, local);
-        let mut gradient = trilinear_gradient(&corners, local) / size;
-        let distance = if surface && value < 0.0 {
-            gradient = -gradient;
-            -value
-        } else {
-            value
-        };
-        if best.is_none_or(|b| distance < b.distance) {
-            best = Some(DistanceSample {
-                distance,
-                gradient,
-                voxel,
-                surface,
-                cell_min: min,
-                cell_size: size,
-            });
-        }
+        voxel_sample(octree, voxel, local, min, size, false).keep_if_nearer(&mut best);
     }
     best
 }
@@ -146,13 +169,7 @@ mod tests {
             coord: [1, 1, 1],
             voxels,
         };
-        let meta = OctreeMeta {
-            depth: 1,
-            bits: ValueBits::Sixteen,
-            center: Vec3::ZERO,
-            scale: 1.0,
-        };
-        PackedOctree::from_leaves(meta, vec![leaf]).unwrap()
+        PackedOctree::from_leaves(OctreeMeta::unit(1, ValueBits::Sixteen), vec![leaf]).unwrap()
     }
 
     /// The plane x = 0.5, inside x > 0.5 (distance 0.5 − x).

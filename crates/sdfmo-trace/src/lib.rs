@@ -21,8 +21,7 @@
 //! let corners = core::array::from_fn(|i| 0.5 - (i >> 2) as f32);
 //! let voxel = Voxel { corners, surface: false, clip: false };
 //! let leaf = LeafInput { coord: [1, 1, 1], voxels: vec![voxel] };
-//! let meta = OctreeMeta { depth: 1, bits: ValueBits::Sixteen, center: Vec3::ZERO, scale: 1.0 };
-//! let octree = PackedOctree::from_leaves(meta, vec![leaf]).unwrap();
+//! let octree = PackedOctree::from_leaves(OctreeMeta::unit(1, ValueBits::Sixteen), vec![leaf]).unwrap();
 //! let ray = Ray { origin: Vec3::new(-3.0, 0.5, 0.5), dir: Vec3::X };
 //! let hit = intersect(&octree, &ray, 0.0, f32::INFINITY).unwrap();
 //! assert!((hit.t - 3.5).abs() < 1e-4);

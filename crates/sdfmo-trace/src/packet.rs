@@ -664,14 +664,13 @@ unsafe fn packet_step_avx2<B: AsRef<[u8]>>(children: &mut Children<'_, B>) {
 mod tests {
     use super::*;
     use crate::traversal::intersect;
-    use crate::traversal::tests::{octree_from_sdfs, same_hit};
+    use crate::traversal::tests::{
+        octree_from_sdfs, same_hit, sphere_a, spheres_and_sheet, tilted_sheet,
+    };
     use crate::Ray;
 
     #[test]
     fn packets_hit_exactly_like_single_rays() {
-        let a = |p: Vec3| (p - Vec3::new(-0.15, 0.0, 0.0)).length() - 0.5;
-        let b = |p: Vec3| (p - Vec3::new(0.2, 0.1, 0.0)).length() - 0.45;
-        let sheet = |p: Vec3| p.dot(Vec3::new(0.3, 1.0, 0.2).normalize()) - 0.05;
         // A gyroid: many surfaces along every ray, so visiting leaves out of order changes hits.
         let gyroid = |p: Vec3| {
             let q = p * 5.0;
@@ -683,15 +682,8 @@ mod tests {
         let bottom = |p: Vec3| -0.2 - p.y;
         let rim = |p: Vec3| p.x - 0.1;
         let octrees = [
-            octree_from_sdfs(5, &[(&a, false, false)]),
-            octree_from_sdfs(
-                4,
-                &[
-                    (&a, false, false),
-                    (&b, false, false),
-                    (&sheet, true, false),
-                ],
-            ),
+            octree_from_sdfs(5, &[(&sphere_a, false, false)]),
+            spheres_and_sheet(),
             octree_from_sdfs(5, &[(&gyroid, true, false)]),
             octree_from_sdfs(5, &[(&gyroid, false, false)]),
             octree_from_sdfs(
@@ -699,10 +691,10 @@ mod tests {
                 &[
                     (&top, false, true),
                     (&bottom, false, true),
-                    (&a, false, false),
+                    (&sphere_a, false, false),
                 ],
             ),
-            octree_from_sdfs(5, &[(&sheet, true, false), (&rim, true, true)]),
+            octree_from_sdfs(5, &[(&tilted_sheet, true, false), (&rim, true, true)]),
         ];
         // Eyes on two and one root mid-planes (the paper views), off them, inside the root
         // cube, on a cell corner, and looking along an axis.

@@ -533,8 +533,16 @@ pub(crate) mod tests {
         Vec3::from(v).try_normalize().unwrap_or(Vec3::X)
     }
 
-    /// A case whose ray passes through `target` (inside the cube) from `back` units before it,
-    /// clipped to the cube and to t ≥ 0.
+    /// The ray `origin + t·dir` through `target` (inside the cube) from `back` units before it:
+    /// its origin and its span `[t0, t1]` in the cube with t ≥ 0 (`None`: it misses).
+    pub(crate) fn span_through(target: Vec3, dir: Vec3, back: f32) -> Option<(Vec3, f32, f32)> {
+        let origin = target - dir * back;
+        let (a, b) = unit_cube_span(origin, dir)?;
+        let t0 = a.max(0.0);
+        (t0 <= b).then_some((origin, t0, b))
+    }
+
+    /// A case whose ray is [`span_through`]'s.
     fn case_through(
         corners: [f32; 8],
         target: Vec3,
@@ -542,15 +550,13 @@ pub(crate) mod tests {
         back: f32,
         surface: bool,
     ) -> Option<Case> {
-        let origin = target - dir * back;
-        let (a, b) = unit_cube_span(origin, dir)?;
-        let t0 = a.max(0.0);
-        (t0 <= b).then_some(Case {
+        let (origin, t0, t1) = span_through(target, dir, back)?;
+        Some(Case {
             corners,
             origin,
             dir,
             t0,
-            t1: b,
+            t1,
             surface,
         })
     }

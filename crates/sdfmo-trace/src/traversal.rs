@@ -465,12 +465,7 @@ pub(crate) mod tests {
     use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, Voxel};
 
     fn meta(depth: u8) -> OctreeMeta {
-        OctreeMeta {
-            depth,
-            bits: ValueBits::Sixteen,
-            center: Vec3::ZERO,
-            scale: 1.0,
-        }
+        OctreeMeta::unit(depth, ValueBits::Sixteen)
     }
 
     fn cell_min(coord: [u32; 3], depth: u8) -> (Vec3, f32) {
@@ -478,6 +473,34 @@ pub(crate) mod tests {
         (
             Vec3::new(coord[0] as f32, coord[1] as f32, coord[2] as f32) * h - Vec3::ONE,
             h,
+        )
+    }
+
+    /// The tests' first sphere (a shape of several tests).
+    pub(crate) fn sphere_a(p: Vec3) -> f32 {
+        (p - Vec3::new(-0.15, 0.0, 0.0)).length() - 0.5
+    }
+
+    /// The tests' second sphere, interpenetrating [`sphere_a`].
+    pub(crate) fn sphere_b(p: Vec3) -> f32 {
+        (p - Vec3::new(0.2, 0.1, 0.0)).length() - 0.45
+    }
+
+    /// The tests' tilted plane through both spheres (traced as a surface sheet).
+    pub(crate) fn tilted_sheet(p: Vec3) -> f32 {
+        p.dot(Vec3::new(0.3, 1.0, 0.2).normalize()) - 0.05
+    }
+
+    /// The two interpenetrating spheres as separate voxels of the same leaves, plus the tilted
+    /// surface sheet, at depth 4: every leaf near their crossings holds two or three voxels.
+    pub(crate) fn spheres_and_sheet() -> PackedOctree {
+        octree_from_sdfs(
+            4,
+            &[
+                (&sphere_a, false, false),
+                (&sphere_b, false, false),
+                (&tilted_sheet, true, false),
+            ],
         )
     }
 
@@ -748,19 +771,9 @@ pub(crate) mod tests {
 
     #[test]
     fn lean_step_matches_the_reference_traversal_bit_for_bit() {
-        let a = |p: Vec3| (p - Vec3::new(-0.15, 0.0, 0.0)).length() - 0.5;
-        let b = |p: Vec3| (p - Vec3::new(0.2, 0.1, 0.0)).length() - 0.45;
-        let sheet = |p: Vec3| p.dot(Vec3::new(0.3, 1.0, 0.2).normalize()) - 0.05;
         let octrees = [
-            octree_from_sdfs(5, &[(&a, false, false)]),
-            octree_from_sdfs(
-                4,
-                &[
-                    (&a, false, false),
-                    (&b, false, false),
-                    (&sheet, true, false),
-                ],
-            ),
+            octree_from_sdfs(5, &[(&sphere_a, false, false)]),
+            spheres_and_sheet(),
         ];
         let mut rng = ChaCha8Rng::seed_from_u64(11);
         let mut rays = Vec::new();
@@ -898,9 +911,10 @@ pub(crate) mod tests {
 
     #[test]
     fn zero_copy_view_traces_like_the_owned_octree() {
-        let a = |p: Vec3| (p - Vec3::new(-0.15, 0.0, 0.0)).length() - 0.5;
-        let sheet = |p: Vec3| p.dot(Vec3::new(0.3, 1.0, 0.2).normalize()) - 0.05;
-        let octree = octree_from_sdfs(4, &[(&a, false, false), (&sheet, true, false)]);
+        let octree = octree_from_sdfs(
+            4,
+            &[(&sphere_a, false, false), (&tilted_sheet, true, false)],
+        );
         let bytes = octree.to_bytes();
         let view = PackedOctreeView::new(&bytes).unwrap();
         let mut rng = ChaCha8Rng::seed_from_u64(4);
@@ -923,19 +937,7 @@ pub(crate) mod tests {
 
     #[test]
     fn multi_voxel_leaves_keep_the_nearest_hit() {
-        // Two interpenetrating spheres as separate voxels of the same leaves, plus a tilted
-        // surface sheet: every leaf near their crossings holds two or three voxels.
-        let a = |p: Vec3| (p - Vec3::new(-0.15, 0.0, 0.0)).length() - 0.5;
-        let b = |p: Vec3| (p - Vec3::new(0.2, 0.1, 0.0)).length() - 0.45;
-        let sheet = |p: Vec3| p.dot(Vec3::new(0.3, 1.0, 0.2).normalize()) - 0.05;
-        let octree = octree_from_sdfs(
-            4,
-            &[
-                (&a, false, false),
-                (&b, false, false),
-                (&sheet, true, false),
-            ],
-        );
+        let octree = spheres_and_sheet();
         assert!(octree.voxel_count() > octree.leaf_count() + 50);
         let hits = compare_with_brute_force(&octree, 1500, 2);
         assert!(hits > 300, "{hits} hits");

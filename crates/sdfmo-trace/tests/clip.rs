@@ -8,85 +8,18 @@
 //!   rim, where the plain surface voxel runs on to the end of its cell.
 
 use glam::{Mat3, Vec3};
-use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, ValueBits, Voxel};
+use sdfmo_format::testing::{
+    analytic_hit, convex_leaves, cube_planes, leaves_by_cell, skew_cube, Plane,
+};
+use sdfmo_format::{cell_corners, LeafInput, OctreeMeta, PackedOctree, ValueBits, Voxel};
 use sdfmo_trace::{distance_at, hit_normal, intersect, occluded, Ray};
 
 /// Pixels per side of the test images.
 const SIZE: u32 = 96;
 
+/// The test octrees: 16-bit, in the model frame.
 fn meta(depth: u8) -> OctreeMeta {
-    OctreeMeta {
-        depth,
-        bits: ValueBits::Sixteen,
-        center: Vec3::ZERO,
-        scale: 1.0,
-    }
-}
-
-/// A plane `n·p − d` (negative inside, `n` unit): a distance, reproduced exactly by a voxel.
-#[derive(Clone, Copy, Debug)]
-struct Plane {
-    n: Vec3,
-    d: f32,
-}
-
-impl Plane {
-    fn at(&self, p: Vec3) -> f32 {
-        self.n.dot(p) - self.d
-    }
-}
-
-/// Corners of `f` over the leaf cell `c` at `depth`.
-fn cell_corners(depth: u8, c: [u32; 3], f: impl Fn(Vec3) -> f32) -> [f32; 8] {
-    let h = 2.0 / (1u32 << depth) as f32;
-    let lo = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) * h - 1.0;
-    core::array::from_fn(|i| {
-        f(lo + Vec3::new((i >> 2) as f32, ((i >> 1) & 1) as f32, (i & 1) as f32) * h)
-    })
-}
-
-/// The cube of half-edge `r`, rotated by `rot`, centred at `c`: its six face planes.
-fn cube_planes(rot: Mat3, c: Vec3, r: f32) -> [Plane; 6] {
-    core::array::from_fn(|k| {
-        let axis = rot.col(k / 2);
-        let n = if k % 2 == 0 { axis } else { -axis };
-        Plane { n, d: n.dot(c) + r }
-    })
-}
-
-/// The convex solid ⋂ planes as intersect voxels: in each leaf cell the planes that cut it (a
-/// plane whose corners are all ≤ 0 there is redundant; one whose corners are all > 0 leaves
-/// the cell empty). Cells cut by no plane are inside or outside: not stored.
-fn convex_leaves(depth: u8, planes: &[Plane]) -> Vec<LeafInput> {
-    let n = 1u32 << depth;
-    let mut out = Vec::new();
-    for x in 0..n {
-        for y in 0..n {
-            for z in 0..n {
-                let mut voxels = Vec::new();
-                let mut outside = false;
-                for p in planes {
-                    let corners = cell_corners(depth, [x, y, z], |q| p.at(q));
-                    if corners.iter().all(|&v| v > 0.0) {
-                        outside = true;
-                    } else if corners.iter().any(|&v| v > 0.0) {
-                        voxels.push(Voxel {
-                            corners,
-                            surface: false,
-                            clip: true,
-                        });
-                    }
-                }
-                if !outside && !voxels.is_empty() {
-                    out.push(LeafInput {
-                        coord: [x, y, z],
-                        voxels,
-                    });
-                }
-            }
-        }
-    }
-    out
+    OctreeMeta::unit(depth, ValueBits::Sixteen)
 }
 
 /// The same solid as an SVO: one volume voxel per leaf, the exact box distance sampled at the
@@ -96,54 +29,21 @@ fn svo_leaves(depth: u8, rot: Mat3, c: Vec3, r: f32) -> Vec<LeafInput> {
         let q = (rot.transpose() * (p - c)).abs() - Vec3::splat(r);
         q.max(Vec3::ZERO).length() + q.max_element().min(0.0)
     };
-    let n = 1u32 << depth;
-    let mut out = Vec::new();
-    for x in 0..n {
-        for y in 0..n {
-            for z in 0..n {
-                let corners = cell_corners(depth, [x, y, z], sd);
-                let (lo, hi) = corners
-                    .iter()
-                    .fold((f32::MAX, f32::MIN), |(a, b), &v| (a.min(v), b.max(v)));
-                if lo <= 0.0 && hi > 0.0 {
-                    out.push(LeafInput {
-                        coord: [x, y, z],
-                        voxels: vec![Voxel {
-                            corners,
-                            surface: false,
-                            clip: false,
-                        }],
-                    });
-                }
-            }
-        }
-    }
-    out
-}
-
-/// The analytic ray–convex-solid hit: (t, index of the entry plane), slab by slab, for the
-/// solid grown by `grow` (in distance units).
-fn analytic_hit(planes: &[Plane], ray: &Ray, grow: f32) -> Option<(f32, usize)> {
-    let (mut t_in, mut t_out, mut entry) = (0.0f32, f32::INFINITY, usize::MAX);
-    for (k, p) in planes.iter().enumerate() {
-        let (f0, df) = (p.at(ray.origin) - grow, p.n.dot(ray.dir));
-        if df == 0.0 {
-            if f0 > 0.0 {
-                return None;
-            }
-            continue;
-        }
-        let t = -f0 / df;
-        if df < 0.0 {
-            if t > t_in {
-                t_in = t;
-                entry = k;
-            }
+    leaves_by_cell(depth, |coord| {
+        let corners = cell_corners(depth, coord, sd);
+        let (lo, hi) = corners
+            .iter()
+            .fold((f32::MAX, f32::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+        if lo <= 0.0 && hi > 0.0 {
+            vec![Voxel {
+                corners,
+                surface: false,
+                clip: false,
+            }]
         } else {
-            t_out = t_out.min(t);
+            Vec::new()
         }
-    }
-    (t_in <= t_out).then_some((t_in, entry))
+    })
 }
 
 /// Pinhole camera rays: `SIZE`² pixel centres, looking from `eye` at the origin.
@@ -173,12 +73,6 @@ const EYES: [Vec3; 4] = [
     Vec3::new(1.9, 2.5, -2.0),
 ];
 
-/// The cube of the tests: rotated about a skew axis, off centre, edges inside leaf cells.
-fn test_cube() -> (Mat3, Vec3, f32) {
-    let rot = Mat3::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 0.6);
-    (rot, Vec3::new(0.031, -0.047, 0.023), 0.513)
-}
-
 /// Mask mismatches against the analytic cube over the test views, counting only pixels whose
 /// answer is the same for the cube grown and shrunk by `margin`; the normal error and the
 /// depth error (across the face, relative to `h`) at the hits.
@@ -187,8 +81,8 @@ fn compare_with_cube(o: &PackedOctree, planes: &[Plane], margin: f32) -> (usize,
     let (mut mismatched, mut clear, mut normal_err, mut depth_err) = (0, 0, 0.0f32, 0.0f32);
     for eye in EYES {
         for ray in camera_rays(eye) {
-            let grown = analytic_hit(planes, &ray, margin);
-            let shrunk = analytic_hit(planes, &ray, -margin);
+            let grown = analytic_hit(planes, ray.origin, ray.dir, margin);
+            let shrunk = analytic_hit(planes, ray.origin, ray.dir, -margin);
             if grown.is_some() != shrunk.is_some() {
                 continue; // within `margin` of the silhouette
             }
@@ -202,7 +96,7 @@ fn compare_with_cube(o: &PackedOctree, planes: &[Plane], margin: f32) -> (usize,
             let (Some(hit), Some(_)) = (got, shrunk) else {
                 continue;
             };
-            let (t, face) = analytic_hit(planes, &ray, 0.0).unwrap();
+            let (t, face) = analytic_hit(planes, ray.origin, ray.dir, 0.0).unwrap();
             // Measured across the face (along a grazing ray a plane moved by δ moves the hit
             // by δ / |n·d|).
             depth_err = depth_err.max((hit.t - t).abs() * planes[face].n.dot(ray.dir).abs() / h);
@@ -224,7 +118,7 @@ fn compare_with_cube(o: &PackedOctree, planes: &[Plane], margin: f32) -> (usize,
 
 #[test]
 fn a_cube_of_intersect_voxels_has_the_exact_silhouette_and_flat_normals() {
-    let (rot, c, r) = test_cube();
+    let (rot, c, r) = skew_cube();
     let planes = cube_planes(rot, c, r);
     for depth in [3u8, 4, 5] {
         let h = 2.0 / (1u32 << depth) as f32;
@@ -252,7 +146,7 @@ fn a_cube_of_intersect_voxels_has_the_exact_silhouette_and_flat_normals() {
 
 #[test]
 fn distance_at_a_clip_leaf_is_the_max_of_its_intersect_voxels() {
-    let (rot, c, r) = test_cube();
+    let (rot, c, r) = skew_cube();
     let planes = cube_planes(rot, c, r);
     let depth = 4;
     let o = PackedOctree::from_leaves(meta(depth), convex_leaves(depth, &planes)).unwrap();
@@ -296,39 +190,30 @@ fn distance_at_a_clip_leaf_is_the_max_of_its_intersect_voxels() {
 /// An open square sheet y = y0 for x ≤ rim (and |z| ≤ 0.5, on cell faces), one surface voxel per leaf; the
 /// leaves that the rim x = rim crosses also hold a clip-only voxel `x − rim` when `clip`.
 fn sheet_leaves(depth: u8, y0: f32, rim: f32, clip: bool) -> Vec<LeafInput> {
-    let n = 1u32 << depth;
-    let h = 2.0 / n as f32;
-    let mut out = Vec::new();
-    for x in 0..n {
-        for y in 0..n {
-            for z in 0..n {
-                let lo = Vec3::new(x as f32, y as f32, z as f32) * h - 1.0;
-                let hi = lo + Vec3::splat(h);
-                let crosses_sheet = lo.y < y0 && y0 < hi.y;
-                let on_sheet = lo.x < rim && lo.z < 0.5 && hi.z > -0.5;
-                if !crosses_sheet || !on_sheet {
-                    continue;
-                }
-                let mut voxels = vec![Voxel {
-                    corners: cell_corners(depth, [x, y, z], |p| p.y - y0),
-                    surface: true,
-                    clip: false,
-                }];
-                if clip && hi.x > rim {
-                    voxels.push(Voxel {
-                        corners: cell_corners(depth, [x, y, z], |p| p.x - rim),
-                        surface: true,
-                        clip: true,
-                    });
-                }
-                out.push(LeafInput {
-                    coord: [x, y, z],
-                    voxels,
-                });
-            }
+    let h = 2.0 / (1u32 << depth) as f32;
+    leaves_by_cell(depth, |coord| {
+        let [x, y, z] = coord;
+        let lo = Vec3::new(x as f32, y as f32, z as f32) * h - 1.0;
+        let hi = lo + Vec3::splat(h);
+        let crosses_sheet = lo.y < y0 && y0 < hi.y;
+        let on_sheet = lo.x < rim && lo.z < 0.5 && hi.z > -0.5;
+        if !crosses_sheet || !on_sheet {
+            return Vec::new();
         }
-    }
-    out
+        let mut voxels = vec![Voxel {
+            corners: cell_corners(depth, coord, |p| p.y - y0),
+            surface: true,
+            clip: false,
+        }];
+        if clip && hi.x > rim {
+            voxels.push(Voxel {
+                corners: cell_corners(depth, coord, |p| p.x - rim),
+                surface: true,
+                clip: true,
+            });
+        }
+        voxels
+    })
 }
 
 #[test]
@@ -386,7 +271,7 @@ fn an_open_sheet_with_clip_only_voxels_stops_at_its_rim() {
 fn octrees_without_clip_voxels_trace_as_before() {
     // The same leaves with the clip bit cleared on a cube whose leaves hold one plane each
     // trace identically (the bit only changes leaves with more than one voxel).
-    let (rot, c, r) = test_cube();
+    let (rot, c, r) = skew_cube();
     let planes = cube_planes(rot, c, r);
     let depth = 4;
     let leaves = convex_leaves(depth, &planes);

@@ -2,14 +2,7 @@
 #![allow(dead_code)]
 
 use glam::Vec3;
-use sdfmo_format::{LeafInput, OctreeMeta, ValueBits, Voxel};
-
-/// Corner distances of `sd` over the cell `coord` at `depth`.
-pub fn cell_corners(depth: u8, coord: [u32; 3], sd: &dyn Fn(Vec3) -> f32) -> [f32; 8] {
-    let h = 2.0 / (1u32 << depth) as f32;
-    let lo = Vec3::new(coord[0] as f32, coord[1] as f32, coord[2] as f32) * h - 1.0;
-    std::array::from_fn(|i| sd(lo + sdfmo_format::corner_offset(i) * h))
-}
+use sdfmo_format::{cell_corners, LeafInput, OctreeMeta, ValueBits, Voxel};
 
 /// The leaves a builder would emit for two concentric-ish shapes close together: a sphere of
 /// radius 0.6 (volume voxels) and a thin plate y = 0.05 (surface voxels); leaves touched by
@@ -46,14 +39,14 @@ pub fn shape_leaves(depth: u8, with_plate: bool) -> Vec<LeafInput> {
         let mut voxels = Vec::new();
         if near_sphere {
             voxels.push(Voxel {
-                corners: cell_corners(depth, c, &sphere),
+                corners: cell_corners(depth, c, sphere),
                 surface: false,
                 clip: false,
             });
         }
         if near_plate {
             voxels.push(Voxel {
-                corners: cell_corners(depth, c, &plate),
+                corners: cell_corners(depth, c, plate),
                 surface: true,
                 clip: false,
             });

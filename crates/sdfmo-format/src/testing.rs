@@ -1,0 +1,113 @@
+//! Test octrees shared by the tests of several crates (feature `test-support`, enabled only in
+//! their dev-dependencies): convex solids built by hand from *intersect* voxels (format 1.1),
+//! and the analytic ray hit they must reproduce. Kept here, once, so the tracer's, the
+//! renderer's and the GPU's tests check the same solid the same way.
+
+use glam::{Mat3, Vec3};
+
+use crate::{cell_corners, LeafInput, Voxel};
+
+/// A plane `n·p − d` (negative inside, `n` unit): a distance, reproduced exactly by a voxel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plane {
+    /// Unit outward normal.
+    pub n: Vec3,
+    /// Offset along `n`: the plane is `n·p = d`.
+    pub d: f32,
+}
+
+impl Plane {
+    /// The signed distance `n·p − d`.
+    pub fn at(&self, p: Vec3) -> f32 {
+        self.n.dot(p) - self.d
+    }
+}
+
+/// The cube of half-edge `r`, rotated by `rot`, centred at `c`: its six face planes, in the
+/// order +x, −x, +y, −y, +z, −z of the rotated axes.
+pub fn cube_planes(rot: Mat3, c: Vec3, r: f32) -> [Plane; 6] {
+    core::array::from_fn(|k| {
+        let axis = rot.col(k / 2);
+        let n = if k % 2 == 0 { axis } else { -axis };
+        Plane { n, d: n.dot(c) + r }
+    })
+}
+
+/// The convex solid ⋂ `planes` in the leaf cell `coord` at `depth`, as intersect voxels: the
+/// planes that cut the cell (a plane whose corners are all ≤ 0 there is redundant; one whose
+/// corners are all > 0 leaves the cell empty, and then no voxel is returned).
+pub fn convex_cell_voxels(depth: u8, coord: [u32; 3], planes: &[Plane]) -> Vec<Voxel> {
+    let mut voxels = Vec::new();
+    for p in planes {
+        let corners = cell_corners(depth, coord, |q| p.at(q));
+        if corners.iter().all(|&v| v > 0.0) {
+            return Vec::new();
+        }
+        if corners.iter().any(|&v| v > 0.0) {
+            voxels.push(Voxel {
+                corners,
+                surface: false,
+                clip: true,
+            });
+        }
+    }
+    voxels
+}
+
+/// The leaves at `depth` with the voxels `voxels(coord)` gives each cell, in the order x, y, z
+/// (outermost first); cells given no voxel are not stored.
+pub fn leaves_by_cell(depth: u8, mut voxels: impl FnMut([u32; 3]) -> Vec<Voxel>) -> Vec<LeafInput> {
+    let n = 1u32 << depth;
+    let mut out = Vec::new();
+    for x in 0..n {
+        for y in 0..n {
+            for z in 0..n {
+                let coord = [x, y, z];
+                let voxels = voxels(coord);
+                if !voxels.is_empty() {
+                    out.push(LeafInput { coord, voxels });
+                }
+            }
+        }
+    }
+    out
+}
+
+/// [`convex_cell_voxels`] over every leaf cell at `depth`; cells cut by no plane are inside or
+/// outside: not stored.
+pub fn convex_leaves(depth: u8, planes: &[Plane]) -> Vec<LeafInput> {
+    leaves_by_cell(depth, |coord| convex_cell_voxels(depth, coord, planes))
+}
+
+/// The analytic entry of the ray `origin + t·dir` (t ≥ 0) into the convex solid ⋂ `planes`
+/// grown by `grow` (in distance units), slab by slab: (t, index of the entry plane; `usize::MAX`
+/// when the ray starts inside).
+pub fn analytic_hit(planes: &[Plane], origin: Vec3, dir: Vec3, grow: f32) -> Option<(f32, usize)> {
+    let (mut t_in, mut t_out, mut entry) = (0.0f32, f32::INFINITY, usize::MAX);
+    for (k, p) in planes.iter().enumerate() {
+        let (f0, df) = (p.at(origin) - grow, p.n.dot(dir));
+        if df == 0.0 {
+            if f0 > 0.0 {
+                return None;
+            }
+            continue;
+        }
+        let t = -f0 / df;
+        if df < 0.0 {
+            if t > t_in {
+                t_in = t;
+                entry = k;
+            }
+        } else {
+            t_out = t_out.min(t);
+        }
+    }
+    (t_in <= t_out).then_some((t_in, entry))
+}
+
+/// The tests' cube: rotated about a skew axis, off centre, half-edge chosen so that its faces
+/// and edges lie inside leaf cells (rotation, centre, half-edge).
+pub fn skew_cube() -> (Mat3, Vec3, f32) {
+    let rot = Mat3::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 0.6);
+    (rot, Vec3::new(0.031, -0.047, 0.023), 0.513)
+}
