@@ -10,8 +10,8 @@ use sdf_multioctree::render::{Camera, Mode};
 use sdf_multioctree::{compare, paper_views, DEFAULT_MARGIN};
 
 use crate::common::{
-    assert_corners_finite, assert_renders_sane, build, camera, count, data_dir, erode, extra, mask,
-    missing, render_mesh, render_octree, METHODS, MULTI,
+    assert_corners_finite, assert_renders_sane, build, camera, count, data_dir, erode, extra,
+    leaf_map, mask, missing, render_mesh, render_octree, METHODS, MULTI,
 };
 
 /// Mask coverage of the octree against the reference mesh for one camera:
@@ -201,6 +201,54 @@ fn teapot_builds_and_renders_with_both_methods() {
         assert!(
             miss_all * 20 <= r_all,
             "{what}: {miss_all} of {r_all} px missing"
+        );
+    }
+}
+
+/// Two closed boxes touching at x = 0 (a double wall: both boxes keep their face there, with
+/// opposite normals, as where touching bodies of a CAD assembly meet) and a small open sheet
+/// elsewhere (so the mesh is not watertight and takes its sign from the winding number). A
+/// corner inside the union but nearest the double wall must come out inside: the normal of
+/// whichever wall face is nearest cannot sign it (it points out of one box and into the other;
+/// the winding number, 1, can). Before session 6 the builder signed such corners by the face
+/// normal: 676 of the 7,896 corners deep inside came out outside (abc1 has double walls: dark
+/// grooves along its creases, −0.1 to −0.6 dB in both methods).
+#[test]
+fn corners_next_to_a_double_wall_are_inside() {
+    let boxes = [
+        procedural::box_mesh(Vec3::new(-1.0, -0.5, -0.5), Vec3::new(0.0, 0.5, 0.5)),
+        procedural::box_mesh(Vec3::new(0.0, -0.5, -0.5), Vec3::new(1.0, 0.5, 0.5)),
+    ];
+    let sheet = procedural::open_sheet(0.2, 0.2, 1).transformed(|p| p + Vec3::new(0.0, 1.2, 0.0));
+    let mesh = TriMesh::merge(&[boxes[0].clone(), boxes[1].clone(), sheet]);
+    let (_, norm) = mesh.normalized(DEFAULT_MARGIN);
+    let (lo, hi) = (
+        norm.to_normalized(Vec3::new(-1.0, -0.5, -0.5)),
+        norm.to_normalized(Vec3::new(1.0, 0.5, 0.5)),
+    );
+    for (mname, method) in METHODS {
+        let depth = 5;
+        let h = 2.0 / f32::from(1u16 << depth);
+        let o = build(&mesh, depth, method);
+        let (mut deep, mut outside) = (0, 0);
+        for (coord, voxels) in leaf_map(&o) {
+            let cell = Vec3::new(coord[0] as f32, coord[1] as f32, coord[2] as f32);
+            for (i, &v) in voxels[0].corners.iter().enumerate() {
+                let offset =
+                    Vec3::new(((i >> 2) & 1) as f32, ((i >> 1) & 1) as f32, (i & 1) as f32);
+                let p = (cell + offset) * h - Vec3::ONE;
+                // Inside the union by more than half a leaf.
+                if (p - lo).min_element() > 0.5 * h && (hi - p).min_element() > 0.5 * h {
+                    deep += 1;
+                    outside += usize::from(v > 0.0);
+                }
+            }
+        }
+        eprintln!("double wall {mname}: {outside} of {deep} corners deep inside signed outside");
+        assert!(deep > 0, "{mname}: no corner deep inside");
+        assert_eq!(
+            outside, 0,
+            "{mname}: {outside} of {deep} corners deep inside signed outside"
         );
     }
 }

@@ -11,6 +11,29 @@ impl MeshDistance {
         self.apply_sign(p, &c)
     }
 
+    /// Whether triangle `t`'s face normal points out of the solid the winding number sees: it
+    /// lies in a clean part of the surface (the one-time per-triangle data of the winding
+    /// mode's face-normal shortcut, see [`prepare_sign`](Self::prepare_sign), gives it a
+    /// radius), so a point whose closest point lies in its face interior can take its sign from
+    /// the face normal. `false` for an index out of range, and in pseudo-normal mode, which
+    /// keeps no winding data (there every face normal signs).
+    pub fn face_normal_agrees_with_winding(&self, t: u32) -> bool {
+        if self.sign != SignMode::Winding {
+            return false;
+        }
+        let radii = self.clean_radius.get_or_init(|| self.clean_winding_radii());
+        radii.get(t as usize).is_some_and(|&r| r > 0.0)
+    }
+
+    /// The winding number's verdict on `p` where it is decisive: `Some(inside)` when the coarse
+    /// winding number lies farther than [`COARSE_WINDING_MARGIN`] from ½ (within a closed
+    /// part, or outside every part), `None` near ½ (beside an open sheet, where only the
+    /// surface's own orientation tells its sides apart).
+    pub fn decisive_winding_inside(&self, p: Vec3) -> Option<bool> {
+        let w = self.winding_number_scaled(p, COARSE_FAR_SCALE);
+        ((w - 0.5).abs() > COARSE_WINDING_MARGIN).then_some(w > 0.5)
+    }
+
     /// Signs the distance of a closest point `c` of `p` (found by any of the closest-point
     /// queries on this mesh) with the mode of this `MeshDistance`. Lets a caller that already has
     /// the closest point (from a bounded or hinted query) avoid a second search.
