@@ -4,7 +4,7 @@
 
 use glam::{Mat3, Vec3};
 use sdf_multioctree::distance::{MeshDistance, SignMode};
-use sdf_multioctree::format::PackedOctree;
+use sdf_multioctree::format::{corner_offset, PackedOctree};
 use sdf_multioctree::mesh::{procedural, TriMesh};
 use sdf_multioctree::render::{Camera, Mode};
 use sdf_multioctree::{compare, paper_views, DEFAULT_MARGIN};
@@ -234,9 +234,7 @@ fn corners_next_to_a_double_wall_are_inside() {
         for (coord, voxels) in leaf_map(&o) {
             let cell = Vec3::new(coord[0] as f32, coord[1] as f32, coord[2] as f32);
             for (i, &v) in voxels[0].corners.iter().enumerate() {
-                let offset =
-                    Vec3::new(((i >> 2) & 1) as f32, ((i >> 1) & 1) as f32, (i & 1) as f32);
-                let p = (cell + offset) * h - Vec3::ONE;
+                let p = (cell + corner_offset(i)) * h - Vec3::ONE;
                 // Inside the union by more than half a leaf.
                 if (p - lo).min_element() > 0.5 * h && (hi - p).min_element() > 0.5 * h {
                     deep += 1;

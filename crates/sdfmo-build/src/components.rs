@@ -76,11 +76,15 @@ impl Components {
     /// open component, only where it nearly closes around `p`); `None` where its distance
     /// structure was refused.
     pub fn winding_inside(&self, local: &LocalMesh, c: u32, p: Vec3) -> Option<bool> {
+        self.distance(local, c).map(|d| d.winding_inside(p))
+    }
+
+    /// Component `c`'s own distance structure, built on first use; `None` where it was refused.
+    fn distance(&self, local: &LocalMesh, c: u32) -> Option<&MeshDistance> {
         let members = &self.members[c as usize];
         self.dists[c as usize]
             .get_or_init(|| component_distance(local, members))
             .as_ref()
-            .map(|d| d.winding_inside(p))
     }
 
     /// Signed distance from `p` to global component `c`, starting from triangle `hint` (a
@@ -88,8 +92,7 @@ impl Components {
     /// is clean or the component is open, else by the component's winding number.
     pub fn signed_distance(&self, local: &LocalMesh, c: u32, p: Vec3, hint: u32) -> f32 {
         let members = &self.members[c as usize];
-        let Some(dist) = self.dists[c as usize].get_or_init(|| component_distance(local, members))
-        else {
+        let Some(dist) = self.distance(local, c) else {
             // The distance structure refused the component (not expected for a validated
             // mesh): brute force over its triangles.
             return local.signed_distance_subset(members, p);

@@ -486,8 +486,13 @@ impl MeshDistance {
     /// it; for timing a build, or before handing the structure to many threads. Idempotent.
     pub fn prepare_sign(&self) {
         if self.sign == SignMode::Winding {
-            self.clean_radius.get_or_init(|| self.clean_winding_radii());
+            self.clean_radii();
         }
+    }
+
+    /// The per-triangle radii of the winding mode's face-normal shortcut, computed on first use.
+    fn clean_radii(&self) -> &[f32] {
+        self.clean_radius.get_or_init(|| self.clean_winding_radii())
     }
 
     /// The unit normal of the largest triangle of a leaf if that triangle has winding number

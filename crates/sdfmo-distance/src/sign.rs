@@ -21,8 +21,7 @@ impl MeshDistance {
         if self.sign != SignMode::Winding {
             return false;
         }
-        let radii = self.clean_radius.get_or_init(|| self.clean_winding_radii());
-        radii.get(t as usize).is_some_and(|&r| r > 0.0)
+        self.clean_radii().get(t as usize).is_some_and(|&r| r > 0.0)
     }
 
     /// The winding number's verdict on `p` where it is decisive: `Some(inside)` when the coarse
@@ -62,8 +61,7 @@ impl MeshDistance {
     #[inline]
     pub(crate) fn winding_inside_near(&self, p: Vec3, c: &ClosestPoint) -> bool {
         if c.feature == Feature::Face {
-            let radii = self.clean_radius.get_or_init(|| self.clean_winding_radii());
-            if let Some(&r) = radii.get(c.triangle as usize) {
+            if let Some(&r) = self.clean_radii().get(c.triangle as usize) {
                 if c.distance < r * CLEAN_DISTANCE_FRACTION {
                     let n = self.normals.face[c.triangle as usize];
                     return (p - c.point).dot(n) < 0.0;
@@ -80,12 +78,8 @@ impl MeshDistance {
     /// recomputed with the full [`WINDING_BETA`].
     #[inline]
     pub fn winding_inside(&self, p: Vec3) -> bool {
-        let coarse = self.winding_number_scaled(p, COARSE_FAR_SCALE);
-        if (coarse - 0.5).abs() > COARSE_WINDING_MARGIN {
-            coarse > 0.5
-        } else {
-            self.winding_number(p) > 0.5
-        }
+        self.decisive_winding_inside(p)
+            .unwrap_or_else(|| self.winding_number(p) > 0.5)
     }
 
     #[inline]

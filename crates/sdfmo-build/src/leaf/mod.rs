@@ -332,7 +332,7 @@ pub fn multi_leaf(
     let open_comp = (k == 1)
         .then(|| s.components.global_ids[0])
         .filter(|&c| global.open[c as usize]);
-    let back_of_open_sheet = |gq: &[f32; 8]| {
+    let back_of_open_sheet = || {
         let Some(comp) = open_comp else {
             return false;
         };
@@ -343,12 +343,12 @@ pub fn multi_leaf(
             .expect("eight corners");
         gv < 0.0
             && global
-                .winding_inside(mesh, comp, cell.corners()[deepest])
+                .winding_inside(mesh, comp, cell.at(corner_offset(deepest)))
                 .is_some_and(|inside| !inside)
     };
-    let svo_voxel = |p: &Params, g: &[f32; 8]| {
+    let svo_voxel = || {
         let mut r = svo_leaf(p, g);
-        if !r.voxels.is_empty() && back_of_open_sheet(&p.q8(g)) {
+        if !r.voxels.is_empty() && back_of_open_sheet() {
             r.voxels[0].surface = true;
         }
         r
@@ -372,7 +372,7 @@ pub fn multi_leaf(
     }
     let svo_closed = s.gaps.points.len();
     if svo.max_gap <= p.accept && !open_near && svo_closed == 0 {
-        return svo_voxel(p, g);
+        return svo_voxel();
     }
 
     // 3. One (or two) voxels per component.
@@ -388,7 +388,7 @@ pub fn multi_leaf(
     );
     if k == 1 && s.cands.len() == 1 && !s.cands[0].surface {
         // One component, one volume voxel: that is the SVO voxel.
-        return svo_voxel(p, g);
+        return svo_voxel();
     }
 
     // 4. Reduction: voxels that cannot be hit, hidden voxels, then the cap.
@@ -399,7 +399,7 @@ pub fn multi_leaf(
         reduce::merge_to_cap(p, &mut s.cands);
     }
     if s.cands.is_empty() {
-        return svo_voxel(p, g);
+        return svo_voxel();
     }
 
     // 5. Earn its place.
@@ -433,7 +433,7 @@ pub fn multi_leaf(
             cap_hit,
         }
     } else {
-        let mut r = svo_voxel(p, g);
+        let mut r = svo_voxel();
         r.cap_hit = cap_hit;
         r
     };

@@ -87,12 +87,11 @@ pub(crate) fn rim_clips(
     }
     let corners = cell.corners();
     let start = out.len();
-    // A flat sheet's own voxel becomes its plane: near the rim the distance to the sheet bends
-    // around the boundary edge, and its interpolant with it; the plane, cut by the clips, is
-    // exact.
-    // The SVO voxel, where it won, too: the global distance bends around the rim as well, and
-    // its zero set with it, which the clip cannot straighten (a silhouette a fraction of a
-    // voxel out along the rim); as the plane it becomes a surface voxel (a sheet has no inside).
+    // The sheet's voxel (its surface voxel, or the SVO voxel where that won) becomes the sheet's
+    // plane, or a curved sheet's continuation past the rim: near the rim the distance to the
+    // sheet (and the global distance) bends around the boundary edge, and the interpolant's
+    // zero set with it, which the clips cannot straighten (a silhouette a fraction of a voxel
+    // out along the rim); the plane, cut by the clips, is exact.
     if let Some(sheet) = out.first_mut().filter(|v| !v.clip) {
         let plane =
             flat_faces(p, mesh, cell, tris, samples, scratch).and_then(|f| f.single_plane());
