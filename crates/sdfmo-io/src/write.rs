@@ -90,21 +90,34 @@ pub struct OutputBatch {
 }
 
 /// Temporaries created and not yet renamed or removed, for [`remove_pending_temporaries`].
-static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+static PENDING: Mutex<Pending> = Mutex::new(Pending {
+    paths: Vec::new(),
+    closed: false,
+});
 
-fn pending() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+#[derive(Debug)]
+struct Pending {
+    paths: Vec<PathBuf>,
+    /// Set by [`remove_pending_temporaries`]: no temporary may be created after it.
+    closed: bool,
+}
+
+fn pending() -> std::sync::MutexGuard<'static, Pending> {
     // A panic while holding the lock leaves the list valid: keep using it.
     PENDING.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 /// Removes every temporary file of this process that is not yet renamed into place or removed,
-/// and returns how many it removed. Meant for a SIGINT/SIGTERM handler that then exits (the
-/// CLI's does), so an interrupted write leaves nothing behind; a later commit of those outputs
-/// fails. (SIGKILL cannot be caught: a process killed by it mid-write can leave one
-/// `.NAME.XXXXXX.tmp` beside the destination.)
+/// returns how many it removed, and refuses every temporary after it: a later write or commit
+/// fails with [`IoError::Os`] and leaves nothing behind. Meant for a SIGINT/SIGTERM handler
+/// that then exits (the CLI's does): a write on another thread cannot slip a new temporary in
+/// between this call and the exit. (SIGKILL cannot be caught: a process killed by it mid-write
+/// can leave one `.NAME.XXXXXX.tmp` beside the destination.)
 pub fn remove_pending_temporaries() -> usize {
     let mut list = pending();
-    list.drain(..)
+    list.closed = true;
+    list.paths
+        .drain(..)
         .filter(|p| std::fs::remove_file(p).is_ok())
         .count()
 }
@@ -114,9 +127,19 @@ pub fn remove_pending_temporaries() -> usize {
 struct Tracked(Option<NamedTempFile>);
 
 impl Tracked {
-    fn new(temp: NamedTempFile) -> Tracked {
-        pending().push(temp.path().to_path_buf());
-        Tracked(Some(temp))
+    /// Creates the temporary with `create` and registers it under one lock, so an interrupt
+    /// handler either sees it or runs before it exists and stops it from being created.
+    fn create(create: impl FnOnce() -> std::io::Result<NamedTempFile>) -> std::io::Result<Tracked> {
+        let mut list = pending();
+        if list.closed {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::Interrupted,
+                "the process is being interrupted",
+            ));
+        }
+        let temp = create()?;
+        list.paths.push(temp.path().to_path_buf());
+        Ok(Tracked(Some(temp)))
     }
 
     fn file(&mut self) -> &mut NamedTempFile {
@@ -126,9 +149,9 @@ impl Tracked {
     }
 
     fn forget(path: &Path) {
-        let mut list = pending();
-        if let Some(i) = list.iter().position(|p| p == path) {
-            list.swap_remove(i);
+        let paths = &mut pending().paths;
+        if let Some(i) = paths.iter().position(|p| p == path) {
+            paths.swap_remove(i);
         }
     }
 
@@ -211,11 +234,8 @@ impl OutputBatch {
             use std::os::unix::fs::PermissionsExt;
             builder.permissions(std::fs::Permissions::from_mode(0o666));
         }
-        let mut temp = Tracked::new(
-            builder
-                .tempfile_in(&dir)
-                .map_err(os("create a temporary file in", &dir))?,
-        );
+        let mut temp = Tracked::create(|| builder.tempfile_in(&dir))
+            .map_err(os("create a temporary file in", &dir))?;
         // On error `temp` is dropped here, which removes it.
         let file = temp.file();
         file.write_all(bytes)
