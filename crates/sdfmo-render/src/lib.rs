@@ -45,6 +45,8 @@ pub use plan::{Counters, Mode, RenderPlan, RenderSettings, MAX_AO_SAMPLES};
 pub use protocol::{PaperProtocol, ProtocolError, Score, ViewScore};
 pub use render::{in_pool, render, render_with_plan, Rendered};
 pub use scene::{SphereHit, Spheres, Traceable};
+/// The packet of primary rays [`Traceable::first_hits`] takes.
+pub use sdfmo_trace::RayPacket;
 
 /// Everything that can go wrong while rendering or writing images.
 #[derive(Debug, thiserror::Error)]

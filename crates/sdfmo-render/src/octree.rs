@@ -2,7 +2,9 @@
 
 use glam::Vec3;
 use sdfmo_format::PackedOctree;
-use sdfmo_trace::{hit_normal, intersect, intersect_packet, occluded, occupied_bounds, Hit, Ray};
+use sdfmo_trace::{
+    hit_normal, intersect, intersect_packet, occluded, occupied_bounds, Hit, Ray, RayPacket,
+};
 
 use crate::scene::{Traceable, PACKET};
 
@@ -31,17 +33,10 @@ impl Traceable for OctreeScene<'_> {
     /// One walk of the octree for the whole packet (`sdfmo_trace::intersect_packet`: the same
     /// hits as ray by ray, bit for bit).
     #[inline]
-    fn first_hits(
-        &self,
-        origin: Vec3,
-        dirs: &[Vec3; PACKET],
-        lanes: u32,
-        t_max: f32,
-        out: &mut [Option<Hit>; PACKET],
-    ) {
-        let hits = intersect_packet(self.0, origin, dirs, lanes, t_max);
+    fn first_hits(&self, rays: &RayPacket, out: &mut [Option<Hit>; PACKET]) {
+        let hits = intersect_packet(self.0, rays);
         for (l, hit) in hits.into_iter().enumerate() {
-            if lanes >> l & 1 != 0 {
+            if rays.lanes >> l & 1 != 0 {
                 out[l] = hit;
             }
         }

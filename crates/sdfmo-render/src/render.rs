@@ -8,6 +8,7 @@ use rayon::prelude::*;
 use crate::camera::{Camera, CameraFrame};
 use crate::plan::{Counters, Mode, RenderPlan, RenderSettings};
 use crate::scene::{Traceable, OCCUPIED_PAD, PACKET};
+use crate::RayPacket;
 
 /// Pixel columns and rows of a packet of primary rays ([`PACKET`] in all).
 const PACKET_COLS: usize = 4;
@@ -227,9 +228,13 @@ impl<T: Traceable> Ctx<'_, T> {
             let row_terms: [DVec3; PACKET_ROWS] =
                 core::array::from_fn(|r| self.frame.row(y0 + (row0 + r as u32).min(th - 1)));
             for col0 in (0..tw).step_by(PACKET_COLS) {
-                let mut dirs = [Vec3::ZERO; PACKET];
-                let mut lanes = 0u32;
-                for (l, dir) in dirs.iter_mut().enumerate() {
+                let mut rays = RayPacket {
+                    origin: eye,
+                    dirs: [Vec3::ZERO; PACKET],
+                    lanes: 0,
+                    t_max: f32::INFINITY,
+                };
+                for (l, dir) in rays.dirs.iter_mut().enumerate() {
                     let (col, row) = (
                         col0 + (l % PACKET_COLS) as u32,
                         row0 + (l / PACKET_COLS) as u32,
@@ -247,14 +252,13 @@ impl<T: Traceable> Ctx<'_, T> {
                         continue; // background (already there)
                     }
                     *dir = CameraFrame::direction(column, row_term);
-                    lanes |= 1 << l;
+                    rays.lanes |= 1 << l;
                 }
-                if lanes == 0 {
+                if rays.lanes == 0 {
                     continue;
                 }
                 let mut hits = [None; PACKET];
-                self.scene
-                    .first_hits(eye, &dirs, lanes, f32::INFINITY, &mut hits);
+                self.scene.first_hits(&rays, &mut hits);
                 for (l, hit) in hits.iter().enumerate() {
                     if let Some(hit) = hit {
                         let (col, row) = (
@@ -262,7 +266,7 @@ impl<T: Traceable> Ctx<'_, T> {
                             row0 + (l / PACKET_COLS) as u32,
                         );
                         let i = (row * tw + col) as usize;
-                        self.shade(eye, dirs[l], hit, x0 + col, y0 + row, i, &mut tile);
+                        self.shade(eye, rays.dirs[l], hit, x0 + col, y0 + row, i, &mut tile);
                     }
                 }
             }

@@ -1,6 +1,7 @@
 //! The [`Traceable`] trait (what the renderer can ray trace) and an analytic scene of spheres.
 
 use glam::Vec3;
+use sdfmo_trace::RayPacket;
 
 /// Rays per packet of [`Traceable::first_hits`] (that of `sdfmo_trace::intersect_packet`).
 pub const PACKET: usize = sdfmo_trace::PACKET_SIZE;
@@ -32,21 +33,14 @@ pub trait Traceable: Sync {
         self.first_hit(origin, dir, t_min, t_max).is_some()
     }
 
-    /// The closest hits in `[0, t_max]` of the rays `origin + t·dirs[i]` whose bit `i` is set
-    /// in `lanes`, into `out[i]` (other entries are left alone): primary rays of neighbouring
-    /// pixels, traced together. Must give exactly what [`Traceable::first_hit`] gives ray by
-    /// ray (the default does just that; the octree walks the octree once per packet).
-    fn first_hits(
-        &self,
-        origin: Vec3,
-        dirs: &[Vec3; PACKET],
-        lanes: u32,
-        t_max: f32,
-        out: &mut [Option<Self::Hit>; PACKET],
-    ) {
-        for (l, dir) in dirs.iter().enumerate() {
-            if lanes >> l & 1 != 0 {
-                out[l] = self.first_hit(origin, *dir, 0.0, t_max);
+    /// The closest hit in `[0, t_max]` of each traced lane `i` of `rays` into `out[i]` (other
+    /// entries are left alone): primary rays of neighbouring pixels, traced together. Must give
+    /// exactly what [`Traceable::first_hit`] gives ray by ray (the default does just that; the
+    /// octree walks the octree once per packet).
+    fn first_hits(&self, rays: &RayPacket, out: &mut [Option<Self::Hit>; PACKET]) {
+        for (l, dir) in rays.dirs.iter().enumerate() {
+            if rays.lanes >> l & 1 != 0 {
+                out[l] = self.first_hit(rays.origin, *dir, 0.0, rays.t_max);
             }
         }
     }

@@ -39,6 +39,6 @@ pub mod traversal;
 
 pub use distance::{distance_at, DistanceSample};
 pub use normal::{hit_normal, trilinear_gradient};
-pub use packet::{intersect_packet, PACKET_SIZE};
+pub use packet::{intersect_packet, RayPacket, PACKET_SIZE};
 pub use ray_voxel::{intersect_voxel, unit_cube_span};
 pub use traversal::{intersect, occluded, occupied_bounds, ray_meets_box, Hit, Ray};

@@ -63,21 +63,31 @@ struct Lanes {
     negative: [u32; PACKET_SIZE],
 }
 
-/// The first hit in `[0, t_max]` of each ray `origin + t·dirs[i]` whose bit `i` is set in
-/// `lanes` (others: `None`): for every such ray exactly what [`intersect`]`(octree, ray, 0.0,
-/// t_max)` returns, found in one walk of the octree for the whole packet. Fastest when the rays
-/// are close together (neighbouring pixels).
+/// Up to [`PACKET_SIZE`] rays `origin + t·dirs[i]`, `t ∈ [0, t_max]`, that share their origin
+/// (the primary rays of neighbouring pixels): lane `i` is traced when bit `i` of `lanes` is set.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayPacket {
+    /// The origin of every ray (the eye).
+    pub origin: Vec3,
+    /// One direction per lane (any length; the hit's `t` is in units of it).
+    pub dirs: [Vec3; PACKET_SIZE],
+    /// Bit `i` set: lane `i` is traced; the others are ignored.
+    pub lanes: u32,
+    /// The far end of every ray's span.
+    pub t_max: f32,
+}
+
+/// The first hit of each lane of `rays` (lanes not traced: `None`): for every traced ray
+/// exactly what [`intersect`]`(octree, ray, 0.0, t_max)` returns, found in one walk of the
+/// octree for the whole packet. Fastest when the rays are close together (neighbouring pixels).
 pub fn intersect_packet<B: AsRef<[u8]>>(
     octree: &Octree<B>,
-    origin: Vec3,
-    dirs: &[Vec3; PACKET_SIZE],
-    lanes: u32,
-    t_max: f32,
+    rays: &RayPacket,
 ) -> [Option<Hit>; PACKET_SIZE] {
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2.
-        return unsafe { packet_avx2(octree, origin, dirs, lanes, t_max) };
+        return unsafe { packet_avx2(octree, rays) };
     }
     packet::<
         B,
@@ -88,7 +98,7 @@ pub fn intersect_packet<B: AsRef<[u8]>>(
                 SCALAR
             }
         },
-    >(octree, origin, dirs, lanes, t_max)
+    >(octree, rays)
 }
 
 /// Inner-node steps of [`packet`]: lane by lane.
@@ -104,12 +114,9 @@ const AVX2: u8 = 2;
 #[target_feature(enable = "avx2")]
 unsafe fn packet_avx2<B: AsRef<[u8]>>(
     octree: &Octree<B>,
-    origin: Vec3,
-    dirs: &[Vec3; PACKET_SIZE],
-    lanes: u32,
-    t_max: f32,
+    rays: &RayPacket,
 ) -> [Option<Hit>; PACKET_SIZE] {
-    packet::<B, AVX2>(octree, origin, dirs, lanes, t_max)
+    packet::<B, AVX2>(octree, rays)
 }
 
 /// The packet walk; `STEP` ([`SCALAR`], [`SSE2`], [`AVX2`]) picks the inner-node step (all give
@@ -117,11 +124,14 @@ unsafe fn packet_avx2<B: AsRef<[u8]>>(
 #[inline(always)]
 fn packet<B: AsRef<[u8]>, const STEP: u8>(
     octree: &Octree<B>,
-    origin: Vec3,
-    dirs: &[Vec3; PACKET_SIZE],
-    lanes: u32,
-    t_max: f32,
+    rays: &RayPacket,
 ) -> [Option<Hit>; PACKET_SIZE] {
+    let RayPacket {
+        origin,
+        ref dirs,
+        lanes,
+        t_max,
+    } = *rays;
     let mut out = [None; PACKET_SIZE];
     let Some(root) = octree.root() else {
         return out;
@@ -494,6 +504,22 @@ const _: () = assert!(
     "two SSE registers or one AVX register of lanes"
 );
 
+/// An integer instruction on the lanes' bits: `int_op!(op, a, b, h)` applies an SSE2 `op` to
+/// each half of two [`Sse2`], `int_op!(op, a, b)` an AVX2 `op` to two [`Avx2`] (the casts
+/// reinterpret the bits; they emit no instruction).
+#[cfg(target_arch = "x86_64")]
+macro_rules! int_op {
+    ($op:ident, $a:ident, $b:ident, $h:ident) => {
+        pair(|$h| _mm_castsi128_ps($op(_mm_castps_si128($a.0[$h]), _mm_castps_si128($b.0[$h]))))
+    };
+    ($op:ident, $a:ident, $b:ident) => {
+        Avx2(_mm256_castsi256_ps($op(
+            _mm256_castps_si256($a.0),
+            _mm256_castps_si256($b.0),
+        )))
+    };
+}
+
 #[cfg(target_arch = "x86_64")]
 lanes8! {
     fn splat(x: f32) -> Self { sse2: pair(|_| _mm_set1_ps(x)), avx2: Avx2(_mm256_set1_ps(x)) }
@@ -538,20 +564,20 @@ lanes8! {
         avx2: Avx2(_mm256_or_ps(a.0, b.0))
     }
     fn and_u(a: Self, b: Self) -> Self {
-        sse2: pair(|h| _mm_castsi128_ps(_mm_and_si128(_mm_castps_si128(a.0[h]), _mm_castps_si128(b.0[h])))),
-        avx2: Avx2(_mm256_castsi256_ps(_mm256_and_si256(_mm256_castps_si256(a.0), _mm256_castps_si256(b.0))))
+        sse2: int_op!(_mm_and_si128, a, b, h),
+        avx2: int_op!(_mm256_and_si256, a, b)
     }
     fn or_u(a: Self, b: Self) -> Self {
-        sse2: pair(|h| _mm_castsi128_ps(_mm_or_si128(_mm_castps_si128(a.0[h]), _mm_castps_si128(b.0[h])))),
-        avx2: Avx2(_mm256_castsi256_ps(_mm256_or_si256(_mm256_castps_si256(a.0), _mm256_castps_si256(b.0))))
+        sse2: int_op!(_mm_or_si128, a, b, h),
+        avx2: int_op!(_mm256_or_si256, a, b)
     }
     fn xor_u(a: Self, b: Self) -> Self {
-        sse2: pair(|h| _mm_castsi128_ps(_mm_xor_si128(_mm_castps_si128(a.0[h]), _mm_castps_si128(b.0[h])))),
-        avx2: Avx2(_mm256_castsi256_ps(_mm256_xor_si256(_mm256_castps_si256(a.0), _mm256_castps_si256(b.0))))
+        sse2: int_op!(_mm_xor_si128, a, b, h),
+        avx2: int_op!(_mm256_xor_si256, a, b)
     }
     fn eq_u(a: Self, b: Self) -> Self {
-        sse2: pair(|h| _mm_castsi128_ps(_mm_cmpeq_epi32(_mm_castps_si128(a.0[h]), _mm_castps_si128(b.0[h])))),
-        avx2: Avx2(_mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_castps_si256(a.0), _mm256_castps_si256(b.0))))
+        sse2: int_op!(_mm_cmpeq_epi32, a, b, h),
+        avx2: int_op!(_mm256_cmpeq_epi32, a, b)
     }
     fn sel(m: Self, a: Self, b: Self) -> Self {
         sse2: pair(|h| _mm_or_ps(_mm_and_ps(m.0[h], a.0[h]), _mm_andnot_ps(m.0[h], b.0[h]))),
@@ -735,10 +761,16 @@ mod tests {
                             }
                             // Every packet whole, and a partial one.
                             for lanes in [(1u32 << PACKET_SIZE) - 1, 0b1010_0110] {
-                                let got = intersect_packet(octree, eye, &dirs, lanes, t_max);
-                                let scalar = packet::<_, SCALAR>(octree, eye, &dirs, lanes, t_max);
+                                let rays = RayPacket {
+                                    origin: eye,
+                                    dirs,
+                                    lanes,
+                                    t_max,
+                                };
+                                let got = intersect_packet(octree, &rays);
+                                let scalar = packet::<_, SCALAR>(octree, &rays);
                                 // The SSE2 step without AVX2 (x86-64; elsewhere scalar again).
-                                let sse2 = packet::<_, SSE2>(octree, eye, &dirs, lanes, t_max);
+                                let sse2 = packet::<_, SSE2>(octree, &rays);
                                 for l in 0..PACKET_SIZE {
                                     let ray = Ray {
                                         origin: eye,

@@ -8,7 +8,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use sdfmo_build::{build, BuildSettings, Method};
 use sdfmo_distance::MeshDistance;
-use sdfmo_format::{quant, PackedOctree, ValueBits};
+use sdfmo_format::ValueBits::{self, Eight, Sixteen};
+use sdfmo_format::{quant, PackedOctree};
 use sdfmo_mesh::{procedural, TriMesh};
 use sdfmo_trace::distance_at;
 
@@ -16,8 +17,10 @@ use sdfmo_trace::distance_at;
 /// product and the interpolation: a few ulps of 1.
 const ROUNDING: f32 = 8.0 * f32::EPSILON;
 
-/// The SVO of `mesh` and the exact signed distance in the octree's (normalised) frame.
-fn svo(mesh: &TriMesh, depth: u8, bits: ValueBits) -> (PackedOctree, MeshDistance) {
+/// The SVO of `mesh` at `depth` with `bits` per corner, and what the bounds need: the exact
+/// signed distance in the octree's (normalised) frame, the leaf edge `h` and the quantisation
+/// half step `δ = dmax / (2Q)`.
+fn svo(mesh: &TriMesh, depth: u8, bits: ValueBits) -> (PackedOctree, MeshDistance, f32, f32) {
     let settings = BuildSettings {
         depth,
         method: Method::Svo,
@@ -27,12 +30,9 @@ fn svo(mesh: &TriMesh, depth: u8, bits: ValueBits) -> (PackedOctree, MeshDistanc
     let (octree, _) = build(mesh, &settings, None).unwrap();
     let (normalized, _) = mesh.normalized(settings.margin);
     let exact = MeshDistance::new(&normalized, settings.sign).unwrap();
-    (octree, exact)
-}
-
-/// The quantisation half step `δ = dmax / (2Q)`.
-fn half_step(depth: u8, bits: ValueBits) -> f32 {
-    quant::voxel_diagonal(depth) / quant::max_code(bits) as f32 / 2.0
+    let h = octree.meta().leaf_size();
+    let delta = octree.meta().dmax() / quant::max_code(bits) as f32 / 2.0;
+    (octree, exact, h, delta)
 }
 
 /// Points within `spread` of the surface: a random point of a random triangle moved along its
@@ -62,14 +62,8 @@ fn near_surface(mesh: &TriMesh, n: usize, spread: f32, seed: u64) -> Vec<Vec3> {
 #[test]
 fn sphere_values_are_within_quantisation_plus_interpolation_error() {
     let mesh = procedural::sphere(Vec3::ZERO, 1.0, 5);
-    for (depth, bits) in [
-        (5, ValueBits::Eight),
-        (6, ValueBits::Sixteen),
-        (7, ValueBits::Eight),
-    ] {
-        let (octree, exact) = svo(&mesh, depth, bits);
-        let h = 2.0 / (1u32 << depth) as f32;
-        let delta = half_step(depth, bits);
+    for (depth, bits) in [(5, Eight), (6, Sixteen), (7, Eight)] {
+        let (octree, exact, h, delta) = svo(&mesh, depth, bits);
         let (normalized, _) = mesh.normalized(0.05);
         let radius = normalized
             .positions()
@@ -120,14 +114,8 @@ fn sphere_values_are_within_quantisation_plus_interpolation_error() {
 #[test]
 fn box_face_values_and_gradients_are_within_quantisation_error() {
     let mesh = procedural::box_mesh(Vec3::splat(-0.5), Vec3::splat(0.5));
-    for (depth, bits) in [
-        (6, ValueBits::Eight),
-        (6, ValueBits::Sixteen),
-        (8, ValueBits::Sixteen),
-    ] {
-        let (octree, exact) = svo(&mesh, depth, bits);
-        let h = 2.0 / (1u32 << depth) as f32;
-        let delta = half_step(depth, bits);
+    for (depth, bits) in [(6, Eight), (6, Sixteen), (8, Sixteen)] {
+        let (octree, exact, h, delta) = svo(&mesh, depth, bits);
         let face = 0.95; // the box normalised to the extent 2·(1 − 0.05)
                          // The layer of leaves the face passes through: every one of them is stored.
         let x0 = ((face + 1.0) / h).floor() * h - 1.0;
@@ -164,7 +152,7 @@ fn box_face_values_and_gradients_are_within_quantisation_error() {
 #[test]
 fn far_from_the_surface_there_is_no_stored_leaf() {
     let mesh = procedural::sphere(Vec3::ZERO, 1.0, 3);
-    let (octree, _) = svo(&mesh, 6, ValueBits::Eight);
+    let octree = svo(&mesh, 6, Eight).0;
     assert_eq!(
         distance_at(&octree, Vec3::ZERO),
         None,

@@ -13,6 +13,7 @@ use sdfmo_build::{build, BuildSettings, Method};
 use sdfmo_distance::{MeshDistance, SignMode};
 use sdfmo_format::ValueBits;
 use sdfmo_mesh::{procedural, TriMesh};
+use sdfmo_render::{Camera, CameraFrame};
 use sdfmo_trace::{intersect, Ray};
 
 const SIZE: u32 = 64;
@@ -20,46 +21,9 @@ const VIEWS: usize = 100;
 /// Erosion radius of the reference silhouette, pixels (a disk).
 const ERODE: i32 = 2;
 
-/// The pinhole camera of `docs/architecture.md` (Conventions): pixel centres, py from the top, right = fwd × up.
-struct Camera {
-    eye: Vec3,
-    fwd: Vec3,
-    right: Vec3,
-    up: Vec3,
-    tan_half: f32,
-}
-
-impl Camera {
-    fn new(eye: Vec3, target: Vec3, fov_y_deg: f32) -> Camera {
-        let fwd = (target - eye).normalize();
-        let hint = if fwd.cross(Vec3::Y).length_squared() < 1e-12 {
-            Vec3::Z
-        } else {
-            Vec3::Y
-        };
-        let right = fwd.cross(hint).normalize();
-        let up = right.cross(fwd);
-        Camera {
-            eye,
-            fwd,
-            right,
-            up,
-            tan_half: (0.5 * fov_y_deg.to_radians()).tan(),
-        }
-    }
-
-    fn ray(&self, px: u32, py: u32) -> Ray {
-        let (w, h) = (SIZE as f32, SIZE as f32);
-        let u = (2.0 * (px as f32 + 0.5) / w - 1.0) * self.tan_half * w / h;
-        let v = (1.0 - 2.0 * (py as f32 + 0.5) / h) * self.tan_half;
-        Ray {
-            origin: self.eye,
-            dir: (self.fwd + u * self.right + v * self.up).normalize(),
-        }
-    }
-}
-
-fn random_views(seed: u64) -> Vec<Camera> {
+/// Random pinhole cameras (the renderer's, `docs/architecture.md` Conventions) around the
+/// root cube.
+fn random_views(seed: u64) -> Vec<CameraFrame> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     (0..VIEWS)
         .map(|_| {
@@ -79,13 +43,15 @@ fn random_views(seed: u64) -> Vec<Camera> {
                 rng.random_range(-0.2..0.2),
                 rng.random_range(-0.2..0.2),
             );
-            Camera::new(eye, target, rng.random_range(30.0..60.0))
+            Camera::new(eye, target, rng.random_range(30.0..60.0), SIZE, SIZE)
+                .frame()
+                .expect("a valid camera")
         })
         .collect()
 }
 
 /// Reference silhouettes of the normalised mesh, eroded by [`ERODE`] pixels.
-fn eroded_reference(mesh: &TriMesh, views: &[Camera]) -> Vec<Vec<bool>> {
+fn eroded_reference(mesh: &TriMesh, views: &[CameraFrame]) -> Vec<Vec<bool>> {
     let distance = MeshDistance::new(mesh, SignMode::Auto).expect("mesh distance");
     let n = SIZE as i32;
     views
@@ -93,10 +59,8 @@ fn eroded_reference(mesh: &TriMesh, views: &[Camera]) -> Vec<Vec<bool>> {
         .map(|cam| {
             let mask: Vec<bool> = (0..SIZE * SIZE)
                 .map(|i| {
-                    let r = cam.ray(i % SIZE, i / SIZE);
-                    distance
-                        .ray_hit(r.origin, r.dir, 0.0, f32::INFINITY)
-                        .is_some()
+                    let (origin, dir) = cam.ray(i % SIZE, i / SIZE);
+                    distance.ray_hit(origin, dir, 0.0, f32::INFINITY).is_some()
                 })
                 .collect();
             (0..n * n)
@@ -125,7 +89,7 @@ fn pinholes(
     mesh: &TriMesh,
     depth: u8,
     method: Method,
-    views: &[Camera],
+    views: &[CameraFrame],
     reference: &[Vec<bool>],
 ) -> (usize, usize) {
     let settings = BuildSettings {
@@ -143,8 +107,8 @@ fn pinholes(
                 continue;
             }
             inside += 1;
-            let r = cam.ray(i as u32 % SIZE, i as u32 / SIZE);
-            if intersect(&octree, &r, 0.0, f32::INFINITY).is_none() {
+            let (origin, dir) = cam.ray(i as u32 % SIZE, i as u32 / SIZE);
+            if intersect(&octree, &Ray { origin, dir }, 0.0, f32::INFINITY).is_none() {
                 holes += 1;
             }
         }
