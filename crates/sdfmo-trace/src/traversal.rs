@@ -75,12 +75,12 @@ pub fn intersect<B: AsRef<[u8]>>(
     t_min: f32,
     t_max: f32,
 ) -> Option<Hit> {
-    traverse::<B, false>(octree, ray, t_min, t_max)
+    traverse::<B, false>(octree, ray, t_min, t_max, inner_step)
 }
 
 /// Whether anything is hit in `[t_min, t_max]` (stops at the first voxel hit, not the nearest).
 pub fn occluded<B: AsRef<[u8]>>(octree: &Octree<B>, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-    traverse::<B, true>(octree, ray, t_min, t_max).is_some()
+    traverse::<B, true>(octree, ray, t_min, t_max, inner_step).is_some()
 }
 
 /// A box containing every leaf of the octree, `(min, max)` in normalised coordinates: the union
@@ -301,12 +301,15 @@ pub(crate) fn split_span(tm: Vec3, te: f32, tx: f32) -> (u8, [f32; 3], [u8; 3]) 
     (behind, [k0, k1, k2], [b0, b1, b2])
 }
 
+/// The single-ray walk, with the inner-node step `step` (a function item, called directly):
+/// always [`inner_step`], except in the test that checks it against the step it replaced.
 #[inline(always)]
 fn traverse<B: AsRef<[u8]>, const ANY: bool>(
     octree: &Octree<B>,
     ray: &Ray,
     t_min: f32,
     t_max: f32,
+    step: impl Fn(&Octree<B>, &Cell, Vec3, Vec3, u8, &mut CellStack<Cell, STACK_SIZE>) -> Option<Cell>,
 ) -> Option<Hit> {
     let (mut cell, inv) = root_cell(octree, ray, t_min, t_max)?;
     let (o, d) = (ray.origin, ray.dir);
@@ -320,7 +323,7 @@ fn traverse<B: AsRef<[u8]>, const ANY: bool>(
             if let Some(hit) = leaf_hit::<B, ANY>(octree, &cell, o, d) {
                 return Some(hit);
             }
-        } else if let Some(next) = inner_step(octree, &cell, o, inv, negative, &mut stack) {
+        } else if let Some(next) = step(octree, &cell, o, inv, negative, &mut stack) {
             // The nearest child goes straight to `cell` (no round trip through the stack).
             cell = next;
             continue;
@@ -643,113 +646,100 @@ pub(crate) mod tests {
         hits
     }
 
-    /// The traversal as it was before the lean inner-node step (commit f8eb665), its node step
-    /// kept verbatim as the reference the new one must match bit for bit.
-    fn reference_traverse<B: AsRef<[u8]>, const ANY: bool>(
+    /// The inner-node step as it was before the lean one (commit f8eb665), kept verbatim as
+    /// the reference the new one must match bit for bit (`negative` unused: it reads the
+    /// direction's signs from `inv`, as it did).
+    fn reference_step<B: AsRef<[u8]>>(
         octree: &Octree<B>,
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-    ) -> Option<Hit> {
-        // The set-up (root cell, span, inverse direction) and the stack are the traversal's.
-        let (mut cell, inv) = root_cell(octree, ray, t_min, t_max)?;
-        let (o, d) = (ray.origin, ray.dir);
+        cell: &Cell,
+        o: Vec3,
+        inv: Vec3,
+        _negative: u8,
+        stack: &mut CellStack<Cell, STACK_SIZE>,
+    ) -> Option<Cell> {
         // Whether the ray moves towards + along each axis (then a mid-plane crossed at tm ≤ t puts
         // the ray on the upper side at t).
         let positive = [inv.x > 0.0, inv.y > 0.0, inv.z > 0.0];
-        let mut stack = CellStack::<Cell, STACK_SIZE>::new();
+        // The next cell: the nearest child of an inner node goes straight to `cell` (no round
+        // trip through the stack), the others are pushed farthest first.
+        let mut next = None;
+        let half = 0.5 * cell.size;
+        let mid = cell.min + Vec3::splat(half);
+        let tm = (mid - o) * inv;
+        let (te, tx) = (cell.t_enter, cell.t_exit);
 
-        loop {
-            // The next cell: the nearest child of an inner node goes straight to `cell` (no round
-            // trip through the stack), the others are pushed farthest first.
-            let mut next = None;
-            if octree.is_leaf(cell.node) {
-                if let Some(hit) = leaf_hit::<B, ANY>(octree, &cell, o, d) {
-                    return Some(hit);
-                }
-            } else {
-                let half = 0.5 * cell.size;
-                let mid = cell.min + Vec3::splat(half);
-                let tm = (mid - o) * inv;
-                let (te, tx) = (cell.t_enter, cell.t_exit);
-
-                // Octant of the entry point, and the mid-planes crossed inside (te, tx).
-                let mut octant = 0u8;
-                let mut planes = [(f32::INFINITY, 0u8); 3];
-                for (k, bit) in [(0usize, 4u8), (1, 2), (2, 1)] {
-                    let t = tm[k];
-                    let upper = if positive[k] { t <= te } else { t > te };
-                    if upper {
-                        octant |= bit;
-                    }
-                    if t > te && t < tx {
-                        planes[k] = (t, bit);
-                    }
-                }
-                // Sort the three crossings (a three-comparator network).
-                if planes[1].0 < planes[0].0 {
-                    planes.swap(0, 1);
-                }
-                if planes[2].0 < planes[1].0 {
-                    planes.swap(1, 2);
-                }
-                if planes[1].0 < planes[0].0 {
-                    planes.swap(0, 1);
-                }
-
-                // The present children in ray order with their spans.
-                let mask = octree.child_mask(cell.node);
-                let mut children = [(0u8, 0.0f32, 0.0f32); 4];
-                let mut n = 0;
-                let mut t_a = te;
-                for &(t_b, bit) in &planes {
-                    if bit == 0 {
-                        break;
-                    }
-                    if mask >> octant & 1 != 0 {
-                        children[n] = (octant, t_a, t_b);
-                        n += 1;
-                    }
-                    octant ^= bit;
-                    t_a = t_b;
-                }
-                if mask >> octant & 1 != 0 {
-                    children[n] = (octant, t_a, tx);
-                    n += 1;
-                }
-                // Children are stored contiguously in octant order: one read of the node's group.
-                let first = if n > 0 {
-                    octree.first_child_index(cell.node)
-                } else {
-                    0
-                };
-                for (i, &(oct, t_a, t_b)) in children[..n].iter().enumerate().rev() {
-                    let below = u32::from(mask) & ((1u32 << oct) - 1);
-                    let child = NodeRef::from_index(first + below.count_ones());
-                    let offset = Vec3::new(
-                        f32::from(oct >> 2),
-                        f32::from((oct >> 1) & 1),
-                        f32::from(oct & 1),
-                    );
-                    let c = Cell {
-                        node: child,
-                        min: cell.min + offset * half,
-                        size: half,
-                        t_enter: t_a,
-                        t_exit: t_b,
-                    };
-                    if i == 0 {
-                        next = Some(c);
-                    } else {
-                        stack.push(c);
-                    }
-                }
+        // Octant of the entry point, and the mid-planes crossed inside (te, tx).
+        let mut octant = 0u8;
+        let mut planes = [(f32::INFINITY, 0u8); 3];
+        for (k, bit) in [(0usize, 4u8), (1, 2), (2, 1)] {
+            let t = tm[k];
+            let upper = if positive[k] { t <= te } else { t > te };
+            if upper {
+                octant |= bit;
             }
-            cell = match next {
-                Some(c) => c,
-                None => stack.pop()?,
-            };
+            if t > te && t < tx {
+                planes[k] = (t, bit);
+            }
         }
+        // Sort the three crossings (a three-comparator network).
+        if planes[1].0 < planes[0].0 {
+            planes.swap(0, 1);
+        }
+        if planes[2].0 < planes[1].0 {
+            planes.swap(1, 2);
+        }
+        if planes[1].0 < planes[0].0 {
+            planes.swap(0, 1);
+        }
+
+        // The present children in ray order with their spans.
+        let mask = octree.child_mask(cell.node);
+        let mut children = [(0u8, 0.0f32, 0.0f32); 4];
+        let mut n = 0;
+        let mut t_a = te;
+        for &(t_b, bit) in &planes {
+            if bit == 0 {
+                break;
+            }
+            if mask >> octant & 1 != 0 {
+                children[n] = (octant, t_a, t_b);
+                n += 1;
+            }
+            octant ^= bit;
+            t_a = t_b;
+        }
+        if mask >> octant & 1 != 0 {
+            children[n] = (octant, t_a, tx);
+            n += 1;
+        }
+        // Children are stored contiguously in octant order: one read of the node's group.
+        let first = if n > 0 {
+            octree.first_child_index(cell.node)
+        } else {
+            0
+        };
+        for (i, &(oct, t_a, t_b)) in children[..n].iter().enumerate().rev() {
+            let below = u32::from(mask) & ((1u32 << oct) - 1);
+            let child = NodeRef::from_index(first + below.count_ones());
+            let offset = Vec3::new(
+                f32::from(oct >> 2),
+                f32::from((oct >> 1) & 1),
+                f32::from(oct & 1),
+            );
+            let c = Cell {
+                node: child,
+                min: cell.min + offset * half,
+                size: half,
+                t_enter: t_a,
+                t_exit: t_b,
+            };
+            if i == 0 {
+                next = Some(c);
+            } else {
+                stack.push(c);
+            }
+        }
+        next
     }
 
     /// Bit-level equality of two optional hits (`t` and `cell_min` compared as bits, so `-0.0`
@@ -845,11 +835,11 @@ pub(crate) mod tests {
         for octree in &octrees {
             for (i, ray) in rays.iter().enumerate() {
                 let (t_min, t_max) = ranges[i % ranges.len()];
-                let new = traverse::<_, false>(octree, ray, t_min, t_max);
-                let old = reference_traverse::<_, false>(octree, ray, t_min, t_max);
+                let new = traverse::<_, false>(octree, ray, t_min, t_max, inner_step);
+                let old = traverse::<_, false>(octree, ray, t_min, t_max, reference_step);
                 assert!(same_hit(new, old), "ray {i} {ray:?}: {new:?} vs {old:?}");
-                let new_any = traverse::<_, true>(octree, ray, t_min, t_max);
-                let old_any = reference_traverse::<_, true>(octree, ray, t_min, t_max);
+                let new_any = traverse::<_, true>(octree, ray, t_min, t_max, inner_step);
+                let old_any = traverse::<_, true>(octree, ray, t_min, t_max, reference_step);
                 assert!(same_hit(new_any, old_any), "any, ray {i} {ray:?}");
                 hits += usize::from(new.is_some());
             }
