@@ -178,7 +178,7 @@ fn packet<B: AsRef<[u8]>, const STEP: u8>(
         let lanes = cell.lanes & alive;
         if lanes != 0 {
             if octree.is_leaf(cell.node) {
-                packet_leaf(octree, &cell, lanes, o, dirs, &mut out, &mut alive);
+                packet_leaf(octree, &cell, lanes, rays, &mut out, &mut alive);
                 if alive == 0 {
                     return out;
                 }
@@ -208,17 +208,18 @@ fn packet<B: AsRef<[u8]>, const STEP: u8>(
 
 /// A leaf for the lanes `lanes`: for each, exactly the single-ray leaf test (the nearest voxel
 /// hit in its span, voxels in storage order), with each voxel's corners read and prepared once
-/// for all lanes. Lanes that hit get their hit in `out` and leave `alive`.
+/// for all lanes (of `rays`, those in `lanes`). Lanes that hit get their hit in `out` and leave
+/// `alive`.
 #[inline(always)]
 fn packet_leaf<B: AsRef<[u8]>>(
     octree: &Octree<B>,
     cell: &PacketCell,
     lanes: u32,
-    o: Vec3,
-    dirs: &[Vec3; PACKET_SIZE],
+    rays: &RayPacket,
     out: &mut [Option<Hit>; PACKET_SIZE],
     alive: &mut u32,
 ) {
+    let (o, dirs) = (rays.origin, &rays.dirs);
     // As in the single-ray leaf test: the local frame [0,1]³ from each lane's entry point.
     let inv_size = 1.0 / cell.size;
     let mut local_o = [Vec3::ZERO; PACKET_SIZE];
@@ -443,10 +444,24 @@ fn packet_step<B: AsRef<[u8]>>(children: &mut Children<'_, B>) {
 
 /// Declares [`Lanes8`], the operations of the vector step on the packet's eight lanes, and
 /// implements it for [`Sse2`] and [`Avx2`] from one table: a row per operation, its SSE2 form
-/// (two registers of four lanes, `pair` applying a form to each) and its AVX2 form.
+/// (two registers of four lanes, `pair` applying a form to each) and its AVX2 form; then the
+/// binary integer operations, a row each naming the two instructions (`int_op!`).
 #[cfg(target_arch = "x86_64")]
 macro_rules! lanes8 {
-    ($(fn $op:ident($($arg:ident: $ty:ty),*) -> $ret:ty { sse2: $sse2:expr, avx2: $avx2:expr })*) => {
+    (
+        $(fn $op:ident($($arg:ident: $ty:ty),*) -> $ret:ty { sse2: $sse2:expr, avx2: $avx2:expr })*
+        integer { $($int_op:ident: $int_sse2:ident, $int_avx2:ident;)* }
+    ) => {
+        lanes8! {
+            @rows
+            $(fn $op($($arg: $ty),*) -> $ret { sse2: $sse2, avx2: $avx2 })*
+            $(fn $int_op(a: Self, b: Self) -> Self {
+                sse2: int_op!($int_sse2, a, b, h),
+                avx2: int_op!($int_avx2, a, b)
+            })*
+        }
+    };
+    (@rows $(fn $op:ident($($arg:ident: $ty:ty),*) -> $ret:ty { sse2: $sse2:expr, avx2: $avx2:expr })*) => {
         /// The packet's eight f32 lanes (or u32 lanes in the same bits) in SIMD registers, for
         /// [`packet_step_wide`]. Comparisons give all-ones or all-zero lanes and are false on
         /// NaN (ordered predicates), like Rust's; arithmetic is IEEE, like the scalar code.
@@ -563,22 +578,6 @@ lanes8! {
         sse2: pair(|h| _mm_or_ps(a.0[h], b.0[h])),
         avx2: Avx2(_mm256_or_ps(a.0, b.0))
     }
-    fn and_u(a: Self, b: Self) -> Self {
-        sse2: int_op!(_mm_and_si128, a, b, h),
-        avx2: int_op!(_mm256_and_si256, a, b)
-    }
-    fn or_u(a: Self, b: Self) -> Self {
-        sse2: int_op!(_mm_or_si128, a, b, h),
-        avx2: int_op!(_mm256_or_si256, a, b)
-    }
-    fn xor_u(a: Self, b: Self) -> Self {
-        sse2: int_op!(_mm_xor_si128, a, b, h),
-        avx2: int_op!(_mm256_xor_si256, a, b)
-    }
-    fn eq_u(a: Self, b: Self) -> Self {
-        sse2: int_op!(_mm_cmpeq_epi32, a, b, h),
-        avx2: int_op!(_mm256_cmpeq_epi32, a, b)
-    }
     fn sel(m: Self, a: Self, b: Self) -> Self {
         sse2: pair(|h| _mm_or_ps(_mm_and_ps(m.0[h], a.0[h]), _mm_andnot_ps(m.0[h], b.0[h]))),
         avx2: Avx2(_mm256_blendv_ps(b.0, a.0, m.0))
@@ -586,6 +585,13 @@ lanes8! {
     fn movemask(a: Self) -> u32 {
         sse2: (_mm_movemask_ps(a.0[0]) | _mm_movemask_ps(a.0[1]) << 4) as u32,
         avx2: _mm256_movemask_ps(a.0) as u32
+    }
+    // Operations on the lanes' bits as u32 (`int_op!`): the SSE2 and the AVX2 instruction.
+    integer {
+        and_u: _mm_and_si128, _mm256_and_si256;
+        or_u: _mm_or_si128, _mm256_or_si256;
+        xor_u: _mm_xor_si128, _mm256_xor_si256;
+        eq_u: _mm_cmpeq_epi32, _mm256_cmpeq_epi32;
     }
 }
 
