@@ -23,16 +23,16 @@ pub(crate) struct LeafRecord {
 
 /// State of one closest-point search: the query and the best triangle so far (`best.distance`
 /// holds the squared distance until the search returns).
-pub(crate) struct Search {
-    pub(crate) p: Vec3,
-    pub(crate) best_d2: f32,
-    pub(crate) best_d: f32,
-    pub(crate) best: ClosestPoint,
+struct Search {
+    p: Vec3,
+    best_d2: f32,
+    best_d: f32,
+    best: ClosestPoint,
 }
 
 impl Search {
     /// The result: the best closest point with its distance (no longer squared).
-    pub(crate) fn finish(self) -> ClosestPoint {
+    fn finish(self) -> ClosestPoint {
         let mut best = self.best;
         if best.triangle != u32::MAX {
             best.distance = best.distance.sqrt();
@@ -158,7 +158,7 @@ impl MeshDistance {
     /// Tests the triangles of the leaf packets `packets` against the search's best so far: four
     /// at a time through the SIMD filter, then exactly where a lane can win.
     #[inline(always)]
-    pub(crate) fn search_leaf(&self, search: &mut Search, packets: std::ops::Range<usize>) {
+    fn search_leaf(&self, search: &mut Search, packets: std::ops::Range<usize>) {
         let p = search.p;
         for packet in &self.bvh4.packets[packets] {
             let lanes = packet.triangles.dist2_or_zero(p).to_array();

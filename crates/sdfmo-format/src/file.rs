@@ -431,8 +431,7 @@ impl<B: AsRef<[u8]>> Octree<B> {
     /// Bytes of each part of the file (the sections a 1.0 writer writes; for a view over a file
     /// with a longer header, `header` is that header's size).
     pub fn section_sizes(&self) -> SectionSizes {
-        // The header size is a multiple of 8, so the node section starts right after it.
-        let header = self.sections.nodes;
+        let header = self.sections.header_size();
         let l = Layout::new(header as u64, self.counts, self.meta.bits);
         let used = header as u64 + l.nodes.1 + l.leaves.1 + l.surface.1 + l.corners.1 + l.clip.1;
         SectionSizes {

@@ -33,19 +33,20 @@ impl NodeRef {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Sections {
     /// Node groups: 12 bytes per 8 inner nodes (`first_child` u32, then 8 masks).
-    pub(crate) nodes: usize,
+    nodes: usize,
     /// Leaf groups: 12 bytes per 8 leaves (`first_voxel` u32, then 8 counts).
-    pub(crate) leaves: usize,
+    leaves: usize,
     /// Surface bitmap: bit `v % 8` of byte `v / 8`.
-    pub(crate) surface: usize,
+    surface: usize,
     /// Corner codes: `8 · value_bits / 8` bytes per voxel.
-    pub(crate) corners: usize,
+    corners: usize,
     /// Clip bitmap (bit `v % 8` of byte `v / 8`), only when the octree has clip voxels (else
     /// the end of the corners: nothing is read there).
-    pub(crate) clip: usize,
+    clip: usize,
 }
 
 impl Sections {
+    /// The sections of `layout`.
     pub(crate) fn of(layout: &Layout) -> Sections {
         // Every offset is ≤ the file size, which is the length of a buffer in memory.
         Sections {
@@ -55,6 +56,12 @@ impl Sections {
             corners: layout.corners.0 as usize,
             clip: layout.clip.0 as usize,
         }
+    }
+
+    /// The header's size: the node section starts right after it (headers are a multiple of
+    /// 8 bytes).
+    pub(crate) fn header_size(&self) -> usize {
+        self.nodes
     }
 }
 

@@ -55,12 +55,12 @@ const TINY_DIR: f32 = 1e-30;
 
 /// A cell waiting on the stack: node, box and the ray's span in it.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Cell {
-    pub(crate) node: NodeRef,
-    pub(crate) min: Vec3,
-    pub(crate) size: f32,
-    pub(crate) t_enter: f32,
-    pub(crate) t_exit: f32,
+struct Cell {
+    node: NodeRef,
+    min: Vec3,
+    size: f32,
+    t_enter: f32,
+    t_exit: f32,
 }
 
 /// The ray's first hit in `[t_min, t_max]`: in the first leaf along the ray that has one, the
@@ -408,7 +408,7 @@ fn inner_step<B: AsRef<[u8]>>(
 /// The nearest voxel hit inside a leaf's span (any hit when `ANY`); in a leaf with clip voxels
 /// the nearest hit the clip rule accepts ([`crate::clip`]).
 #[inline(always)]
-pub(crate) fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(
+fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(
     octree: &Octree<B>,
     cell: &Cell,
     o: Vec3,
