@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Interrupts `sdfmo sweep` N times (default 60) at a random 0–0.4 s after it starts writing,
+# alternating SIGINT and SIGTERM, and counts the runs that leave a temporary file behind
+# (`*.tmp`). The CI test `an_interrupt_leaves_no_temporary` does this twice at one fixed
+# delay; this script hunts the race windows it can miss.
+#
+# Usage: benches/interrupt_stress.sh [PATH/TO/sdfmo] [N]   (default target/debug/sdfmo, 60)
+set -u
+bin=${1:-target/debug/sdfmo}
+runs=${2:-60}
+leftover_runs=0
+for i in $(seq 1 "$runs"); do
+    dir=$(mktemp -d)
+    "$bin" sweep --size 128 --depths 5..8 -o "$dir/sweep" > /dev/null 2>&1 &
+    pid=$!
+    while [ ! -e "$dir/sweep/images" ] && kill -0 "$pid" 2> /dev/null; do sleep 0.01; done
+    sleep "$(python3 -c 'import random; print(random.uniform(0, 0.4))')"
+    if [ $((i % 2)) = 0 ]; then signal=INT; else signal=TERM; fi
+    kill -s "$signal" "$pid" 2> /dev/null
+    wait "$pid"
+    left=$(find "$dir" -name '*.tmp')
+    if [ -n "$left" ]; then
+        leftover_runs=$((leftover_runs + 1))
+        echo "run $i (SIG$signal): $left"
+    fi
+    rm -rf "$dir"
+done
+echo "runs=$runs with_leftovers=$leftover_runs"
+[ "$leftover_runs" = 0 ]
