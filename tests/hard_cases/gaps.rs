@@ -11,7 +11,7 @@
 
 use glam::{Mat3, Vec3};
 use sdf_multioctree::distance::{MeshDistance, SignMode};
-use sdf_multioctree::format::PackedOctree;
+use sdf_multioctree::format::{cell_size, PackedOctree};
 use sdf_multioctree::mesh::{procedural, TriMesh};
 use sdf_multioctree::trace::{intersect, Ray};
 
@@ -45,7 +45,7 @@ struct GapPart {
 /// rays' direction). Two small boxes at opposite corners of `[-0.95, 0.95]³` fix the bounding
 /// box, so normalisation maps the part onto itself and the phase is where the builder sees it.
 fn plates(depth: u8, thickness: f32, gaps: &[f32], phase: f32, angle: f32) -> GapPart {
-    let h = 2.0 / (1u32 << depth) as f32;
+    let h = cell_size(depth);
     let rot = Mat3::from_rotation_z(angle);
     let (w, l, t) = (HALF_WIDTH * h, HALF_LENGTH * h, thickness * h);
     let mut x = phase * h - 0.5 * gaps[0] * h - t;
@@ -74,7 +74,7 @@ fn plates(depth: u8, thickness: f32, gaps: &[f32], phase: f32, angle: f32) -> Ga
 /// The rays along gap `i`'s mid-plane, in the normalised frame of `octree` (or of the part
 /// itself with `None`).
 fn gap_rays(part: &GapPart, i: usize, depth: u8, octree: Option<&PackedOctree>) -> Vec<Ray> {
-    let h = 2.0 / (1u32 << depth) as f32;
+    let h = cell_size(depth);
     let (center, scale) = octree.map_or((Vec3::ZERO, 1.0), |o| (o.meta().center, o.meta().scale));
     (0..RAYS)
         .map(|k| {

@@ -4,7 +4,7 @@
 
 use glam::{Mat3, Vec3};
 use sdf_multioctree::distance::{MeshDistance, SignMode};
-use sdf_multioctree::format::{corner_offset, PackedOctree};
+use sdf_multioctree::format::{cell_size, corner_offset, PackedOctree};
 use sdf_multioctree::mesh::{procedural, TriMesh};
 use sdf_multioctree::render::{Camera, Mode};
 use sdf_multioctree::{compare, paper_views, DEFAULT_MARGIN};
@@ -27,7 +27,7 @@ fn coverage(mesh: &TriMesh, octree: &PackedOctree, cam: &Camera) -> (usize, usiz
 fn assert_surface_voxels_near_the_mesh(mesh: &TriMesh, octree: &PackedOctree, what: &str) -> usize {
     let (normalized, _) = mesh.normalized(DEFAULT_MARGIN);
     let dist = MeshDistance::new(&normalized, SignMode::Auto).expect("distance");
-    let leaf = 2.0 / (1u32 << octree.depth()) as f32;
+    let leaf = cell_size(octree.depth());
     let mut checked = 0;
     for (coord, voxels) in octree.leaves() {
         if voxels.iter().any(|v| v.surface) {
@@ -228,7 +228,7 @@ fn corners_next_to_a_double_wall_are_inside() {
     );
     for (mname, method) in METHODS {
         let depth = 5;
-        let h = 2.0 / f32::from(1u16 << depth);
+        let h = cell_size(depth);
         let o = build(&mesh, depth, method);
         let (mut deep, mut outside) = (0, 0);
         for (coord, voxels) in leaf_map(&o) {

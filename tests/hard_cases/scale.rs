@@ -3,7 +3,7 @@
 //! same images.
 
 use glam::Vec3;
-use sdf_multioctree::format::PackedOctree;
+use sdf_multioctree::format::{cell_size, PackedOctree};
 use sdf_multioctree::mesh::{procedural, TriMesh};
 use sdf_multioctree::paper_views;
 use sdf_multioctree::render::{OctreeScene, PaperProtocol};
@@ -80,7 +80,7 @@ fn min_psnr(reference: &PackedOctree, test: &PackedOctree) -> f64 {
 
 /// One quantisation step of an 8-bit corner at `depth`: 2·dmax/255 with dmax the voxel diagonal.
 fn quant_step(depth: u8) -> f32 {
-    let leaf = 2.0 / (1u32 << depth) as f32;
+    let leaf = cell_size(depth);
     2.0 * leaf * 3f32.sqrt() / 255.0
 }
 

@@ -3,6 +3,7 @@
 
 use glam::{EulerRot, Mat3, Vec3};
 use sdf_multioctree::build::Method;
+use sdf_multioctree::format::cell_size;
 use sdf_multioctree::mesh::{procedural, TriMesh};
 use sdf_multioctree::render::Mode;
 use sdf_multioctree::DEFAULT_MARGIN;
@@ -17,7 +18,7 @@ use crate::common::{
 /// the anchor, normalisation would centre the plate on the grid plane y = 0, where even an SVO
 /// sees a sign change). Returns the mesh and the normalised plate centre.
 fn plate_with_anchor(rot: Mat3, thickness: f32, depth: u8) -> (TriMesh, Vec3) {
-    let leaf = 2.0 / (1u32 << depth) as f32;
+    let leaf = cell_size(depth);
     let plate = procedural::thin_plate(Vec3::new(1.0, thickness, 0.8)).transformed(|p| rot * p);
     let pb = plate.bounds();
     let scale = 2.0 * (1.0 - DEFAULT_MARGIN) / pb.longest_extent();
@@ -53,7 +54,7 @@ fn sub_voxel_plates_stay_visible_in_the_multi_octree() {
     let mut total = [0usize; 3]; // reference, svo missing, multi missing
     let mut few_missing_failures = Vec::new();
     for depth in [5u8, 6, 7] {
-        let leaf = 2.0 / (1u32 << depth) as f32;
+        let leaf = cell_size(depth);
         for (oname, rot) in orientations {
             // Thickness 0.3 of a leaf in the normalised frame.
             let longest = procedural::thin_plate(Vec3::new(1.0, 0.01, 0.8))

@@ -8,6 +8,7 @@ use std::path::Path;
 
 use sdfmo_build::{build, BuildSettings, Method};
 use sdfmo_distance::{MeshDistance, SignMode};
+use sdfmo_format::cell_size;
 use sdfmo_render::{mesh_in_octree_frame, Camera};
 use sdfmo_trace::{intersect, Ray};
 
@@ -31,7 +32,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let leaves: HashMap<[u32; 3], Vec<sdfmo_format::Voxel>> = multi.leaves().collect();
     let svo_leaves: HashMap<[u32; 3], Vec<sdfmo_format::Voxel>> = svo.leaves().collect();
     let cam = &Camera::paper_views(size, size)[view];
-    let h = 2.0 / (1u32 << depth) as f32;
+    let h = cell_size(depth);
     // The leaf key of a hit and the voxels both octrees store there (corners in voxel units).
     let cell_key = |hit: &sdfmo_trace::Hit| {
         let c = ((hit.cell_min + glam::Vec3::ONE) / h).round();

@@ -13,7 +13,7 @@ use rand::{Rng, SeedableRng};
 use sdfmo_build::{build, BuildSettings, Method};
 use sdfmo_distance::{MeshDistance, SignMode};
 use sdfmo_format::trilinear;
-use sdfmo_format::{PackedOctree, Voxel};
+use sdfmo_format::{cell_size, PackedOctree, Voxel};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -112,7 +112,7 @@ fn leaf_map(oct: &PackedOctree) -> HashMap<[u32; 3], Vec<Voxel>> {
 
 fn surface_error(oct: &PackedOctree, samples: &[Vec3]) -> (f64, f64, f64) {
     let map = leaf_map(oct);
-    let h = 2.0 / (1u32 << oct.depth()) as f32;
+    let h = cell_size(oct.depth());
     let mut errs = Vec::with_capacity(samples.len());
     let mut missing = 0;
     for p in samples {
@@ -146,7 +146,7 @@ fn surface_error(oct: &PackedOctree, samples: &[Vec3]) -> (f64, f64, f64) {
 /// Random points on voxel zero sets (along random segments in each leaf), and the mean of their
 /// true unsigned distance to the mesh, in cell units, clamped at 1.
 fn false_surface(oct: &PackedOctree, dist: &MeshDistance, rng: &mut impl Rng) -> f64 {
-    let h = 2.0 / (1u32 << oct.depth()) as f32;
+    let h = cell_size(oct.depth());
     let mut sum = 0.0;
     let mut n = 0usize;
     let leaves: Vec<_> = oct.leaves().collect();

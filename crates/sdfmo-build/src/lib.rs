@@ -48,7 +48,7 @@ use std::time::Instant;
 use glam::Vec3;
 use rayon::prelude::*;
 use sdfmo_distance::{sign_by_pseudo_normal, Feature, MeshDistance, SignMode};
-use sdfmo_format::{quant, LeafInput, OctreeMeta, PackedOctree, ValueBits, MAX_DEPTH};
+use sdfmo_format::{cell_size, quant, LeafInput, OctreeMeta, PackedOctree, ValueBits, MAX_DEPTH};
 use sdfmo_mesh::TriMesh;
 
 pub use budget::{
@@ -147,7 +147,7 @@ pub struct BuildStats {
 /// `(gather, candidate)`. The candidate margin is one quantisation step of the corner values; the
 /// multi-octree gathers the triangles within 0.3 of a cell edge for its components' distances.
 pub fn margins(depth: u8, bits: ValueBits, method: Method) -> (f32, f32) {
-    let h = 2.0 / (1u64 << depth) as f32;
+    let h = cell_size(depth);
     let step = quant::voxel_diagonal(depth) / quant::max_code(bits) as f32;
     let candidate = step + 1e-6 * h;
     match method {
@@ -335,7 +335,7 @@ impl<'a> SharedCorners<'a> {
         let cells = sub.cells.len();
         SharedCorners {
             sub,
-            h: 2.0 / (1u64 << depth) as f32,
+            h: cell_size(depth),
             axis_bits,
             points: Vec::with_capacity(cells * 2),
             hints: Vec::with_capacity(cells * 2),
@@ -559,7 +559,7 @@ mod tests {
             assert_eq!(packed, pairs, "depth {depth}");
             assert_eq!(shared_corners(&sub, depth), pairs);
             // Every slot of a cell points at that corner's grid position.
-            let h = 2.0 / (1u32 << depth) as f32;
+            let h = cell_size(depth);
             for (slot, &pt) in pairs.2.iter().enumerate() {
                 let c = sub.cells[slot / 8].coord;
                 let o = sdfmo_format::corner_offset(slot % 8);

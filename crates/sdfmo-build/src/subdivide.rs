@@ -15,6 +15,7 @@
 
 use glam::Vec3;
 use rayon::prelude::*;
+use sdfmo_format::cell_size;
 
 use crate::local::LocalMesh;
 use crate::tribox::tri_box_overlap;
@@ -63,7 +64,7 @@ struct Ctx<'a> {
 impl Ctx<'_> {
     #[inline]
     fn cell(&self, level: u8, coord: [u32; 3]) -> (Vec3, f32) {
-        let s = 2.0 / (1u64 << level) as f32;
+        let s = cell_size(level);
         let lo = Vec3::new(coord[0] as f32, coord[1] as f32, coord[2] as f32) * s - Vec3::ONE;
         (lo + Vec3::splat(0.5 * s), 0.5 * s)
     }
@@ -246,7 +247,7 @@ mod tests {
         let (m, _) = procedural::demo_part().normalized(0.05);
         let local = LocalMesh::new(&m);
         let depth = 5;
-        let h = 2.0 / (1u64 << depth) as f32;
+        let h = cell_size(depth);
         let candidate = 0.02 * h;
         let svo = subdivide(&local, depth, candidate, candidate);
         let multi = subdivide(&local, depth, 0.3 * h, candidate);

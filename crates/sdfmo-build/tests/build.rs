@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use glam::Vec3;
 use sdfmo_build::{build, BuildError, BuildSettings, BuildStats, Method};
 use sdfmo_format::trilinear;
-use sdfmo_format::{PackedOctree, Voxel};
+use sdfmo_format::{cell_size, PackedOctree, Voxel};
 use sdfmo_mesh::{procedural, TriMesh};
 
 const MULTI: Method = Method::Multi { max_voxels: 8 };
@@ -55,7 +55,7 @@ fn grid_fraction(
 
 /// The leaf holding normalised point `p` and `p`'s local coordinates in it.
 fn locate(depth: u8, p: Vec3) -> ([u32; 3], Vec3) {
-    let h = 2.0 / (1u32 << depth) as f32;
+    let h = cell_size(depth);
     let c = ((p + Vec3::ONE) / h).floor();
     (
         [c.x as u32, c.y as u32, c.z as u32],
@@ -188,7 +188,7 @@ fn gap_pair_with_sub_voxel_gap_is_split() {
     let extra = procedural::box_mesh(Vec3::new(-0.1, -1.6, -0.1), Vec3::new(0.1, -1.5, 0.1));
     let mesh = TriMesh::merge(&[procedural::gap_pair(1.0, gap), extra]);
     let (_, norm) = mesh.normalized(0.05);
-    let h = 2.0 / (1u32 << depth) as f32;
+    let h = cell_size(depth);
     let gap_y = norm.to_normalized(Vec3::ZERO).y;
     let half_gap = 0.5 * gap * norm.scale;
     assert!(2.0 * half_gap < 0.5 * h, "the gap must be sub-voxel");
@@ -240,7 +240,7 @@ fn thin_plate_survives_as_several_voxels_per_leaf() {
     let extra = procedural::box_mesh(Vec3::new(-0.02, -0.35, -0.02), Vec3::new(0.02, -0.32, 0.02));
     let mesh = TriMesh::merge(&[plate, extra]);
     let (_, norm) = mesh.normalized(0.05);
-    let h = 2.0 / (1u32 << depth) as f32;
+    let h = cell_size(depth);
     let plate_y = norm.to_normalized(Vec3::ZERO).y;
     assert!(t * norm.scale < 0.35 * h);
     let frac = ((plate_y + 1.0) / h).fract();
@@ -295,7 +295,7 @@ fn thin_plate_on_the_cell_diagonal_is_split_into_two_voxels() {
         norm.to_normalized(Vec3::new(0.5, -0.7, -0.5)),
         Vec3::new(0.5, -0.7, -0.5)
     );
-    let h = 2.0 / (1u32 << depth) as f32;
+    let h = cell_size(depth);
     let (svo, _) = run(&mesh, depth, Method::Svo);
     let (multi, _) = run(&mesh, depth, MULTI);
     let (svo_map, multi_map) = (leaf_map(&svo), leaf_map(&multi));
@@ -369,7 +369,7 @@ fn abc5_parts_side_by_side_get_several_voxels() {
     assert!(multi_leaves > 200, "{:?}", st.voxels_per_leaf);
     // Those leaves lie between parts: their voxels are distances to different parts, so at
     // some corner they disagree by more than a quantisation step.
-    let h = 2.0 / (1u32 << depth) as f32;
+    let h = cell_size(depth);
     let differing = oct
         .leaves()
         .filter(|(_, vs)| vs.len() >= 2)

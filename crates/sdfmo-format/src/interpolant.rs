@@ -10,10 +10,17 @@ pub fn corner_offset(i: usize) -> Vec3 {
     Vec3::new(((i >> 2) & 1) as f32, ((i >> 1) & 1) as f32, (i & 1) as f32)
 }
 
+/// Edge of a cell at `depth` levels below the root cube `[-1, 1]³`: `2 / 2^depth`, exact in f32
+/// (a depth above 63 counts as 63). The leaf size of an octree of that depth.
+#[inline]
+pub fn cell_size(depth: u8) -> f32 {
+    2.0 / (1u64 << depth.min(63)) as f32
+}
+
 /// The values of `f` at the eight corners (order `4x + 2y + z`) of the leaf cell `coord` of an
 /// octree of `depth` over the root cube `[-1, 1]³`: a voxel sampling `f` exactly there.
 pub fn cell_corners(depth: u8, coord: [u32; 3], f: impl Fn(Vec3) -> f32) -> [f32; 8] {
-    let h = 2.0 / (1u32 << depth) as f32;
+    let h = cell_size(depth);
     let lo = Vec3::new(coord[0] as f32, coord[1] as f32, coord[2] as f32) * h - 1.0;
     core::array::from_fn(|i| f(lo + corner_offset(i) * h))
 }

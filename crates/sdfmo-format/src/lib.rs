@@ -76,7 +76,9 @@ pub use file::{
     FLAG_SURFACE_VOXELS, FORMAT_VERSION_MAJOR, FORMAT_VERSION_MINOR, HEADER_FIELDS, HEADER_SIZE,
     KNOWN_FLAGS, MAGIC,
 };
-pub use interpolant::{cell_corners, child_coord, corner_offset, trilinear, trilinear_gradient};
+pub use interpolant::{
+    cell_corners, cell_size, child_coord, corner_offset, trilinear, trilinear_gradient,
+};
 pub use octree::{NodeRef, Octree, PackedOctree, PackedOctreeView};
 
 /// Deepest supported octree (leaf coordinates up to 2^16 per axis).
@@ -201,10 +203,10 @@ impl OctreeMeta {
         Ok(())
     }
 
-    /// Edge of a leaf cell: `2 / 2^depth`.
+    /// Edge of a leaf cell: `2 / 2^depth` ([`cell_size`]).
     #[inline]
     pub fn leaf_size(&self) -> f32 {
-        2.0 / (1u64 << self.depth.min(63)) as f32
+        cell_size(self.depth)
     }
 
     /// The quantisation range `dmax`: the leaf diagonal `√3 · 2 / 2^depth`.

@@ -15,7 +15,7 @@ use crate::ValueBits;
 /// Diagonal of a leaf cell at `depth` in the root cube `[-1, 1]³`: `√3 · 2 / 2^depth`.
 #[inline]
 pub fn voxel_diagonal(depth: u8) -> f32 {
-    (3.0f64.sqrt() * 2.0 / (1u64 << depth.min(63)) as f64) as f32
+    (3.0f64.sqrt() * f64::from(crate::cell_size(depth))) as f32
 }
 
 /// The largest code magnitude `Q` for these bits (127 or 32767).

@@ -47,7 +47,7 @@ use std::path::PathBuf;
 use glam::Vec3;
 use sdfmo_build::{build, BuildSettings, Method};
 use sdfmo_format::testing::{convex_cell_voxels, cube_planes, leaves_by_cell};
-use sdfmo_format::{cell_corners, OctreeMeta, PackedOctree, ValueBits, Voxel};
+use sdfmo_format::{cell_corners, cell_size, OctreeMeta, PackedOctree, ValueBits, Voxel};
 use sdfmo_gpu::{GpuCamera, GpuImage, GpuMode, GpuRenderer, Shading};
 use sdfmo_mesh::TriMesh;
 use sdfmo_render::shading::{light_dir, DepthRange, AMBIENT, LIGHT_INTENSITY};
@@ -186,7 +186,7 @@ struct Stats {
 fn compare(gpu: &mut GpuRenderer, octree: &PackedOctree, label: &str) -> Stats {
     let on_gpu = gpu.upload(octree).expect("upload");
     let depth = octree.depth();
-    let voxel = 2.0 / f32::from(1u16 << depth);
+    let voxel = cell_size(depth);
     let mut stats = Stats {
         min_psnr: f64::INFINITY,
         ..Stats::default()
@@ -372,7 +372,7 @@ fn clip_octree(depth: u8, bits: ValueBits) -> PackedOctree {
     let faces = cube_planes(rot, centre, 0.3);
     let sheet_n = Vec3::new(0.1, 0.15, 1.0).normalize();
     let rim_n = Vec3::new(1.0, 0.4, 0.1).normalize();
-    let h = 2.0 / (1u32 << depth) as f32;
+    let h = cell_size(depth);
     let mixed = |c: &[f32; 8]| c.iter().any(|&v| v > 0.0) && c.iter().any(|&v| v <= 0.0);
     let leaves = leaves_by_cell(depth, |c| {
         let mut voxels = convex_cell_voxels(depth, c, &faces);

@@ -1,7 +1,7 @@
 //! The packed octree as a scene, through `sdfmo-trace`'s kernel.
 
 use glam::Vec3;
-use sdfmo_format::PackedOctree;
+use sdfmo_format::{cell_size, PackedOctree};
 use sdfmo_trace::{
     hit_normal, intersect, intersect_packet, occluded, occupied_bounds, Hit, Ray, RayPacket,
 };
@@ -65,7 +65,7 @@ impl Traceable for OctreeScene<'_> {
     }
 
     fn epsilon(&self) -> f32 {
-        let leaf = 2.0 / (1u64 << self.0.depth().min(30)) as f32;
+        let leaf = cell_size(self.0.depth());
         OCTREE_EPSILON_LEAVES * leaf
     }
 }

@@ -6,7 +6,7 @@
 
 use glam::Vec3;
 use sdfmo_format::testing::{analytic_hit, convex_leaves, cube_planes, skew_cube, Plane};
-use sdfmo_format::{OctreeMeta, PackedOctree, ValueBits};
+use sdfmo_format::{cell_size, OctreeMeta, PackedOctree, ValueBits};
 use sdfmo_render::{render, Camera, Mode, OctreeScene, RenderSettings};
 
 /// Image side.
@@ -28,7 +28,7 @@ fn a_cube_of_intersect_voxels_renders_sharp_and_flat() {
     for depth in [4u8, 6] {
         let octree = cube_octree(depth, &planes);
         assert!(octree.has_clip_voxels());
-        let margin = 1e-4 * 2.0 / (1u32 << depth) as f32;
+        let margin = 1e-4 * cell_size(depth);
         let settings = RenderSettings {
             mode: Mode::Normal,
             shadows: false,

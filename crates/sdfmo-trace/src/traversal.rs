@@ -465,6 +465,7 @@ pub(crate) mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+    use sdfmo_format::cell_size;
     use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, Voxel};
 
     fn meta(depth: u8) -> OctreeMeta {
@@ -472,7 +473,7 @@ pub(crate) mod tests {
     }
 
     fn cell_min(coord: [u32; 3], depth: u8) -> (Vec3, f32) {
-        let h = 2.0 / (1u32 << depth) as f32;
+        let h = cell_size(depth);
         (
             Vec3::new(coord[0] as f32, coord[1] as f32, coord[2] as f32) * h - Vec3::ONE,
             h,
@@ -613,7 +614,7 @@ pub(crate) mod tests {
 
     fn compare_with_brute_force(octree: &PackedOctree, rays: usize, seed: u64) -> usize {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let h = 2.0 / (1u32 << octree.depth()) as f32;
+        let h = cell_size(octree.depth());
         let mut hits = 0;
         for i in 0..rays {
             let ray = random_ray(&mut rng);

@@ -11,7 +11,9 @@ use glam::{Mat3, Vec3};
 use sdfmo_format::testing::{
     analytic_hit, convex_leaves, cube_planes, leaves_by_cell, skew_cube, Plane,
 };
-use sdfmo_format::{cell_corners, LeafInput, OctreeMeta, PackedOctree, ValueBits, Voxel};
+use sdfmo_format::{
+    cell_corners, cell_size, LeafInput, OctreeMeta, PackedOctree, ValueBits, Voxel,
+};
 use sdfmo_trace::{distance_at, hit_normal, intersect, occluded, Ray};
 
 /// Pixels per side of the test images.
@@ -77,7 +79,7 @@ const EYES: [Vec3; 4] = [
 /// answer is the same for the cube grown and shrunk by `margin`; the normal error and the
 /// depth error (across the face, relative to `h`) at the hits.
 fn compare_with_cube(o: &PackedOctree, planes: &[Plane], margin: f32) -> (usize, usize, f32, f32) {
-    let h = 2.0 / (1u32 << o.depth()) as f32;
+    let h = cell_size(o.depth());
     let (mut mismatched, mut clear, mut normal_err, mut depth_err) = (0, 0, 0.0f32, 0.0f32);
     for eye in EYES {
         for ray in camera_rays(eye) {
@@ -121,7 +123,7 @@ fn a_cube_of_intersect_voxels_has_the_exact_silhouette_and_flat_normals() {
     let (rot, c, r) = skew_cube();
     let planes = cube_planes(rot, c, r);
     for depth in [3u8, 4, 5] {
-        let h = 2.0 / (1u32 << depth) as f32;
+        let h = cell_size(depth);
         let o = PackedOctree::from_leaves(meta(depth), convex_leaves(depth, &planes)).unwrap();
         assert!(o.has_clip_voxels() && o.voxel_count() > o.leaf_count());
         // Pixels more than 1e-4 leaf edges from the silhouette: all agree with the analytic
@@ -150,7 +152,7 @@ fn distance_at_a_clip_leaf_is_the_max_of_its_intersect_voxels() {
     let planes = cube_planes(rot, c, r);
     let depth = 4;
     let o = PackedOctree::from_leaves(meta(depth), convex_leaves(depth, &planes)).unwrap();
-    let h = 2.0 / (1u32 << depth) as f32;
+    let h = cell_size(depth);
     let box_max = |p: Vec3| planes.iter().map(|q| q.at(p)).fold(f32::MIN, f32::max);
     let mut checked = 0;
     // Points near an edge and a corner of the cube (where leaves hold 2 and 3 planes), and on
@@ -190,7 +192,7 @@ fn distance_at_a_clip_leaf_is_the_max_of_its_intersect_voxels() {
 /// An open square sheet y = y0 for x ≤ rim (and |z| ≤ 0.5, on cell faces), one surface voxel per leaf; the
 /// leaves that the rim x = rim crosses also hold a clip-only voxel `x − rim` when `clip`.
 fn sheet_leaves(depth: u8, y0: f32, rim: f32, clip: bool) -> Vec<LeafInput> {
-    let h = 2.0 / (1u32 << depth) as f32;
+    let h = cell_size(depth);
     leaves_by_cell(depth, |coord| {
         let [x, y, z] = coord;
         let lo = Vec3::new(x as f32, y as f32, z as f32) * h - 1.0;
@@ -220,7 +222,7 @@ fn sheet_leaves(depth: u8, y0: f32, rim: f32, clip: bool) -> Vec<LeafInput> {
 fn an_open_sheet_with_clip_only_voxels_stops_at_its_rim() {
     let (y0, rim) = (0.0371, 0.3127);
     for depth in [3u8, 4, 5] {
-        let h = 2.0 / (1u32 << depth) as f32;
+        let h = cell_size(depth);
         let clipped =
             PackedOctree::from_leaves(meta(depth), sheet_leaves(depth, y0, rim, true)).unwrap();
         let plain =

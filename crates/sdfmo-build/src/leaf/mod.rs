@@ -47,7 +47,7 @@
 //! 6. *Rims.* An open sheet's one voxel is clipped at the sheet's boundary ([`rim`]).
 
 use glam::Vec3;
-use sdfmo_format::{quant, ValueBits, Voxel};
+use sdfmo_format::{cell_size, quant, ValueBits, Voxel};
 
 use crate::components::Components;
 use crate::geom::corner_offset;
@@ -147,7 +147,7 @@ impl Params {
     /// Defaults for a depth and quantisation.
     pub fn new(depth: u8, bits: ValueBits, max_voxels: usize) -> Params {
         Params {
-            h: 2.0 / (1u64 << depth) as f32,
+            h: cell_size(depth),
             dmax: quant::voxel_diagonal(depth),
             bits,
             max_voxels,

@@ -2,7 +2,7 @@
 #![allow(dead_code)]
 
 use glam::Vec3;
-use sdfmo_format::{cell_corners, LeafInput, OctreeMeta, ValueBits, Voxel};
+use sdfmo_format::{cell_corners, cell_size, LeafInput, OctreeMeta, ValueBits, Voxel};
 
 /// The leaves a builder would emit for two concentric-ish shapes close together: a sphere of
 /// radius 0.6 (volume voxels) and a thin plate y = 0.05 (surface voxels); leaves touched by
@@ -19,7 +19,7 @@ pub fn shape_leaves(depth: u8, with_plate: bool) -> Vec<LeafInput> {
     let mut out = Vec::new();
     let mut stack = vec![(0u8, [0u32; 3])];
     while let Some((level, c)) = stack.pop() {
-        let h = 2.0 / (1u32 << level) as f32;
+        let h = cell_size(level);
         let center = Vec3::new(c[0] as f32 + 0.5, c[1] as f32 + 0.5, c[2] as f32 + 0.5) * h - 1.0;
         let reach = h * 0.87;
         let near_sphere = sphere(center).abs() <= reach;
