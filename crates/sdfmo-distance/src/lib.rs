@@ -65,7 +65,7 @@ use obvhs::bvh2::node::Bvh2Node;
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
 use rayon::prelude::*;
-use sdfmo_mesh::TriMesh;
+use sdfmo_mesh::{EdgeAdjacency, TriMesh};
 
 pub use point_triangle::{closest_point_on_triangle, Feature};
 pub use ray_triangle::WatertightRay;
@@ -354,27 +354,12 @@ impl MeshDistance {
     /// [`MAX_CHAIN_BOUNDARY_EDGES`] such edges get no shortcut.
     fn clean_winding_radii(&self) -> Vec<f32> {
         let tris = self.mesh.triangles();
-        let mut half: Vec<(u64, i32)> = Vec::with_capacity(tris.len() * 3);
-        for t in tris {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                if a == b {
-                    continue;
-                }
-                let key = ((a.min(b) as u64) << 32) | a.max(b) as u64;
-                half.push((key, if a < b { 1 } else { -1 }));
-            }
-        }
-        half.sort_unstable_by_key(|h| h.0);
+        let positions = self.mesh.positions();
         let mut chain = Vec::new();
-        for group in half.chunk_by(|x, y| x.0 == y.0) {
-            if group.iter().map(|h| h.1).sum::<i32>() != 0 {
-                let key = group[0].0;
-                let (a, b) = ((key >> 32) as usize, (key & 0xffff_ffff) as usize);
-                chain.push((self.mesh.positions()[a], self.mesh.positions()[b]));
-                if chain.len() > MAX_CHAIN_BOUNDARY_EDGES {
-                    return vec![0.0; tris.len()];
-                }
+        for [a, b] in EdgeAdjacency::of(&self.mesh).chain_boundary(tris) {
+            chain.push((positions[a as usize], positions[b as usize]));
+            if chain.len() > MAX_CHAIN_BOUNDARY_EDGES {
+                return vec![0.0; tris.len()];
             }
         }
         let leaves: Vec<&Bvh2Node> = self.nodes.iter().filter(|n| n.prim_count > 0).collect();

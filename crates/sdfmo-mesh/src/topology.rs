@@ -94,6 +94,34 @@ impl EdgeAdjacency {
         }
     }
 
+    /// The *chain boundary* of `triangles` (the triangles this adjacency was built from): the
+    /// edges whose orientations do not cancel, as `[lo, hi]` in edge order. These are the
+    /// boundary edges of an open mesh and the non-manifold or inconsistently oriented edges
+    /// whose triangles do not pair up in opposite directions; the smooth part of a generalised
+    /// winding number depends on them alone.
+    pub fn chain_boundary<'a>(
+        &'a self,
+        triangles: &'a [[u32; 3]],
+    ) -> impl Iterator<Item = [u32; 2]> + 'a {
+        (0..self.edges.len()).filter_map(move |e| {
+            let orientation: i32 = self
+                .triangles_of(e)
+                .iter()
+                .zip(self.slots_of(e))
+                .map(|(&t, &k)| {
+                    let tri = triangles[t as usize];
+                    let k = usize::from(k);
+                    if tri[k] < tri[(k + 1) % 3] {
+                        1
+                    } else {
+                        -1
+                    }
+                })
+                .sum();
+            (orientation != 0).then_some(self.edges[e])
+        })
+    }
+
     /// Boundary and clean-edge flags per triangle edge, and clean vertices, of `triangles` (the
     /// triangles this adjacency was built from) over `vertex_count` vertices.
     pub fn edge_flags(&self, triangles: &[[u32; 3]], vertex_count: usize) -> EdgeFlags {
@@ -262,6 +290,31 @@ mod tests {
         assert_eq!(t.component_count, 3);
         assert_eq!(t.component_of_triangle, vec![0, 1, 2]);
         assert_eq!(t.components(), vec![vec![0], vec![1], vec![2]]);
+    }
+
+    #[test]
+    fn chain_boundary_is_where_orientations_do_not_cancel() {
+        let chain = |tris: Vec<[u32; 3]>, n: usize| {
+            let m = mesh(tris, n);
+            let a = EdgeAdjacency::of(&m);
+            a.chain_boundary(m.triangles()).collect::<Vec<_>>()
+        };
+        // Closed: nothing.
+        assert!(chain(vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]], 4).is_empty());
+        // Two consistently oriented triangles: the four outer edges, not the shared 1-2.
+        assert_eq!(
+            chain(vec![[0, 1, 2], [2, 1, 3]], 4),
+            vec![[0, 1], [0, 2], [1, 3], [2, 3]]
+        );
+        // The second one flipped: the shared edge is traversed twice the same way.
+        assert_eq!(
+            chain(vec![[0, 1, 2], [1, 2, 3]], 4),
+            vec![[0, 1], [0, 2], [1, 2], [1, 3], [2, 3]]
+        );
+        // Three fins on 0-1 (two one way, one the other): it stays unbalanced.
+        assert!(chain(vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]], 5).contains(&[0, 1]));
+        // Four fins paired in opposite directions: balanced, as a closed surface's edge.
+        assert!(!chain(vec![[0, 1, 2], [1, 0, 3], [0, 1, 4], [1, 0, 5]], 6).contains(&[0, 1]));
     }
 
     #[test]
