@@ -16,6 +16,7 @@ mod output;
 mod progress;
 
 use std::io::Write;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::process::ExitCode;
 
 use clap::Parser;
@@ -29,6 +30,9 @@ static ALLOCATOR: alloc::ExitOnOom = alloc::ExitOnOom;
 const EXIT_ERROR: u8 = 2;
 /// Exit code after SIGINT, SIGTERM or SIGHUP (128 + SIGINT, as shells report it).
 const EXIT_INTERRUPTED: i32 = 130;
+
+/// Set by the interrupt handler before it removes the temporaries and exits.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
 /// Exit code of an internal bug (a panic in a layer): `EX_SOFTWARE` of sysexits.h.
 const EXIT_BUG: u8 = 70;
@@ -57,6 +61,7 @@ fn main() -> ExitCode {
     // progress, so nothing is left beside the outputs, then exit. The handler runs on a thread
     // of its own, not in signal context.
     let _ = ctrlc::set_handler(|| {
+        INTERRUPTED.store(true, Ordering::SeqCst);
         sdf_multioctree::io::remove_pending_temporaries();
         let _ = writeln!(std::io::stderr(), "sdfmo: interrupted");
         std::process::exit(EXIT_INTERRUPTED);
@@ -72,7 +77,15 @@ fn main() -> ExitCode {
         }
     };
 
-    match std::panic::catch_unwind(move || run(cli)) {
+    let result = std::panic::catch_unwind(move || run(cli));
+    if INTERRUPTED.load(Ordering::SeqCst) {
+        // The handler is removing the temporaries and will exit with 130: a command that
+        // failed because its temporaries vanished must not report that failure instead.
+        loop {
+            std::thread::park();
+        }
+    }
+    match result {
         Ok(Ok(())) => ExitCode::SUCCESS,
         Ok(Err(err)) if is_broken_pipe(&err) => ExitCode::SUCCESS,
         Ok(Err(err)) => {
