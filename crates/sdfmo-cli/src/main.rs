@@ -16,8 +16,8 @@ mod output;
 mod progress;
 
 use std::io::Write;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::Parser;
 

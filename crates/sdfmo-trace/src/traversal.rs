@@ -340,7 +340,8 @@ fn traverse<B: AsRef<[u8]>, const ANY: bool>(
 /// earlier form (same decisions, same arithmetic) executed about 2.5 times as many instructions
 /// per inner node (callgrind, abc1 depth 9, paper view 0), and inner nodes are most of the
 /// frame. Decisions, ties and spans are those of the original scheme bit for bit (the test
-/// `lean_step_matches_the_reference_traversal_bit_for_bit` keeps the original beside it):
+/// `lean_step_matches_the_reference_traversal_bit_for_bit` runs the walk with the original
+/// step, `reference_step`, beside it):
 /// * entry octant: on a `+` axis the upper side once `tm ≤ t_enter`, on a `−` axis while
 ///   `tm > t_enter`;
 /// * the mid-planes crossed inside `(t_enter, t_exit)` flip their bit in order of `tm`, equal
@@ -465,8 +466,9 @@ pub(crate) mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
-    use sdfmo_format::cell_size;
-    use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, Voxel};
+    use sdfmo_format::{
+        cell_size, LeafInput, OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, Voxel,
+    };
 
     fn meta(depth: u8) -> OctreeMeta {
         OctreeMeta::unit(depth, ValueBits::Sixteen)
