@@ -148,13 +148,8 @@ mod tests {
         // Deterministic pseudo-random triangles around a unit box; the SAT must report an
         // overlap whenever dense sampling finds a point inside, and must not when the triangle
         // is farther than the sampling resolution from the box.
-        let mut s = 0x2545_f491_4f6c_dd1du64;
-        let mut rnd = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 40) as f32 / (1u64 << 24) as f32 * 3.0 - 1.5
-        };
+        let mut rng = sdfmo_io::SplitMix64::new(0x2545_f491_4f6c_dd1d);
+        let mut rnd = || rng.range(-1.5, 1.5);
         let c = Vec3::ZERO;
         let h = Vec3::splat(0.5);
         let mut hits = 0;

@@ -628,6 +628,25 @@ mod tests {
         }
     }
 
+    /// Known gap (found in session 7 by drawing the points of the test below from another
+    /// generator): a leaf passes the probe and the crossing test while one of its triangles lies
+    /// inside the other sphere, because the curve where the spheres cross runs through triangles
+    /// of *other* leaves. A point 0.031 in front of that triangle, inside the other sphere
+    /// (winding number 0.976), takes the outside sign from the face normal; the clean radius is
+    /// infinite (closed meshes have no chain boundary). On the shared models: 0 such points of
+    /// ~100,000 near-surface samples on abc1 and abc5, 9 on the (open) teapot.
+    #[test]
+    #[ignore = "known gap: the face-normal shortcut inside an overlapping shell (docs/results.md)"]
+    fn shortcut_sign_inside_an_overlapping_shell() {
+        let a = sdfmo_mesh::procedural::sphere(Vec3::new(-0.2, 0.0, 0.0), 0.4, 3);
+        let b = sdfmo_mesh::procedural::sphere(Vec3::new(0.2, 0.05, 0.0), 0.35, 3);
+        let md = MeshDistance::new(&TriMesh::merge(&[a, b]), SignMode::Winding).unwrap();
+        let q = Vec3::new(0.016013017, -0.28269655, -0.0080042);
+        let w = md.winding_number(q);
+        assert!(w > 0.9, "w {w}");
+        assert!(md.signed_distance(q) < 0.0, "w {w}, but signed outside");
+    }
+
     #[test]
     fn shortcut_signs_match_the_winding_number_on_overlapping_and_open_shells() {
         // Self-intersections leave no chain boundary, so only the probes guard the shortcut:

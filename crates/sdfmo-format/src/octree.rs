@@ -1013,15 +1013,13 @@ mod tests {
         // A dense-ish random set at depth 4 with varying counts, > 8 per group everywhere.
         let depth = 4;
         let mut leaves = Vec::new();
-        let mut state = 12345u64;
+        let mut rng = sdfmo_io::SplitMix64::new(12345);
         for x in 0..16u32 {
             for y in 0..16u32 {
                 for z in 0..16u32 {
-                    state = state
-                        .wrapping_mul(6364136223846793005)
-                        .wrapping_add(1442695040888963407);
-                    if state >> 61 == 0 {
-                        leaves.push(leaf([x, y, z], 1 + (state >> 40) as usize % 5));
+                    let bits = rng.next_u64();
+                    if bits >> 61 == 0 {
+                        leaves.push(leaf([x, y, z], 1 + (bits >> 40) as usize % 5));
                     }
                 }
             }
