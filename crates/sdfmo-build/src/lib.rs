@@ -26,7 +26,7 @@
 //!    computed once and shared by the up to eight leaves around it.
 //! 5. **leaves**: the SVO keeps a leaf's single voxel where its *quantised* corners change sign
 //!    (exactly what the tracer can hit); the multi-octree decides per leaf as described in
-//!    [`leaf`].
+//!    `leaf`.
 //! 6. **pack**: [`PackedOctree::from_leaves`].
 //!
 //! Every step is a pure function of the input and runs in a fixed order of leaves, so the bytes

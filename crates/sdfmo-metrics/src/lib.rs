@@ -108,7 +108,7 @@ pub enum MetricsError {
     #[error("FLIP evaluation failed")]
     Flip(#[source] flip_rs::FlipError),
     /// An image file could not be read: missing, not a regular file, larger than
-    /// [`MAX_IMAGE_FILE_SIZE`](crate::MAX_IMAGE_FILE_SIZE), unreadable.
+    /// [`MAX_IMAGE_FILE_SIZE`], unreadable.
     #[error(transparent)]
     Read(sdfmo_io::IoError),
     /// An image file's content is not a format this crate decodes (PNG).
