@@ -184,19 +184,22 @@ fn report(kind: &str, depth: u8, t: &Tally) {
     );
 }
 
-/// CI subset: depths 6–7, four phases, pairs at three gap widths and the stack, axis-aligned
+/// CI subset: depths 6–7, six phases, pairs at four gap widths and the stack, axis-aligned
 /// and rotated. The multi-octree keeps every gap open; the SVO's figure is printed beside it.
+/// (The 0.4-voxel pair at phases 2 and 14 closed until session 7: the leaves at the plates'
+/// ends kept the SVO voxel, because the other plate, gathered but outside the cell, barred
+/// the sharp-feature voxels.)
 #[test]
 fn gaps_between_separate_parts_stay_open() {
-    let phases = [0, 5, 10, 15];
+    let phases = [0, 2, 5, 10, 14, 15];
     for depth in [6, 7] {
         for angle in [0.0, 0.3] {
-            let mut cases = pairs(depth, &[0.15, 0.3, 0.5], &phases, angle);
+            let mut cases = pairs(depth, &[0.15, 0.3, 0.4, 0.5], &phases, angle);
             cases.extend(stacks(depth, &phases, angle));
             let t = tally(depth, cases);
             report(&format!("pairs+stack angle {angle}"), depth, &t);
             assert!(
-                t.open[1] as f64 >= 0.95 * t.total as f64,
+                t.open[1] == t.total,
                 "depth {depth} angle {angle}: multi keeps {} of {} gaps open; closed: {:?}",
                 t.open[1],
                 t.total,

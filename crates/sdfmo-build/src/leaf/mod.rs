@@ -353,8 +353,13 @@ pub fn multi_leaf(
         }
         r
     };
-    // A sharp edge or corner of one closed component: one plane voxel per face.
-    if k == 1 && !open_near && p.sharp {
+    // A sharp edge or corner of one closed component: one plane voxel per face. (Other
+    // gathered components that do not reach into the cell do not count: their own leaves
+    // hold them.)
+    let mut sampled = s.samples.iter().map(|(_, li)| s.components.of[li as usize]);
+    let first_sampled = sampled.next();
+    let one_sampled = sampled.all(|c| Some(c) == first_sampled);
+    if one_sampled && !open_near && p.sharp {
         if let Some(voxels) = sharp::sharp_voxels(p, mesh, &cell, tris, g, &s.samples, &mut s.sharp)
         {
             return LeafResult {
