@@ -98,6 +98,21 @@ const CLEAN_PROBE_TOLERANCE: f32 = 0.2;
 /// triangle's clean radius.
 pub const CLEAN_DISTANCE_FRACTION: f32 = 0.1;
 
+/// What the other triangles do around a BVH leaf, for the winding sign's face-normal shortcut.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Surroundings {
+    /// A triangle sharing no vertex with one of the leaf's crosses it (an edge of one through
+    /// the other, watertight segment test): the winding levels change inside the leaf, so its
+    /// probe does not speak for its triangles.
+    Crossed,
+    /// Nothing crosses the leaf, and its box holds triangles of its own component only.
+    Clear,
+    /// Nothing crosses the leaf, but its box holds a triangle of another connected component
+    /// (or its own triangles belong to several): that shell may leave some of the leaf's
+    /// triangles inside it without crossing them.
+    OtherShellNear,
+}
+
 const COARSE_FAR_SCALE: f32 =
     (COARSE_WINDING_BETA / WINDING_BETA) * (COARSE_WINDING_BETA / WINDING_BETA);
 
@@ -349,10 +364,10 @@ impl MeshDistance {
     /// front and ≈ 1 behind (a locally closed, outward surface with the usual levels), no
     /// triangle sharing no vertex with it crosses it (self-intersections change the levels).
     /// Each triangle of a clean leaf not facing against the probed one (unit normals' dot
-    /// product > −0.25), and where another connected component comes into the leaf's box
-    /// showing the same levels when probed itself, gets as radius the distance from its
-    /// centroid to the nearest chain-boundary edge minus its own circumradius about the
-    /// centroid. Meshes with more than [`MAX_CHAIN_BOUNDARY_EDGES`] such edges get no shortcut.
+    /// product > −0.25) gets as radius the distance from its centroid to the nearest
+    /// chain-boundary edge minus its own circumradius about the centroid; where another shell
+    /// comes near the leaf ([`Surroundings::OtherShellNear`]) only if its own probe shows the
+    /// usual levels too. Meshes with more than [`MAX_CHAIN_BOUNDARY_EDGES`] such edges get no shortcut.
     fn clean_winding_radii(&self) -> Vec<f32> {
         let tris = self.mesh.triangles();
         let positions = self.mesh.positions();
@@ -374,10 +389,11 @@ impl MeshDistance {
                 let Some(n) = self.leaf_is_clean(&self.leaf_tris[range.clone()]) else {
                     return Vec::new();
                 };
-                let Some(other_shell_near) =
-                    self.leaf_surroundings(node, range.clone(), &component)
-                else {
-                    return Vec::new(); // crossed
+                let other_shell_near = match self.leaf_surroundings(node, range.clone(), &component)
+                {
+                    Surroundings::Crossed => return Vec::new(),
+                    Surroundings::Clear => false,
+                    Surroundings::OtherShellNear => true,
                 };
                 range
                     .filter_map(|slot| {
@@ -415,19 +431,14 @@ impl MeshDistance {
         out
     }
 
-    /// `None` when a triangle that shares no vertex with a triangle of the leaf (slots
-    /// `range`, box of `leaf`) crosses it: an edge of one through the other (watertight segment
-    /// test). At such self-intersections the winding levels change inside the leaf, so its
-    /// probe does not speak for all of its triangles. Otherwise whether another connected
-    /// component (`component`, per triangle) has a triangle in the leaf's box, or the leaf's own
-    /// triangles belong to several: another shell is near, which may leave some of the leaf's
-    /// triangles inside it without crossing them.
+    /// What the other triangles do around a leaf (slots `range`, box of `leaf`; `component`:
+    /// connected component per triangle), see [`Surroundings`].
     fn leaf_surroundings(
         &self,
         leaf: &Bvh2Node,
         range: std::ops::Range<usize>,
         component: &[u32],
-    ) -> Option<bool> {
+    ) -> Surroundings {
         let lb = leaf.aabb();
         let own = component[self.leaf_ids[range.start] as usize];
         let mut other_shell_near = range
@@ -485,12 +496,16 @@ impl MeshDistance {
                         continue;
                     }
                     if crosses(ot, lt) || crosses(lt, ot) {
-                        return None;
+                        return Surroundings::Crossed;
                     }
                 }
             }
         }
-        Some(other_shell_near)
+        if other_shell_near {
+            Surroundings::OtherShellNear
+        } else {
+            Surroundings::Clear
+        }
     }
 
     /// Computes the one-time data of the sign now (in winding mode, the per-triangle radii of
@@ -660,8 +675,8 @@ mod tests {
     /// leaf passed the probe and the crossing test while one of its triangles lay inside the
     /// other sphere (the curve where the spheres cross runs through triangles of *other*
     /// leaves), so a point 0.031 in front of that triangle, inside the other sphere (winding
-    /// number 0.976), took the outside sign from the face normal. Now every triangle of a
-    /// clean leaf is probed itself.
+    /// number 0.976), took the outside sign from the face normal. Now, near another shell, each
+    /// triangle of a clean leaf is probed itself.
     #[test]
     fn shortcut_sign_inside_an_overlapping_shell() {
         let a = sdfmo_mesh::procedural::sphere(Vec3::new(-0.2, 0.0, 0.0), 0.4, 3);
