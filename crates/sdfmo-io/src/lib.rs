@@ -118,6 +118,15 @@ pub enum IoError {
         #[source]
         source: std::io::Error,
     },
+    /// The folder an output goes into does not exist (outputs never create folders the user
+    /// named).
+    #[error("cannot write {}: the folder {} does not exist", path.display(), folder.display())]
+    MissingFolder {
+        /// The output as named.
+        path: PathBuf,
+        /// Its folder.
+        folder: PathBuf,
+    },
     /// The path exists but is not a regular file.
     #[error("{} is {kind}; only regular files can be {action}", path.display())]
     NotRegularFile {
@@ -172,7 +181,8 @@ impl IoError {
             | IoError::NotRegularFile { path, .. }
             | IoError::TooLarge { path, .. }
             | IoError::DanglingLink { path }
-            | IoError::NotAFilePath { path, .. } => path,
+            | IoError::NotAFilePath { path, .. }
+            | IoError::MissingFolder { path, .. } => path,
             IoError::OutsideFolder { folder, .. } => folder,
         }
     }
@@ -181,6 +191,7 @@ impl IoError {
     pub fn os_kind(&self) -> Option<std::io::ErrorKind> {
         match self {
             IoError::Os { source, .. } => Some(source.kind()),
+            IoError::MissingFolder { .. } => Some(std::io::ErrorKind::NotFound),
             _ => None,
         }
     }

@@ -97,8 +97,9 @@ pub fn check_destination_as(path: &Path, naming: Naming) -> Result<PathBuf> {
 /// the rules on special files and symbolic links.
 ///
 /// # Errors
-/// As [`check_destination`], plus [`IoError::Os`] when the temporary file cannot be created,
-/// written, synced or renamed (a full disk, a read-only folder, a missing folder).
+/// As [`check_destination`], [`IoError::MissingFolder`], plus [`IoError::Os`] when the
+/// temporary file cannot be created, written, synced or renamed (a full disk, a read-only
+/// folder).
 pub fn write_atomic(path: impl AsRef<Path>, bytes: impl AsRef<[u8]>) -> Result<()> {
     write_atomic_as(path, bytes, Naming::Given)
 }
@@ -303,6 +304,12 @@ impl OutputBatch {
         {
             use std::os::unix::fs::PermissionsExt;
             builder.permissions(std::fs::Permissions::from_mode(0o666));
+        }
+        if std::fs::metadata(&dir).is_err_and(|e| e.kind() == std::io::ErrorKind::NotFound) {
+            return Err(IoError::MissingFolder {
+                path: path.to_path_buf(),
+                folder: dir,
+            });
         }
         let mut temp = Tracked::create(|| builder.tempfile_in(&dir))
             .map_err(os("create a temporary file in", &dir))?;
