@@ -487,15 +487,15 @@ fn build_in_pool(
                 .map_init(leaf::Scratch::default, |s, i| {
                     let c = &sub.cells[i];
                     let global = global.as_ref().expect("components of a multi build");
-                    leaf::multi_leaf(
+                    let ctx = leaf::LeafCtx::new(
                         &params,
                         &local,
                         global,
                         c.coord,
                         sub.tris_of(c),
                         &corners[i],
-                        s,
-                    )
+                    );
+                    leaf::multi_leaf(&ctx, s)
                 })
                 .collect(),
         };

@@ -3,48 +3,58 @@
 //!
 //! # The multi-octree decision, leaf by leaf
 //!
-//! [`multi_leaf`] runs these phases, each a function of its own module with its own tests:
-//! [`samples`] → [`gaps`] → [`sharp`] → [`split`] (components and their candidate voxels) →
-//! [`reduce`] → [`score`] → [`rim`]. Every threshold is a documented field of [`Params`].
+//! [`multi_leaf`] runs these phases in this order, each a function of its own module with its
+//! own tests, all of the shape `fn(&LeafCtx, &mut Scratch)`: [`LeafCtx`] holds what the leaf
+//! reads (settings, mesh tables, cell, gathered triangles, the SVO voxel), [`Scratch`] what the
+//! phases write for the ones after them. Every threshold is a documented field of [`Params`].
 //!
-//! 1. *Samples.* Every gathered triangle is clipped to the leaf cell; the clipped polygon's
-//!    vertices, centroid and centroid–vertex midpoints are points of the true surface inside the
-//!    leaf (signed distance 0). A cell without samples near an open sheet is dropped (the sheet's
-//!    extended plane is no surface there).
-//! 2. *Does the SVO voxel already do?* The single voxel from the global signed distance (shared
-//!    corners, quantised as the file stores them) is evaluated at the samples. If the largest
-//!    distance from a sample to the voxel's zero set (`|f| / |∇f|`, not `|f|`: a collapsed
-//!    gradient hides a missing zero set) is below [`Params::accept`] of the cell size, no sheet
-//!    is open near it and it closes no gap between the leaf's components ([`gaps`]), the leaf
-//!    gets that voxel, exactly as the SVO (most leaves: smooth surfaces). Before that, a sharp
-//!    edge or corner of one closed component takes one plane voxel per face ([`sharp`]). The
-//!    thin test of step 3 measures the same distance.
-//! 3. *Components.* The gathered triangles split into connected components through shared edges
-//!    of vertices welded by position (never at a sharp edge: a sharp edge shares its vertices;
-//!    part ids pre-split). Pieces of the same *global* component are merged back (a piece cut
-//!    out of a closed surface by the leaf is not closed: its own signed distance is a
-//!    half-space, see the `components` module). One voxel per component, corners = exact
-//!    signed distance to that whole component alone. A component with boundary edges (open)
-//!    gets a *surface* voxel. A component its own voxel does not reproduce (error above
-//!    [`Params::thin`] at its samples: a plate thinner than a voxel whose corners all come out
-//!    positive) whose triangles form two nearly opposite groups of normals (the plate's two
-//!    faces, never the two faces of a sharp edge) is split into two surface voxels, one per face.
-//!    The groups are canonical (reference normal oriented towards a fixed direction, side faces
-//!    in neither group), so a one-ulp change of the input does not regroup the faces.
-//! 4. *Reduction.* Voxels whose quantised corners do not change sign cannot be hit and go;
-//!    voxels whose surface samples all lie inside another volume voxel are hidden and go; above
-//!    the cap, the most similar volume voxels merge (min = union), then the most nearly coplanar
-//!    surface voxels merge (average, oriented alike); a cap hit is counted.
-//! 5. *Earn its place.* The voxel set and the SVO voxel are scored on the same samples: the
-//!    mean error `max(min_v |f_v(p)|, buried depth inside a volume voxel)` plus a false-surface
-//!    term (on a 3×3×3 grid in the cell, how much closer some voxel's zero set is than the
-//!    true surface) plus a small cost per extra voxel. The multi set is kept only when it
-//!    scores better by [`Params::earn`] *and* its visible zero set reaches no farther from the
-//!    mesh than the SVO voxel's (plus [`Params::reach_tol`]): the zero crossings of every voxel
-//!    on 4×4 axis-parallel lines per axis (exact, the interpolant is linear along them), minus
-//!    those buried in another volume voxel, are measured against the true unsigned distance.
-//!    Both scores count the gap points each choice closes. Otherwise the leaf gets the SVO voxel.
-//! 6. *Rims.* An open sheet's one voxel is clipped at the sheet's boundary ([`rim`]).
+//! 1. *Samples* ([`samples`]). Every gathered triangle is clipped to the leaf cell; the clipped
+//!    polygon's vertices, centroid and centroid–vertex midpoints are points of the true surface
+//!    inside the leaf (signed distance 0). A cell without samples near an open sheet is dropped
+//!    (the sheet's extended plane is no surface there); elsewhere it gets the SVO voxel. The
+//!    SVO voxel (global signed distance at the shared corners, quantised as the file stores
+//!    them) is evaluated at the samples: the largest distance from a sample to its zero set
+//!    (`|f| / |∇f|`, not `|f|`: a collapsed gradient hides a missing zero set).
+//! 2. *Components* ([`split`]). The gathered triangles split into connected components through
+//!    shared edges of vertices welded by position (never at a sharp edge: a sharp edge shares
+//!    its vertices; part ids pre-split). Pieces of the same *global* component are merged back
+//!    (a piece cut out of a closed surface by the leaf is not closed: its own signed distance
+//!    is a half-space, see the `components` module).
+//! 3. *Sharp features* ([`sharp`]). Where the samples all lie on one closed component and no
+//!    open sheet is near, a sharp edge or corner takes one plane voxel per face.
+//! 4. *Gaps, and does the SVO voxel already do?* ([`gaps`]). Points of the free space between
+//!    the components that the SVO voxel calls inside (a gap it closes, which the samples on
+//!    the surfaces cannot see). If the SVO voxel's sample error is below [`Params::accept`] of
+//!    the cell size, no sheet is open near it and it closes no gap, the leaf gets that voxel,
+//!    exactly as the SVO (most leaves: smooth surfaces).
+//! 5. *Candidate voxels* ([`split`]). One voxel per component, corners = exact signed distance
+//!    to that whole component alone. A component with boundary edges (open) gets a *surface*
+//!    voxel. A component its own voxel does not reproduce (error above [`Params::thin`] at its
+//!    samples: a plate thinner than a voxel whose corners all come out positive) whose
+//!    triangles form two nearly opposite groups of normals (the plate's two faces, never the
+//!    two faces of a sharp edge) is split into two surface voxels, one per face. The groups
+//!    are canonical (reference normal oriented towards a fixed direction, side faces in
+//!    neither group), so a one-ulp change of the input does not regroup the faces. One
+//!    component with one volume voxel is the SVO voxel.
+//! 6. *Reduction* ([`reduce`]). Voxels whose quantised corners do not change sign cannot be
+//!    hit and go; voxels whose surface samples all lie inside another volume voxel are hidden
+//!    and go; above the cap, the most similar volume voxels merge (min = union), then the most
+//!    nearly coplanar surface voxels merge (average, oriented alike); a cap hit is counted.
+//! 7. *Earn its place* ([`score`]). The voxel set and the SVO voxel are scored on the same
+//!    samples: the mean error `max(min_v |f_v(p)|, buried depth inside a volume voxel)` plus a
+//!    false-surface term (on a 3×3×3 grid in the cell, how much closer some voxel's zero set is
+//!    than the true surface) plus a small cost per extra voxel. The multi set is kept only when
+//!    it scores better by [`Params::earn`] *and* its visible zero set reaches no farther from
+//!    the mesh than the SVO voxel's (plus [`Params::reach_tol`]): the zero crossings of every
+//!    voxel on 4×4 axis-parallel lines per axis (exact, the interpolant is linear along them),
+//!    minus those buried in another volume voxel, are measured against the true unsigned
+//!    distance. Both scores count the gap points each choice closes. Otherwise the leaf gets
+//!    the SVO voxel.
+//! 8. *Rims* ([`rim`]). An open sheet's one voxel is clipped at the sheet's boundary.
+//!
+//! Wherever the leaf ends up with the SVO voxel and holds one open component, that voxel is a
+//! surface voxel when its inside is not enclosed by the sheet (the back of an open sheet, see
+//! `svo_voxel`).
 
 use glam::Vec3;
 use sdfmo_format::{cell_size, quant, ValueBits, Voxel};
@@ -61,7 +71,7 @@ pub(crate) mod score;
 pub(crate) mod sharp;
 pub(crate) mod split;
 
-use samples::{svo_fit, Samples};
+use samples::{Samples, SvoFit};
 use split::LeafComponents;
 
 /// Tuning of the per-leaf decision. Lengths are fractions of the cell edge `h`.
@@ -264,14 +274,69 @@ pub(crate) struct Cand {
     pub comp: u32,
 }
 
-/// Reusable buffers of one worker (no allocation per leaf after warm-up).
+/// What every phase of one leaf reads: the settings, the mesh's tables, the cell, its gathered
+/// triangles and the SVO voxel (the global signed distance at its corners, exact and as the
+/// file stores it). Built once per leaf; the phases are functions of it and of [`Scratch`].
+#[derive(Clone, Copy)]
+pub(crate) struct LeafCtx<'a> {
+    /// The decision's parameters.
+    pub p: &'a Params,
+    /// The builder's per-triangle tables.
+    pub mesh: &'a LocalMesh,
+    /// The mesh's global components (their distance structures and open flags).
+    pub global: &'a Components,
+    /// The leaf cell.
+    pub cell: Cell,
+    /// The gathered triangles (global ids).
+    pub tris: &'a [u32],
+    /// Global signed distance at the corners.
+    pub g: &'a [f32; 8],
+    /// The same, quantised as the file stores them.
+    pub gq: [f32; 8],
+    /// Some gathered triangle has a boundary edge (an open sheet is near).
+    pub open_near: bool,
+}
+
+impl<'a> LeafCtx<'a> {
+    /// The leaf at cell `coord` with gathered triangles `tris` and global corners `g`.
+    pub fn new(
+        p: &'a Params,
+        mesh: &'a LocalMesh,
+        global: &'a Components,
+        coord: [u32; 3],
+        tris: &'a [u32],
+        g: &'a [f32; 8],
+    ) -> LeafCtx<'a> {
+        LeafCtx {
+            p,
+            mesh,
+            global,
+            cell: Cell::new(coord, p.h),
+            tris,
+            g,
+            gq: p.q8(g),
+            open_near: tris.iter().any(|&t| mesh.boundary[t as usize] != 0),
+        }
+    }
+}
+
+/// What the phases of one leaf write and read after them, in buffers reused from leaf to leaf
+/// by one worker (no allocation per leaf after warm-up).
 #[derive(Default)]
 pub struct Scratch {
+    /// Phase 1: samples of the true surface in the cell.
     samples: Samples,
+    /// Phase 1: how well the SVO voxel fits them.
+    svo: SvoFit,
+    /// Phase 2: the leaf's components.
     components: LeafComponents,
-    gaps: gaps::GapPoints,
+    /// Phase 3 (and 8): the sharp feature's faces.
     sharp: sharp::SharpScratch,
+    /// Phase 4: the free space between components the SVO voxel closes.
+    gaps: gaps::GapPoints,
+    /// Phases 5–6: the candidate voxels.
     cands: Vec<Cand>,
+    /// Phase 7: the reach test's buffers.
     reach: score::ReachScratch,
 }
 
@@ -292,169 +357,107 @@ pub fn svo_leaf(p: &Params, g: &[f32; 8]) -> LeafResult {
     }
 }
 
-/// The multi-octree leaf at cell `coord` with gathered triangles `tris` and global corners `g`.
-pub fn multi_leaf(
-    p: &Params,
-    mesh: &LocalMesh,
-    global: &Components,
-    coord: [u32; 3],
-    tris: &[u32],
-    g: &[f32; 8],
-    s: &mut Scratch,
-) -> LeafResult {
-    let cell = Cell::new(coord, p.h);
-
-    // 1. Samples of the true surface inside the cell; does the SVO voxel already do?
-    s.samples.collect(p, mesh, &cell, tris);
-    let open_near = tris.iter().any(|&t| mesh.boundary[t as usize] != 0);
+/// The multi-octree leaf: the phases of the module docs, in order.
+pub(crate) fn multi_leaf(ctx: &LeafCtx, s: &mut Scratch) -> LeafResult {
+    let p = ctx.p;
+    // 1. Samples of the true surface inside the cell.
+    samples::collect(ctx, s);
     if s.samples.is_empty() {
         // No surface in the cell. Near an open sheet's rim the global distance still changes
         // sign across the sheet's plane extended past the rim: that zero set is false.
-        if open_near && p.rims {
+        if ctx.open_near && p.rims {
             return LeafResult::default();
         }
-        return svo_leaf(p, g);
+        return svo_leaf(p, ctx.g);
     }
-    let gq = p.q8(g);
-    let svo = svo_fit(&gq, &s.samples, &cell);
-    // 2. Components; a sharp feature of one of them; the free space between them that the SVO
-    //    voxel fills (a gap the samples on the surfaces cannot see).
-    let k = s.components.find(global, tris);
-    // One open surface meets the cell and the SVO voxel's negative side is not enclosed by it
-    // (a corner it calls inside where the surface's winding number says outside): the back of
-    // an open sheet, which a ray can reach without crossing the sheet. As a volume voxel the
-    // SVO voxel would stop such a ray where it enters the leaf from its empty neighbour, a
-    // wall up to a voxel off the sheet (a curved sheet's silhouette). There the SVO voxel is
-    // a surface voxel (no inside). Where the inside is enclosed (a nearly closed open surface:
-    // the teapot) it stays a volume voxel, which keeps the surface watertight.
-    // Judged at the corner the voxel calls most deeply inside (one winding number per leaf,
-    // and only where the SVO voxel is kept).
-    let open_comp = (k == 1)
-        .then(|| s.components.global_ids[0])
-        .filter(|&c| global.open[c as usize]);
-    let back_of_open_sheet = || {
-        let Some(comp) = open_comp else {
-            return false;
+    // 2. Components.
+    let k = s.components.find(ctx.global, ctx.tris);
+    // 3. A sharp edge or corner of one closed component: one plane voxel per face.
+    if let Some(voxels) = sharp::sharp_leaf(ctx, s) {
+        return LeafResult {
+            voxels,
+            cap_hit: false,
         };
-        let (deepest, &gv) = gq
-            .iter()
-            .enumerate()
-            .min_by(|a, b| a.1.total_cmp(b.1))
-            .expect("eight corners");
-        gv < 0.0
-            && global
-                .winding_inside(mesh, comp, cell.at(corner_offset(deepest)))
-                .is_some_and(|inside| !inside)
-    };
-    let svo_voxel = || {
-        let mut r = svo_leaf(p, g);
-        if !r.voxels.is_empty() && back_of_open_sheet() {
-            r.voxels[0].surface = true;
-        }
-        r
-    };
-    // A sharp edge or corner of one closed component: one plane voxel per face. (Other
-    // gathered components that do not reach into the cell do not count: their own leaves
-    // hold them.)
-    let mut sampled = s.samples.iter().map(|(_, li)| s.components.of[li as usize]);
-    let first_sampled = sampled.next();
-    let one_sampled = sampled.all(|c| Some(c) == first_sampled);
-    if one_sampled && !open_near && p.sharp {
-        if let Some(voxels) = sharp::sharp_voxels(p, mesh, &cell, tris, g, &s.samples, &mut s.sharp)
-        {
-            return LeafResult {
-                voxels,
-                cap_hit: false,
-            };
-        }
     }
-    // (A leaf whose SVO voxel does not cross zero is dropped: it closes nothing.)
-    if p.crosses(g) {
-        s.gaps
-            .collect(p, mesh, global, &cell, &s.samples, &s.components, &gq);
-    } else {
-        s.gaps.points.clear();
+    // 4. The free space between components that the SVO voxel fills; does it already do?
+    gaps::collect(ctx, s);
+    if s.svo.max_gap <= p.accept && !ctx.open_near && s.gaps.points.is_empty() {
+        return svo_voxel(ctx, s);
     }
-    let svo_closed = s.gaps.points.len();
-    if svo.max_gap <= p.accept && !open_near && svo_closed == 0 {
-        return svo_voxel();
-    }
-
-    // 3. One (or two) voxels per component.
-    split::candidate_voxels(
-        p,
-        mesh,
-        global,
-        &cell,
-        g,
-        &s.samples,
-        &mut s.components,
-        &mut s.cands,
-    );
+    // 5. One (or two) voxels per component.
+    split::candidate_voxels(ctx, s);
     if k == 1 && s.cands.len() == 1 && !s.cands[0].surface {
         // One component, one volume voxel: that is the SVO voxel.
-        return svo_voxel();
+        return svo_voxel(ctx, s);
     }
-
-    // 4. Reduction: voxels that cannot be hit, hidden voxels, then the cap.
-    reduce::drop_unhit(p, &mut s.cands);
-    reduce::drop_hidden(p, &mut s.cands, &s.samples, &s.components);
-    let cap_hit = s.cands.len() > p.max_voxels;
-    if cap_hit {
-        reduce::merge_to_cap(p, &mut s.cands);
-    }
+    // 6. Reduction: voxels that cannot be hit, hidden voxels, then the cap.
+    let cap_hit = reduce::reduce(ctx, s);
     if s.cands.is_empty() {
-        return svo_voxel();
+        return svo_voxel(ctx, s);
     }
-
-    // 5. Earn its place.
-    let keep = score::multi_earns_its_place(
-        p,
-        mesh,
-        tris,
-        &cell,
-        g,
-        &gq,
-        &svo,
-        &s.samples,
-        score::GapCounts {
-            svo: svo_closed,
-            multi: s.gaps.closed_by_set(&s.cands),
-        },
-        &s.cands,
-        &mut s.reach,
-    );
-    let mut r = if keep {
+    // 7. Earn its place.
+    let mut r = if score::multi_earns_its_place(ctx, s) {
+        let voxels = s.cands.iter().map(|c| Voxel {
+            corners: c.c,
+            surface: c.surface,
+            clip: false,
+        });
         LeafResult {
-            voxels: s
-                .cands
-                .iter()
-                .map(|c| Voxel {
-                    corners: c.c,
-                    surface: c.surface,
-                    clip: false,
-                })
-                .collect(),
+            voxels: voxels.collect(),
             cap_hit,
         }
     } else {
-        let mut r = svo_voxel();
-        r.cap_hit = cap_hit;
-        r
+        LeafResult {
+            cap_hit,
+            ..svo_voxel(ctx, s)
+        }
     };
-    // 6. One open sheet's voxel (its surface voxel, or the SVO voxel) stops at the sheet's rim.
-    if p.rims && k == 1 && open_near && r.voxels.len() == 1 {
-        rim::rim_clips(
-            p,
-            mesh,
-            &cell,
-            tris,
-            &s.samples,
-            &mut s.sharp,
-            &mut r.voxels,
-        );
+    // 8. One open sheet's voxel (its surface voxel, or the SVO voxel) stops at the sheet's rim.
+    if p.rims && k == 1 && ctx.open_near && r.voxels.len() == 1 {
+        rim::rim_clips(ctx, s, &mut r.voxels);
     }
     r
+}
+
+/// The SVO voxel as the multi-octree keeps it: a *surface* voxel on the back of an open sheet.
+///
+/// One open surface meets the cell and the SVO voxel's negative side is not enclosed by it (a
+/// corner it calls inside where the surface's winding number says outside): the back of an open
+/// sheet, which a ray can reach without crossing the sheet. As a volume voxel the SVO voxel
+/// would stop such a ray where it enters the leaf from its empty neighbour, a wall up to a voxel
+/// off the sheet (a curved sheet's silhouette). There the SVO voxel is a surface voxel (no
+/// inside). Where the inside is enclosed (a nearly closed open surface: the teapot) it stays a
+/// volume voxel, which keeps the surface watertight. Judged at the corner the voxel calls most
+/// deeply inside (one winding number per leaf, and only where the SVO voxel is kept).
+fn svo_voxel(ctx: &LeafCtx, s: &Scratch) -> LeafResult {
+    let mut r = svo_leaf(ctx.p, ctx.g);
+    if !r.voxels.is_empty() && back_of_open_sheet(ctx, &s.components) {
+        r.voxels[0].surface = true;
+    }
+    r
+}
+
+/// Whether the cell holds one open component and the SVO voxel's deepest corner is outside it
+/// by its winding number (see [`svo_voxel`]).
+fn back_of_open_sheet(ctx: &LeafCtx, comps: &LeafComponents) -> bool {
+    if comps.count != 1 {
+        return false;
+    }
+    let comp = comps.global_ids[0];
+    if !ctx.global.open[comp as usize] {
+        return false;
+    }
+    let (deepest, &gv) = ctx
+        .gq
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.total_cmp(b.1))
+        .expect("eight corners");
+    gv < 0.0
+        && ctx
+            .global
+            .winding_inside(ctx.mesh, comp, ctx.cell.at(corner_offset(deepest)))
+            .is_some_and(|inside| !inside)
 }
 
 #[cfg(test)]
@@ -500,16 +503,12 @@ mod tests {
         let mut s = Scratch::default();
         let leaf = f.leaf(&p, Vec3::new(0.1, 0.1, 0.1));
         assert!(!p.crosses(&leaf.g), "the SVO voxel closes the gap");
-        let r = multi_leaf(
-            &p, &f.mesh, &f.global, leaf.coord, &leaf.tris, &leaf.g, &mut s,
-        );
+        let r = multi_leaf(&leaf.ctx(&f, &p), &mut s);
         assert_eq!(r.voxels.len(), 2, "{r:?}");
         assert!(r.voxels.iter().all(|v| !v.surface));
         assert!(!r.cap_hit);
         let face = f.leaf(&p, Vec3::new(-0.3, 0.5, 0.1));
-        let r = multi_leaf(
-            &p, &f.mesh, &f.global, face.coord, &face.tris, &face.g, &mut s,
-        );
+        let r = multi_leaf(&face.ctx(&f, &p), &mut s);
         assert_eq!(r, svo_leaf(&p, &face.g));
         assert_eq!(r.voxels.len(), 1);
     }

@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 
-use super::{Cell, Params};
+use super::{Cell, LeafCtx, Params, Scratch};
 use crate::geom::{clip_triangle, trilinear, zero_set_gap, MAX_CLIP};
 use crate::local::LocalMesh;
 
@@ -80,8 +80,17 @@ impl Samples {
     }
 }
 
+/// Phase 1: the leaf's samples into `s.samples` and, where there are some, the SVO voxel's fit
+/// to them into `s.svo`.
+pub(crate) fn collect(ctx: &LeafCtx, s: &mut Scratch) {
+    s.samples.collect(ctx.p, ctx.mesh, &ctx.cell, ctx.tris);
+    if !s.samples.is_empty() {
+        s.svo = svo_fit(&ctx.gq, &s.samples, &ctx.cell);
+    }
+}
+
 /// How well one voxel (quantised corners) fits the samples.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(crate) struct SvoFit {
     /// Largest distance (cell edges, ≤ 1) from a sample to the voxel's zero set.
     pub max_gap: f32,

@@ -1,10 +1,10 @@
-//! Phase 5: does the multi set earn its place? Both it and the SVO voxel are scored on the
+//! Phase 7: does the multi set earn its place? Both it and the SVO voxel are scored on the
 //! same samples and grid, and the multi set must not reach farther from the mesh.
 
 use glam::Vec3;
 
 use super::samples::{Samples, SvoFit};
-use super::{Cand, Cell, Params};
+use super::{Cand, Cell, LeafCtx, Params, Scratch};
 use crate::geom::trilinear;
 use crate::local::LocalMesh;
 
@@ -57,20 +57,33 @@ impl GapCounts {
 /// Both scores count the inside/outside errors in the free space between components
 /// ([`GapCounts`], weighted by [`Params::gap_weight`]); a multi set that keeps open more of a
 /// gap than the SVO voxel may reach up to [`Params::gap_reach_tol`] instead.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn multi_earns_its_place(
-    p: &Params,
-    mesh: &LocalMesh,
-    tris: &[u32],
-    cell: &Cell,
-    g: &[f32; 8],
-    gq: &[f32; 8],
+pub(crate) fn multi_earns_its_place(ctx: &LeafCtx, s: &mut Scratch) -> bool {
+    let gaps = GapCounts {
+        svo: s.gaps.points.len(),
+        multi: s.gaps.closed_by_set(&s.cands),
+    };
+    earns(ctx, &s.svo, &s.samples, gaps, &s.cands, &mut s.reach)
+}
+
+/// [`multi_earns_its_place`] for the SVO fit `svo`, the samples, the gap counts and the
+/// candidate set `cands` given.
+fn earns(
+    ctx: &LeafCtx,
     svo: &SvoFit,
     samples: &Samples,
     gaps: GapCounts,
     cands: &[Cand],
     s: &mut ReachScratch,
 ) -> bool {
+    let LeafCtx {
+        p,
+        mesh,
+        tris,
+        cell,
+        g,
+        ..
+    } = *ctx;
+    let (cell, gq) = (&cell, &ctx.gq);
     let svo_crosses = p.crosses(g);
     let (false_m, false_s) = false_surface(p, mesh, tris, cell, cands, svo_crosses.then_some(gq));
     let svo_score = if svo_crosses {
@@ -317,10 +330,12 @@ mod tests {
         // Does `multi` replace the SVO voxel `svo` (taken as exact: its own quantised corners)?
         let mut earns_with = |svo: [f32; 8], multi: &[Cand], gaps: GapCounts| {
             let fit = crate::leaf::samples::svo_fit(&svo, &samples, &leaf.cell);
-            let (mesh, tris, cell) = (&f.mesh, &leaf.tris, &leaf.cell);
-            multi_earns_its_place(
-                &p, mesh, tris, cell, &svo, &svo, &fit, &samples, gaps, multi, &mut s,
-            )
+            let ctx = LeafCtx {
+                g: &svo,
+                gq: svo,
+                ..leaf.ctx(&f, &p)
+            };
+            earns(&ctx, &fit, &samples, gaps, multi, &mut s)
         };
         let none = GapCounts::default();
         // Exact multi set against a shifted SVO voxel: earns it; the other way round: does not.
@@ -340,23 +355,22 @@ mod tests {
         let mut lenient = p;
         lenient.gap_reach_tol = 0.5;
         let fit = crate::leaf::samples::svo_fit(&exact, &samples, &leaf.cell);
-        let (mesh, tris, cell) = (&f.mesh, &leaf.tris, &leaf.cell);
         let multi = [cand(off, false)];
-        for (q, earns) in [(&lenient, true), (&p, false)] {
-            let r = multi_earns_its_place(
-                q,
-                mesh,
-                tris,
-                cell,
-                &exact,
-                &exact,
+        for (q, expected) in [(&lenient, true), (&p, false)] {
+            let ctx = LeafCtx {
+                g: &exact,
+                gq: exact,
+                ..leaf.ctx(&f, q)
+            };
+            let r = earns(
+                &ctx,
                 &fit,
                 &samples,
                 gaps(4, 0),
                 &multi,
                 &mut ReachScratch::default(),
             );
-            assert_eq!(r, earns, "gap_reach_tol {}", q.gap_reach_tol);
+            assert_eq!(r, expected, "gap_reach_tol {}", q.gap_reach_tol);
         }
         assert!(earns_with(off, &[cand(exact, false)], gaps(4, 4)));
         assert!(!earns_with(exact, &[cand(off, false)], gaps(4, 4)));

@@ -1,3 +1,5 @@
+//! Phase 3 of the leaf decision (see the parent module).
+//!
 //! Sharp features as several voxels: a leaf where one closed component shows two or three flat
 //! faces meeting at a sharp edge or corner gets one *plane voxel* per face (the signed distance
 //! to the face's plane, which a trilinear voxel reproduces exactly), combined by intersection
@@ -16,7 +18,7 @@ use glam::Vec3;
 use sdfmo_format::Voxel;
 
 use super::samples::Samples;
-use super::{Cell, Params};
+use super::{Cell, LeafCtx, Params, Scratch};
 use crate::geom::trilinear;
 use crate::local::LocalMesh;
 
@@ -148,18 +150,38 @@ pub(crate) fn flat_faces(
     })
 }
 
+/// Phase 3: the plane voxels of a sharp feature where the leaf's samples all lie on one
+/// component and no open sheet is near (other gathered components that do not reach into the
+/// cell do not count: their own leaves hold them); `None` elsewhere or when disabled
+/// ([`Params::sharp`]).
+pub(crate) fn sharp_leaf(ctx: &LeafCtx, s: &mut Scratch) -> Option<Vec<Voxel>> {
+    let of = &s.components.of;
+    let mut sampled = s.samples.iter().map(|(_, li)| of[li as usize]);
+    let first_sampled = sampled.next();
+    let one_sampled = sampled.all(|c| Some(c) == first_sampled);
+    if !(one_sampled && !ctx.open_near && ctx.p.sharp) {
+        return None;
+    }
+    sharp_voxels(ctx, &s.samples, &mut s.sharp)
+}
+
 /// The plane voxels of the sharp feature in `cell` (gathered triangles `tris` of one closed
 /// component, global corner distances `g`, surface samples `samples`), or `None` where the leaf
 /// is smooth, curved, not one clean edge or corner, or not reproduced (see the module docs).
 pub(crate) fn sharp_voxels(
-    p: &Params,
-    mesh: &LocalMesh,
-    cell: &Cell,
-    tris: &[u32],
-    g: &[f32; 8],
+    ctx: &LeafCtx,
     samples: &Samples,
     s: &mut SharpScratch,
 ) -> Option<Vec<Voxel>> {
+    let LeafCtx {
+        p,
+        mesh,
+        cell,
+        tris,
+        g,
+        ..
+    } = *ctx;
+    let cell = &cell;
     // 1–2. Two or three flat faces.
     let flat_faces = flat_faces(p, mesh, cell, tris, samples, s)?;
     let count = flat_faces.count;
@@ -241,15 +263,7 @@ mod tests {
     fn sharp_at(f: &Fixture, p: &Params, at: Vec3) -> Option<Vec<Voxel>> {
         let leaf = f.leaf(p, at);
         let samples = leaf.samples(f, p);
-        sharp_voxels(
-            p,
-            &f.mesh,
-            &leaf.cell,
-            &leaf.tris,
-            &leaf.g,
-            &samples,
-            &mut SharpScratch::default(),
-        )
+        sharp_voxels(&leaf.ctx(f, p), &samples, &mut SharpScratch::default())
     }
 
     #[test]

@@ -1,9 +1,9 @@
-//! Phases 2–3: the leaf's connected components, and one voxel (or two surface voxels) each.
+//! Phases 2 and 5: the leaf's connected components, and one voxel (or two surface voxels) each.
 
 use glam::Vec3;
 
 use super::samples::Samples;
-use super::{Cand, Cell, Params};
+use super::{Cand, Cell, LeafCtx, Params, Scratch};
 use crate::components::Components;
 use crate::geom::zero_set_gap;
 use crate::local::LocalMesh;
@@ -88,17 +88,23 @@ impl LeafComponents {
 /// component gets a *surface* voxel signed by its own pseudo-normals (the global sign, a
 /// winding number near borders, jumps there). A component its voxel does not reproduce (error
 /// above [`Params::thin`]) may be split into two surface voxels, see [`thin_split`].
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn candidate_voxels(
-    p: &Params,
-    mesh: &LocalMesh,
-    global: &Components,
-    cell: &Cell,
-    g: &[f32; 8],
-    samples: &Samples,
-    comps: &mut LeafComponents,
-    out: &mut Vec<Cand>,
-) {
+/// Phase 5: reads `s.samples` and `s.components`, writes `s.cands`.
+pub(crate) fn candidate_voxels(ctx: &LeafCtx, s: &mut Scratch) {
+    let LeafCtx {
+        p,
+        mesh,
+        global,
+        cell,
+        g,
+        ..
+    } = *ctx;
+    let cell = &cell;
+    let Scratch {
+        samples,
+        components: comps,
+        cands: out,
+        ..
+    } = s;
     out.clear();
     let corner_pos = cell.corners();
     let k = comps.count;
