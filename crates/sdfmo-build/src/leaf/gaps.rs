@@ -7,7 +7,7 @@
 //! one of them and still fill the space between two parts, so a ray along the gap stops in this
 //! leaf. The gap points are taken between the parts, not on them: for a surface sample of one
 //! component, the midpoint to its closest point on another component of the leaf, kept when it
-//! lies in the cell, clear of both surfaces by [`Params::gap_min`] of the cell edge, and outside
+//! lies in the cell, clear of both surfaces by [`LeafParams::gap_min`] of the cell edge, and outside
 //! every closed component of the leaf (true sign from the components' exact signed distances).
 //! Only closed components are paired: an open one has no inside, so whether the space next to
 //! it is free is not known (the inside of an open teapot body is not a gap).
@@ -42,7 +42,7 @@ pub(crate) struct GapPoints {
 impl GapPoints {
     /// Replaces the points with those between the components `comps` of the leaf that its SVO
     /// voxel (quantised corners `ctx.gq`) calls inside: the gap it closes (at most
-    /// [`Params::gap_samples`] surface samples per component are paired). Empty when the leaf
+    /// [`LeafParams::gap_samples`] surface samples per component are paired). Empty when the leaf
     /// holds fewer than two closed components. The cheap test (the voxel's sign) comes first,
     /// the exact one (free space) only where the voxel says inside.
     pub fn collect(&mut self, ctx: &LeafCtx, samples: &Samples, comps: &LeafComponents) {

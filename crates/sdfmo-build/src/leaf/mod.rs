@@ -24,12 +24,12 @@
 //!    open sheet is near, a sharp edge or corner takes one plane voxel per face.
 //! 4. *Gaps, and does the SVO voxel already do?* ([`gaps`]). Points of the free space between
 //!    the components that the SVO voxel calls inside (a gap it closes, which the samples on
-//!    the surfaces cannot see). If the SVO voxel's sample error is below [`Params::accept`] of
+//!    the surfaces cannot see). If the SVO voxel's sample error is below [`LeafParams::accept`] of
 //!    the cell size, no sheet is open near it and it closes no gap, the leaf gets that voxel,
 //!    exactly as the SVO (most leaves: smooth surfaces).
 //! 5. *Candidate voxels* ([`split`]). One voxel per component, corners = exact signed distance
 //!    to that whole component alone. A component with boundary edges (open) gets a *surface*
-//!    voxel. A component its own voxel does not reproduce (error above [`Params::thin`] at its
+//!    voxel. A component its own voxel does not reproduce (error above [`LeafParams::thin`] at its
 //!    samples: a plate thinner than a voxel whose corners all come out positive) whose
 //!    triangles form two nearly opposite groups of normals (the plate's two faces, never the
 //!    two faces of a sharp edge) is split into two surface voxels, one per face. The groups
@@ -44,8 +44,8 @@
 //!    samples: the mean error `max(min_v |f_v(p)|, buried depth inside a volume voxel)` plus a
 //!    false-surface term (on a 3×3×3 grid in the cell, how much closer some voxel's zero set is
 //!    than the true surface) plus a small cost per extra voxel. The multi set is kept only when
-//!    it scores better by [`Params::earn`] *and* its visible zero set reaches no farther from
-//!    the mesh than the SVO voxel's (plus [`Params::reach_tol`]): the zero crossings of every
+//!    it scores better by [`LeafParams::earn`] *and* its visible zero set reaches no farther from
+//!    the mesh than the SVO voxel's (plus [`LeafParams::reach_tol`]): the zero crossings of every
 //!    voxel on 4×4 axis-parallel lines per axis (exact, the interpolant is linear along them),
 //!    minus those buried in another volume voxel, are measured against the true unsigned
 //!    distance. Both scores count the gap points each choice closes. Otherwise the leaf gets
@@ -74,7 +74,149 @@ pub(crate) mod split;
 use samples::{Samples, SvoFit};
 use split::LeafComponents;
 
-/// Tuning of the per-leaf decision. Lengths are fractions of the cell edge `h`.
+/// The thresholds of the multi-octree's per-leaf decision (the phases of the `leaf` module of
+/// this crate): a field of [`BuildSettings`](crate::BuildSettings), with two named presets,
+/// [`LeafParams::OURS`] (the default) and [`LeafParams::PAPER`]. Lengths are fractions of the
+/// leaf's cell edge `h`. Each field says the measurement that chose its value in
+/// `OURS` (PSNR gains are multi-octree − SVO at 1024², the paper's protocol, from
+/// `docs/results/build.md` and `docs/results/sweep.md` of the repository); where none is given
+/// the value was set once and no alternative was measured.
+///
+/// The SVO ignores them. Any values build a valid octree; none of them changes the file format.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LeafParams {
+    /// The SVO voxel is accepted outright when its largest sample error (distance from a sample
+    /// of the surface to its zero set) is below this (0.08): the many leaves of smooth surfaces
+    /// keep the SVO's voxel without the component phases.
+    pub accept: f32,
+    /// A component voxel with a larger sample error is considered thin and may be split into
+    /// two surface voxels (0.2, "thin split only for opposing faces").
+    pub thin: f32,
+    /// The multi set must beat the SVO voxel's score by this much (0.03). Measured on abc5 at
+    /// depth 9, 1024²: 0.15 cost 0.42 dB, −0.03 cost 0.08 dB.
+    pub earn: f32,
+    /// Score cost of every voxel beyond the first (0.01).
+    pub voxel_cost: f32,
+    /// A multi set whose visible zero set reaches farther from the true surface than the SVO
+    /// voxel's by more than this is never chosen (0.05). Measured on abc5 depth 9 / abc1 depth
+    /// 8 at 512²: 0 → +0.10 / −0.01 dB (every split refused), 0.01 → +8.17 / −0.13 dB but abc5
+    /// depth 8 +0.02 instead of +1.40 dB, 0.05 and 0.1 → +8.17 / −0.13 dB.
+    pub reach_tol: f32,
+    /// With at most this many gathered triangles, each clipped polygon also gives the midpoints
+    /// between its centroid and its vertices as samples (16: more samples where they are cheap).
+    pub rich_samples_below: usize,
+    /// Thin split: faces whose normal makes `|cos|` below this with the reference normal are
+    /// side faces (the rim) and belong to neither face group (0.3). Putting the rim's side
+    /// faces into both groups instead cost 0.18 dB on abc5 at depth 9.
+    pub rim_cos: f32,
+    /// Thin split: the two face groups' mean normals must be nearly opposite, `cos < −this`
+    /// (0.8; the two faces of a sharp edge are at an angle and are never split: splitting
+    /// there made abc3 0.03 dB worse, with speckles, and cost the authors' code 2–5 dB).
+    pub opposite_cos: f32,
+    /// Thin split: kept when the two surface voxels' sample error is below this fraction of
+    /// the one voxel's (0.5).
+    pub split_gain: f32,
+    /// A voxel is hidden (dropped) when all its samples lie deeper than this inside another
+    /// component's volume voxel (0.05).
+    pub bury: f32,
+    /// False-surface term of the score: a voxel's zero set counts as false only where it is
+    /// closer than the true surface by more than this (0.1).
+    pub false_surface_slack: f32,
+    /// Reach test: a zero crossing deeper than this inside another volume voxel is hidden (0.02).
+    pub reach_bury: f32,
+    /// Points per axis of the score's false-surface grid, at `(i + 1) / (n + 1)` of the cell
+    /// (3). The grid alone missed the false hits at the ends of abc5's thin parts, which the
+    /// reach test catches.
+    pub score_grid: usize,
+    /// Lines per axis direction of the reach test (`n²` lines per axis, at `(i + ½) / n`; 4).
+    /// 8 × 8 lines instead of 4 × 4: no change at `reach_tol` 0.05.
+    pub reach_lines: usize,
+    /// Gap points: free space between two components counts only where it is at least this
+    /// far from every component (0.025: narrower gaps are below what the corners represent).
+    pub gap_min: f32,
+    /// Gap points: at most this many surface samples per component are paired with the
+    /// other components (24).
+    pub gap_samples: usize,
+    /// Score weight of the fraction of gap points a choice calls inside, a closed gap (1).
+    pub gap_weight: f32,
+    /// The reach allowed to a multi set that keeps open more gap points than the SVO voxel
+    /// (instead of [`LeafParams::reach_tol`]). Measured on the gap suite
+    /// (`tests/hard_cases/gaps.rs`) and abc5: 0.05 keeps 14.7 % of the gaps open, 0.15 33 %,
+    /// 0.3 99 %; abc5 at depth 6 pays 0.78 dB for it (each plank's own voxel rounds its sharp
+    /// ends), depths 7–9 none.
+    pub gap_reach_tol: f32,
+    /// Sharp features as plane voxels (the `sharp` phase).
+    pub sharp: bool,
+    /// Sharp features: triangles whose normals make a cosine of at least this with a face
+    /// group's first triangle belong to that face (0.97, 14°). Measured at depth 9, multi − SVO
+    /// dB for abc1 / teapot (abc3, abc5, abc8 do not change): 0.8 → +1.08 / +0.62, 0.9 → +1.08 /
+    /// +1.55, 0.97 → +1.80 / +2.55, 0.99 → +1.43 / +3.53, 0.998 → +0.89 / +3.61 (abc5 −3.2).
+    pub sharp_cos: f32,
+    /// Sharp features: a face's samples must lie within this of its plane, and every sample
+    /// within this of the combined voxels' zero set (0.02). Measured at depth 9, multi − SVO dB
+    /// for abc1 / teapot: 0.02 → +1.80 / +2.55, 0.04 → +1.98 / +2.18, 0.08 → +1.07 / +1.28.
+    /// Also the rims' flatness test.
+    pub sharp_flat: f32,
+    /// Sharp features: corners whose exact distance is beyond this must keep their sign (0.05).
+    pub sharp_sign: f32,
+    /// Clip-only voxels at the rims of open sheets (the `rim` phase).
+    pub rims: bool,
+}
+
+impl LeafParams {
+    /// This crate's decision, the default: every phase on, the values above.
+    pub const OURS: LeafParams = LeafParams {
+        accept: 0.08,
+        thin: 0.2,
+        earn: 0.03,
+        voxel_cost: 0.01,
+        reach_tol: 0.05,
+        rich_samples_below: 16,
+        rim_cos: 0.3,
+        opposite_cos: 0.8,
+        split_gain: 0.5,
+        bury: 0.05,
+        false_surface_slack: 0.1,
+        reach_bury: 0.02,
+        score_grid: 3,
+        reach_lines: 4,
+        gap_min: 0.025,
+        gap_samples: 24,
+        gap_weight: 1.0,
+        gap_reach_tol: 0.3,
+        sharp: true,
+        sharp_cos: 0.97,
+        sharp_flat: 0.02,
+        sharp_sign: 0.05,
+        rims: true,
+    };
+
+    /// The paper's decision as far as these thresholds reach: one voxel per component of the
+    /// leaf (a surface voxel for an open one) wherever the leaf has surface samples, reduced to
+    /// the cap; the SVO voxel only where it fits the samples exactly (`accept` 0), no score or
+    /// reach test against it (`earn` −∞, `reach_tol` and `gap_reach_tol` +∞: the gap points
+    /// are still found but decide nothing), no plane voxels at sharp features, no rim clips.
+    /// The component split, the thin split and the reduction are this crate's. Not measured
+    /// as a whole; the fields' measurements say what each addition earned.
+    pub const PAPER: LeafParams = LeafParams {
+        accept: 0.0,
+        earn: f32::NEG_INFINITY,
+        reach_tol: f32::INFINITY,
+        gap_reach_tol: f32::INFINITY,
+        sharp: false,
+        rims: false,
+        ..LeafParams::OURS
+    };
+}
+
+impl Default for LeafParams {
+    fn default() -> Self {
+        LeafParams::OURS
+    }
+}
+
+/// The decision's parameters for one build: the cell and quantisation of its depth, the cap,
+/// and the thresholds ([`LeafParams`], reached through `Deref`: `p.accept`).
 #[derive(Clone, Copy, Debug)]
 pub struct Params {
     /// Cell edge.
@@ -85,107 +227,37 @@ pub struct Params {
     pub bits: ValueBits,
     /// Voxel cap per leaf.
     pub max_voxels: usize,
-    /// The SVO voxel is accepted outright when its largest sample error is below this.
-    pub accept: f32,
-    /// A component voxel with a larger sample error is considered thin (split into surfaces).
-    pub thin: f32,
-    /// The multi set must beat the SVO voxel's score by this much.
-    pub earn: f32,
-    /// Score cost of every voxel beyond the first.
-    pub voxel_cost: f32,
-    /// A multi set whose visible zero set reaches farther from the true surface than the SVO
-    /// voxel's by more than this is never chosen.
-    pub reach_tol: f32,
-    /// With at most this many gathered triangles, each clipped polygon also gives the midpoints
-    /// between its centroid and its vertices as samples (more samples where they are cheap).
-    pub rich_samples_below: usize,
-    /// Thin split: faces whose normal makes `|cos|` below this with the reference normal are
-    /// side faces (the rim) and belong to neither face group.
-    pub rim_cos: f32,
-    /// Thin split: the two face groups' mean normals must be nearly opposite, `cos < −this`
-    /// (the two faces of a sharp edge are at an angle and are never split: fins).
-    pub opposite_cos: f32,
-    /// Thin split: kept when the two surface voxels' sample error is below this fraction of
-    /// the one voxel's.
-    pub split_gain: f32,
-    /// A voxel is hidden (dropped) when all its samples lie deeper than this inside another
-    /// component's volume voxel.
-    pub bury: f32,
-    /// False-surface term of the score: a voxel's zero set counts as false only where it is
-    /// closer than the true surface by more than this.
-    pub false_surface_slack: f32,
-    /// Reach test: a zero crossing deeper than this inside another volume voxel is hidden.
-    pub reach_bury: f32,
-    /// Points per axis of the score's false-surface grid, at `(i + 1) / (n + 1)` of the cell.
-    pub score_grid: usize,
-    /// Lines per axis direction of the reach test (`n²` lines per axis, at `(i + ½) / n`).
-    pub reach_lines: usize,
     /// The subdivision's gather margin (absolute): a leaf's triangles are those within it of
     /// the cell, so below it the leaf's own triangles give exact distances.
     pub gather: f32,
-    /// Gap points: free space between two components counts only where it is at least this
-    /// far from every component (narrower gaps are below what the corners can represent).
-    pub gap_min: f32,
-    /// Gap points: at most this many surface samples per component are paired with the
-    /// other components.
-    pub gap_samples: usize,
-    /// Sharp features as plane voxels (see the `sharp` module).
-    pub sharp: bool,
-    /// Sharp features: triangles whose normals make a cosine of at least this with a face
-    /// group's first triangle belong to that face (0.97, 14°). Measured at depth 9, multi − SVO
-    /// dB for abc1 / teapot (abc3, abc5, abc8 do not change): 0.8 → +1.08 / +0.62, 0.9 → +1.08 /
-    /// +1.55, 0.97 → +1.80 / +2.55, 0.99 → +1.43 / +3.53, 0.998 → +0.89 / +3.61 (abc5 −3.2).
-    pub sharp_cos: f32,
-    /// Sharp features: a face's samples must lie within this of its plane, and every sample
-    /// within this of the combined voxels' zero set (0.02). Measured at depth 9, multi − SVO dB
-    /// for abc1 / teapot: 0.02 → +1.80 / +2.55, 0.04 → +1.98 / +2.18, 0.08 → +1.07 / +1.28.
-    pub sharp_flat: f32,
-    /// Sharp features: corners whose exact distance is beyond this must keep their sign.
-    pub sharp_sign: f32,
-    /// Clip-only voxels at the rims of open sheets (see the `rim` module).
-    pub rims: bool,
-    /// Score weight of the fraction of gap points a choice calls inside (a closed gap).
-    pub gap_weight: f32,
-    /// The reach allowed to a multi set that keeps open more gap points than the SVO voxel
-    /// (instead of [`Params::reach_tol`]). Measured on the gap suite (`tests/hard_cases/gaps.rs`)
-    /// and abc5: 0.05 keeps 14.7 % of the gaps open, 0.15 33 %, 0.3 99 %; abc5 at depth 6 pays
-    /// 0.78 dB for it (each plank's own voxel rounds its sharp ends), depths 7–9 none.
-    pub gap_reach_tol: f32,
+    /// The thresholds.
+    pub t: LeafParams,
+}
+
+impl std::ops::Deref for Params {
+    type Target = LeafParams;
+    fn deref(&self) -> &LeafParams {
+        &self.t
+    }
 }
 
 impl Params {
-    /// Defaults for a depth and quantisation.
-    pub fn new(depth: u8, bits: ValueBits, max_voxels: usize) -> Params {
+    /// The parameters of a multi-octree build at `depth` with `bits` and `max_voxels`.
+    pub fn with(depth: u8, bits: ValueBits, max_voxels: u8, t: LeafParams) -> Params {
         Params {
             h: cell_size(depth),
             dmax: quant::voxel_diagonal(depth),
             bits,
-            max_voxels,
-            accept: 0.08,
-            thin: 0.2,
-            earn: 0.03,
-            voxel_cost: 0.01,
-            reach_tol: 0.05,
-            rich_samples_below: 16,
-            rim_cos: 0.3,
-            opposite_cos: 0.8,
-            split_gain: 0.5,
-            bury: 0.05,
-            false_surface_slack: 0.1,
-            reach_bury: 0.02,
-            score_grid: 3,
-            reach_lines: 4,
-            gather: crate::margins(depth, bits, crate::Method::Multi { max_voxels: 8 }).0,
-            gap_min: 0.025,
-            gap_samples: 24,
-            gap_weight: 1.0,
-            sharp: true,
-            rims: true,
-            sharp_cos: 0.97,
-            sharp_flat: 0.02,
-            sharp_sign: 0.05,
-            gap_reach_tol: 0.3,
+            max_voxels: max_voxels.into(),
+            gather: crate::margins(depth, bits, crate::Method::Multi { max_voxels }).0,
+            t,
         }
+    }
+
+    /// [`Params::with`] the default thresholds ([`LeafParams::OURS`]).
+    #[cfg(test)]
+    pub fn new(depth: u8, bits: ValueBits, max_voxels: u8) -> Params {
+        Params::with(depth, bits, max_voxels, LeafParams::OURS)
     }
 
     /// The value the file stores for `v` (quantised and read back).

@@ -25,7 +25,7 @@ pub(crate) fn drop_unhit(p: &Params, cands: &mut Vec<Cand>) {
 }
 
 /// Drops, in order, each voxel all of whose component's samples lie deeper than
-/// [`Params::bury`] inside a volume voxel of another component (it can never be seen). A voxel
+/// [`LeafParams::bury`] inside a volume voxel of another component (it can never be seen). A voxel
 /// whose component has no sample stays.
 pub(crate) fn drop_hidden(
     p: &Params,

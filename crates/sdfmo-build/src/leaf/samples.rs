@@ -19,7 +19,7 @@ pub(crate) struct Samples {
 impl Samples {
     /// Replaces the samples with those of the gathered triangles `tris` in `cell`: every
     /// triangle clipped to the cell gives its polygon's centroid and vertices and, while there
-    /// are at most [`Params::rich_samples_below`] triangles, the centroid–vertex midpoints.
+    /// are at most [`LeafParams::rich_samples_below`] triangles, the centroid–vertex midpoints.
     pub fn collect(&mut self, p: &Params, mesh: &LocalMesh, cell: &Cell, tris: &[u32]) {
         self.points.clear();
         self.triangle.clear();
@@ -147,7 +147,7 @@ mod tests {
     fn midpoints_only_for_few_triangles() {
         let (f, mut p, leaf) = box_leaf(Vec3::new(0.3, 0.1, 0.1));
         let rich = leaf.samples(&f, &p);
-        p.rich_samples_below = 0;
+        p.t.rich_samples_below = 0;
         let plain = leaf.samples(&f, &p);
         // Per polygon of n vertices: 1 + n samples, plus n midpoints when rich.
         let polygons = rich.len() - plain.len();

@@ -28,7 +28,7 @@ pub(crate) struct GapCounts {
 }
 
 impl GapCounts {
-    /// Score term of the SVO voxel: [`Params::gap_weight`] where it closes a gap.
+    /// Score term of the SVO voxel: [`LeafParams::gap_weight`] where it closes a gap.
     fn svo_term(&self, p: &Params) -> f32 {
         self.term(p, self.svo)
     }
@@ -50,13 +50,13 @@ impl GapCounts {
 /// Whether the candidate set `cands` should replace the SVO voxel (global corners `g`,
 /// quantised `gq`, its fit `svo`). The score of a set is its mean error at the samples
 /// (`max(min_v |f_v|, buried depth inside a volume voxel)`), plus its false-surface term
-/// ([`false_surface`]), plus [`Params::voxel_cost`] per voxel beyond the first; the multi set
-/// must score better by [`Params::earn`] *and* its visible zero set must reach no farther
-/// from the mesh than the SVO voxel's plus [`Params::reach_tol`] ([`zero_reach`]).
+/// ([`false_surface`]), plus [`LeafParams::voxel_cost`] per voxel beyond the first; the multi set
+/// must score better by [`LeafParams::earn`] *and* its visible zero set must reach no farther
+/// from the mesh than the SVO voxel's plus [`LeafParams::reach_tol`] ([`zero_reach`]).
 ///
 /// Both scores count the inside/outside errors in the free space between components
-/// ([`GapCounts`], weighted by [`Params::gap_weight`]); a multi set that keeps open more of a
-/// gap than the SVO voxel may reach up to [`Params::gap_reach_tol`] instead.
+/// ([`GapCounts`], weighted by [`LeafParams::gap_weight`]); a multi set that keeps open more of a
+/// gap than the SVO voxel may reach up to [`LeafParams::gap_reach_tol`] instead.
 pub(crate) fn multi_earns_its_place(ctx: &LeafCtx, s: &mut Scratch) -> bool {
     let gaps = GapCounts {
         svo: s.gaps.points.len(),
@@ -153,9 +153,9 @@ pub(crate) fn sample_error(samples: &Samples, cands: &[Cand], cell: &Cell) -> f3
 }
 
 /// The false-surface terms of the multi set and of the SVO voxel `svo` (`None`: it has no
-/// zero set, term 0): on a grid of [`Params::score_grid`]³ points inside the cell, how much
+/// zero set, term 0): on a grid of [`LeafParams::score_grid`]³ points inside the cell, how much
 /// closer the nearest zero set is than the true surface (beyond
-/// [`Params::false_surface_slack`]), in cell edges capped at 1, averaged.
+/// [`LeafParams::false_surface_slack`]), in cell edges capped at 1, averaged.
 pub(crate) fn false_surface(
     p: &Params,
     mesh: &LocalMesh,
@@ -188,10 +188,10 @@ pub(crate) fn false_surface(
 
 /// The largest true unsigned distance (world units, capped at `h`) from the visible zero set
 /// of the voxels `qs` (quantised corners; `surf` = surface flags) to the gathered triangles
-/// `tris`, over the zero crossings on [`Params::reach_lines`]² axis-parallel lines per axis
+/// `tris`, over the zero crossings on [`LeafParams::reach_lines`]² axis-parallel lines per axis
 /// through the cell. Along such a line the trilinear interpolant is linear, so each voxel
 /// crosses zero at most once there, exactly where the file's interpolant does. A crossing
-/// deeper than [`Params::reach_bury`] inside another volume voxel is hidden and does not count.
+/// deeper than [`LeafParams::reach_bury`] inside another volume voxel is hidden and does not count.
 pub(crate) fn zero_reach(
     p: &Params,
     mesh: &LocalMesh,
@@ -353,7 +353,7 @@ mod tests {
         // the samples decide.
         let gaps = |svo, multi| GapCounts { svo, multi };
         let mut lenient = p;
-        lenient.gap_reach_tol = 0.5;
+        lenient.t.gap_reach_tol = 0.5;
         let fit = crate::leaf::samples::svo_fit(&exact, &samples, &leaf.cell);
         let multi = [cand(off, false)];
         for (q, expected) in [(&lenient, true), (&p, false)] {

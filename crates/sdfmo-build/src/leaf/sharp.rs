@@ -9,10 +9,10 @@
 //! and blends the two normals across it.
 //!
 //! The faces are the groups of the leaf's triangles (those reaching into the cell) whose normals
-//! lie within [`Params::sharp_cos`] of the group's first; each group must be flat (its samples
-//! within [`Params::sharp_flat`] of its plane). The set is kept only where it reproduces the
-//! leaf: every surface sample on its zero set (within [`Params::sharp_flat`]), and every corner
-//! whose exact distance is clearly signed (beyond [`Params::sharp_sign`]) on the same side.
+//! lie within [`LeafParams::sharp_cos`] of the group's first; each group must be flat (its samples
+//! within [`LeafParams::sharp_flat`] of its plane). The set is kept only where it reproduces the
+//! leaf: every surface sample on its zero set (within [`LeafParams::sharp_flat`]), and every corner
+//! whose exact distance is clearly signed (beyond [`LeafParams::sharp_sign`]) on the same side.
 
 use glam::Vec3;
 use sdfmo_format::Voxel;
@@ -54,7 +54,7 @@ pub(crate) struct SharpScratch {
 }
 
 /// The flat faces of a leaf: the groups of the triangles reaching into the cell whose normals lie
-/// within [`Params::sharp_cos`] of the group's first, each with its plane (area-weighted normal
+/// within [`LeafParams::sharp_cos`] of the group's first, each with its plane (area-weighted normal
 /// and centroid) and the mean of its samples.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct FlatFaces {
@@ -72,7 +72,7 @@ impl FlatFaces {
 
 /// The flat faces of the triangles `tris` in `cell` (see [`FlatFaces`]), or `None` where they
 /// form more than [`MAX_FACES`] groups or some face's samples stray farther than
-/// [`Params::sharp_flat`] from its plane.
+/// [`LeafParams::sharp_flat`] from its plane.
 pub(crate) fn flat_faces(
     p: &Params,
     mesh: &LocalMesh,
@@ -153,7 +153,7 @@ pub(crate) fn flat_faces(
 /// Phase 3: the plane voxels of a sharp feature where the leaf's samples all lie on one
 /// component and no open sheet is near (other gathered components that do not reach into the
 /// cell do not count: their own leaves hold them); `None` elsewhere or when disabled
-/// ([`Params::sharp`]).
+/// ([`LeafParams::sharp`]).
 pub(crate) fn sharp_leaf(ctx: &LeafCtx, s: &mut Scratch) -> Option<Vec<Voxel>> {
     let of = &s.components.of;
     let mut sampled = s.samples.iter().map(|(_, li)| of[li as usize]);
