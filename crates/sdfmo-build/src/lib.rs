@@ -450,12 +450,20 @@ fn build_in_pool(
     let n = sub.cells.len();
     let (points, hints, point_of_slot) = shared_corners(&sub, depth);
     let hybrid = settings.sign == SignMode::Auto && dist.sign_mode() == SignMode::Winding;
-    let values: Vec<f32> = points
-        .par_iter()
-        .zip(hints.par_iter())
-        .with_min_len(256)
-        .map(|(&p, &hint)| global_signed_distance(&dist, &local, hybrid, p, hint))
-        .collect();
+    // In chunks, so that progress moves through this phase (a third of a deep build's time)
+    // and is reported from this thread; each value is computed alone, so the chunking changes
+    // no bit.
+    const CORNER_CHUNK: usize = 1 << 16;
+    let mut values: Vec<f32> = Vec::with_capacity(points.len());
+    for (p, h) in points.chunks(CORNER_CHUNK).zip(hints.chunks(CORNER_CHUNK)) {
+        values.par_extend(
+            p.par_iter()
+                .zip(h.par_iter())
+                .with_min_len(256)
+                .map(|(&p, &hint)| global_signed_distance(&dist, &local, hybrid, p, hint)),
+        );
+        report(0.2 + 0.25 * values.len() as f32 / points.len() as f32);
+    }
     drop((points, hints));
     let corners: Vec<[f32; 8]> = (0..n)
         .map(|i| std::array::from_fn(|k| values[point_of_slot[i * 8 + k] as usize]))

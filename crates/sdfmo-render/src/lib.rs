@@ -43,7 +43,7 @@ pub use output::{encode_exr, encode_png, save_exr, save_png};
 pub use plan::{Counters, Mode, RenderPlan, RenderSettings, MAX_AO_SAMPLES};
 #[cfg(feature = "mesh-reference")]
 pub use protocol::{PaperProtocol, ProtocolError, Score, ViewScore};
-pub use render::{in_pool, render, render_with_plan, Rendered};
+pub use render::{in_pool, render, render_with_plan, render_with_progress, Rendered};
 pub use scene::{SphereHit, Spheres, Traceable};
 /// The packet of primary rays [`Traceable::first_hits`] takes.
 pub use sdfmo_trace::RayPacket;

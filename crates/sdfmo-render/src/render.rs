@@ -1,5 +1,6 @@
 //! The tiled renderer: plans, renders tiles in parallel, sums their counters.
 
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 use glam::{DVec3, Vec3};
@@ -69,6 +70,18 @@ pub fn render<T: Traceable>(
     render_with_plan(scene, camera, &RenderPlan::new(settings)?)
 }
 
+/// [`render`], calling `progress` with the fraction of the image's tiles done so far, once per
+/// tile, from the worker threads (so not in order: keep the largest, as a progress bar's
+/// position does). The image and counters are those of [`render`].
+pub fn render_with_progress<T: Traceable>(
+    scene: &T,
+    camera: &Camera,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(f32) + Sync),
+) -> Result<Rendered, RenderError> {
+    render_plan(scene, camera, &RenderPlan::new(settings)?, Some(progress))
+}
+
 /// Renders with an explicit plan. Tiles of `plan.tile_size` pixels are rendered in parallel
 /// (rayon; a local pool of `plan.threads` threads when set) and every pixel depends only on its
 /// own coordinates, so the image and counters are identical for any thread count.
@@ -76,6 +89,16 @@ pub fn render_with_plan<T: Traceable>(
     scene: &T,
     camera: &Camera,
     plan: &RenderPlan,
+) -> Result<Rendered, RenderError> {
+    render_plan(scene, camera, plan, None)
+}
+
+/// [`render_with_plan`] with an optional progress callback (see [`render_with_progress`]).
+fn render_plan<T: Traceable>(
+    scene: &T,
+    camera: &Camera,
+    plan: &RenderPlan,
+    progress: Option<&(dyn Fn(f32) + Sync)>,
 ) -> Result<Rendered, RenderError> {
     plan.validate()?;
     let frame = camera.frame()?;
@@ -93,6 +116,8 @@ pub fn render_with_plan<T: Traceable>(
                 hi + Vec3::splat(OCCUPIED_PAD),
             )
         }),
+        progress,
+        tiles_done: AtomicUsize::new(0),
     };
     in_pool(plan.threads, || ctx.run())
 }
@@ -127,6 +152,10 @@ struct Ctx<'a, T> {
     eps: f32,
     /// The scene's padded occupied box (`None`: trace every ray).
     occupied: Option<(Vec3, Vec3)>,
+    /// Called with the fraction of tiles done after each tile.
+    progress: Option<&'a (dyn Fn(f32) + Sync)>,
+    /// Tiles done so far (for `progress`).
+    tiles_done: AtomicUsize,
 }
 
 /// The output of one tile: its rectangle and its pixels, row-major within the tile.
@@ -150,7 +179,14 @@ impl<T: Traceable> Ctx<'_, T> {
         let tiles_y = h.div_ceil(ts);
         let tiles: Vec<Tile> = (0..tiles_x * tiles_y)
             .into_par_iter()
-            .map(|i| self.tile((i % tiles_x) * ts, (i / tiles_x) * ts))
+            .map(|i| {
+                let tile = self.tile((i % tiles_x) * ts, (i / tiles_x) * ts);
+                if let Some(progress) = self.progress {
+                    let done = self.tiles_done.fetch_add(1, Ordering::Relaxed) + 1;
+                    progress(done as f32 / (tiles_x * tiles_y) as f32);
+                }
+                tile
+            })
             .collect();
 
         let n = w as usize * h as usize;
@@ -418,6 +454,28 @@ mod tests {
         }
     }
 
+    /// Progress: once per tile, the largest report 1, and the image and counters those of
+    /// `render` (occlusion rays included), on 2 threads.
+    #[test]
+    fn progress_counts_every_tile_and_changes_nothing() {
+        use std::sync::Mutex;
+        let scene = crate::Spheres::one(Vec3::ZERO, 0.5);
+        let camera = Camera::paper_views(70, 50)[1];
+        let mut settings = RenderSettings::new(Mode::Lambert).with_threads(2);
+        settings.ao_samples = 2;
+        let reports = Mutex::new(Vec::new());
+        let on = |f: f32| reports.lock().unwrap().push(f);
+        let with = render_with_progress(&scene, &camera, &settings, &on).unwrap();
+        let without = render(&scene, &camera, &settings).unwrap();
+        assert_eq!(with.rgb, without.rgb);
+        assert_eq!(with.counters, without.counters);
+        let plan = RenderPlan::new(&settings).unwrap();
+        let tiles = 70u32.div_ceil(plan.tile_size) * 50u32.div_ceil(plan.tile_size);
+        let reports = reports.into_inner().unwrap();
+        assert_eq!(reports.len(), tiles as usize);
+        assert_eq!(reports.iter().copied().fold(0.0, f32::max), 1.0);
+    }
+
     #[test]
     fn tiles_cast_exactly_the_cameras_primary_rays() {
         let camera = Camera::new(
@@ -469,6 +527,8 @@ mod tests {
                 light: light_dir(),
                 eps: 1e-4,
                 occupied: Some(*occupied),
+                progress: None,
+                tiles_done: AtomicUsize::new(0),
             };
             for y0 in (0..frame.height).step_by(5) {
                 for x0 in (0..frame.width).step_by(5) {

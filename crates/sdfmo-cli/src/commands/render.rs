@@ -52,7 +52,8 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
             });
             let plan = RenderPlan::new(&settings(&args.opts))?;
             let mode = gpu_mode(args.opts.mode);
-            let mut view = |cam: &Camera| -> anyhow::Result<ViewRender> {
+            // A GPU frame takes milliseconds: progress moves per view only.
+            let mut view = |cam: &Camera, _: &Progress<'_>| -> anyhow::Result<ViewRender> {
                 let frame = cam.frame()?;
                 let gcam = GpuCamera {
                     eye: frame.eye.to_array(),
@@ -120,15 +121,18 @@ fn gpu_mode(mode: ModeArg) -> GpuMode {
     }
 }
 
+/// What a view's render reports its progress to: the fraction of the view done.
+type Progress<'a> = dyn Fn(f32) + Sync + 'a;
+
 /// One CPU render per camera (no GPU time).
 fn cpu_views<'a, T: Traceable>(
     scene: &'a T,
     opts: &'a RenderOptions,
     source: &'a str,
-) -> impl FnMut(&Camera) -> anyhow::Result<ViewRender> + 'a {
+) -> impl FnMut(&Camera, &Progress<'_>) -> anyhow::Result<ViewRender> + 'a {
     let settings = settings(opts);
-    move |cam| {
-        let r = render::render(scene, cam, &settings)
+    move |cam, progress| {
+        let r = render::render_with_progress(scene, cam, &settings, progress)
             .with_context(|| format!("cannot render {source}"))?;
         Ok((r, None))
     }
@@ -267,7 +271,7 @@ pub fn counters_json(c: &Counters) -> serde_json::Value {
 /// `device` where the rays were traced ("cpu" or the GPU adapter's name), `timing` how a GPU
 /// timed its kernel.
 fn render_all(
-    render_view: &mut dyn FnMut(&Camera) -> anyhow::Result<ViewRender>,
+    render_view: &mut dyn FnMut(&Camera, &Progress<'_>) -> anyhow::Result<ViewRender>,
     source: &str,
     device: &str,
     timing: Timing,
@@ -285,7 +289,10 @@ fn render_all(
     } else {
         Naming::Given
     };
-    let bar = progress::steps(cams.len() as u64, "rendering");
+    // A fraction over all views, moved by the renderer's tiles within each (one 2048² view with
+    // occlusion takes many seconds).
+    let bar = progress::fraction("rendering");
+    let views_n = cams.len().max(1) as f32;
     let mut views = Vec::new();
     let mut total = Counters::default();
     let mut total_ms = 0.0;
@@ -294,7 +301,16 @@ fn render_all(
     // renamed into place: an encoding error or a full disk leaves every destination as it was.
     let mut batch = sdf_multioctree::io::OutputBatch::new();
     for (cam, (png, exr)) in cams.iter().zip(outputs) {
-        let (r, gpu_ms) = render_view(cam)?;
+        let k = views.len() as f32;
+        if cams.len() > 1 {
+            bar.set_message(format!(
+                "rendering view {} of {}",
+                views.len() + 1,
+                cams.len()
+            ));
+        }
+        let on_progress = |f: f32| progress::set_fraction(&bar, (k + f) / views_n);
+        let (r, gpu_ms) = render_view(cam, &on_progress)?;
         batch.stage_as(png, &render::encode_png(&r, png)?, naming)?;
         if let Some(p) = exr {
             batch.stage_as(p, &render::encode_exr(&r, p)?, naming)?;
@@ -305,7 +321,7 @@ fn render_all(
             *total_gpu_ms.get_or_insert(0.0) += g;
         }
         views.push((png.clone(), exr.clone(), r.render_ms, gpu_ms, r.counters));
-        bar.inc(1);
+        progress::set_fraction(&bar, views.len() as f32 / views_n);
     }
     batch.commit()?;
     bar.finish_and_clear();
