@@ -2,7 +2,7 @@
 //!
 //! | raised | for |
 //! |---|---|
-//! | `ValueError` | bad arguments: shapes, dtypes, NaN or infinite coordinates, indices out of range, unknown option names, a depth or voxel cap out of range, images of different sizes |
+//! | `ValueError` | bad arguments: shapes, dtypes, NaN or infinite coordinates, indices out of range, unknown option names, a depth or voxel cap out of range, images of different sizes, an image file that is not a PNG |
 //! | `FileNotFoundError`, `PermissionError`, `IsADirectoryError`, `OSError` | files that cannot be read or written (the operating system's error, with `errno` and `filename`; a device, FIFO or a file over the size limit is a plain `OSError`) |
 //! | `sdfmo.MeshError` (a `ValueError`) | a mesh file that is not a readable OBJ / glTF / STL: truncated, malformed, unknown format, no triangles |
 //! | `sdfmo.FormatError` (a `ValueError`) | a `.smo` file that is truncated, corrupt (checksum), of an unknown version, or hostile |
@@ -147,7 +147,11 @@ pub fn render_error(e: &RenderError) -> PyErr {
     }
 }
 
-/// A metrics error (sizes differ, empty images): `ValueError`.
+/// A metrics error: an image file that cannot be read or written as the `OSError` subclass,
+/// everything else (sizes differ, empty images, not a PNG, corrupt PNG) as `ValueError`.
 pub fn metrics_error(e: &MetricsError) -> PyErr {
-    PyValueError::new_err(chain(e))
+    match e {
+        MetricsError::Read(io) | MetricsError::Write(io) => io_error(io),
+        _ => PyValueError::new_err(chain(e)),
+    }
 }

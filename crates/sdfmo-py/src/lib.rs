@@ -155,6 +155,31 @@ fn sample_sdf<'py>(
     PyTuple::new(py, [out_p.into_any(), out_d.into_any()])
 }
 
+/// load_png(path) -> numpy.ndarray
+///
+/// Reads a PNG as uint8 ``(h, w, 3)`` RGB, as ``sdfmo compare`` and NVIDIA's ``flip`` tool read
+/// it (16-bit channels keep their high byte, alpha is dropped, grey is replicated). ``OSError``
+/// subclasses when the file cannot be read, ``ValueError`` when it is not a valid PNG.
+#[pyfunction]
+fn load_png<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyAny>> {
+    let img = py
+        .detach(|| metrics::load_rgb8(&path))
+        .map_err(|e| errors::metrics_error(&e))?;
+    let (w, h) = img.dimensions();
+    Ok(arrays::image_array(py, img.into_raw(), w, h)?.into_any())
+}
+
+/// save_png(path, image)
+///
+/// Writes a uint8 ``(h, w, 3)`` image as an 8-bit RGB PNG, atomically (a temporary file in the
+/// same folder, then renamed), creating the folder if needed.
+#[pyfunction]
+fn save_png(py: Python<'_>, path: std::path::PathBuf, image: &Bound<'_, PyAny>) -> PyResult<()> {
+    let img = arrays::image_arg(image, "image")?;
+    py.detach(|| metrics::save_png(&img, &path))
+        .map_err(|e| errors::metrics_error(&e))
+}
+
 /// The extension module `sdfmo._sdfmo`; `sdfmo/__init__.py` re-exports its names.
 #[pymodule]
 fn _sdfmo(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -164,6 +189,8 @@ fn _sdfmo(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sample_sdf, m)?)?;
     m.add_function(wrap_pyfunction!(psnr, m)?)?;
     m.add_function(wrap_pyfunction!(flip, m)?)?;
+    m.add_function(wrap_pyfunction!(load_png, m)?)?;
+    m.add_function(wrap_pyfunction!(save_png, m)?)?;
     m.add("FormatError", py.get_type::<errors::FormatError>())?;
     m.add("MeshError", py.get_type::<errors::MeshError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

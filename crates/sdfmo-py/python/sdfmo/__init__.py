@@ -20,7 +20,7 @@ Names:
 - ``Octree``: the packed octree (``Octree.load``, ``save``, ``stats``, ``distance``,
   ``render``).
 - ``sample_sdf(mesh, n, seed=...)``: training samples and their signed distances.
-- ``psnr(a, b)``, ``flip(a, b)``: image metrics.
+- ``psnr(a, b)``, ``flip(a, b)``: image metrics; ``load_png``, ``save_png``: 8-bit RGB PNGs.
 - ``FormatError``: a corrupt or unsupported ``.smo`` file. ``MeshError``: a mesh file that
   cannot be parsed. Both are ``ValueError`` subclasses; files that cannot be read raise
   ``OSError`` subclasses, bad arguments ``ValueError``.
@@ -33,7 +33,9 @@ from ._sdfmo import (
     Octree,
     __version__,
     flip,
+    load_png,
     psnr,
+    save_png,
     sample_sdf,
 )
 
@@ -44,6 +46,8 @@ __all__ = [
     "Octree",
     "__version__",
     "flip",
+    "load_png",
     "psnr",
+    "save_png",
     "sample_sdf",
 ]

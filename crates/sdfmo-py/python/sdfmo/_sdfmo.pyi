@@ -196,3 +196,9 @@ def flip(reference: _U8, test: _U8, *, return_map: Literal[False] = False) -> fl
 @overload
 def flip(reference: _U8, test: _U8, *, return_map: Literal[True]) -> Tuple[float, _F32]:
     """Mean LDR-FLIP (0 = identical) of two uint8 ``(h, w, 3)`` images."""
+
+def load_png(path: _Path) -> _U8:
+    """Reads a PNG as uint8 ``(h, w, 3)`` RGB."""
+
+def save_png(path: _Path, image: _U8) -> None:
+    """Writes a uint8 ``(h, w, 3)`` image as an 8-bit RGB PNG, atomically."""
