@@ -792,7 +792,7 @@ fn issue19_catalogue() {
     for (name, pts) in [("NUL line", &nul), ("long number", &long)] {
         let o = Command::new(SDFMO)
             .args([
-                &"distance".as_ref(),
+                "distance".as_ref(),
                 cube.as_os_str(),
                 "--points".as_ref(),
                 pts.as_os_str(),

@@ -249,7 +249,7 @@ fn sah_split(
     let extent = centroid_bounds.diagonal();
     let mut best: Option<(f32, usize, usize)> = None; // (cost, axis, plane)
     for axis in 0..3 {
-        if !(extent[axis] > 0.0) {
+        if extent[axis].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             continue;
         }
         let scale = SAH_BINS as f32 / extent[axis];
