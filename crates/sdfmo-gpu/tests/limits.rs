@@ -69,7 +69,7 @@ fn a_frame_past_the_time_out_is_an_error() {
     gpu.set_timeout(Duration::from_nanos(1));
     let start = Instant::now();
     let e = gpu
-        .render(&on_gpu, &camera(2048), GpuMode::Lambert, &shading)
+        .render(&on_gpu, &camera(1024), GpuMode::Lambert, &shading)
         .unwrap_err();
     assert!(matches!(e, GpuError::Timeout { .. }), "{e}");
     assert!(e.to_string().contains("did not finish within"), "{e}");
