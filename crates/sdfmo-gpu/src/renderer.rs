@@ -1,5 +1,6 @@
 //! The wgpu side: a device, the compute pipeline of `render.wgsl`, octree uploads, renders.
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -272,6 +273,20 @@ pub struct GpuRenderer {
     uncaptured: Arc<Mutex<Option<String>>>,
     device_id: usize,
     timeout: Duration,
+    /// Whether a wait timed out: the device may still be busy with that work.
+    timed_out: AtomicBool,
+}
+
+impl Drop for GpuRenderer {
+    fn drop(&mut self) {
+        if self.timed_out.load(Ordering::Relaxed) {
+            // wgpu's queue waits, when it is dropped, until the device is idle: after a time-out
+            // that is as long as the runaway frame (minutes, on lavapipe, for the file of the
+            // time-out test). Leak it instead (and the device with it): the work ends on its
+            // own or with the process.
+            std::mem::forget(self.queue.clone());
+        }
+    }
 }
 
 impl std::fmt::Debug for GpuRenderer {
@@ -285,7 +300,7 @@ impl std::fmt::Debug for GpuRenderer {
 }
 
 fn next_device_id() -> usize {
-    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::atomic::AtomicUsize;
     static NEXT: AtomicUsize = AtomicUsize::new(1);
     NEXT.fetch_add(1, Ordering::Relaxed)
 }
@@ -428,6 +443,7 @@ impl GpuRenderer {
             uncaptured,
             device_id: next_device_id(),
             timeout: DEFAULT_GPU_TIMEOUT,
+            timed_out: AtomicBool::new(false),
         })
     }
 
@@ -448,7 +464,8 @@ impl GpuRenderer {
 
     /// How long [`GpuRenderer::render`] waits for one frame (and each read-back) before it
     /// returns [`GpuError::Timeout`] ([`DEFAULT_GPU_TIMEOUT`] unless set). After a time-out the
-    /// work may still be running on the device; drop this renderer and open a new one.
+    /// work may still be running on the device: open a new renderer. Dropping this one does not
+    /// wait for that work (its queue and device are leaked instead).
     pub fn set_timeout(&mut self, timeout: Duration) {
         self.timeout = timeout;
     }
@@ -757,9 +774,12 @@ impl GpuRenderer {
             timeout: Some(self.timeout),
         }) {
             Ok(_) => Ok(()),
-            Err(wgpu::PollError::Timeout) => Err(GpuError::Timeout {
-                after: self.timeout,
-            }),
+            Err(wgpu::PollError::Timeout) => {
+                self.timed_out.store(true, Ordering::Relaxed);
+                Err(GpuError::Timeout {
+                    after: self.timeout,
+                })
+            }
             Err(e) => Err(GpuError::Poll(e)),
         }
     }
