@@ -17,8 +17,9 @@ use serde_json::json;
 
 use crate::args::{DeviceArg, ModeArg, RenderArgs, RenderMeshArgs, RenderOptions, ViewsArg};
 use crate::commands::load_input;
-use crate::output::{check_output, ensure_parent, indexed_path, print_json, print_text};
+use crate::output::{check_output_as, ensure_parent, indexed_path, print_json, print_text};
 use crate::progress;
+use sdf_multioctree::io::Naming;
 
 /// Renders a `.smo` octree, on the CPU or on a GPU.
 pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
@@ -177,6 +178,13 @@ fn check_options(opts: &RenderOptions) -> anyhow::Result<Vec<ViewOutputs>> {
         );
     }
     let views = cameras(opts).len();
+    // Several views number the names the user gave (`out.png` → `out_2.png`): derived names,
+    // where a symbolic link is replaced instead of followed.
+    let naming = if views > 1 {
+        Naming::Derived
+    } else {
+        Naming::Given
+    };
     let name = |p: &PathBuf, k: usize| {
         if views > 1 {
             indexed_path(p, k)
@@ -187,11 +195,11 @@ fn check_options(opts: &RenderOptions) -> anyhow::Result<Vec<ViewOutputs>> {
     (0..views)
         .map(|k| {
             let png = name(&opts.output, k);
-            check_output(&png, "the image (-o)", &["png"])?;
+            check_output_as(&png, "the image (-o)", &["png"], naming)?;
             let exr = match &opts.exr {
                 Some(p) => {
                     let p = name(p, k);
-                    check_output(&p, "the EXR image (--exr)", &["exr"])?;
+                    check_output_as(&p, "the EXR image (--exr)", &["exr"], naming)?;
                     Some(p)
                 }
                 None => None,
@@ -283,6 +291,11 @@ fn render_all(
         ensure_parent(exr)?;
     }
 
+    let naming = if cams.len() > 1 {
+        Naming::Derived
+    } else {
+        Naming::Given
+    };
     let bar = progress::steps(cams.len() as u64, "rendering");
     let mut views = Vec::new();
     let mut total = Counters::default();
@@ -293,9 +306,9 @@ fn render_all(
     let mut batch = sdf_multioctree::io::OutputBatch::new();
     for (cam, (png, exr)) in cams.iter().zip(outputs) {
         let (r, gpu_ms) = render_view(cam)?;
-        batch.stage(png, &render::encode_png(&r, png)?)?;
+        batch.stage_as(png, &render::encode_png(&r, png)?, naming)?;
         if let Some(p) = exr {
-            batch.stage(p, &render::encode_exr(&r, p)?)?;
+            batch.stage_as(p, &render::encode_exr(&r, p)?, naming)?;
         }
         total += r.counters;
         total_ms += r.render_ms;
