@@ -60,6 +60,7 @@ mod crc32;
 mod error;
 mod file;
 mod interpolant;
+pub mod kernel;
 mod morton;
 mod octree;
 pub mod quant;

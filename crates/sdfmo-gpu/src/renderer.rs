@@ -1,5 +1,6 @@
 //! The wgpu side: a device, the compute pipeline of `render.wgsl`, octree uploads, renders.
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -7,7 +8,7 @@ use sdfmo_format::quant::dequant_scale;
 use sdfmo_format::{PackedOctree, PackedOctreeView};
 use wgpu::util::DeviceExt;
 
-use crate::{shader_source, GpuError, Result, ENTRY_POINT, WORKGROUP_SIZE};
+use crate::{shader_source, GpuError, Result, ENTRY_POINT, SMO_FAR, WORKGROUP_SIZE};
 
 /// What each pixel shows (the modes of `sdfmo-render`, without shadows or occlusion).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -224,8 +225,6 @@ pub const DEFAULT_GPU_TIMEOUT: Duration = Duration::from_secs(60);
 const PIXEL_BYTES: u64 = 16;
 /// Bytes per pixel of the `colors` binding.
 const COLOR_BYTES: u64 = 4;
-/// `SMO_FAR` of the WGSL: the background's t.
-const SMO_FAR: f32 = 3.0e38;
 
 /// Output buffers for one image size, kept between renders of the same size.
 struct Targets {
@@ -274,6 +273,20 @@ pub struct GpuRenderer {
     uncaptured: Arc<Mutex<Option<String>>>,
     device_id: usize,
     timeout: Duration,
+    /// Whether a wait timed out: the device may still be busy with that work.
+    timed_out: AtomicBool,
+}
+
+impl Drop for GpuRenderer {
+    fn drop(&mut self) {
+        if self.timed_out.load(Ordering::Relaxed) {
+            // wgpu's queue waits, when it is dropped, until the device is idle: after a time-out
+            // that is as long as the runaway frame (minutes, on lavapipe, for the file of the
+            // time-out test). Leak it instead (and the device with it): the work ends on its
+            // own or with the process.
+            std::mem::forget(self.queue.clone());
+        }
+    }
 }
 
 impl std::fmt::Debug for GpuRenderer {
@@ -287,7 +300,7 @@ impl std::fmt::Debug for GpuRenderer {
 }
 
 fn next_device_id() -> usize {
-    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::atomic::AtomicUsize;
     static NEXT: AtomicUsize = AtomicUsize::new(1);
     NEXT.fetch_add(1, Ordering::Relaxed)
 }
@@ -430,6 +443,7 @@ impl GpuRenderer {
             uncaptured,
             device_id: next_device_id(),
             timeout: DEFAULT_GPU_TIMEOUT,
+            timed_out: AtomicBool::new(false),
         })
     }
 
@@ -450,7 +464,8 @@ impl GpuRenderer {
 
     /// How long [`GpuRenderer::render`] waits for one frame (and each read-back) before it
     /// returns [`GpuError::Timeout`] ([`DEFAULT_GPU_TIMEOUT`] unless set). After a time-out the
-    /// work may still be running on the device; drop this renderer and open a new one.
+    /// work may still be running on the device: open a new renderer. Dropping this one does not
+    /// wait for that work (its queue and device are leaked instead).
     pub fn set_timeout(&mut self, timeout: Duration) {
         self.timeout = timeout;
     }
@@ -759,9 +774,12 @@ impl GpuRenderer {
             timeout: Some(self.timeout),
         }) {
             Ok(_) => Ok(()),
-            Err(wgpu::PollError::Timeout) => Err(GpuError::Timeout {
-                after: self.timeout,
-            }),
+            Err(wgpu::PollError::Timeout) => {
+                self.timed_out.store(true, Ordering::Relaxed);
+                Err(GpuError::Timeout {
+                    after: self.timeout,
+                })
+            }
             Err(e) => Err(GpuError::Poll(e)),
         }
     }
@@ -794,4 +812,61 @@ fn check_camera(c: &GpuCamera) -> Result<()> {
         )));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::{offset_of, size_of};
+
+    /// (member, byte offset, struct size) of the WGSL struct `name` in the render module.
+    fn wgsl_layout(name: &str) -> (Vec<(String, u32)>, u32) {
+        let m = naga::front::wgsl::parse_str(&shader_source()).expect("the shader parses");
+        let ty = m
+            .types
+            .iter()
+            .find(|(_, t)| t.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("no struct {name}"))
+            .1;
+        match &ty.inner {
+            naga::TypeInner::Struct { members, span } => (
+                members
+                    .iter()
+                    .map(|mb| (mb.name.clone().unwrap_or_default(), mb.offset))
+                    .collect(),
+                *span,
+            ),
+            other => panic!("{name} is {other:?}"),
+        }
+    }
+
+    /// Issue 20: the uniform's layout was kept by hand in Rust and WGSL (only the size was
+    /// asserted). naga's layout of `SmoRenderParams` must place every member where `Params` has
+    /// its field, and `SmoPixel` must be `PIXEL_BYTES` long.
+    #[test]
+    fn the_uniform_layout_matches_the_wgsl() {
+        let (members, span) = wgsl_layout("SmoRenderParams");
+        let rust = [
+            ("eye", offset_of!(Params, eye)),
+            ("dequant", offset_of!(Params, dequant)),
+            ("light", offset_of!(Params, light)),
+            ("light_intensity", offset_of!(Params, light_intensity)),
+            ("width", offset_of!(Params, width)),
+            ("height", offset_of!(Params, height)),
+            ("mode", offset_of!(Params, mode)),
+            ("ambient", offset_of!(Params, ambient)),
+            ("depth_near", offset_of!(Params, depth_near)),
+            ("depth_far", offset_of!(Params, depth_far)),
+            ("_pad0", offset_of!(Params, pad)),
+            ("_pad1", offset_of!(Params, pad) + 4),
+        ];
+        let rust: Vec<(String, u32)> = rust
+            .iter()
+            .map(|&(n, o)| (n.to_owned(), o as u32))
+            .collect();
+        assert_eq!(members, rust);
+        assert_eq!(span as usize, size_of::<Params>());
+        let (_, pixel) = wgsl_layout("SmoPixel");
+        assert_eq!(u64::from(pixel), PIXEL_BYTES);
+    }
 }

@@ -8,9 +8,9 @@
 // hit counts only where every other clip voxel of the leaf is ≤ 0 (sdfmo-trace clip.rs; the
 // clip rule of FORMAT.md; at most SMO_MAX_CLIP_VOXELS clip voxels per leaf); a voxel whose
 // corners are all 0 is never hit (FORMAT.md, surface section); the normal is the
-// interpolant's unit gradient facing the viewer. Include this file in your own pipeline (WGSL
-// has no #include: concatenate the source before yours) and call `smo_info`, `smo_intersect`
-// and `smo_hit_normal`.
+// interpolant's unit gradient facing the viewer. Include this library in your own pipeline
+// (WGSL has no #include: put `sdfmo_gpu::trace_wgsl()`, this file after its generated
+// constants, before your source) and call `smo_info`, `smo_intersect` and `smo_hit_normal`.
 //
 // BINDING LAYOUT (one binding; change the group/binding numbers on the next line if your
 // pipeline needs that slot):
@@ -50,27 +50,21 @@
 
 @group(0) @binding(0) var<storage, read> smo: array<u32>;
 
-/// Stands for +∞ (a ray parameter no hit can reach).
-const SMO_FAR: f32 = 3.0e38;
-/// Largest finite f32.
-const SMO_MAX_FINITE: f32 = 3.40282347e38;
-/// Smallest normal f32.
-const SMO_MIN_POSITIVE: f32 = 1.17549435e-38;
-/// Direction components smaller than this are treated as this (with their sign).
-const SMO_TINY_DIR: f32 = 1e-30;
-/// Traversal stack: at most 3 pending siblings per level, 16 levels (MAX_DEPTH), plus slack;
-/// the same bound as the CPU tracer.
-const SMO_STACK_SIZE: u32 = 50u;
-/// Newton/bisection steps at most when polishing a root.
-const SMO_MAX_POLISH_STEPS: u32 = 32u;
-/// Root tolerance as a fraction of the segment.
-const SMO_REL_TOLERANCE: f32 = 1e-6;
-/// Slack of the clip test at a polished root, relative to the clip voxel's largest |corner|
-/// (sdfmo_trace::clip::CLIP_TOLERANCE); none at the span start.
-const SMO_CLIP_TOLERANCE: f32 = 1e-5;
-/// Most clip voxels in one leaf (sdfmo_format::MAX_CLIP_VOXELS_PER_LEAF; host validation
-/// refuses a file with more): the clip test of a candidate reads at most this many voxels.
-const SMO_MAX_CLIP_VOXELS: u32 = 8u;
+// CONSTANTS shared with the CPU kernel are not written here: `sdfmo_gpu::trace_wgsl()` puts
+// their `const` declarations, generated from the Rust values, before this file (one source:
+// `sdfmo_format::kernel` and `sdfmo_format::MAX_CLIP_VOXELS_PER_LEAF` for the kernels, the
+// `sdfmo_gpu` crate for SMO_FAR; `sdfmo_gpu::kernel_constants_wgsl()` lists them):
+//   SMO_FAR               f32  stands for +∞ (a ray parameter no hit can reach)
+//   SMO_MAX_FINITE        f32  largest finite f32
+//   SMO_MIN_POSITIVE      f32  smallest normal f32
+//   SMO_TINY_DIR          f32  direction components smaller than this are treated as this
+//   SMO_STACK_SIZE        u32  traversal stack entries (3 per level, 16 levels, plus slack)
+//   SMO_MAX_POLISH_STEPS  u32  Newton/bisection steps at most when polishing a root
+//   SMO_REL_TOLERANCE     f32  root tolerance as a fraction of the segment
+//   SMO_CLIP_TOLERANCE    f32  slack of the clip test at a polished root, relative to the clip
+//                              voxel's largest |corner|; none at the span start
+//   SMO_MAX_CLIP_VOXELS   u32  most clip voxels in one leaf (host validation refuses more): the
+//                              clip test of a candidate reads at most this many voxels
 
 /// Counts and section offsets (in words) of the bound octree.
 struct SmoInfo {

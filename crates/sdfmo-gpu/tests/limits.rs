@@ -69,7 +69,7 @@ fn a_frame_past_the_time_out_is_an_error() {
     gpu.set_timeout(Duration::from_nanos(1));
     let start = Instant::now();
     let e = gpu
-        .render(&on_gpu, &camera(2048), GpuMode::Lambert, &shading)
+        .render(&on_gpu, &camera(1024), GpuMode::Lambert, &shading)
         .unwrap_err();
     assert!(matches!(e, GpuError::Timeout { .. }), "{e}");
     assert!(e.to_string().contains("did not finish within"), "{e}");
@@ -109,4 +109,59 @@ fn file_lengths_are_checked_before_anything_is_read() {
     // exercised through `check_file_size` above; a short invalid buffer is a format error.
     let e = gpu.upload_bytes(&[0u8; 64]).unwrap_err();
     assert!(matches!(e, GpuError::Format(_)), "{e}");
+}
+
+/// A valid octree far too heavy to render at once: every leaf at depth 4 holds 255 volume
+/// voxels, the last 8 (the format's bound) with the clip bit, whose clip rule rejects every
+/// candidate only at the last clip voxel (no hit anywhere).
+fn heavy_octree() -> PackedOctree {
+    const DEPTH: u8 = 4;
+    const VOXELS: usize = 255;
+    let h = sdfmo_format::cell_size(DEPTH);
+    let clips = sdfmo_format::MAX_CLIP_VOXELS_PER_LEAF;
+    let voxels: Vec<Voxel> = (0..VOXELS)
+        .map(|k| Voxel {
+            corners: core::array::from_fn(|i| {
+                let x = (i >> 2) as f32;
+                h * if k == VOXELS - 1 { 0.51 - x } else { x - 0.49 }
+            }),
+            surface: false,
+            clip: k >= VOXELS - clips,
+        })
+        .collect();
+    let leaves = leaves_by_cell(DEPTH, |_| voxels.clone());
+    PackedOctree::from_leaves(OctreeMeta::unit(DEPTH, ValueBits::Eight), leaves).unwrap()
+}
+
+/// Issue 19 item 2: with `wait_indefinitely` a frame that takes an hour held the caller for
+/// an hour. Now the render returns `Timeout` after the time-out, and dropping the renderer does
+/// not wait for the frame either (wgpu's queue would, until the device is idle: measured 12
+/// minutes and counting on lavapipe for this frame before the fix leaked it).
+#[test]
+fn a_runaway_frame_is_reported_and_left_behind() {
+    let Some(mut gpu) = gpu() else { return };
+    let on_gpu = gpu.upload(&heavy_octree()).unwrap();
+    let limit = Duration::from_millis(500);
+    gpu.set_timeout(limit);
+    let start = Instant::now();
+    let e = gpu
+        .render(
+            &on_gpu,
+            &camera(2048),
+            GpuMode::Lambert,
+            &Shading::default(),
+        )
+        .unwrap_err();
+    let waited = start.elapsed();
+    assert!(matches!(e, GpuError::Timeout { .. }), "{e}");
+    assert!(waited < limit + Duration::from_secs(5), "{waited:?}");
+    let start = Instant::now();
+    drop(on_gpu);
+    drop(gpu);
+    let dropped = start.elapsed();
+    assert!(
+        dropped < Duration::from_secs(2),
+        "the drop waited {dropped:?}"
+    );
+    eprintln!("time-out reported after {waited:?}, renderer dropped in {dropped:?}");
 }

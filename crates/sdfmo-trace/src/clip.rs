@@ -39,21 +39,10 @@ use sdfmo_format::MAX_CLIP_VOXELS_PER_LEAF;
 use crate::distance::{voxel_sample, DistanceSample};
 use crate::ray_voxel::{min_max, roots_where, RayCubic};
 
-/// Slack of the clip test at a crossing, relative to the clip voxel's largest |corner|: a
-/// candidate that is a polished root is accepted where `f_j ≤ CLIP_TOLERANCE · max|corner_j|`.
-///
-/// Roots are polished to `1e-6` of the segment (below `2e-6` voxel edges), where a trilinear
-/// interpolant bounded by `m` changes by at most about `2√3 · m` per edge, i.e. `7e-6 · m`.
-/// Without slack, a ray through a convex edge of two intersect voxels could see both entries
-/// rejected by rounding (each voxel a hair outside the other) and pass through the edge; with
-/// it the solid grows by at most `1e-5` of the leaf diagonal there.
-///
-/// The span-start candidate (the ray enters the leaf inside a volume voxel) has no slack: it is
-/// exact (no root to polish), and with slack a ray entering a leaf just before it crosses a
-/// clip voxel's face would be accepted at the leaf boundary with the wrong voxel active (the
-/// wrong normal); without it that candidate is rejected and the clip voxel's own crossing a
-/// hair later is the hit.
-pub const CLIP_TOLERANCE: f32 = 1e-5;
+/// Slack of the clip test at a crossing, relative to the clip voxel's largest |corner| (the
+/// format's value, shared with the WGSL kernel; its documentation says why it is needed and why
+/// the span start has none).
+pub use sdfmo_format::kernel::CLIP_TOLERANCE;
 
 /// Whether the point `p` (local frame of the leaf) is on the kept side of the clip voxel
 /// `corners`: `f ≤ CLIP_TOLERANCE · max|corner|` at a polished root (`slack`), `f ≤ 0` at the

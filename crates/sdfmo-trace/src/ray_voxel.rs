@@ -31,13 +31,10 @@ use glam::Vec3;
 /// The interpolant a voxel is (owned by the format, re-exported here for the kernel's users).
 pub use sdfmo_format::trilinear;
 
-/// Newton/bisection steps at most; bisection alone reaches the tolerance (1e-6 of the segment)
-/// in 20.
-const MAX_POLISH_STEPS: u32 = 32;
-
-/// Tolerance of a polished root, as a fraction of the segment length `t1 − t0` (the segment is
-/// at most √3 voxel edges long, so this is below 2e-6 voxel units).
-pub(crate) const REL_TOLERANCE: f32 = 1e-6;
+// Newton/bisection steps at most, and the tolerance of a polished root as a fraction of the
+// segment length: shared with the WGSL kernel (`sdfmo_format::kernel`).
+use sdfmo_format::kernel::MAX_POLISH_STEPS;
+pub(crate) use sdfmo_format::kernel::ROOT_REL_TOLERANCE as REL_TOLERANCE;
 
 /// A cubic `a s³ + b s² + c s + d` in the segment parameter `s = t − t0`.
 #[derive(Clone, Copy, Debug, PartialEq)]
