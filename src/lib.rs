@@ -20,6 +20,9 @@
 //! | [`render`] | `sdfmo-render` | cameras, render modes, PNG/EXR, mesh reference images |
 //! | [`metrics`] | `sdfmo-metrics` | PSNR and FLIP |
 //!
+//! `glam`, whose types appear in the signatures, is re-exported as `sdf_multioctree::glam` (and [`Vec3`]
+//! at the root): a dependent crate needs no `glam` dependency of its own.
+//!
 //! ## Debug builds
 //!
 //! The builder and the renderer are numeric loops: a debug build of a crate that depends on
@@ -38,7 +41,8 @@
 //!
 //! ```
 //! use sdf_multioctree::{build_octree, compare, demo_mesh, load_octree, paper_views};
-//! use sdf_multioctree::{render_mesh, render_octree, save_octree, save_png, Method, Mode};
+//! use sdf_multioctree::{octree_distance, render_mesh, render_octree, save_octree, save_png};
+//! use sdf_multioctree::{Method, Mode, Vec3}; // Vec3 is glam's (`sdf_multioctree::glam`)
 //!
 //! let mesh = demo_mesh(); // or sdf_multioctree::load_mesh("part.stl")?
 //! let (octree, stats) = build_octree(&mesh, 5, Method::Multi { max_voxels: 8 })?;
@@ -55,6 +59,12 @@
 //!
 //! let mask = render_octree(&octree, camera, Mode::Mask)?; // only hit or miss: no normals
 //! assert_eq!(mask.counters.normal_evals, 0);
+//!
+//! // The stored signed distance in model units: about 0 on the surface, NaN where the octree
+//! // stores nothing (away from the surface).
+//! let vertex: Vec3 = mesh.positions()[0];
+//! assert!(octree_distance(&octree, vertex).abs() < 0.05);
+//! assert!(octree_distance(&octree, vertex + Vec3::splat(100.0)).is_nan());
 //! let png = path.with_extension("png");
 //! save_png(&mask, &png)?;
 //! # std::fs::remove_file(&path).ok();
@@ -63,14 +73,54 @@
 //! ```
 #![deny(missing_docs)]
 
-pub use sdfmo_build as build;
-pub use sdfmo_distance as distance;
-pub use sdfmo_format as format;
-pub use sdfmo_io as io;
-pub use sdfmo_mesh as mesh;
-pub use sdfmo_metrics as metrics;
-pub use sdfmo_render as render;
-pub use sdfmo_trace as trace;
+/// Crate `sdfmo-build`: the SVO baseline and the multi-octree builder.
+pub mod build {
+    #[doc(inline)]
+    pub use sdfmo_build::*;
+}
+/// Crate `sdfmo-distance`: exact signed distance, closest points, ray hits on a mesh.
+pub mod distance {
+    #[doc(inline)]
+    pub use sdfmo_distance::*;
+}
+/// Crate `sdfmo-format`: the packed octree and its `.smo` file.
+pub mod format {
+    #[doc(inline)]
+    pub use sdfmo_format::*;
+}
+/// Crate `sdfmo-io`: atomic writes, bounded reads, the deterministic generator.
+pub mod io {
+    #[doc(inline)]
+    pub use sdfmo_io::*;
+}
+/// Crate `sdfmo-mesh`: load OBJ / glTF / STL, clean, normalise, topology, procedural parts.
+pub mod mesh {
+    #[doc(inline)]
+    pub use sdfmo_mesh::*;
+}
+/// Crate `sdfmo-metrics`: PSNR and FLIP.
+pub mod metrics {
+    #[doc(inline)]
+    pub use sdfmo_metrics::*;
+}
+/// Crate `sdfmo-render`: cameras, render modes, PNG/EXR, mesh reference images.
+pub mod render {
+    #[doc(inline)]
+    pub use sdfmo_render::*;
+}
+/// Crate `sdfmo-trace`: ray vs packed octree, distance queries.
+pub mod trace {
+    #[doc(inline)]
+    pub use sdfmo_trace::*;
+}
+
+/// The vector maths in this crate's signatures ([`Camera::new`], [`octree_distance`],
+/// [`trace::distance_at`]): the `glam` version the layers are built with, so a caller needs no
+/// `glam` dependency of its own (`sdf_multioctree::glam::Vec3`).
+pub use glam;
+/// A point or direction (`glam::Vec3`, f32).
+#[doc(no_inline)]
+pub use glam::Vec3;
 
 /// Margin of the normalisation into the root cube [-1, 1]³ (the repository's `docs/architecture.md`, Conventions): the longest extent of a
 /// mesh becomes 2·(1 − margin). The builder's default; the CLI normalises meshes with it for
@@ -230,6 +280,46 @@ pub fn render_mesh(mesh: &TriMesh, camera: &Camera, mode: Mode) -> Result<Render
     )?)
 }
 
+/// The signed distance the octree stores at `point`, both in model units (the units of the
+/// mesh it was built from): negative inside, `|F| ≥ 0` in a surface (thin) voxel, which has no
+/// inside. It is the field the renderer intersects: within a leaf cell of the surface it is
+/// the trilinear interpolant of the leaf's voxels (their minimum in a multi-voxel leaf), whose
+/// error against the mesh's exact distance is bounded in [`trace::distance`].
+///
+/// **Away from the surface it is `f32::NAN`**: outside the root cube, and in every cell the
+/// builder stored no leaf for. The file holds no field there (only cells the surface passes
+/// through are stored) and no inside/outside either, so neither a sign nor a value exists to
+/// return; any finite number would be a guess that a collision or proximity test could take
+/// for an answer, whereas NaN fails every comparison (`d < r` is false) and shows in any
+/// arithmetic it enters. Test with `f32::is_nan`. (What the tree does know there is that the
+/// stored surface is outside the empty cell: [`trace::distance_at`] and
+/// [`trace::occupied_bounds`] give the cells and bounds for coarser questions.)
+///
+/// The point maps to the octree's frame as `(point − center) · scale` with the normalisation
+/// stored in the file ([`format::OctreeMeta`]) and the distance back by `1 / scale`.
+///
+/// ```
+/// use sdf_multioctree::{build_octree, demo_mesh, octree_distance, Method, Vec3};
+///
+/// let mesh = demo_mesh();
+/// let (octree, _) = build_octree(&mesh, 6, Method::Multi { max_voxels: 8 })?;
+/// // A vertex of the mesh lies on its surface: the stored distance there is about zero.
+/// let on_surface = mesh.positions()[0];
+/// let d = octree_distance(&octree, on_surface);
+/// assert!(d.abs() < 0.05, "{d}");
+/// // Far outside the mesh the octree stores nothing.
+/// assert!(octree_distance(&octree, Vec3::splat(1e3)).is_nan());
+/// # Ok::<(), sdf_multioctree::Error>(())
+/// ```
+pub fn octree_distance<B: AsRef<[u8]>>(octree: &format::Octree<B>, point: Vec3) -> f32 {
+    let meta = octree.meta();
+    let normalized = (point - meta.center) * meta.scale;
+    match trace::distance_at(octree, normalized) {
+        Some(sample) => sample.distance / meta.scale,
+        None => f32::NAN,
+    }
+}
+
 /// Image quality of a test image against a reference.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Comparison {
@@ -268,5 +358,25 @@ mod tests {
         assert!(e.to_string().contains("x.obj"), "{e}");
         let e = load_octree("/nonexistent/sdfmo/x.smo").unwrap_err();
         assert!(matches!(e, Error::Format(_)));
+    }
+
+    /// A 20-unit box away from the origin: the distance comes back in the box's units, signed,
+    /// within the SVO bound of `trace::distance` (a plane: quantisation alone, under 1 % of
+    /// the leaf edge of 20/0.95/32 units), and NaN where no leaf is stored.
+    #[test]
+    fn octree_distance_is_in_model_units_and_nan_away_from_the_surface() {
+        let (lo, hi) = (Vec3::new(100.0, 0.0, 0.0), Vec3::new(120.0, 20.0, 20.0));
+        let mesh = mesh::procedural::box_mesh(lo, hi);
+        let (octree, _) = build_octree(&mesh, 5, Method::Svo).unwrap();
+        let leaf_edge = 20.0 / (1.0 - DEFAULT_MARGIN) / 32.0;
+        let face = Vec3::new(120.0, 10.0, 10.0);
+        // The face's leaf cell spans x ∈ [119.87, 120.53] (normalised [0.9375, 1]).
+        for offset in [-0.1, -0.05, 0.0, 0.05, 0.2, 0.4] {
+            let d = octree_distance(&octree, face + Vec3::X * offset);
+            assert!((d - offset).abs() < 0.01 * leaf_edge, "{offset}: {d}");
+        }
+        assert!(octree_distance(&octree, Vec3::new(110.0, 10.0, 10.0)).is_nan());
+        assert!(octree_distance(&octree, Vec3::splat(1e6)).is_nan());
+        assert!(octree_distance(&octree, Vec3::NAN).is_nan());
     }
 }

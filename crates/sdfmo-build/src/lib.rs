@@ -55,6 +55,7 @@ pub use budget::{
     check_memory, default_memory_budget, estimate_memory, physical_memory, MemoryEstimate,
 };
 pub use error::{BuildError, Result};
+pub use leaf::LeafParams;
 use local::LocalMesh;
 pub use tribox::tri_box_overlap;
 
@@ -94,6 +95,9 @@ pub struct BuildSettings {
     /// generalised winding number elsewhere (see [`build`]). `Winding` / `PseudoNormal` force
     /// one method everywhere.
     pub sign: SignMode,
+    /// The thresholds of the multi-octree's per-leaf decision ([`LeafParams::OURS`] by
+    /// default, or [`LeafParams::PAPER`]); the SVO ignores them.
+    pub leaf: LeafParams,
 }
 
 impl BuildSettings {
@@ -116,6 +120,7 @@ impl Default for BuildSettings {
             threads: None,
             margin: 0.05,
             sign: SignMode::Auto,
+            leaf: LeafParams::OURS,
         }
     }
 }
@@ -484,11 +489,12 @@ fn build_in_pool(
 
     // 5. Leaves, in chunks so that progress is reported from this thread.
     let t = Instant::now();
-    let max_voxels = match settings.method {
+    let cap = match settings.method {
         Method::Svo => 1,
-        Method::Multi { max_voxels } => max_voxels as usize,
+        Method::Multi { max_voxels } => max_voxels,
     };
-    let params = leaf::Params::new(depth, settings.bits, max_voxels);
+    let max_voxels = usize::from(cap);
+    let params = leaf::Params::with(depth, settings.bits, cap, settings.leaf);
     let global = match settings.method {
         Method::Svo => None,
         Method::Multi { .. } => Some(components::Components::new(&local)),
@@ -510,15 +516,15 @@ fn build_in_pool(
                 .map_init(leaf::Scratch::default, |s, i| {
                     let c = &sub.cells[i];
                     let global = global.as_ref().expect("components of a multi build");
-                    leaf::multi_leaf(
+                    let ctx = leaf::LeafCtx::new(
                         &params,
                         &local,
                         global,
                         c.coord,
                         sub.tris_of(c),
                         &corners[i],
-                        s,
-                    )
+                    );
+                    leaf::multi_leaf(&ctx, s)
                 })
                 .collect(),
         };

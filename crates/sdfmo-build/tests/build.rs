@@ -83,6 +83,39 @@ fn identical_bytes_for_1_2_and_4_threads() {
     }
 }
 
+/// The leaf thresholds are build settings: the default is `OURS`; the paper's preset builds
+/// another valid octree of the demo part, without clip voxels (no plane voxels at sharp
+/// features, no rim clips); the SVO ignores them.
+#[test]
+fn leaf_presets_are_build_settings() {
+    use sdfmo_build::LeafParams;
+    assert_eq!(BuildSettings::default().leaf, LeafParams::OURS);
+    assert_eq!(LeafParams::default(), LeafParams::OURS);
+    let mesh = procedural::demo_part();
+    let with = |method, leaf| {
+        let s = BuildSettings {
+            leaf,
+            ..settings(6, method)
+        };
+        build(&mesh, &s, None).expect("build")
+    };
+    let (ours, _) = with(MULTI, LeafParams::OURS);
+    let (paper, _) = with(MULTI, LeafParams::PAPER);
+    let paper = PackedOctree::from_bytes(&paper.to_bytes()).expect("a valid octree");
+    assert_ne!(paper.to_bytes(), ours.to_bytes());
+    let clips = |o: &PackedOctree| {
+        (0..o.voxel_count() as u32)
+            .filter(|&v| o.voxel_is_clip(v))
+            .count()
+    };
+    assert!(clips(&ours) > 0);
+    assert_eq!(clips(&paper), 0);
+    assert_eq!(
+        with(Method::Svo, LeafParams::OURS).0.to_bytes(),
+        with(Method::Svo, LeafParams::PAPER).0.to_bytes()
+    );
+}
+
 #[test]
 #[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
 fn identical_bytes_for_1_and_4_threads_on_abc5() {

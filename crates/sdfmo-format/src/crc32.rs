@@ -1,63 +1,26 @@
-//! CRC-32 (IEEE 802.3, the polynomial of zlib, PNG and gzip), slicing-by-8.
+//! CRC-32 (IEEE 802.3, the polynomial of zlib, PNG and gzip) of the `.smo` checksum, through
+//! `crc32fast` (the crate `png` already uses).
 //!
 //! `crc32(b"123456789") == 0xCBF43926`, so any zlib `crc32` can check a `.smo` file.
+//!
+//! Until 2026-12-03 this was a hand-written slicing-by-8 table loop. Measured on this machine
+//! (x86-64, release, best of 15 × 10 runs, one thread): the 3,006,852-byte abc1 depth-9
+//! multi-octree 1.556 ms hand-written (1.93 GB/s) against 0.053 ms with crc32fast 1.5.5
+//! (its carry-less-multiply path, chosen at run time); the 66,812-byte demo part 0.035 ms
+//! against 0.001 ms. The tests below keep the bit-by-bit reference.
 
-const POLY: u32 = 0xEDB8_8320;
-
-/// Eight 256-entry tables for slicing-by-8, built at compile time.
-static TABLES: [[u32; 256]; 8] = build_tables();
-
-const fn build_tables() -> [[u32; 256]; 8] {
-    let mut t = [[0u32; 256]; 8];
-    let mut i = 0;
-    while i < 256 {
-        let mut c = i as u32;
-        let mut k = 0;
-        while k < 8 {
-            c = if c & 1 != 0 { POLY ^ (c >> 1) } else { c >> 1 };
-            k += 1;
-        }
-        t[0][i] = c;
-        i += 1;
-    }
-    let mut s = 1;
-    while s < 8 {
-        let mut i = 0;
-        while i < 256 {
-            let prev = t[s - 1][i];
-            t[s][i] = (prev >> 8) ^ t[0][(prev & 0xff) as usize];
-            i += 1;
-        }
-        s += 1;
-    }
-    t
-}
-
-/// CRC-32 of `data`.
+/// CRC-32 of `data` (the checksum of the `.smo` file).
+#[inline]
 pub fn crc32(data: &[u8]) -> u32 {
-    let mut crc = !0u32;
-    let mut chunks = data.chunks_exact(8);
-    for c in &mut chunks {
-        let lo = u32::from_le_bytes([c[0], c[1], c[2], c[3]]) ^ crc;
-        let hi = u32::from_le_bytes([c[4], c[5], c[6], c[7]]);
-        crc = TABLES[7][(lo & 0xff) as usize]
-            ^ TABLES[6][(lo >> 8 & 0xff) as usize]
-            ^ TABLES[5][(lo >> 16 & 0xff) as usize]
-            ^ TABLES[4][(lo >> 24) as usize]
-            ^ TABLES[3][(hi & 0xff) as usize]
-            ^ TABLES[2][(hi >> 8 & 0xff) as usize]
-            ^ TABLES[1][(hi >> 16 & 0xff) as usize]
-            ^ TABLES[0][(hi >> 24) as usize];
-    }
-    for &b in chunks.remainder() {
-        crc = (crc >> 8) ^ TABLES[0][((crc ^ u32::from(b)) & 0xff) as usize];
-    }
-    !crc
+    crc32fast::hash(data)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The reflected IEEE polynomial.
+    const POLY: u32 = 0xEDB8_8320;
 
     fn bitwise(data: &[u8]) -> u32 {
         let mut crc = !0u32;
@@ -81,7 +44,7 @@ mod tests {
     }
 
     #[test]
-    fn slicing_matches_bitwise_for_all_lengths() {
+    fn matches_bitwise_for_all_lengths() {
         let data: Vec<u8> = (0..300u32)
             .map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8)
             .collect();

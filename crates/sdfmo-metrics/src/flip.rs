@@ -83,12 +83,14 @@ fn reference_mean(map: &[f32]) -> f32 {
 }
 
 /// Colours a FLIP error map with the magma colour map of NVIDIA's tool, as its heat-map PNG:
-/// error e ∈ [0, 1] picks entry round(255·e) of the 256-entry table ([`flip_rs::MAGMA`]), whose
-/// sRGB values are written as round(255·c).
+/// error e ∈ [0, 1] picks entry round(255·e) of the 256-entry table
+/// ([`flip_rs::MAGMA`][magma]), whose sRGB values are written as round(255·c).
 ///
 /// The image is `width × height`. A `FlipResult` built by hand whose map is shorter than that
 /// yields only the rows the map covers (never a panic or an allocation beyond the map's size);
 /// NaN errors show as 0.
+///
+/// [magma]: https://docs.rs/flip-rs/0.1/flip_rs/constant.MAGMA.html
 pub fn flip_heatmap(result: &FlipResult) -> RgbImage {
     let palette: [[u8; 3]; 256] =
         flip_rs::MAGMA.map(|rgb| rgb.map(|c| (c.clamp(0.0, 1.0) * 255.0 + 0.5) as u8));

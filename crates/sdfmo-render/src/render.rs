@@ -265,8 +265,12 @@ impl<T: Traceable> Ctx<'_, T> {
                             col0 + (l % PACKET_COLS) as u32,
                             row0 + (l / PACKET_COLS) as u32,
                         );
-                        let i = (row * tw + col) as usize;
-                        self.shade(eye, rays.dirs[l], hit, x0 + col, y0 + row, i, &mut tile);
+                        let at = TilePixel {
+                            x: x0 + col,
+                            y: y0 + row,
+                            index: (row * tw + col) as usize,
+                        };
+                        self.shade(eye, rays.dirs[l], hit, at, &mut tile);
                     }
                 }
             }
@@ -319,8 +323,12 @@ impl<T: Traceable> Ctx<'_, T> {
 
     /// The pixel of a primary ray that hit: depth, normal and colour.
     #[inline]
-    #[allow(clippy::too_many_arguments)]
-    fn shade(&self, o: Vec3, d: Vec3, hit: &T::Hit, px: u32, py: u32, i: usize, tile: &mut Tile) {
+    fn shade(&self, o: Vec3, d: Vec3, hit: &T::Hit, at: TilePixel, tile: &mut Tile) {
+        let TilePixel {
+            x: px,
+            y: py,
+            index: i,
+        } = at;
         let c = &mut tile.counters;
         c.hits += 1;
         let t = self.scene.hit_t(hit);
@@ -378,6 +386,15 @@ impl<T: Traceable> Ctx<'_, T> {
         }
         lambert_value(n, shadow, ambient)
     }
+}
+
+/// A pixel of a tile being shaded: its image coordinates (the occlusion samples' seed) and its
+/// index in the tile's buffers.
+#[derive(Clone, Copy)]
+struct TilePixel {
+    x: u32,
+    y: u32,
+    index: usize,
 }
 
 #[cfg(test)]

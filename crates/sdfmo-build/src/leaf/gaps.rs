@@ -1,3 +1,5 @@
+//! Phase 4 of the leaf decision (see the parent module).
+//!
 //! Free space between a leaf's components: points that lie outside every component, between two
 //! of them, where the one voxel for both says *inside* (a gap narrower than a voxel, closed).
 //!
@@ -5,7 +7,7 @@
 //! one of them and still fill the space between two parts, so a ray along the gap stops in this
 //! leaf. The gap points are taken between the parts, not on them: for a surface sample of one
 //! component, the midpoint to its closest point on another component of the leaf, kept when it
-//! lies in the cell, clear of both surfaces by [`Params::gap_min`] of the cell edge, and outside
+//! lies in the cell, clear of both surfaces by [`LeafParams::gap_min`] of the cell edge, and outside
 //! every closed component of the leaf (true sign from the components' exact signed distances).
 //! Only closed components are paired: an open one has no inside, so whether the space next to
 //! it is free is not known (the inside of an open teapot body is not a gap).
@@ -15,10 +17,20 @@ use glam::Vec3;
 
 use super::samples::Samples;
 use super::split::LeafComponents;
-use super::{Cand, Cell, Params};
+use super::{Cand, LeafCtx, Params, Scratch};
 use crate::components::Components;
 use crate::geom::trilinear;
 use crate::local::LocalMesh;
+
+/// Phase 4: the gap points of the leaf into `s.gaps`: none where the SVO voxel does not cross
+/// zero (the leaf would be dropped: it closes nothing).
+pub(crate) fn collect(ctx: &LeafCtx, s: &mut Scratch) {
+    if ctx.p.crosses(ctx.g) {
+        s.gaps.collect(ctx, &s.samples, &s.components);
+    } else {
+        s.gaps.points.clear();
+    }
+}
 
 /// Points of the free space between a leaf's components, local coordinates (`[0, 1]³`).
 #[derive(Clone, Debug, Default)]
@@ -28,22 +40,21 @@ pub(crate) struct GapPoints {
 }
 
 impl GapPoints {
-    /// Replaces the points with those between the components `comps` of the leaf `cell` that
-    /// the single voxel `svo` (quantised corners) calls inside: the gap it closes (at most
-    /// [`Params::gap_samples`] surface samples per component are paired). Empty when the leaf
+    /// Replaces the points with those between the components `comps` of the leaf that its SVO
+    /// voxel (quantised corners `ctx.gq`) calls inside: the gap it closes (at most
+    /// [`LeafParams::gap_samples`] surface samples per component are paired). Empty when the leaf
     /// holds fewer than two closed components. The cheap test (the voxel's sign) comes first,
     /// the exact one (free space) only where the voxel says inside.
-    #[allow(clippy::too_many_arguments)]
-    pub fn collect(
-        &mut self,
-        p: &Params,
-        mesh: &LocalMesh,
-        global: &Components,
-        cell: &Cell,
-        samples: &Samples,
-        comps: &LeafComponents,
-        svo: &[f32; 8],
-    ) {
+    pub fn collect(&mut self, ctx: &LeafCtx, samples: &Samples, comps: &LeafComponents) {
+        let LeafCtx {
+            p,
+            mesh,
+            global,
+            cell,
+            gq: svo,
+            ..
+        } = *ctx;
+        let (cell, svo) = (&cell, &svo);
         self.points.clear();
         let k = comps.count;
         if k < 2 {
@@ -135,8 +146,7 @@ mod tests {
         let mut comps = LeafComponents::default();
         comps.find(&f.global, &leaf.tris);
         let mut g = GapPoints::default();
-        let svo = p.q8(&leaf.g);
-        g.collect(p, &f.mesh, &f.global, &leaf.cell, &samples, &comps, &svo);
+        g.collect(&leaf.ctx(f, p), &samples, &comps);
         (g, leaf)
     }
 

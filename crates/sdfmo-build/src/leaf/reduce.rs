@@ -1,10 +1,23 @@
-//! Phase 4: reduction of the candidate voxels: those that cannot be hit, those hidden inside
+//! Phase 6: reduction of the candidate voxels: those that cannot be hit, those hidden inside
 //! another part, then merging down to the cap.
 
 use super::samples::Samples;
 use super::split::LeafComponents;
-use super::{Cand, Params};
+use super::{Cand, LeafCtx, Params, Scratch};
 use crate::geom::trilinear;
+
+/// Phase 6: drops from `s.cands` the voxels that cannot be hit and the hidden ones, then
+/// merges down to the cap; returns whether the cap was hit (more candidates than it allows).
+pub(crate) fn reduce(ctx: &LeafCtx, s: &mut Scratch) -> bool {
+    let p = ctx.p;
+    drop_unhit(p, &mut s.cands);
+    drop_hidden(p, &mut s.cands, &s.samples, &s.components);
+    let cap_hit = s.cands.len() > p.max_voxels;
+    if cap_hit {
+        merge_to_cap(p, &mut s.cands);
+    }
+    cap_hit
+}
 
 /// Drops the voxels whose quantised corners do not change sign: their zero set is empty.
 pub(crate) fn drop_unhit(p: &Params, cands: &mut Vec<Cand>) {
@@ -12,7 +25,7 @@ pub(crate) fn drop_unhit(p: &Params, cands: &mut Vec<Cand>) {
 }
 
 /// Drops, in order, each voxel all of whose component's samples lie deeper than
-/// [`Params::bury`] inside a volume voxel of another component (it can never be seen). A voxel
+/// [`LeafParams::bury`] inside a volume voxel of another component (it can never be seen). A voxel
 /// whose component has no sample stays.
 pub(crate) fn drop_hidden(
     p: &Params,

@@ -1,3 +1,5 @@
+//! Phase 8 of the leaf decision (see the parent module).
+//!
 //! Clean open rims: a surface voxel stops at the free edge it represents. The zero set of an
 //! open sheet's surface voxel runs on past the sheet's boundary to the end of the cell (the
 //! signed distance to an open sheet changes sign across the sheet's plane extended, not only
@@ -15,11 +17,9 @@
 use glam::Vec3;
 use sdfmo_format::Voxel;
 
-use super::samples::Samples;
-use super::sharp::{flat_faces, SharpScratch};
-use super::{Cell, Params};
+use super::sharp::flat_faces;
+use super::{LeafCtx, Scratch};
 use crate::geom::zero_set_gap;
-use crate::local::LocalMesh;
 
 /// Most rim lines (clip voxels) per leaf: a convex corner of a sheet.
 pub(crate) const MAX_RIMS: usize = 2;
@@ -34,15 +34,16 @@ struct RimPlane {
 /// Appends to `out` the clip-only voxels that cut the surface voxel of the open component
 /// `tris` (gathered triangles) at its boundary edges in `cell`; returns how many (0 where the
 /// rim is not clean, see the module docs).
-pub(crate) fn rim_clips(
-    p: &Params,
-    mesh: &LocalMesh,
-    cell: &Cell,
-    tris: &[u32],
-    samples: &Samples,
-    scratch: &mut SharpScratch,
-    out: &mut Vec<Voxel>,
-) -> usize {
+pub(crate) fn rim_clips(ctx: &LeafCtx, s: &mut Scratch, out: &mut Vec<Voxel>) -> usize {
+    let LeafCtx {
+        p,
+        mesh,
+        cell,
+        tris,
+        ..
+    } = *ctx;
+    let cell = &cell;
+    let (samples, scratch) = (&s.samples, &mut s.sharp);
     let flat = p.sharp_flat * cell.h;
     let unset = RimPlane {
         normal: Vec3::ZERO,
@@ -171,23 +172,18 @@ fn segment_meets_box(a: Vec3, b: Vec3, lo: Vec3, hi: Vec3) -> bool {
 mod tests {
     use super::*;
     use crate::leaf::test_meshes::Fixture;
+    use crate::leaf::Params;
     use sdfmo_format::ValueBits;
     use sdfmo_mesh::procedural;
 
     fn clips_at(f: &Fixture, p: &Params, at: Vec3) -> Vec<Voxel> {
         let leaf = f.leaf(p, at);
-        let samples = leaf.samples(f, p);
+        let mut s = Scratch {
+            samples: leaf.samples(f, p),
+            ..Scratch::default()
+        };
         let mut out = Vec::new();
-        let mut scratch = SharpScratch::default();
-        rim_clips(
-            p,
-            &f.mesh,
-            &leaf.cell,
-            &leaf.tris,
-            &samples,
-            &mut scratch,
-            &mut out,
-        );
+        rim_clips(&leaf.ctx(f, p), &mut s, &mut out);
         out
     }
 

@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 
-use super::{Cell, Params};
+use super::{Cell, LeafCtx, Params, Scratch};
 use crate::geom::{clip_triangle, trilinear, zero_set_gap, MAX_CLIP};
 use crate::local::LocalMesh;
 
@@ -19,7 +19,7 @@ pub(crate) struct Samples {
 impl Samples {
     /// Replaces the samples with those of the gathered triangles `tris` in `cell`: every
     /// triangle clipped to the cell gives its polygon's centroid and vertices and, while there
-    /// are at most [`Params::rich_samples_below`] triangles, the centroid–vertex midpoints.
+    /// are at most [`LeafParams::rich_samples_below`] triangles, the centroid–vertex midpoints.
     pub fn collect(&mut self, p: &Params, mesh: &LocalMesh, cell: &Cell, tris: &[u32]) {
         self.points.clear();
         self.triangle.clear();
@@ -80,8 +80,17 @@ impl Samples {
     }
 }
 
+/// Phase 1: the leaf's samples into `s.samples` and, where there are some, the SVO voxel's fit
+/// to them into `s.svo`.
+pub(crate) fn collect(ctx: &LeafCtx, s: &mut Scratch) {
+    s.samples.collect(ctx.p, ctx.mesh, &ctx.cell, ctx.tris);
+    if !s.samples.is_empty() {
+        s.svo = svo_fit(&ctx.gq, &s.samples, &ctx.cell);
+    }
+}
+
 /// How well one voxel (quantised corners) fits the samples.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(crate) struct SvoFit {
     /// Largest distance (cell edges, ≤ 1) from a sample to the voxel's zero set.
     pub max_gap: f32,
@@ -138,7 +147,7 @@ mod tests {
     fn midpoints_only_for_few_triangles() {
         let (f, mut p, leaf) = box_leaf(Vec3::new(0.3, 0.1, 0.1));
         let rich = leaf.samples(&f, &p);
-        p.rich_samples_below = 0;
+        p.t.rich_samples_below = 0;
         let plain = leaf.samples(&f, &p);
         // Per polygon of n vertices: 1 + n samples, plus n midpoints when rich.
         let polygons = rich.len() - plain.len();

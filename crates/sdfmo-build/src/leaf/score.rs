@@ -1,10 +1,10 @@
-//! Phase 5: does the multi set earn its place? Both it and the SVO voxel are scored on the
+//! Phase 7: does the multi set earn its place? Both it and the SVO voxel are scored on the
 //! same samples and grid, and the multi set must not reach farther from the mesh.
 
 use glam::Vec3;
 
 use super::samples::{Samples, SvoFit};
-use super::{Cand, Cell, Params};
+use super::{Cand, Cell, LeafCtx, Params, Scratch};
 use crate::geom::trilinear;
 use crate::local::LocalMesh;
 
@@ -28,7 +28,7 @@ pub(crate) struct GapCounts {
 }
 
 impl GapCounts {
-    /// Score term of the SVO voxel: [`Params::gap_weight`] where it closes a gap.
+    /// Score term of the SVO voxel: [`LeafParams::gap_weight`] where it closes a gap.
     fn svo_term(&self, p: &Params) -> f32 {
         self.term(p, self.svo)
     }
@@ -50,27 +50,40 @@ impl GapCounts {
 /// Whether the candidate set `cands` should replace the SVO voxel (global corners `g`,
 /// quantised `gq`, its fit `svo`). The score of a set is its mean error at the samples
 /// (`max(min_v |f_v|, buried depth inside a volume voxel)`), plus its false-surface term
-/// ([`false_surface`]), plus [`Params::voxel_cost`] per voxel beyond the first; the multi set
-/// must score better by [`Params::earn`] *and* its visible zero set must reach no farther
-/// from the mesh than the SVO voxel's plus [`Params::reach_tol`] ([`zero_reach`]).
+/// ([`false_surface`]), plus [`LeafParams::voxel_cost`] per voxel beyond the first; the multi set
+/// must score better by [`LeafParams::earn`] *and* its visible zero set must reach no farther
+/// from the mesh than the SVO voxel's plus [`LeafParams::reach_tol`] ([`zero_reach`]).
 ///
 /// Both scores count the inside/outside errors in the free space between components
-/// ([`GapCounts`], weighted by [`Params::gap_weight`]); a multi set that keeps open more of a
-/// gap than the SVO voxel may reach up to [`Params::gap_reach_tol`] instead.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn multi_earns_its_place(
-    p: &Params,
-    mesh: &LocalMesh,
-    tris: &[u32],
-    cell: &Cell,
-    g: &[f32; 8],
-    gq: &[f32; 8],
+/// ([`GapCounts`], weighted by [`LeafParams::gap_weight`]); a multi set that keeps open more of a
+/// gap than the SVO voxel may reach up to [`LeafParams::gap_reach_tol`] instead.
+pub(crate) fn multi_earns_its_place(ctx: &LeafCtx, s: &mut Scratch) -> bool {
+    let gaps = GapCounts {
+        svo: s.gaps.points.len(),
+        multi: s.gaps.closed_by_set(&s.cands),
+    };
+    earns(ctx, &s.svo, &s.samples, gaps, &s.cands, &mut s.reach)
+}
+
+/// [`multi_earns_its_place`] for the SVO fit `svo`, the samples, the gap counts and the
+/// candidate set `cands` given.
+fn earns(
+    ctx: &LeafCtx,
     svo: &SvoFit,
     samples: &Samples,
     gaps: GapCounts,
     cands: &[Cand],
     s: &mut ReachScratch,
 ) -> bool {
+    let LeafCtx {
+        p,
+        mesh,
+        tris,
+        cell,
+        g,
+        ..
+    } = *ctx;
+    let (cell, gq) = (&cell, &ctx.gq);
     let svo_crosses = p.crosses(g);
     let (false_m, false_s) = false_surface(p, mesh, tris, cell, cands, svo_crosses.then_some(gq));
     let svo_score = if svo_crosses {
@@ -140,9 +153,9 @@ pub(crate) fn sample_error(samples: &Samples, cands: &[Cand], cell: &Cell) -> f3
 }
 
 /// The false-surface terms of the multi set and of the SVO voxel `svo` (`None`: it has no
-/// zero set, term 0): on a grid of [`Params::score_grid`]³ points inside the cell, how much
+/// zero set, term 0): on a grid of [`LeafParams::score_grid`]³ points inside the cell, how much
 /// closer the nearest zero set is than the true surface (beyond
-/// [`Params::false_surface_slack`]), in cell edges capped at 1, averaged.
+/// [`LeafParams::false_surface_slack`]), in cell edges capped at 1, averaged.
 pub(crate) fn false_surface(
     p: &Params,
     mesh: &LocalMesh,
@@ -175,10 +188,10 @@ pub(crate) fn false_surface(
 
 /// The largest true unsigned distance (world units, capped at `h`) from the visible zero set
 /// of the voxels `qs` (quantised corners; `surf` = surface flags) to the gathered triangles
-/// `tris`, over the zero crossings on [`Params::reach_lines`]² axis-parallel lines per axis
+/// `tris`, over the zero crossings on [`LeafParams::reach_lines`]² axis-parallel lines per axis
 /// through the cell. Along such a line the trilinear interpolant is linear, so each voxel
 /// crosses zero at most once there, exactly where the file's interpolant does. A crossing
-/// deeper than [`Params::reach_bury`] inside another volume voxel is hidden and does not count.
+/// deeper than [`LeafParams::reach_bury`] inside another volume voxel is hidden and does not count.
 pub(crate) fn zero_reach(
     p: &Params,
     mesh: &LocalMesh,
@@ -317,10 +330,12 @@ mod tests {
         // Does `multi` replace the SVO voxel `svo` (taken as exact: its own quantised corners)?
         let mut earns_with = |svo: [f32; 8], multi: &[Cand], gaps: GapCounts| {
             let fit = crate::leaf::samples::svo_fit(&svo, &samples, &leaf.cell);
-            let (mesh, tris, cell) = (&f.mesh, &leaf.tris, &leaf.cell);
-            multi_earns_its_place(
-                &p, mesh, tris, cell, &svo, &svo, &fit, &samples, gaps, multi, &mut s,
-            )
+            let ctx = LeafCtx {
+                g: &svo,
+                gq: svo,
+                ..leaf.ctx(&f, &p)
+            };
+            earns(&ctx, &fit, &samples, gaps, multi, &mut s)
         };
         let none = GapCounts::default();
         // Exact multi set against a shifted SVO voxel: earns it; the other way round: does not.
@@ -338,25 +353,24 @@ mod tests {
         // the samples decide.
         let gaps = |svo, multi| GapCounts { svo, multi };
         let mut lenient = p;
-        lenient.gap_reach_tol = 0.5;
+        lenient.t.gap_reach_tol = 0.5;
         let fit = crate::leaf::samples::svo_fit(&exact, &samples, &leaf.cell);
-        let (mesh, tris, cell) = (&f.mesh, &leaf.tris, &leaf.cell);
         let multi = [cand(off, false)];
-        for (q, earns) in [(&lenient, true), (&p, false)] {
-            let r = multi_earns_its_place(
-                q,
-                mesh,
-                tris,
-                cell,
-                &exact,
-                &exact,
+        for (q, expected) in [(&lenient, true), (&p, false)] {
+            let ctx = LeafCtx {
+                g: &exact,
+                gq: exact,
+                ..leaf.ctx(&f, q)
+            };
+            let r = earns(
+                &ctx,
                 &fit,
                 &samples,
                 gaps(4, 0),
                 &multi,
                 &mut ReachScratch::default(),
             );
-            assert_eq!(r, earns, "gap_reach_tol {}", q.gap_reach_tol);
+            assert_eq!(r, expected, "gap_reach_tol {}", q.gap_reach_tol);
         }
         assert!(earns_with(off, &[cand(exact, false)], gaps(4, 4)));
         assert!(!earns_with(exact, &[cand(off, false)], gaps(4, 4)));

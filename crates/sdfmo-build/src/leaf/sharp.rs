@@ -1,3 +1,5 @@
+//! Phase 3 of the leaf decision (see the parent module).
+//!
 //! Sharp features as several voxels: a leaf where one closed component shows two or three flat
 //! faces meeting at a sharp edge or corner gets one *plane voxel* per face (the signed distance
 //! to the face's plane, which a trilinear voxel reproduces exactly), combined by intersection
@@ -7,16 +9,16 @@
 //! and blends the two normals across it.
 //!
 //! The faces are the groups of the leaf's triangles (those reaching into the cell) whose normals
-//! lie within [`Params::sharp_cos`] of the group's first; each group must be flat (its samples
-//! within [`Params::sharp_flat`] of its plane). The set is kept only where it reproduces the
-//! leaf: every surface sample on its zero set (within [`Params::sharp_flat`]), and every corner
-//! whose exact distance is clearly signed (beyond [`Params::sharp_sign`]) on the same side.
+//! lie within [`LeafParams::sharp_cos`] of the group's first; each group must be flat (its samples
+//! within [`LeafParams::sharp_flat`] of its plane). The set is kept only where it reproduces the
+//! leaf: every surface sample on its zero set (within [`LeafParams::sharp_flat`]), and every corner
+//! whose exact distance is clearly signed (beyond [`LeafParams::sharp_sign`]) on the same side.
 
 use glam::Vec3;
 use sdfmo_format::Voxel;
 
 use super::samples::Samples;
-use super::{Cell, Params};
+use super::{Cell, LeafCtx, Params, Scratch};
 use crate::geom::trilinear;
 use crate::local::LocalMesh;
 
@@ -52,7 +54,7 @@ pub(crate) struct SharpScratch {
 }
 
 /// The flat faces of a leaf: the groups of the triangles reaching into the cell whose normals lie
-/// within [`Params::sharp_cos`] of the group's first, each with its plane (area-weighted normal
+/// within [`LeafParams::sharp_cos`] of the group's first, each with its plane (area-weighted normal
 /// and centroid) and the mean of its samples.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct FlatFaces {
@@ -70,7 +72,7 @@ impl FlatFaces {
 
 /// The flat faces of the triangles `tris` in `cell` (see [`FlatFaces`]), or `None` where they
 /// form more than [`MAX_FACES`] groups or some face's samples stray farther than
-/// [`Params::sharp_flat`] from its plane.
+/// [`LeafParams::sharp_flat`] from its plane.
 pub(crate) fn flat_faces(
     p: &Params,
     mesh: &LocalMesh,
@@ -148,18 +150,38 @@ pub(crate) fn flat_faces(
     })
 }
 
+/// Phase 3: the plane voxels of a sharp feature where the leaf's samples all lie on one
+/// component and no open sheet is near (other gathered components that do not reach into the
+/// cell do not count: their own leaves hold them); `None` elsewhere or when disabled
+/// ([`LeafParams::sharp`]).
+pub(crate) fn sharp_leaf(ctx: &LeafCtx, s: &mut Scratch) -> Option<Vec<Voxel>> {
+    let of = &s.components.of;
+    let mut sampled = s.samples.iter().map(|(_, li)| of[li as usize]);
+    let first_sampled = sampled.next();
+    let one_sampled = sampled.all(|c| Some(c) == first_sampled);
+    if !(one_sampled && !ctx.open_near && ctx.p.sharp) {
+        return None;
+    }
+    sharp_voxels(ctx, &s.samples, &mut s.sharp)
+}
+
 /// The plane voxels of the sharp feature in `cell` (gathered triangles `tris` of one closed
 /// component, global corner distances `g`, surface samples `samples`), or `None` where the leaf
 /// is smooth, curved, not one clean edge or corner, or not reproduced (see the module docs).
 pub(crate) fn sharp_voxels(
-    p: &Params,
-    mesh: &LocalMesh,
-    cell: &Cell,
-    tris: &[u32],
-    g: &[f32; 8],
+    ctx: &LeafCtx,
     samples: &Samples,
     s: &mut SharpScratch,
 ) -> Option<Vec<Voxel>> {
+    let LeafCtx {
+        p,
+        mesh,
+        cell,
+        tris,
+        g,
+        ..
+    } = *ctx;
+    let cell = &cell;
     // 1–2. Two or three flat faces.
     let flat_faces = flat_faces(p, mesh, cell, tris, samples, s)?;
     let count = flat_faces.count;
@@ -241,15 +263,7 @@ mod tests {
     fn sharp_at(f: &Fixture, p: &Params, at: Vec3) -> Option<Vec<Voxel>> {
         let leaf = f.leaf(p, at);
         let samples = leaf.samples(f, p);
-        sharp_voxels(
-            p,
-            &f.mesh,
-            &leaf.cell,
-            &leaf.tris,
-            &leaf.g,
-            &samples,
-            &mut SharpScratch::default(),
-        )
+        sharp_voxels(&leaf.ctx(f, p), &samples, &mut SharpScratch::default())
     }
 
     #[test]

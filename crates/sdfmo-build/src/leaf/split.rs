@@ -1,9 +1,9 @@
-//! Phases 2–3: the leaf's connected components, and one voxel (or two surface voxels) each.
+//! Phases 2 and 5: the leaf's connected components, and one voxel (or two surface voxels) each.
 
 use glam::Vec3;
 
 use super::samples::Samples;
-use super::{Cand, Cell, Params};
+use super::{Cand, Cell, LeafCtx, Params, Scratch};
 use crate::components::Components;
 use crate::geom::zero_set_gap;
 use crate::local::LocalMesh;
@@ -87,18 +87,24 @@ impl LeafComponents {
 /// global component (the SVO corners `g` when the leaf holds one closed component). An open
 /// component gets a *surface* voxel signed by its own pseudo-normals (the global sign, a
 /// winding number near borders, jumps there). A component its voxel does not reproduce (error
-/// above [`Params::thin`]) may be split into two surface voxels, see [`thin_split`].
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn candidate_voxels(
-    p: &Params,
-    mesh: &LocalMesh,
-    global: &Components,
-    cell: &Cell,
-    g: &[f32; 8],
-    samples: &Samples,
-    comps: &mut LeafComponents,
-    out: &mut Vec<Cand>,
-) {
+/// above [`LeafParams::thin`]) may be split into two surface voxels, see [`thin_split`].
+/// Phase 5: reads `s.samples` and `s.components`, writes `s.cands`.
+pub(crate) fn candidate_voxels(ctx: &LeafCtx, s: &mut Scratch) {
+    let LeafCtx {
+        p,
+        mesh,
+        global,
+        cell,
+        g,
+        ..
+    } = *ctx;
+    let cell = &cell;
+    let Scratch {
+        samples,
+        components: comps,
+        cands: out,
+        ..
+    } = s;
     out.clear();
     let corner_pos = cell.corners();
     let k = comps.count;
@@ -134,10 +140,10 @@ pub(crate) fn candidate_voxels(
 /// A thin element as two surface voxels, one per face, or `None` when component `ci` is not
 /// one. Its triangles are grouped by the sign of their normal against the largest triangle's
 /// (oriented canonically, so a one-ulp change of the input does not regroup the faces; side
-/// faces, within [`Params::rim_cos`] of perpendicular, in neither group). The split is a thin
-/// element only when the groups' mean normals are nearly opposite ([`Params::opposite_cos`]:
+/// faces, within [`LeafParams::rim_cos`] of perpendicular, in neither group). The split is a thin
+/// element only when the groups' mean normals are nearly opposite ([`LeafParams::opposite_cos`]:
 /// the faces of a sharp edge are never split), it beats the one voxel's error `err` by
-/// [`Params::split_gain`], and the two faces do not coincide to within the file's rounding (a
+/// [`LeafParams::split_gain`], and the two faces do not coincide to within the file's rounding (a
 /// zero-thickness fin or double wall, where the split adds nothing but the fin's normal where
 /// it meets a wall: abc1 −0.13 dB at depth 8).
 fn thin_split(
@@ -281,7 +287,10 @@ mod tests {
         );
         // Without the split (a gain no split can reach) it stays one volume voxel.
         let strict = Params {
-            split_gain: 0.0,
+            t: crate::LeafParams {
+                split_gain: 0.0,
+                ..p.t
+            },
             ..p
         };
         let cands = leaf.candidates(&f, &strict);
@@ -293,10 +302,8 @@ mod tests {
     fn a_sharp_edge_is_never_split() {
         // The corner of a cube: faces at right angles, not opposite.
         let f = Fixture::new(procedural::box_mesh(Vec3::splat(-0.5), Vec3::splat(0.5)));
-        let p = Params {
-            thin: 0.0, // every voxel counts as thin: only the normals' test decides
-            ..Params::new(3, ValueBits::Eight, 8)
-        };
+        let mut p = Params::new(3, ValueBits::Eight, 8);
+        p.t.thin = 0.0; // every voxel counts as thin: only the normals' test decides
         let leaf = f.leaf(&p, Vec3::new(0.49, 0.49, 0.1));
         let cands = leaf.candidates(&f, &p);
         assert_eq!(cands.len(), 1);

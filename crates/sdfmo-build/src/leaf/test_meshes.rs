@@ -6,8 +6,8 @@ use sdfmo_distance::{MeshDistance, SignMode};
 use sdfmo_mesh::{procedural, TriMesh};
 
 use super::samples::Samples;
-use super::split::{candidate_voxels, LeafComponents};
-use super::{Cand, Cell, Params};
+use super::split::candidate_voxels;
+use super::{Cand, Cell, LeafCtx, Params, Scratch};
 use crate::components::Components;
 use crate::local::LocalMesh;
 
@@ -76,6 +76,11 @@ pub fn two_boxes(parts: bool) -> Fixture {
 }
 
 impl Leaf {
+    /// What the phases of this leaf read.
+    pub fn ctx<'a>(&'a self, f: &'a Fixture, p: &'a Params) -> LeafCtx<'a> {
+        LeafCtx::new(p, &f.mesh, &f.global, self.coord, &self.tris, &self.g)
+    }
+
     pub fn samples(&self, f: &Fixture, p: &Params) -> Samples {
         let mut s = Samples::default();
         s.collect(p, &f.mesh, &self.cell, &self.tris);
@@ -84,13 +89,11 @@ impl Leaf {
 
     /// Phases 1–3: the candidate voxels of the leaf's components.
     pub fn candidates(&self, f: &Fixture, p: &Params) -> Vec<Cand> {
-        let samples = self.samples(f, p);
-        let mut comps = LeafComponents::default();
-        comps.find(&f.global, &self.tris);
-        let mut out = Vec::new();
-        candidate_voxels(
-            p, &f.mesh, &f.global, &self.cell, &self.g, &samples, &mut comps, &mut out,
-        );
-        out
+        let ctx = self.ctx(f, p);
+        let mut s = Scratch::default();
+        super::samples::collect(&ctx, &mut s);
+        s.components.find(&f.global, &self.tris);
+        candidate_voxels(&ctx, &mut s);
+        s.cands
     }
 }

@@ -23,6 +23,7 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
         threads: args.threads,
         margin: sdf_multioctree::DEFAULT_MARGIN,
         sign: args.sign.mode(),
+        leaf: build::LeafParams::OURS,
     };
     let budget = memory_budget(args.max_memory);
     let bar = progress::fraction(&format!("building {} depth {}", input.name, args.depth));

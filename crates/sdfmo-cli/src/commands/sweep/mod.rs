@@ -153,9 +153,15 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
     let mut files: Vec<String> = Vec::new();
     for mut input in inputs {
         input.name = unique_name(&sanitize(&input.name), &models);
-        let model = sweep_model(
-            args, &settings, &methods, &depths, &input, budget, &bar, &models, &mut rows,
-        )?;
+        let sweep = Sweep {
+            args,
+            settings: &settings,
+            methods: &methods,
+            depths: &depths,
+            budget,
+            bar: &bar,
+        };
+        let model = sweep_model(&sweep, &input, &models, &mut rows)?;
         models.push(model);
         files = report::write_tables(out, &settings, &models, &rows)?;
     }
@@ -191,22 +197,38 @@ fn build_settings(args: &SweepArgs, method: MethodArg, depth: u8) -> BuildSettin
         threads: args.threads,
         margin: sdf_multioctree::DEFAULT_MARGIN,
         sign: SignMode::Auto,
+        leaf: build::LeafParams::OURS,
     }
 }
 
-/// Renders the reference of one model, then builds, renders and compares every configuration.
-#[allow(clippy::too_many_arguments)]
-fn sweep_model(
-    args: &SweepArgs,
-    settings: &SweepSettings,
-    methods: &[MethodArg],
-    depths: &[u8],
-    input: &InputMesh,
+/// What every model of a sweep shares: the arguments, the settings the report records, the
+/// configurations, the memory budget and the progress bar.
+#[derive(Clone, Copy)]
+struct Sweep<'a> {
+    args: &'a SweepArgs,
+    settings: &'a SweepSettings,
+    methods: &'a [MethodArg],
+    depths: &'a [u8],
     budget: Option<u64>,
-    bar: &indicatif::ProgressBar,
+    bar: &'a indicatif::ProgressBar,
+}
+
+/// Renders the reference of one model, then builds, renders and compares every configuration;
+/// the rows go to `rows` (the tables are rewritten after each, with the `models` done so far).
+fn sweep_model(
+    sweep: &Sweep,
+    input: &InputMesh,
     models: &[Model],
     rows: &mut Vec<Row>,
 ) -> anyhow::Result<Model> {
+    let Sweep {
+        args,
+        settings,
+        methods,
+        depths,
+        budget,
+        bar,
+    } = *sweep;
     let name = &input.name;
     let img_dir: PathBuf =
         sdf_multioctree::io::create_derived_dir(&args.output, &Path::new("images").join(name))?;
