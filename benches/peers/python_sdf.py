@@ -22,8 +22,10 @@ whole, and their setup with a 1-point call is reported). Accuracy: max |(|d|) - 
 bounding-box diagonal on --ref-points points against the f64 brute-force reference; sign: the
 fraction of points agreeing with the exact winding number (w > 1/2 inside) among those farther
 than 1 % of the diagonal from the surface where |w - 1/2| > 0.2. Besides the files given, the
-script adds a mesh with coincident double walls (two unit cubes sharing the face x = 1, each a
-closed shell of its own).
+script adds a mesh with coincident double walls: two unit cubes sharing the face x = 1, each of
+their 12 faces a separate 24 x 24 grid with its own vertices (not welded, so to a topology check
+it is an open soup of 12 sheets: not watertight, `auto` picks the winding number), 13,824
+triangles.
 """
 
 import argparse
@@ -42,7 +44,8 @@ import sdfmo  # noqa: E402
 
 
 def double_wall_mesh(subdiv=24):
-    """Two closed cubes [0,1]^3 and [1,2]x[0,1]^2, each face split into subdiv^2 quads."""
+    """Two cubes [0,1]^3 and [1,2]x[0,1]^2, outward oriented, each face its own grid of
+    subdiv^2 quads with its own vertices (not welded): coincident walls at x = 1."""
     verts, faces = [], []
 
     def quad_grid(origin, du, dv):
