@@ -4,14 +4,31 @@
 //! cargo run --release --example quickstart [DEPTH] [OUT_DIR]
 //! ```
 //!
-//! Defaults: depth 6, output in the system's temporary directory. Runs in about a second.
+//! Defaults: depth 6, output in the system's temporary directory (created if missing). Runs in
+//! about a second.
 
 use sdf_multioctree::{
     build_octree, demo_mesh, load_octree, paper_views, render_octree, save_octree, save_png,
     Method, Mode,
 };
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+fn main() -> std::process::ExitCode {
+    // Errors print as one line with their causes (`cannot create …: No such file or
+    // directory`), not as the Debug dump `?` in `main` gives.
+    if let Err(e) = run() {
+        let mut line = format!("error: {e}");
+        let mut source = e.source();
+        while let Some(s) = source {
+            line += &format!(": {s}");
+            source = s.source();
+        }
+        eprintln!("{line}");
+        return std::process::ExitCode::FAILURE;
+    }
+    std::process::ExitCode::SUCCESS
+}
+
+fn run() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let depth: u8 = match args.next() {
         Some(d) => d
@@ -19,7 +36,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .map_err(|_| format!("depth {d:?} is not a number"))?,
         None => 6,
     };
-    let out_dir = args.next().map_or_else(std::env::temp_dir, Into::into);
+    let out_dir: std::path::PathBuf = args.next().map_or_else(std::env::temp_dir, Into::into);
+    std::fs::create_dir_all(&out_dir)
+        .map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
 
     // 1. A mesh: the demo part (or `sdf_multioctree::load_mesh("part.stl")?`).
     let mesh = demo_mesh();

@@ -209,7 +209,8 @@ pub struct RenderOptions {
     /// Worker threads (default: all cores); the image is the same for any count.
     #[arg(long, value_name = "N", value_parser = parse_threads)]
     pub threads: Option<usize>,
-    /// Also write depth and normals as f32 EXR (must end in `.exr`; numbered like the PNG with
+    /// Also write the image as f32 EXR: RGB, plus the ray distance (Z) in depth mode and the
+    /// normal (N.X, N.Y, N.Z) in normal mode (must end in `.exr`; numbered like the PNG with
     /// several views). All images of one command are written, or none.
     #[arg(long, value_name = "OUT.exr")]
     pub exr: Option<PathBuf>,

@@ -1,5 +1,6 @@
 //! Writing results: stdout (human or JSON), atomic files, numbered file names.
 
+use sdf_multioctree::io::Naming;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -43,7 +44,18 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
 /// ([`sdf_multioctree::io::check_destination`]) and, when `extensions` is not empty, end in one of them
 /// (case-insensitive), so that `-o image.jpg` does not silently get PNG bytes.
 pub fn check_output(path: &Path, what: &str, extensions: &[&str]) -> anyhow::Result<()> {
-    sdf_multioctree::io::check_destination(path)?;
+    check_output_as(path, what, extensions, Naming::Given)
+}
+
+/// [`check_output`] for an output named as `naming` says: a derived name (a numbered sibling)
+/// may be a symbolic link, which the write replaces ([`Naming::Derived`]).
+pub fn check_output_as(
+    path: &Path,
+    what: &str,
+    extensions: &[&str],
+    naming: Naming,
+) -> anyhow::Result<()> {
+    sdf_multioctree::io::check_destination_as(path, naming)?;
     if extensions.is_empty() {
         return Ok(());
     }
@@ -61,12 +73,22 @@ pub fn check_output(path: &Path, what: &str, extensions: &[&str]) -> anyhow::Res
     )
 }
 
-/// Encodes an RGB image as PNG and writes it atomically.
-pub fn write_png(path: &Path, img: &image::RgbImage) -> anyhow::Result<()> {
+/// Writes `bytes` atomically at a name the command derived (inside an output folder): a
+/// symbolic link there is replaced, never followed ([`Naming::Derived`]).
+pub fn write_derived(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    Ok(sdf_multioctree::io::write_atomic_as(
+        path,
+        bytes,
+        Naming::Derived,
+    )?)
+}
+
+/// Encodes an RGB image as PNG and writes it atomically at a derived name ([`write_derived`]).
+pub fn write_derived_png(path: &Path, img: &image::RgbImage) -> anyhow::Result<()> {
     let mut buf = std::io::Cursor::new(Vec::new());
     img.write_to(&mut buf, image::ImageFormat::Png)
         .with_context(|| format!("cannot encode {}", path.display()))?;
-    write_atomic(path, &buf.into_inner())
+    write_derived(path, &buf.into_inner())
 }
 
 /// `out.png` → `out_3.png` (the index before the extension); without an extension `out_3`.

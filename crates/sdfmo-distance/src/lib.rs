@@ -1,8 +1,9 @@
 //! Exact distances from points to a triangle mesh: closest points, signed distance with a robust
 //! sign, distance to a subset of the triangles, and watertight ray hits.
 //!
-//! [`MeshDistance`] builds a BVH over the triangles once (obvhs' PLOC builder, `Bvh2`) and answers
-//! queries without allocating:
+//! [`MeshDistance`] builds a BVH over the triangles once (obvhs' PLOC builder, `Bvh2`; a binned
+//! SAH with a depth bound for fans and other meshes whose triangles' boxes nest, where PLOC
+//! degenerates: [`BvhBuilder`]) and answers queries without allocating:
 //!
 //! - **Closest point**: obvhs' BVH2 collapsed into a 4-wide tree (four child boxes tested in one
 //!   SIMD pass), best-first (nearest child first, subtrees pruned by their box distance, a
@@ -46,6 +47,7 @@
 #![deny(missing_docs)]
 
 mod bvh4;
+mod bvh_build;
 mod closest;
 mod point_triangle;
 mod pseudo_normals;
@@ -58,15 +60,15 @@ mod triangle_packet;
 mod winding;
 
 use std::sync::OnceLock;
-use std::time::Duration;
 
 use glam::{Vec3, Vec3A, Vec4};
 use obvhs::bvh2::node::Bvh2Node;
-use obvhs::triangle::Triangle;
-use obvhs::BvhBuildParams;
 use rayon::prelude::*;
 use sdfmo_mesh::{EdgeAdjacency, TriMesh};
 
+pub use bvh_build::{
+    box_overlap, BvhBuilder, MAX_PLOC_BOX_OVERLAP, MAX_PLOC_VALENCE, SAH_DEPTH_BOUND,
+};
 pub use point_triangle::{closest_point_on_triangle, Feature};
 pub use ray_triangle::WatertightRay;
 pub use subset::{sign_by_pseudo_normal, triangle_boxes, TriangleSlices};
@@ -78,7 +80,8 @@ pub use pseudo_normals::PseudoNormals;
 use winding::{solid_angle, TriangleDipole, WindingNode};
 
 /// Deepest BVH the fixed traversal stacks support. obvhs' PLOC trees over real meshes are far
-/// shallower (≈ 2 log₂ n; 30–40 for 10⁵ triangles); [`MeshDistance::new`] checks the bound.
+/// shallower (≈ 2 log₂ n; 30–40 for 10⁵ triangles); a deeper PLOC tree is rebuilt with the
+/// binned SAH, whose depth is at most [`SAH_DEPTH_BOUND`] + ⌈log₂ n⌉.
 pub const MAX_BVH_DEPTH: usize = 128;
 
 /// β of the coarse first pass of the winding-number sign (see [`SignMode::Winding`]).
@@ -213,6 +216,7 @@ pub struct MeshDistance {
     /// computed on the first signed query that needs it.
     clean_radius: OnceLock<Vec<f32>>,
     depth: usize,
+    builder: BvhBuilder,
 }
 
 /// Spreads the low 10 bits of `v` to every third bit.
@@ -263,22 +267,9 @@ impl MeshDistance {
             .iter()
             .map(|t| t.map(|i| mesh.positions()[i as usize]))
             .collect();
-        let obvhs_tris: Vec<Triangle> = tris
-            .iter()
-            .map(|t| Triangle {
-                v0: t[0].into(),
-                v1: t[1].into(),
-                v2: t[2].into(),
-            })
-            .collect();
-        let mut build_time = Duration::ZERO;
-        let bvh = obvhs::bvh2::builder::build_bvh2_from_tris(
-            &obvhs_tris,
-            BvhBuildParams::medium_build(),
-            &mut build_time,
-        );
-        let nodes = bvh.nodes;
-        let leaf_ids = bvh.primitive_indices;
+        let built = bvh_build::build(mesh, &tris);
+        let nodes = built.nodes;
+        let leaf_ids = built.primitive_indices;
         let leaf_tris: Vec<[Vec3; 3]> = leaf_ids.iter().map(|&i| tris[i as usize]).collect();
         let leaf_records: Vec<LeafRecord> = leaf_tris
             .iter()
@@ -299,19 +290,7 @@ impl MeshDistance {
             })
             .collect();
 
-        // Pre-order list of the nodes (parents before children) and the depth.
-        let mut order = Vec::with_capacity(nodes.len());
-        let mut depth = 0;
-        let mut stack = vec![(0u32, 1usize)];
-        while let Some((n, d)) = stack.pop() {
-            order.push(n);
-            depth = depth.max(d);
-            let node = &nodes[n as usize];
-            if node.prim_count == 0 {
-                stack.push((node.first_index, d + 1));
-                stack.push((node.first_index + 1, d + 1));
-            }
-        }
+        let (order, depth) = bvh_build::preorder_and_depth(&nodes);
         if depth > MAX_BVH_DEPTH {
             return Err(DistanceError::BvhTooDeep {
                 depth,
@@ -349,6 +328,7 @@ impl MeshDistance {
             leaf_dipoles,
             clean_radius: OnceLock::new(),
             depth,
+            builder: built.builder,
         })
     }
 
@@ -571,6 +551,11 @@ impl MeshDistance {
     /// Number of BVH nodes.
     pub fn bvh_node_count(&self) -> usize {
         self.nodes.len()
+    }
+
+    /// Which builder made the BVH (PLOC, or the binned SAH for fans and the like).
+    pub fn bvh_builder(&self) -> BvhBuilder {
+        self.builder
     }
 }
 

@@ -57,7 +57,10 @@ mod error;
 mod renderer;
 
 pub use error::{GpuError, Result};
-pub use renderer::{GpuCamera, GpuImage, GpuMode, GpuOctree, GpuRenderer, GpuTiming, Shading};
+pub use renderer::{
+    GpuCamera, GpuImage, GpuMode, GpuOctree, GpuRenderer, GpuTiming, Shading, DEFAULT_GPU_TIMEOUT,
+    MAX_GPU_FILE_BYTES,
+};
 
 /// The traversal and ray–voxel library (`src/sdfmo.wgsl`), binding 0 only: include it in an
 /// engine's own pipeline.

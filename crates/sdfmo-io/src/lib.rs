@@ -7,6 +7,9 @@
 //!   not a regular file (a directory, a device such as `/dev/null`, a FIFO, a socket) is refused
 //!   before anything is written. A symbolic link is *followed*: the file it points to is
 //!   replaced and the link itself stays (as a shell's `>` would do); a dangling link is refused.
+//!   That holds for paths the user named; a name the command derives ([`Naming::Derived`]: the
+//!   files inside an output folder, numbered siblings) replaces a link found there instead of
+//!   following it, and [`create_derived_dir`] does the same for derived folders.
 //!   The temporary file is removed on every error path.
 //! - **Reads take regular files only, with a size limit known before reading**
 //!   ([`read_regular`]): devices and FIFOs are refused at once (no endless `/dev/zero`, no
@@ -36,7 +39,10 @@ use std::path::PathBuf;
 pub use confine::resolve_in_folder;
 pub use random::SplitMix64;
 pub use read::{open_regular, read_regular, read_regular_to_string};
-pub use write::{check_destination, remove_pending_temporaries, write_atomic, OutputBatch};
+pub use write::{
+    check_destination, check_destination_as, create_derived_dir, remove_pending_temporaries,
+    write_atomic, write_atomic_as, Naming, OutputBatch,
+};
 
 /// What kind of file system object a path names, for errors about the wrong kind.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -112,6 +118,15 @@ pub enum IoError {
         #[source]
         source: std::io::Error,
     },
+    /// The folder an output goes into does not exist (outputs never create folders the user
+    /// named).
+    #[error("cannot write {}: the folder {} does not exist", path.display(), folder.display())]
+    MissingFolder {
+        /// The output as named.
+        path: PathBuf,
+        /// Its folder.
+        folder: PathBuf,
+    },
     /// The path exists but is not a regular file.
     #[error("{} is {kind}; only regular files can be {action}", path.display())]
     NotRegularFile {
@@ -166,7 +181,8 @@ impl IoError {
             | IoError::NotRegularFile { path, .. }
             | IoError::TooLarge { path, .. }
             | IoError::DanglingLink { path }
-            | IoError::NotAFilePath { path, .. } => path,
+            | IoError::NotAFilePath { path, .. }
+            | IoError::MissingFolder { path, .. } => path,
             IoError::OutsideFolder { folder, .. } => folder,
         }
     }
@@ -175,6 +191,7 @@ impl IoError {
     pub fn os_kind(&self) -> Option<std::io::ErrorKind> {
         match self {
             IoError::Os { source, .. } => Some(source.kind()),
+            IoError::MissingFolder { .. } => Some(std::io::ErrorKind::NotFound),
             _ => None,
         }
     }

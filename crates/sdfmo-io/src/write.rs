@@ -21,6 +21,29 @@ use crate::{os, FileKind, IoError, Result};
 /// [`IoError::NotAFilePath`], [`IoError::NotRegularFile`], [`IoError::DanglingLink`], or
 /// [`IoError::Os`] when the path cannot be examined.
 pub fn check_destination(path: &Path) -> Result<PathBuf> {
+    check_destination_as(path, Naming::Given)
+}
+
+/// Who named an output; the rule for a symbolic link found there depends on it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Naming {
+    /// The user named this path: a symbolic link there is followed and the file it points to
+    /// replaced, as a shell's `>` does.
+    #[default]
+    Given,
+    /// The command made the name up (a file inside an output folder, a numbered sibling such as
+    /// `out_2.png`): a symbolic link there is replaced by the new file, never followed, so a
+    /// link planted beside the outputs cannot redirect a write to a file the user never named.
+    Derived,
+}
+
+/// [`check_destination`] for an output named as `naming` says: for [`Naming::Derived`] a
+/// symbolic link (dangling or not) is accepted and returned as itself, since the write replaces
+/// the link rather than its target.
+///
+/// # Errors
+/// As [`check_destination`] (for a derived name, never [`IoError::DanglingLink`]).
+pub fn check_destination_as(path: &Path, naming: Naming) -> Result<PathBuf> {
     let not_file = |reason| IoError::NotAFilePath {
         path: path.to_path_buf(),
         reason,
@@ -49,6 +72,9 @@ pub fn check_destination(path: &Path) -> Result<PathBuf> {
         kind: FileKind::of(meta),
         action: "written",
     };
+    if meta.file_type().is_symlink() && naming == Naming::Derived {
+        return Ok(path.to_path_buf());
+    }
     if meta.file_type().is_symlink() {
         return match std::fs::metadata(path) {
             Ok(target) if target.is_file() => path.canonicalize().map_err(os("resolve", path)),
@@ -71,12 +97,49 @@ pub fn check_destination(path: &Path) -> Result<PathBuf> {
 /// the rules on special files and symbolic links.
 ///
 /// # Errors
-/// As [`check_destination`], plus [`IoError::Os`] when the temporary file cannot be created,
-/// written, synced or renamed (a full disk, a read-only folder, a missing folder).
+/// As [`check_destination`], [`IoError::MissingFolder`], plus [`IoError::Os`] when the
+/// temporary file cannot be created, written, synced or renamed (a full disk, a read-only
+/// folder).
 pub fn write_atomic(path: impl AsRef<Path>, bytes: impl AsRef<[u8]>) -> Result<()> {
+    write_atomic_as(path, bytes, Naming::Given)
+}
+
+/// [`write_atomic`] for an output named as `naming` says (see [`Naming`]).
+///
+/// # Errors
+/// As [`write_atomic`].
+pub fn write_atomic_as(
+    path: impl AsRef<Path>,
+    bytes: impl AsRef<[u8]>,
+    naming: Naming,
+) -> Result<()> {
     let mut batch = OutputBatch::new();
-    batch.stage(path.as_ref(), bytes.as_ref())?;
+    batch.stage_as(path.as_ref(), bytes.as_ref(), naming)?;
     batch.commit()
+}
+
+/// Creates the folder `base/relative` and the folders between, all of them derived names: a
+/// symbolic link found at any of them is removed and a real folder made in its place (the
+/// link's target is not touched), so a planted link cannot send the command's files elsewhere.
+/// `base` itself, the folder the user named, is created if missing and followed if a link.
+///
+/// # Errors
+/// [`IoError::Os`] when a folder cannot be created (a regular file in the way, permissions).
+pub fn create_derived_dir(base: &Path, relative: &Path) -> Result<PathBuf> {
+    std::fs::create_dir_all(base).map_err(os("create the folder", base))?;
+    let mut dir = base.to_path_buf();
+    for part in relative.components() {
+        dir.push(part);
+        match std::fs::symlink_metadata(&dir) {
+            Ok(m) if m.is_dir() => continue,
+            Ok(m) if m.file_type().is_symlink() => {
+                std::fs::remove_file(&dir).map_err(os("replace the link", &dir))?
+            }
+            _ => {}
+        }
+        std::fs::create_dir(&dir).map_err(os("create the folder", &dir))?;
+    }
+    Ok(dir)
 }
 
 /// Several outputs written all or none: every file is written to its temporary and synced
@@ -210,7 +273,15 @@ impl OutputBatch {
     /// As [`write_atomic`]; two outputs of one batch naming the same file is an
     /// [`IoError::NotAFilePath`].
     pub fn stage(&mut self, path: &Path, bytes: &[u8]) -> Result<()> {
-        let target = check_destination(path)?;
+        self.stage_as(path, bytes, Naming::Given)
+    }
+
+    /// [`stage`](OutputBatch::stage) for an output named as `naming` says (see [`Naming`]).
+    ///
+    /// # Errors
+    /// As [`stage`](OutputBatch::stage).
+    pub fn stage_as(&mut self, path: &Path, bytes: &[u8], naming: Naming) -> Result<()> {
+        let target = check_destination_as(path, naming)?;
         if self.staged.iter().any(|s| s.target == target) {
             return Err(IoError::NotAFilePath {
                 path: path.to_path_buf(),
@@ -233,6 +304,12 @@ impl OutputBatch {
         {
             use std::os::unix::fs::PermissionsExt;
             builder.permissions(std::fs::Permissions::from_mode(0o666));
+        }
+        if std::fs::metadata(&dir).is_err_and(|e| e.kind() == std::io::ErrorKind::NotFound) {
+            return Err(IoError::MissingFolder {
+                path: path.to_path_buf(),
+                folder: dir,
+            });
         }
         let mut temp = Tracked::create(|| builder.tempfile_in(&dir))
             .map_err(os("create a temporary file in", &dir))?;

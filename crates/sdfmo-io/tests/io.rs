@@ -70,6 +70,8 @@ fn paths_that_name_no_file_are_refused() {
     );
     let e = write_atomic(dir.path().join("missing/x.txt"), b"x").unwrap_err();
     assert_eq!(e.os_kind(), Some(std::io::ErrorKind::NotFound), "{e}");
+    assert!(e.to_string().contains("the folder"), "{e}");
+    assert!(e.to_string().contains("does not exist"), "{e}");
     assert!(names(dir.path()).is_empty());
 }
 

@@ -10,6 +10,8 @@
 //! | [`open_sheet`] (n segments) | 2·n² | no (4n boundary edges) | 1 |
 //! | [`gap_pair`] | 24 | yes | 2 |
 //! | [`demo_part`] | 1,456 | no (the sheet is open) | 6 |
+//! | [`fan_cylinder`] (n segments) | 4n − 4 | yes | 1 |
+//! | [`fan_disc`] (n triangles) | n | no (n boundary edges) | 1 |
 
 use std::collections::HashMap;
 
@@ -163,6 +165,50 @@ pub fn gap_pair(size: f32, gap: f32) -> TriMesh {
     let lower = box_mesh(Vec3::new(-h, -size - g, -h), Vec3::new(h, -g, h));
     let upper = box_mesh(Vec3::new(-h, g, -h), Vec3::new(h, size + g, h));
     TriMesh::merge(&[lower, upper])
+}
+
+/// A closed cylinder along y (radius `radius`, height `height`, centred at the origin) with
+/// `segments` side quads (at least 3) and each cap triangulated as a fan from one of its rim
+/// vertices, as CAD exporters (and OBJ polygon triangulation) write n-gons: 4·segments − 4
+/// triangles (2,396 for 600 segments), each cap's triangles all sharing rim vertex 0.
+pub fn fan_cylinder(segments: u32, radius: f32, height: f32) -> TriMesh {
+    let n = segments.max(3);
+    let h = height * 0.5;
+    // Vertices: bottom ring 0..n, top ring n..2n; angle grows from +x towards +z.
+    let mut positions = Vec::with_capacity(2 * n as usize);
+    for y in [-h, h] {
+        for k in 0..n {
+            let a = std::f32::consts::TAU * k as f32 / n as f32;
+            positions.push(Vec3::new(radius * a.cos(), y, radius * a.sin()));
+        }
+    }
+    let mut triangles = Vec::with_capacity(4 * n as usize - 4);
+    for k in 0..n {
+        let k1 = (k + 1) % n;
+        // Outward side normals need (k, k + n, k1) order.
+        triangles.push([k, k + n, k1]);
+        triangles.push([k1, k + n, k1 + n]);
+    }
+    for k in 1..n - 1 {
+        triangles.push([0, k, k + 1]); // bottom cap, normal −y
+        triangles.push([n, n + k + 1, n + k]); // top cap, normal +y
+    }
+    let len = triangles.len();
+    TriMesh::from_valid(positions, triangles, vec![0; len])
+}
+
+/// An open unit disc in the plane z = 0 made of `triangles` wedges (at least 3) that all share
+/// its centre: the shape that makes bottom-up BVH builders degenerate.
+pub fn fan_disc(triangles: u32) -> TriMesh {
+    let n = triangles.max(3);
+    let mut positions = vec![Vec3::ZERO];
+    for k in 0..n {
+        let a = std::f32::consts::TAU * k as f32 / n as f32;
+        positions.push(Vec3::new(a.cos(), a.sin(), 0.0));
+    }
+    let tris: Vec<[u32; 3]> = (0..n).map(|k| [0, 1 + k, 1 + (k + 1) % n]).collect();
+    let len = tris.len();
+    TriMesh::from_valid(positions, tris, vec![0; len])
 }
 
 /// The built-in demo: a sphere, a box, a thin plate, an open sheet and two boxes with a

@@ -16,7 +16,9 @@
 //!   not match across the shared face) hits that face instead of leaking through it, which is
 //!   what keeps silhouettes free of pinholes. A tangent touch from outside (`f ≥ 0` on both
 //!   sides) is not a hit; a segment along which `f` is identically zero (it runs in the zero
-//!   set, e.g. in the plane of an internal face of touching shells) is, where it starts.
+//!   set, e.g. in the plane of an internal face of touching shells) is, where it starts. A
+//!   voxel whose corners are all zero (all codes 0 in a file) is never hit: it has no inside,
+//!   no surface and no gradient (`FORMAT.md`, surface section, issue 19).
 //! * **Surface voxel** (no inside): the first `t` where `f` reaches zero, from either side,
 //!   including `t0` itself when `f(t0) = 0`. An interpolant that is zero everywhere has no
 //!   crossing and no hit.

@@ -16,6 +16,23 @@ use crate::output::{check_output, json_f32, print_json, print_text, write_atomic
 /// Largest points file read (1 GiB, some 30 million points).
 const MAX_POINTS_FILE: u64 = 1 << 30;
 
+/// Largest coordinate accepted: the queries work with squared distances in f32, which overflow
+/// (to a `null` distance) beyond about 1.8e19.
+const MAX_COORDINATE: f32 = 1e18;
+
+/// Most characters of a malformed line or field quoted in an error.
+const MAX_QUOTED: usize = 60;
+
+/// `text` quoted for an error message, cut to [`MAX_QUOTED`] characters with the full length
+/// named, so a hostile 1 GiB line does not become a 1 GiB message.
+fn quoted(text: &str) -> String {
+    let mut chars = text.char_indices();
+    match chars.nth(MAX_QUOTED) {
+        None => format!("{text:?}"),
+        Some((cut, _)) => format!("{:?}… ({} bytes in all)", &text[..cut], text.len()),
+    }
+}
+
 /// Loads the mesh, normalises it as the builder does, and prints or writes one signed distance
 /// per point (negative inside).
 pub fn run(args: &DistanceArgs) -> anyhow::Result<()> {
@@ -88,18 +105,27 @@ pub fn parse_points(text: &str, file: &Path) -> anyhow::Result<Vec<Vec3>> {
         let where_ = || format!("{}:{}", file.display(), i + 1);
         if fields.len() != 3 {
             bail!(
-                "{}: expected 3 numbers `x y z`, found {} fields in {line:?}",
+                "{}: expected 3 numbers `x y z`, found {} fields in {}",
                 where_(),
-                fields.len()
+                fields.len(),
+                quoted(line)
             );
         }
         let mut p = [0.0f32; 3];
         for (slot, f) in p.iter_mut().zip(&fields) {
             let v: f32 = f
                 .parse()
-                .map_err(|_| anyhow::anyhow!("{}: {f:?} is not a number", where_()))?;
+                .map_err(|_| anyhow::anyhow!("{}: {} is not a number", where_(), quoted(f)))?;
             if !v.is_finite() {
-                bail!("{}: {f:?} is not a finite coordinate", where_());
+                bail!("{}: {} is not a finite coordinate", where_(), quoted(f));
+            }
+            if v.abs() > MAX_COORDINATE {
+                bail!(
+                    "{}: {} is farther than {MAX_COORDINATE:e} from the origin of the normalised \
+                     frame, where distances overflow f32",
+                    where_(),
+                    quoted(f)
+                );
             }
             *slot = v;
         }
@@ -111,6 +137,27 @@ pub fn parse_points(text: &str, file: &Path) -> anyhow::Result<Vec<Vec3>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn long_lines_are_quoted_in_part() {
+        let line = "\0".repeat(1 << 20);
+        let err = parse_points(&line, Path::new("p.xyz"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.len() < 400, "{}", err.len());
+        assert!(err.contains("1048576 bytes in all"), "{err}");
+        let err = parse_points(&format!("1 2 {}", "9".repeat(100_000)), Path::new("p.xyz"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.len() < 400, "{}", err.len());
+    }
+
+    #[test]
+    fn huge_coordinates_are_refused() {
+        let err = parse_points("1e20 0 0", Path::new("p.xyz")).unwrap_err();
+        assert!(err.to_string().contains("overflow"), "{err}");
+        assert!(parse_points("1e17 0 0", Path::new("p.xyz")).is_ok());
+    }
 
     #[test]
     fn points_parse_with_comments_and_commas() {

@@ -17,8 +17,9 @@ use serde_json::json;
 
 use crate::args::{DeviceArg, ModeArg, RenderArgs, RenderMeshArgs, RenderOptions, ViewsArg};
 use crate::commands::load_input;
-use crate::output::{check_output, ensure_parent, indexed_path, print_json, print_text};
+use crate::output::{check_output_as, ensure_parent, indexed_path, print_json, print_text};
 use crate::progress;
+use sdf_multioctree::io::Naming;
 
 /// Renders a `.smo` octree, on the CPU or on a GPU.
 pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
@@ -26,20 +27,31 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
     if args.device == DeviceArg::Gpu {
         check_gpu_options(&args.opts)?;
     }
-    let octree = PackedOctree::load(&args.octree).map_err(|e| match e {
-        // I/O errors name the file already; format errors do not.
-        sdf_multioctree::format::FormatError::Io(io) => anyhow::Error::new(io),
-        e => anyhow::Error::new(e).context(format!("cannot load octree {}", args.octree.display())),
-    })?;
+    let load = |max_bytes: u64| {
+        PackedOctree::load_with_limit(&args.octree, max_bytes).map_err(|e| match e {
+            // I/O errors name the file already; format errors do not.
+            sdf_multioctree::format::FormatError::Io(io) => anyhow::Error::new(io),
+            e => anyhow::Error::new(e)
+                .context(format!("cannot load octree {}", args.octree.display())),
+        })
+    };
     let source = args.octree.display().to_string();
     match args.device {
         DeviceArg::Cpu => {
+            let octree = load(sdf_multioctree::format::MAX_FILE_SIZE)?;
             let scene = OctreeScene(&octree);
             let mut view = cpu_views(&scene, &args.opts, &source);
             render_all(&mut view, &source, "cpu", None, &args.opts, &outputs)
         }
         DeviceArg::Gpu => {
             let mut gpu = GpuRenderer::new().context("cannot render on a GPU")?;
+            // The adapter's limit before the file is read (issue 19: a 2.18 GB file used to
+            // be read, copied and validated, 4.26 GB at the peak, before it was refused).
+            if let Ok(meta) = std::fs::metadata(&args.octree) {
+                gpu.check_file_size(meta.len())
+                    .with_context(|| format!("cannot render {source} on {}", gpu.adapter_name()))?;
+            }
+            let octree = load(gpu.max_file_bytes())?;
             let on_gpu = gpu
                 .upload(&octree)
                 .with_context(|| format!("cannot upload {source} to the GPU"))?;
@@ -166,6 +178,13 @@ fn check_options(opts: &RenderOptions) -> anyhow::Result<Vec<ViewOutputs>> {
         );
     }
     let views = cameras(opts).len();
+    // Several views number the names the user gave (`out.png` → `out_2.png`): derived names,
+    // where a symbolic link is replaced instead of followed.
+    let naming = if views > 1 {
+        Naming::Derived
+    } else {
+        Naming::Given
+    };
     let name = |p: &PathBuf, k: usize| {
         if views > 1 {
             indexed_path(p, k)
@@ -176,11 +195,11 @@ fn check_options(opts: &RenderOptions) -> anyhow::Result<Vec<ViewOutputs>> {
     (0..views)
         .map(|k| {
             let png = name(&opts.output, k);
-            check_output(&png, "the image (-o)", &["png"])?;
+            check_output_as(&png, "the image (-o)", &["png"], naming)?;
             let exr = match &opts.exr {
                 Some(p) => {
                     let p = name(p, k);
-                    check_output(&p, "the EXR image (--exr)", &["exr"])?;
+                    check_output_as(&p, "the EXR image (--exr)", &["exr"], naming)?;
                     Some(p)
                 }
                 None => None,
@@ -272,6 +291,11 @@ fn render_all(
         ensure_parent(exr)?;
     }
 
+    let naming = if cams.len() > 1 {
+        Naming::Derived
+    } else {
+        Naming::Given
+    };
     let bar = progress::steps(cams.len() as u64, "rendering");
     let mut views = Vec::new();
     let mut total = Counters::default();
@@ -282,9 +306,9 @@ fn render_all(
     let mut batch = sdf_multioctree::io::OutputBatch::new();
     for (cam, (png, exr)) in cams.iter().zip(outputs) {
         let (r, gpu_ms) = render_view(cam)?;
-        batch.stage(png, &render::encode_png(&r, png)?)?;
+        batch.stage_as(png, &render::encode_png(&r, png)?, naming)?;
         if let Some(p) = exr {
-            batch.stage(p, &render::encode_exr(&r, p)?)?;
+            batch.stage_as(p, &render::encode_exr(&r, p)?, naming)?;
         }
         total += r.counters;
         total_ms += r.render_ms;

@@ -318,9 +318,17 @@ impl Buffers<'_> {
                 )));
             }
         }
+        // Checked even for an empty accessor, whose offset no element bounds.
+        let start = view.offset().checked_add(acc.offset()).ok_or_else(|| {
+            bad(format!(
+                "accessor offset {} overflows past bufferView {}",
+                acc.offset(),
+                view.index()
+            ))
+        })?;
         Ok(Layout {
             bytes: &bytes[..view_end],
-            start: view.offset() + acc.offset(),
+            start,
             stride,
             count,
         })
@@ -410,6 +418,94 @@ fn assemble(mode: Mode, idx: &[u32], what: &str, ctx: &Ctx) -> Result<Vec<[u32; 
     })
 }
 
+/// Triangles of one primitive from its accessors' counts (nothing decoded).
+fn primitive_triangles(prim: &gltf::Primitive) -> usize {
+    let count = match prim.indices() {
+        Some(acc) => acc.count(),
+        None => prim
+            .get(&gltf::Semantic::Positions)
+            .map_or(0, |acc| acc.count()),
+    };
+    match prim.mode() {
+        Mode::Triangles => count / 3,
+        Mode::TriangleStrip | Mode::TriangleFan => count.saturating_sub(2),
+        _ => 0,
+    }
+}
+
+/// Refuses a scene whose instancing would expand past the limits, before anything is decoded:
+/// the triangles under each node are counted once per node (children before parents, so a
+/// shared subtree costs one count however often it is reused), saturating.
+fn check_expansion(doc: &gltf::Document, roots: &[gltf::Node], ctx: &Ctx) -> Result<()> {
+    let nodes: Vec<gltf::Node> = doc.nodes().collect();
+    let own: Vec<usize> = nodes
+        .iter()
+        .map(|n| {
+            n.mesh().map_or(0, |m| {
+                m.primitives()
+                    .map(|p| primitive_triangles(&p))
+                    .fold(0, usize::saturating_add)
+            })
+        })
+        .collect();
+    // Iterative post-order; 1 = on the path (a cycle if met again), 2 = counted.
+    let mut state = vec![0u8; nodes.len()];
+    let mut total = vec![0usize; nodes.len()];
+    for root in roots {
+        let mut stack = vec![(root.index(), false)];
+        while let Some((n, children_done)) = stack.pop() {
+            if children_done {
+                total[n] = nodes[n]
+                    .children()
+                    .map(|c| total[c.index()])
+                    .fold(own[n], usize::saturating_add);
+                state[n] = 2;
+                continue;
+            }
+            match state[n] {
+                2 => continue,
+                1 => return Err(ctx.parse(format!("node {n} is its own ancestor (cycle)"))),
+                _ => {}
+            }
+            state[n] = 1;
+            stack.push((n, true));
+            for c in nodes[n].children() {
+                if state[c.index()] == 1 {
+                    return Err(
+                        ctx.parse(format!("node {} is its own ancestor (cycle)", c.index()))
+                    );
+                }
+                if state[c.index()] == 0 {
+                    stack.push((c.index(), false));
+                }
+            }
+        }
+    }
+    let expanded = roots
+        .iter()
+        .map(|r| total[r.index()])
+        .fold(0, usize::saturating_add);
+    let file = ctx.file;
+    super::check_limit(
+        file,
+        "triangle count (after instancing)",
+        expanded,
+        ctx.limits.max_triangles,
+    )?;
+    // Each primitive's triangles once: what the file itself holds.
+    let distinct: usize = doc
+        .meshes()
+        .flat_map(|m| m.primitives())
+        .map(|p| primitive_triangles(&p))
+        .fold(0, usize::saturating_add);
+    super::check_limit(
+        file,
+        "triangles added by instancing",
+        expanded.saturating_sub(distinct),
+        ctx.limits.max_instanced_triangles,
+    )
+}
+
 pub(super) fn read(
     bytes: &[u8],
     file: &str,
@@ -459,6 +555,8 @@ pub(super) fn read(
             doc.nodes().filter(|n| !is_child[n.index()]).collect()
         }
     };
+
+    check_expansion(&doc, &roots, &ctx)?;
 
     let mut buffers = Buffers {
         doc: &doc,

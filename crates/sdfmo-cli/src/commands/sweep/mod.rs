@@ -17,7 +17,7 @@ use serde_json::json;
 
 use crate::args::{MethodArg, SweepArgs};
 use crate::commands::{load_input, memory_budget, with_threads, InputMesh};
-use crate::output::{print_json, print_text, write_png};
+use crate::output::{print_json, print_text, write_derived_png};
 use crate::progress;
 
 /// One line of the results: a model built with a method at a depth, measured over the views.
@@ -134,8 +134,7 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
         }
     }
     let out = &args.output;
-    std::fs::create_dir_all(out.join("images"))
-        .with_context(|| format!("cannot create directory {}", out.display()))?;
+    sdf_multioctree::io::create_derived_dir(out, Path::new("images"))?;
     let settings = SweepSettings {
         depths: depths.clone(),
         methods: methods.iter().map(|m| m.name().to_owned()).collect(),
@@ -209,9 +208,8 @@ fn sweep_model(
     rows: &mut Vec<Row>,
 ) -> anyhow::Result<Model> {
     let name = &input.name;
-    let img_dir: PathBuf = args.output.join("images").join(name);
-    std::fs::create_dir_all(&img_dir)
-        .with_context(|| format!("cannot create directory {}", img_dir.display()))?;
+    let img_dir: PathBuf =
+        sdf_multioctree::io::create_derived_dir(&args.output, &Path::new("images").join(name))?;
     bar.set_message(format!("{name}: reference"));
     let protocol = PaperProtocol::new(
         &input.mesh,
@@ -221,7 +219,7 @@ fn sweep_model(
     )
     .with_context(|| format!("cannot render the reference of {}", input.source))?;
     for (k, reference) in protocol.references().iter().enumerate() {
-        write_png(&img_dir.join(reference_file(k)), reference)?;
+        write_derived_png(&img_dir.join(reference_file(k)), reference)?;
     }
     bar.inc(1);
 
@@ -252,11 +250,11 @@ fn sweep_model(
                     .par_iter()
                     .enumerate()
                     .try_for_each(|(k, view)| {
-                        write_png(
+                        write_derived_png(
                             &img_dir.join(view_file(method.name(), depth, k)),
                             &view.image,
                         )?;
-                        write_png(
+                        write_derived_png(
                             &img_dir.join(heatmap_file(method.name(), depth, k)),
                             &metrics::flip_heatmap(&view.flip),
                         )

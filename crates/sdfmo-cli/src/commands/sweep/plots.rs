@@ -10,7 +10,7 @@ use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
 use super::Row;
-use crate::output::write_png;
+use crate::output::write_derived_png;
 
 /// Plot size in pixels, legend included.
 const WIDTH: u32 = 1100;
@@ -160,7 +160,7 @@ pub fn write_plots(dir: &Path, rows: &[Row]) -> anyhow::Result<Vec<String>> {
             }
         }
         let img = plot(title, x, y, &series).with_context(|| format!("cannot draw {file}"))?;
-        write_png(&dir.join(file), &img)?;
+        write_derived_png(&dir.join(file), &img)?;
         files.push((*file).to_owned());
     }
     Ok(files)

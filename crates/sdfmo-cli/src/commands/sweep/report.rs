@@ -8,7 +8,7 @@ use serde::Serialize;
 use serde_json::json;
 
 use super::{heatmap_file, image_rel, reference_file, view_file, Model, Row, SweepSettings};
-use crate::output::write_atomic;
+use crate::output::write_derived;
 
 /// Where and with what a sweep ran, recorded in results.json and on the page.
 #[derive(Clone, Debug, Serialize)]
@@ -99,9 +99,9 @@ pub fn write_tables(
     });
     let mut text = serde_json::to_string_pretty(&results)?;
     text.push('\n');
-    write_atomic(&out.join("results.json"), text.as_bytes())?;
-    write_atomic(&out.join("results.csv"), csv(rows).as_bytes())?;
-    write_atomic(
+    write_derived(&out.join("results.json"), text.as_bytes())?;
+    write_derived(&out.join("results.csv"), csv(rows).as_bytes())?;
+    write_derived(
         &out.join("table.md"),
         table_md(settings, models, rows).as_bytes(),
     )?;
@@ -620,7 +620,7 @@ pub fn write_html(
         }
     }
     s.push_str("</body>\n</html>\n");
-    write_atomic(&out.join("index.html"), s.as_bytes())?;
+    write_derived(&out.join("index.html"), s.as_bytes())?;
     Ok("index.html".to_owned())
 }
 
@@ -753,7 +753,7 @@ fn write_crops(
         for (tag, img, caption) in parts {
             let file = format!("crop_d{depth}_{view}_{tag}.png");
             let crop = image::imageops::crop_imm(&img, x, y, size, size).to_image();
-            crate::output::write_png(&out.join(image_rel(name, &file)), &crop)?;
+            crate::output::write_derived_png(&out.join(image_rel(name, &file)), &crop)?;
             // Shown at exactly twice its size: every image pixel is a 2×2 block.
             let _ = write!(
                 s,

@@ -4,7 +4,7 @@
 //! 2 pixels.
 //!
 //! Depths 6–8 run in the normal test run; depths 9 and 10 take long in the dev profile and are
-//! `#[ignore]`d: `cargo test -p sdfmo-trace --release --test watertight -- --ignored`.
+//! `#[ignore]`d: `cargo test -p sdfmo-render --release --test watertight -- --ignored`.
 
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
