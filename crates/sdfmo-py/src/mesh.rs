@@ -704,7 +704,7 @@ impl Mesh {
     /// The output is the same for any ``threads``. The build is refused with ``MemoryError``
     /// when its predicted peak memory exceeds ``max_memory`` bytes (default: half the physical
     /// memory, the command-line tool's default). Releases the GIL; Ctrl-C stops it between
-    /// chunks of leaves.
+    /// phases and chunks of corners and leaves (the subdivision phase runs to its end).
     #[pyo3(signature = (depth, *, method = "multi", max_voxels = 8, bits = 8, sign = "auto", threads = None, max_memory = None))]
     #[allow(clippy::too_many_arguments)]
     fn build(

@@ -18,7 +18,7 @@ use pyo3::prelude::*;
 use rayon::ThreadPool;
 
 /// How often a waiting call checks for signals.
-const POLL: Duration = Duration::from_millis(50);
+pub const POLL: Duration = Duration::from_millis(50);
 
 /// Work with fewer items than this runs on the calling thread (still without the GIL): the
 /// helper thread costs tens of microseconds, and such calls end in milliseconds.

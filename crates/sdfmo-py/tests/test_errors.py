@@ -1,5 +1,5 @@
 """Every bad input, and the exception it raises (the table of docs/results/python.md is
-printed from BAD_INPUTS by benches/python/measure.py)."""
+printed from BAD_INPUTS by scripts/measure.py)."""
 
 import numpy as np
 import pytest

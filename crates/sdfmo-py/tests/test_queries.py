@@ -258,3 +258,20 @@ def test_ctrl_c_interrupts_a_long_call():
     assert elapsed < 2.0, elapsed
     # The mesh is still usable afterwards.
     assert m.signed_distance(p[:3]).shape == (3,)
+
+
+def test_ctrl_c_interrupts_a_build():
+    m = uv_sphere()
+    m.build(3)  # warm up (thread pool, first allocations)
+    timer = threading.Timer(0.2, _thread.interrupt_main)
+    start = time.perf_counter()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        # Depth 10 on one thread takes about 18 s here (loaded machine); Ctrl-C stops it
+        # between phases and chunks of corners or leaves. The subdivision phase (about 5 s
+        # here) has no check and runs to its end.
+        m.build(10, threads=1)
+    elapsed = time.perf_counter() - start
+    timer.join()
+    assert elapsed < 15.0, elapsed
+    assert m.build(4).stats["depth"] == 4
