@@ -90,6 +90,8 @@ fn io_error_with(e: &IoError, message: String) -> PyErr {
             kind: FileKind::Directory,
             ..
         } => PyIsADirectoryError::new_err((21, message, filename)),
+        // ENOENT: outputs never create the folders they go into.
+        IoError::MissingFolder { .. } => PyFileNotFoundError::new_err((2, message, filename)),
         // EFBIG: larger than the reader's limit.
         IoError::TooLarge { .. } => os_error(Some(27), message, filename),
         _ => os_error(None, message, filename),
