@@ -764,6 +764,7 @@ impl Mesh {
             threads: None,
             margin: DEFAULT_MARGIN,
             sign: sign_arg(sign)?,
+            ..BuildSettings::default()
         };
         let budget = max_memory.or_else(build::default_memory_budget);
         let mesh = &self.data.mesh;
