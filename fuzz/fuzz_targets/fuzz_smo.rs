@@ -8,7 +8,8 @@
 //! Properties checked on every accepted input: the borrowed form (`PackedOctreeView`, the bytes
 //! read in place) accepts it too, its owned copy is the octree `from_bytes` gives; a full walk through the traversal accessors touches exactly `leaf_count`
 //! leaves and every voxel once, and the surface and clip bits read alike in both forms; no leaf
-//! holds clip-only voxels alone; writing it back and reading again round-trips; decoding the
+//! holds clip-only voxels alone nor more than `MAX_CLIP_VOXELS_PER_LEAF` clip voxels (the bound
+//! on the clip rule's work, issue 19); writing it back and reading again round-trips; decoding the
 //! leaves and building them again (`from_leaves`) keeps every voxel's surface and clip bits, the
 //! clip count and the version (1.1 iff there are clip voxels).
 //!
@@ -17,7 +18,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use sdfmo_format::{crc32, LeafInput, PackedOctree, PackedOctreeView};
+use sdfmo_format::{crc32, LeafInput, PackedOctree, PackedOctreeView, MAX_CLIP_VOXELS_PER_LEAF};
 
 fn check(bytes: &[u8]) {
     let owned = PackedOctree::from_bytes(bytes);
@@ -41,6 +42,8 @@ fn check(bytes: &[u8]) {
             assert_eq!(r, v.leaf_voxels(n));
             assert_eq!(o.any_clip_voxel(r.clone()), r.clone().any(|x| o.voxel_is_clip(x)));
             assert!(r.clone().any(|x| !(o.voxel_is_surface(x) && o.voxel_is_clip(x))));
+            let clips = r.clone().filter(|&x| o.voxel_is_clip(x)).count();
+            assert!(clips <= MAX_CLIP_VOXELS_PER_LEAF);
             for vx in r {
                 let c = o.voxel_corners(vx);
                 assert!(c.iter().all(|x| x.is_finite() && x.abs() <= o.dmax() * 1.0001));

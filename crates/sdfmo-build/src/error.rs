@@ -47,6 +47,9 @@ pub enum BuildError {
     /// The distance structure refused the mesh.
     #[error("building the distance structure")]
     Distance(#[from] sdfmo_distance::DistanceError),
+    /// The caller's cancel function returned true ([`build_cancellable`](crate::build_cancellable)).
+    #[error("the build was cancelled")]
+    Cancelled,
     /// Packing the octree failed.
     #[error("packing the octree")]
     Format(#[from] sdfmo_format::FormatError),

@@ -565,3 +565,59 @@ fn zero_thickness_plate_is_not_split_into_coincident_faces() {
     }
     assert_eq!(pairs, 0, "{st:?}");
 }
+
+/// The most clip voxels in one leaf of `o`, and its voxels whose corner codes are all 0.
+fn clip_bound_stats(o: &PackedOctree) -> (usize, usize) {
+    let mut max_clips = 0;
+    let mut all_zero = 0;
+    for n in (0..o.node_count() as u32).map(sdfmo_format::NodeRef::from_index) {
+        if !o.is_leaf(n) {
+            continue;
+        }
+        let voxels = o.leaf_voxels(n);
+        max_clips = max_clips.max(voxels.clone().filter(|&v| o.voxel_is_clip(v)).count());
+        all_zero += voxels.filter(|&v| o.voxel_codes(v) == [0; 8]).count();
+    }
+    (max_clips, all_zero)
+}
+
+/// Issue 19: the format bounds the clip voxels of a leaf (`MAX_CLIP_VOXELS_PER_LEAF`, so the
+/// clip rule's work is linear in a leaf's voxels; the writer refuses more, so a builder that
+/// emitted more would fail here with `ClipCount`). The builder emits at most 3 (a corner of
+/// three faces, or two rim planes): checked on the shared meshes at depths 6 and 8 (the
+/// measurement up to depth 10 is in docs/hardening.md). Nor does it emit a voxel whose codes
+/// are all 0 (which the format defines as never hit, issue 19 item 8).
+#[test]
+#[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
+fn clip_voxels_per_leaf_stay_within_the_format_bound() {
+    const BUILDER_MAX: usize = 3;
+    const _: () = assert!(BUILDER_MAX <= sdfmo_format::MAX_CLIP_VOXELS_PER_LEAF);
+    let mut meshes: Vec<(&str, TriMesh)> = [
+        "abc1.stl",
+        "abc3.stl",
+        "abc5.stl",
+        "abc8.stl",
+        "abc5_parts.obj",
+        "teapot.obj",
+        "stanford-bunny.obj",
+    ]
+    .into_iter()
+    .map(|n| (n, load(n)))
+    .collect();
+    meshes.push(("demo", procedural::demo_part()));
+    let mut seen = 0;
+    for (name, mesh) in &meshes {
+        for depth in [6, 8] {
+            let (o, _) = run(mesh, depth, MULTI);
+            let (max_clips, all_zero) = clip_bound_stats(&o);
+            assert!(
+                max_clips <= BUILDER_MAX,
+                "{name} d{depth}: {max_clips} clip voxels"
+            );
+            assert_eq!(all_zero, 0, "{name} d{depth}: all-zero voxels");
+            seen = seen.max(max_clips);
+        }
+    }
+    // The bound is exercised: some leaf has several clip voxels.
+    assert!(seen >= 2, "{seen}");
+}

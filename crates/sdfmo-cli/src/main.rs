@@ -37,7 +37,22 @@ static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 /// Exit code of an internal bug (a panic in a layer): `EX_SOFTWARE` of sysexits.h.
 const EXIT_BUG: u8 = 70;
 
+/// Without `XDG_RUNTIME_DIR` no Wayland display can be reached, yet the Vulkan loader's
+/// window-system probe under `--device gpu` asks libwayland for one, which prints "error:
+/// XDG_RUNTIME_DIR is invalid or not set in the environment." twice and breaks the CLI's
+/// one-line errors. An absolute `WAYLAND_DISPLAY` that cannot exist makes the probe fail
+/// silently; it changes nothing else (no Wayland connection was possible). Runs first in `main`,
+/// before any thread exists, so setting the variable races with nothing.
+fn quiet_wayland_probe() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none()
+        && std::env::var_os("WAYLAND_DISPLAY").is_none()
+    {
+        std::env::set_var("WAYLAND_DISPLAY", "/nonexistent/sdfmo-no-wayland-display");
+    }
+}
+
 fn main() -> ExitCode {
+    quiet_wayland_probe();
     // A panic is a bug in sdfmo, never the user's fault: report it on one line without a
     // backtrace, and exit with a distinct code.
     std::panic::set_hook(Box::new(|info| {

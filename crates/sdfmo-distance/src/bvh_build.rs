@@ -34,15 +34,15 @@ pub enum BvhBuilder {
 /// with the binned SAH instead of PLOC (see [`box_overlap`]).
 ///
 /// Measured (`examples/bvh_overlap.rs`, docs/hardening.md): the shared meshes 3.5–15.8 (the
-/// bunny 3.5, the CAD parts 8.5–15.8: their caps are small fans), a cylinder with fan caps of 400
-/// segments 34.6, 600 segments 50.5 (where PLOC's depth passes 128), 50 000-triangle fans
-/// about 4 000. 32 keeps every shared mesh on PLOC (their trees and every result stay
-/// byte-identical) with a 2× margin.
+/// bunny 3.5, the CAD parts 8.5–15.8: their caps are small fans), cylinders whose caps are fans
+/// from a rim vertex 66.6 at 400 segments and 98.4 at 600 (where PLOC's depth reaches 158), a
+/// 50 000-triangle fan about 4 000. 32 keeps every shared mesh on PLOC (their trees and every
+/// result stay byte-identical) with a 2× margin.
 pub const MAX_PLOC_BOX_OVERLAP: f64 = 32.0;
 
 /// Meshes with a vertex shared by more triangles than this are built with the binned SAH: a
 /// large fan inside a much larger mesh barely moves [`box_overlap`] but still stalls PLOC.
-/// Measured: the shared meshes' largest valence is 161 (abc1); a 600-segment fan cap's is 600.
+/// Measured: the shared meshes' largest valence is 161 (abc1); a 600-segment fan cap's is 601.
 pub const MAX_PLOC_VALENCE: u32 = 256;
 
 /// The binned-SAH builder switches to median splits below this depth, so its trees are at most
@@ -249,7 +249,7 @@ fn sah_split(
     let extent = centroid_bounds.diagonal();
     let mut best: Option<(f32, usize, usize)> = None; // (cost, axis, plane)
     for axis in 0..3 {
-        if !(extent[axis] > 0.0) {
+        if extent[axis].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             continue;
         }
         let scale = SAH_BINS as f32 / extent[axis];

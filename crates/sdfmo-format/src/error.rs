@@ -57,6 +57,17 @@ pub enum FormatError {
         /// The leaf's coordinate.
         coord: [u32; 3],
     },
+    /// A leaf has more than [`MAX_CLIP_VOXELS_PER_LEAF`](crate::MAX_CLIP_VOXELS_PER_LEAF)
+    /// voxels with the clip bit (the bound that keeps the clip rule's work per leaf linear).
+    #[error("leaf at {coord:?} has {count} clip voxels (at most {max})")]
+    ClipCount {
+        /// The leaf's coordinate.
+        coord: [u32; 3],
+        /// Its number of voxels with the clip bit.
+        count: usize,
+        /// The largest allowed count.
+        max: usize,
+    },
     /// A corner value is NaN or infinite.
     #[error("leaf at {coord:?}, voxel {voxel}, corner {corner} is not finite ({value})")]
     NonFiniteCorner {

@@ -60,6 +60,7 @@ mod crc32;
 mod error;
 mod file;
 mod interpolant;
+pub mod kernel;
 mod morton;
 mod octree;
 pub mod quant;
@@ -86,6 +87,17 @@ pub const MAX_DEPTH: u8 = 16;
 
 /// Most voxels one leaf may hold (its count is one byte).
 pub const MAX_VOXELS_PER_LEAF: usize = 255;
+
+/// Most voxels with the clip bit one leaf may hold (format 1.1; `FORMAT.md`, section `clip`).
+///
+/// The clip rule tests every candidate hit of a leaf's voxels against every *other* clip voxel
+/// of the leaf, so its work per leaf is at most (voxels × 4 candidates × clip voxels) interpolant
+/// evaluations: with this bound, linear in the leaf's voxels. Without it a valid file of
+/// 4,096 leaves of 255 intersect voxels took 51 s to render 128² on the CPU (issue 19). The
+/// builder emits at most 3 (a sharp corner of three faces; 2 rim planes of an open sheet):
+/// measured on the shared meshes at depths 5–10, see `sdfmo-build`'s tests. 8 leaves room for
+/// a vertex of up to 8 faces.
+pub const MAX_CLIP_VOXELS_PER_LEAF: usize = 8;
 
 /// Largest `.smo` file [`PackedOctree::load`] reads (16 GiB); a larger file is refused before
 /// any memory is allocated (use [`PackedOctree::load_with_limit`] to change it).

@@ -8,7 +8,9 @@ use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
 use crate::file::{minor_version, Counts, Header, Layout, CHECKSUM_SIZE, HEADER_SIZE};
 use crate::quant::{self, dequant_scale, quantize};
-use crate::{morton, LeafInput, OctreeMeta, ValueBits, Voxel, MAX_VOXELS_PER_LEAF};
+use crate::{
+    morton, LeafInput, OctreeMeta, ValueBits, Voxel, MAX_CLIP_VOXELS_PER_LEAF, MAX_VOXELS_PER_LEAF,
+};
 
 /// A node of an [`Octree`]: its breadth-first index (root = 0). Cheap to copy.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -154,7 +156,8 @@ impl PackedOctree {
     ///
     /// Errors: depth above [`MAX_DEPTH`](crate::MAX_DEPTH), a bad transform, a coordinate
     /// outside `[0, 2^depth)`, two leaves with the same coordinate, a leaf with 0 or more than 255
-    /// voxels or with clip-only voxels alone, a non-finite corner, or more than 2³² − 1 nodes or
+    /// voxels, with clip-only voxels alone or with more than
+    /// [`MAX_CLIP_VOXELS_PER_LEAF`](crate::MAX_CLIP_VOXELS_PER_LEAF) clip voxels, a non-finite corner, or more than 2³² − 1 nodes or
     /// voxels. The file is version 1.0 when no voxel has the clip bit (byte for byte what a 1.0
     /// writer writes), 1.1 with the clip bitmap when one has.
     pub fn from_leaves(meta: OctreeMeta, leaves: Vec<LeafInput>) -> Result<PackedOctree> {
@@ -196,6 +199,14 @@ impl PackedOctree {
             }
             if leaf.voxels.iter().all(Voxel::is_clip_only) {
                 return Err(FormatError::ClipOnlyLeaf { coord: leaf.coord });
+            }
+            let clips = leaf.voxels.iter().filter(|v| v.clip).count();
+            if clips > MAX_CLIP_VOXELS_PER_LEAF {
+                return Err(FormatError::ClipCount {
+                    coord: leaf.coord,
+                    count: clips,
+                    max: MAX_CLIP_VOXELS_PER_LEAF,
+                });
             }
             total_voxels += count as u64;
             keyed.push((morton::encode(leaf.coord), index));

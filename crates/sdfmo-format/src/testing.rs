@@ -111,3 +111,31 @@ pub fn skew_cube() -> (Mat3, Vec3, f32) {
     let rot = Mat3::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 0.6);
     (rot, Vec3::new(0.031, -0.047, 0.023), 0.513)
 }
+
+/// Issue 19 item 8: `leaves` (at `depth`) with a voxel whose corners are all 0, of the kind
+/// `surface`/`clip`, appended to every leaf, plus a leaf of such a voxel alone in every empty
+/// cell whose coordinates have an even sum (not for clip-only voxels, which cannot fill a leaf
+/// alone). `FORMAT.md`: an all-zero voxel is never hit and, as a clip voxel, keeps everything
+/// (`0 ≤ 0`), so the result must trace exactly as `leaves` does.
+pub fn with_all_zero_voxels(
+    depth: u8,
+    leaves: Vec<LeafInput>,
+    surface: bool,
+    clip: bool,
+) -> Vec<LeafInput> {
+    let zero = Voxel {
+        corners: [0.0; 8],
+        surface,
+        clip,
+    };
+    let mut by_coord: std::collections::HashMap<[u32; 3], Vec<Voxel>> =
+        leaves.into_iter().map(|l| (l.coord, l.voxels)).collect();
+    leaves_by_cell(depth, |coord| match by_coord.remove(&coord) {
+        Some(mut voxels) => {
+            voxels.push(zero);
+            voxels
+        }
+        None if !(surface && clip) && (coord[0] + coord[1] + coord[2]) % 2 == 0 => vec![zero],
+        None => Vec::new(),
+    })
+}

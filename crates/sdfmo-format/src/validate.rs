@@ -10,7 +10,7 @@ use crate::file::{
 };
 use crate::octree::{bytes_at, low_bits, Octree, Sections};
 use crate::quant::max_code;
-use crate::{OctreeMeta, ValueBits, MAX_DEPTH};
+use crate::{OctreeMeta, ValueBits, MAX_CLIP_VOXELS_PER_LEAF, MAX_DEPTH};
 
 fn corrupt<T>(field: &'static str, reason: impl Into<String>) -> Result<T> {
     Err(FormatError::corrupt(field, reason))
@@ -32,7 +32,8 @@ impl<B: AsRef<[u8]>> Octree<B> {
     /// sit exactly at `depth`), the leaf groups (counts 1..=255, first-voxel bases, total), the
     /// surface bitmap (popcount, padding bits), the corner codes (−Q..=Q), and in a 1.1 file
     /// with clip voxels the clip bitmap (padding bits, at least one bit, no leaf of clip-only
-    /// voxels alone). O(len), no allocation (except for the message of an error).
+    /// voxels alone, no leaf with more than
+    /// [`MAX_CLIP_VOXELS_PER_LEAF`](crate::MAX_CLIP_VOXELS_PER_LEAF) clip voxels). O(len), no allocation (except for the message of an error).
     pub fn new(buffer: B) -> Result<Octree<B>> {
         let (meta, counts, sections) = validate(buffer.as_ref())?;
         Ok(Octree::from_parts(buffer, meta, counts, sections))
@@ -390,7 +391,8 @@ impl SectionBytes<'_> {
     }
 
     /// The clip bitmap (present iff the header's clip flag is): padding bits 0, at least one
-    /// bit set, and every leaf holds a voxel that is not clip-only (surface + clip). Runs after
+    /// bit set, every leaf holds a voxel that is not clip-only (surface + clip) and at most
+    /// [`MAX_CLIP_VOXELS_PER_LEAF`] voxels with the clip bit. Runs after
     /// [`Self::validate_leaves`], so the leaf groups are consistent. Returns the clip count.
     fn validate_clip(&self) -> Result<u32> {
         if self.counts.clip == 0 {
@@ -410,6 +412,18 @@ impl SectionBytes<'_> {
                     return corrupt(
                         "clip",
                         format!("leaf {} has only clip-only voxels", g * 8 + s),
+                    );
+                }
+                let clips = (start..end).filter(|&x| bit(self.clip, x)).count();
+                if clips > MAX_CLIP_VOXELS_PER_LEAF {
+                    return corrupt(
+                        "clip",
+                        format!(
+                            "leaf {} has {clips} clip voxels, more than the {} the clip rule \
+                             allows per leaf (its work per leaf is voxels x clip voxels)",
+                            g * 8 + s,
+                            MAX_CLIP_VOXELS_PER_LEAF
+                        ),
                     );
                 }
             }

@@ -6,7 +6,8 @@ mod common;
 use common::{clipped_shell_leaves, field, meta, reseal, shell_leaves};
 use rand::{Rng, SeedableRng};
 use sdfmo_format::{
-    FormatError, NodeRef, PackedOctree, PackedOctreeView, ValueBits, FLAG_CLIP_VOXELS, KNOWN_FLAGS,
+    FormatError, LeafInput, NodeRef, PackedOctree, PackedOctreeView, ValueBits, Voxel,
+    FLAG_CLIP_VOXELS, KNOWN_FLAGS, MAX_CLIP_VOXELS_PER_LEAF,
 };
 
 fn real_file(bits: ValueBits) -> Vec<u8> {
@@ -418,6 +419,57 @@ fn lying_clip_flags_and_bitmaps_are_refused() {
         b[minor] = 0;
         b[flags] &= !(FLAG_CLIP_VOXELS as u8);
     });
+}
+
+/// Issue 19: the clip rule's work per leaf is (voxels × clip voxels); a valid 1.1 file of
+/// leaves with 255 intersect voxels took 51 s to render 128² before validation bounded the clip
+/// voxels of a leaf. A leaf at the bound is accepted, one clip voxel more is refused, by the
+/// reader and by the writer.
+#[test]
+fn leaves_with_more_clip_voxels_than_the_bound_are_refused() {
+    let max = MAX_CLIP_VOXELS_PER_LEAF;
+    // One leaf of `n` voxels: planes x = 0.5 + 0.01·k, every voxel an intersect voxel.
+    let leaf = |n: usize, clips: usize| LeafInput {
+        coord: [1, 2, 3],
+        voxels: (0..n)
+            .map(|k| Voxel {
+                corners: core::array::from_fn(|i| (i >> 2) as f32 - 0.5 - 0.01 * k as f32),
+                surface: false,
+                clip: k < clips,
+            })
+            .collect(),
+    };
+    let file = |clips: usize| {
+        PackedOctree::from_leaves(meta(3, ValueBits::Eight), vec![leaf(20, clips)])
+            .unwrap()
+            .to_bytes()
+    };
+    let at_bound = file(max);
+    PackedOctree::from_bytes(&at_bound).expect("a leaf at the bound is valid");
+    // The writer refuses one more.
+    let e =
+        PackedOctree::from_leaves(meta(3, ValueBits::Eight), vec![leaf(20, max + 1)]).unwrap_err();
+    assert!(
+        matches!(e, FormatError::ClipCount { coord: [1, 2, 3], count, max: m } if count == max + 1 && m == max),
+        "{e}"
+    );
+    // The reader refuses a resealed file with one more clip bit, and one with all 20.
+    let bitmap = at_bound.len() - 4 - 8;
+    for (name, bits) in [
+        ("one clip voxel too many", (1u64 << (max + 1)) - 1),
+        ("all 20", (1 << 20) - 1),
+    ] {
+        let mut b = at_bound.clone();
+        b[bitmap..bitmap + 8].copy_from_slice(&bits.to_le_bytes());
+        reseal(&mut b);
+        let e = PackedOctree::from_bytes(&b).unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            matches!(e, FormatError::Corrupt { field: "clip", .. })
+                && msg.contains("clip voxels, more than the 8"),
+            "{name}: {msg}"
+        );
+    }
 }
 
 /// A reader of version 1.0 knows flag bits 0 and 1 only and refuses unknown ones: a file with

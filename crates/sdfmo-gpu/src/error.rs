@@ -36,6 +36,15 @@ pub enum GpuError {
         /// The adapter's limit.
         limit: u64,
     },
+    /// The `.smo` file is too long for the kernel's 32-bit section offsets
+    /// ([`crate::MAX_GPU_FILE_BYTES`]), whatever the adapter could bind.
+    #[error("the octree has {needed} bytes; the GPU kernel reads files of at most {limit} bytes (32-bit section offsets)")]
+    FileTooLarge {
+        /// The file's length.
+        needed: u64,
+        /// [`crate::MAX_GPU_FILE_BYTES`].
+        limit: u64,
+    },
     /// The camera or image size cannot be rendered (empty image, non-finite frame).
     #[error("invalid camera: {0}")]
     InvalidCamera(String),
@@ -49,7 +58,15 @@ pub enum GpuError {
     /// Reading a result back failed (the buffer could not be mapped).
     #[error("cannot read the GPU's result back")]
     Readback(#[from] wgpu::BufferAsyncError),
-    /// Waiting for the GPU failed (timeout, lost device).
+    /// The GPU did not finish within the renderer's time-out ([`crate::GpuRenderer::set_timeout`]):
+    /// a frame too heavy for the device, or a hung driver. The work may still be running; drop
+    /// the renderer.
+    #[error("the GPU did not finish within {after:?} (the renderer's time-out); the octree may be too heavy to render on this device")]
+    Timeout {
+        /// The time waited.
+        after: std::time::Duration,
+    },
+    /// Waiting for the GPU failed (lost device, a bad submission index).
     #[error("waiting for the GPU failed")]
     Poll(#[from] wgpu::PollError),
 }

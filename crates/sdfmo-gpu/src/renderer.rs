@@ -1,13 +1,14 @@
 //! The wgpu side: a device, the compute pipeline of `render.wgsl`, octree uploads, renders.
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc, Mutex};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use sdfmo_format::quant::dequant_scale;
 use sdfmo_format::{PackedOctree, PackedOctreeView};
 use wgpu::util::DeviceExt;
 
-use crate::{shader_source, GpuError, Result, ENTRY_POINT, WORKGROUP_SIZE};
+use crate::{shader_source, GpuError, Result, ENTRY_POINT, SMO_FAR, WORKGROUP_SIZE};
 
 /// What each pixel shows (the modes of `sdfmo-render`, without shadows or occlusion).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -210,12 +211,20 @@ struct Params {
 
 const _: () = assert!(std::mem::size_of::<Params>() == 64);
 
+/// Largest `.smo` file the kernel can address: it reads the low 32 bits of the header's 64-bit
+/// section offsets (`sdfmo.wgsl`, `smo_info`), exact for every file shorter than 4 GiB (a
+/// file's length is a multiple of 4, so this is the longest one whose offsets fit 32 bits).
+pub const MAX_GPU_FILE_BYTES: u64 = (1 << 32) - 4;
+
+/// How long [`GpuRenderer::render`] waits for the GPU by default before it gives up with
+/// [`GpuError::Timeout`] ([`GpuRenderer::set_timeout`] changes it). A 1024² frame of the
+/// shared meshes takes well under a second even on Mesa's software rasteriser (lavapipe).
+pub const DEFAULT_GPU_TIMEOUT: Duration = Duration::from_secs(60);
+
 /// Bytes per pixel of the `pixels` binding (`SmoPixel`: normal, t).
 const PIXEL_BYTES: u64 = 16;
 /// Bytes per pixel of the `colors` binding.
 const COLOR_BYTES: u64 = 4;
-/// `SMO_FAR` of the WGSL: the background's t.
-const SMO_FAR: f32 = 3.0e38;
 
 /// Output buffers for one image size, kept between renders of the same size.
 struct Targets {
@@ -263,6 +272,21 @@ pub struct GpuRenderer {
     /// Errors wgpu reports outside an error scope (recorded instead of wgpu's default panic).
     uncaptured: Arc<Mutex<Option<String>>>,
     device_id: usize,
+    timeout: Duration,
+    /// Whether a wait timed out: the device may still be busy with that work.
+    timed_out: AtomicBool,
+}
+
+impl Drop for GpuRenderer {
+    fn drop(&mut self) {
+        if self.timed_out.load(Ordering::Relaxed) {
+            // wgpu's queue waits, when it is dropped, until the device is idle: after a time-out
+            // that is as long as the runaway frame (minutes, on lavapipe, for the file of the
+            // time-out test). Leak it instead (and the device with it): the work ends on its
+            // own or with the process.
+            std::mem::forget(self.queue.clone());
+        }
+    }
 }
 
 impl std::fmt::Debug for GpuRenderer {
@@ -276,7 +300,7 @@ impl std::fmt::Debug for GpuRenderer {
 }
 
 fn next_device_id() -> usize {
-    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::atomic::AtomicUsize;
     static NEXT: AtomicUsize = AtomicUsize::new(1);
     NEXT.fetch_add(1, Ordering::Relaxed)
 }
@@ -418,6 +442,8 @@ impl GpuRenderer {
             timer,
             uncaptured,
             device_id: next_device_id(),
+            timeout: DEFAULT_GPU_TIMEOUT,
+            timed_out: AtomicBool::new(false),
         })
     }
 
@@ -436,30 +462,72 @@ impl GpuRenderer {
         self.timer.is_some()
     }
 
+    /// How long [`GpuRenderer::render`] waits for one frame (and each read-back) before it
+    /// returns [`GpuError::Timeout`] ([`DEFAULT_GPU_TIMEOUT`] unless set). After a time-out the
+    /// work may still be running on the device: open a new renderer. Dropping this one does not
+    /// wait for that work (its queue and device are leaked instead).
+    pub fn set_timeout(&mut self, timeout: Duration) {
+        self.timeout = timeout;
+    }
+
+    /// The current wait limit ([`GpuRenderer::set_timeout`]).
+    pub fn timeout(&self) -> Duration {
+        self.timeout
+    }
+
+    /// The largest `.smo` file [`GpuRenderer::upload_bytes`] accepts on this adapter: the
+    /// adapter's storage-binding and buffer limits, and [`MAX_GPU_FILE_BYTES`] (the kernel's
+    /// 32-bit offsets). Check a file's length against it before reading the file.
+    pub fn max_file_bytes(&self) -> u64 {
+        self.binding_limit().min(MAX_GPU_FILE_BYTES)
+    }
+
     /// The device, to build pipelines of your own around `sdfmo.wgsl`.
     pub fn device(&self) -> &wgpu::Device {
         &self.device
     }
 
-    /// Uploads an octree: its `.smo` bytes ([`PackedOctree::to_bytes`]), unchanged.
+    /// Uploads an octree: its `.smo` bytes ([`PackedOctree::as_bytes`]), unchanged and not
+    /// copied on the host (the octree was validated when it was made). The size is checked
+    /// first ([`GpuRenderer::max_file_bytes`]).
     pub fn upload(&self, octree: &PackedOctree) -> Result<GpuOctree> {
-        self.upload_bytes(&octree.to_bytes())
+        self.check_file_size(octree.as_bytes().len() as u64)?;
+        self.upload_validated(octree.as_bytes(), octree.meta())
     }
 
     /// Validates `.smo` file bytes ([`PackedOctreeView::new`]: the kernel trusts what it reads)
-    /// and uploads them unchanged into one storage buffer.
+    /// and uploads them unchanged into one storage buffer. The length is checked against
+    /// [`GpuRenderer::max_file_bytes`] before anything is read.
     pub fn upload_bytes(&self, bytes: &[u8]) -> Result<GpuOctree> {
+        self.check_file_size(bytes.len() as u64)?;
         let view = PackedOctreeView::new(bytes)?;
-        let len = bytes.len() as u64;
-        let limit = self.binding_limit();
-        if len > limit {
+        self.upload_validated(bytes, view.meta())
+    }
+
+    /// [`GpuError::TooLarge`] when a `.smo` file of `len` bytes cannot be bound on this adapter
+    /// or addressed by the kernel ([`GpuRenderer::max_file_bytes`]). Costs nothing: call it with
+    /// a file's length before loading it.
+    pub fn check_file_size(&self, len: u64) -> Result<()> {
+        let binding = self.binding_limit();
+        if len > binding {
             return Err(GpuError::TooLarge {
                 what: "the octree",
                 needed: len,
-                limit,
+                limit: binding,
             });
         }
-        let meta = view.meta();
+        if len > MAX_GPU_FILE_BYTES {
+            return Err(GpuError::FileTooLarge {
+                needed: len,
+                limit: MAX_GPU_FILE_BYTES,
+            });
+        }
+        Ok(())
+    }
+
+    /// Uploads validated bytes (their length already checked).
+    fn upload_validated(&self, bytes: &[u8], meta: &sdfmo_format::OctreeMeta) -> Result<GpuOctree> {
+        let len = bytes.len() as u64;
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let buffer = self
             .device
@@ -590,8 +658,8 @@ impl GpuRenderer {
         encoder.copy_buffer_to_buffer(&t.pixel_buf, 0, &t.pixel_read, 0, pixels * PIXEL_BYTES);
         encoder.copy_buffer_to_buffer(&t.color_buf, 0, &t.color_read, 0, pixels * COLOR_BYTES);
         let start = Instant::now();
-        self.queue.submit([encoder.finish()]);
-        self.device.poll(wgpu::PollType::wait_indefinitely())?;
+        let submission = self.queue.submit([encoder.finish()]);
+        self.wait(Some(submission))?;
         let wall_ms = start.elapsed().as_secs_f64() * 1e3;
         if let Some(e) = pollster::block_on(oom.pop()) {
             drop(pollster::block_on(scope.pop()));
@@ -685,7 +753,7 @@ impl GpuRenderer {
         slice.map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
         });
-        self.device.poll(wgpu::PollType::wait_indefinitely())?;
+        self.wait(None)?;
         match rx.recv() {
             Ok(Ok(())) => {}
             Ok(Err(e)) => return Err(GpuError::Readback(e)),
@@ -697,6 +765,23 @@ impl GpuRenderer {
             .to_vec();
         buffer.unmap();
         Ok(bytes)
+    }
+
+    /// Waits for `submission` (the latest when `None`) at most [`GpuRenderer::timeout`].
+    fn wait(&self, submission: Option<wgpu::SubmissionIndex>) -> Result<()> {
+        match self.device.poll(wgpu::PollType::Wait {
+            submission_index: submission,
+            timeout: Some(self.timeout),
+        }) {
+            Ok(_) => Ok(()),
+            Err(wgpu::PollError::Timeout) => {
+                self.timed_out.store(true, Ordering::Relaxed);
+                Err(GpuError::Timeout {
+                    after: self.timeout,
+                })
+            }
+            Err(e) => Err(GpuError::Poll(e)),
+        }
     }
 
     /// An error wgpu reported outside any scope since the last call, as [`GpuError::Device`].
@@ -727,4 +812,61 @@ fn check_camera(c: &GpuCamera) -> Result<()> {
         )));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::{offset_of, size_of};
+
+    /// (member, byte offset, struct size) of the WGSL struct `name` in the render module.
+    fn wgsl_layout(name: &str) -> (Vec<(String, u32)>, u32) {
+        let m = naga::front::wgsl::parse_str(&shader_source()).expect("the shader parses");
+        let ty = m
+            .types
+            .iter()
+            .find(|(_, t)| t.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("no struct {name}"))
+            .1;
+        match &ty.inner {
+            naga::TypeInner::Struct { members, span } => (
+                members
+                    .iter()
+                    .map(|mb| (mb.name.clone().unwrap_or_default(), mb.offset))
+                    .collect(),
+                *span,
+            ),
+            other => panic!("{name} is {other:?}"),
+        }
+    }
+
+    /// Issue 20: the uniform's layout was kept by hand in Rust and WGSL (only the size was
+    /// asserted). naga's layout of `SmoRenderParams` must place every member where `Params` has
+    /// its field, and `SmoPixel` must be `PIXEL_BYTES` long.
+    #[test]
+    fn the_uniform_layout_matches_the_wgsl() {
+        let (members, span) = wgsl_layout("SmoRenderParams");
+        let rust = [
+            ("eye", offset_of!(Params, eye)),
+            ("dequant", offset_of!(Params, dequant)),
+            ("light", offset_of!(Params, light)),
+            ("light_intensity", offset_of!(Params, light_intensity)),
+            ("width", offset_of!(Params, width)),
+            ("height", offset_of!(Params, height)),
+            ("mode", offset_of!(Params, mode)),
+            ("ambient", offset_of!(Params, ambient)),
+            ("depth_near", offset_of!(Params, depth_near)),
+            ("depth_far", offset_of!(Params, depth_far)),
+            ("_pad0", offset_of!(Params, pad)),
+            ("_pad1", offset_of!(Params, pad) + 4),
+        ];
+        let rust: Vec<(String, u32)> = rust
+            .iter()
+            .map(|&(n, o)| (n.to_owned(), o as u32))
+            .collect();
+        assert_eq!(members, rust);
+        assert_eq!(span as usize, size_of::<Params>());
+        let (_, pixel) = wgsl_layout("SmoPixel");
+        assert_eq!(u64::from(pixel), PIXEL_BYTES);
+    }
 }

@@ -6,8 +6,11 @@
 // point inside (f < 0, the segment start when it starts inside), surface voxels at the first
 // zero crossing from either side; in a leaf with clip voxels (format 1.1, flag CLIP_VOXELS) a
 // hit counts only where every other clip voxel of the leaf is ≤ 0 (sdfmo-trace clip.rs; the
-// clip rule of FORMAT.md); the normal is the interpolant's unit gradient facing the viewer. Include this file in your own pipeline (WGSL has no #include: concatenate the
-// source before yours) and call `smo_info`, `smo_intersect` and `smo_hit_normal`.
+// clip rule of FORMAT.md; at most SMO_MAX_CLIP_VOXELS clip voxels per leaf); a voxel whose
+// corners are all 0 is never hit (FORMAT.md, surface section); the normal is the
+// interpolant's unit gradient facing the viewer. Include this library in your own pipeline
+// (WGSL has no #include: put `sdfmo_gpu::trace_wgsl()`, this file after its generated
+// constants, before your source) and call `smo_info`, `smo_intersect` and `smo_hit_normal`.
 //
 // BINDING LAYOUT (one binding; change the group/binding numbers on the next line if your
 // pipeline needs that slot):
@@ -26,6 +29,9 @@
 //   header words 10–12  inner_node_count I, leaf_count L, voxel_count V
 //   header words 16, 20, 24, 28  byte offsets of the nodes, leaves, surface, corners sections
 //   header word 30      corners_size (the clip bitmap starts at corners_offset + corners_size)
+//   (the low words of the header's 64-bit offsets and size: exact only for a file shorter than
+//   4 GiB. The host refuses a longer one before uploading it, sdfmo_gpu::MAX_GPU_FILE_BYTES;
+//   an engine binding the file itself must do the same.)
 //   nodes    3 words per group of 8 inner nodes: first_child, masks of nodes 8g..8g+3 (one byte
 //            each), masks of nodes 8g+4..8g+7
 //   leaves   3 words per group of 8 leaves: first_voxel, counts of leaves 8g..8g+3, 8g+4..8g+7
@@ -44,24 +50,21 @@
 
 @group(0) @binding(0) var<storage, read> smo: array<u32>;
 
-/// Stands for +∞ (a ray parameter no hit can reach).
-const SMO_FAR: f32 = 3.0e38;
-/// Largest finite f32.
-const SMO_MAX_FINITE: f32 = 3.40282347e38;
-/// Smallest normal f32.
-const SMO_MIN_POSITIVE: f32 = 1.17549435e-38;
-/// Direction components smaller than this are treated as this (with their sign).
-const SMO_TINY_DIR: f32 = 1e-30;
-/// Traversal stack: at most 3 pending siblings per level, 16 levels (MAX_DEPTH), plus slack;
-/// the same bound as the CPU tracer.
-const SMO_STACK_SIZE: u32 = 50u;
-/// Newton/bisection steps at most when polishing a root.
-const SMO_MAX_POLISH_STEPS: u32 = 32u;
-/// Root tolerance as a fraction of the segment.
-const SMO_REL_TOLERANCE: f32 = 1e-6;
-/// Slack of the clip test at a polished root, relative to the clip voxel's largest |corner|
-/// (sdfmo_trace::clip::CLIP_TOLERANCE); none at the span start.
-const SMO_CLIP_TOLERANCE: f32 = 1e-5;
+// CONSTANTS shared with the CPU kernel are not written here: `sdfmo_gpu::trace_wgsl()` puts
+// their `const` declarations, generated from the Rust values, before this file (one source:
+// `sdfmo_format::kernel` and `sdfmo_format::MAX_CLIP_VOXELS_PER_LEAF` for the kernels, the
+// `sdfmo_gpu` crate for SMO_FAR; `sdfmo_gpu::kernel_constants_wgsl()` lists them):
+//   SMO_FAR               f32  stands for +∞ (a ray parameter no hit can reach)
+//   SMO_MAX_FINITE        f32  largest finite f32
+//   SMO_MIN_POSITIVE      f32  smallest normal f32
+//   SMO_TINY_DIR          f32  direction components smaller than this are treated as this
+//   SMO_STACK_SIZE        u32  traversal stack entries (3 per level, 16 levels, plus slack)
+//   SMO_MAX_POLISH_STEPS  u32  Newton/bisection steps at most when polishing a root
+//   SMO_REL_TOLERANCE     f32  root tolerance as a fraction of the segment
+//   SMO_CLIP_TOLERANCE    f32  slack of the clip test at a polished root, relative to the clip
+//                              voxel's largest |corner|; none at the span start
+//   SMO_MAX_CLIP_VOXELS   u32  most clip voxels in one leaf (host validation refuses more): the
+//                              clip test of a candidate reads at most this many voxels
 
 /// Counts and section offsets (in words) of the bound octree.
 struct SmoInfo {
@@ -441,12 +444,34 @@ fn smo_min_max(c: array<f32, 8>) -> vec2<f32> {
     return vec2<f32>(lo, hi);
 }
 
-/// Whether the local point `p` is kept by every clip voxel of the leaf's voxels
-/// [first, first + count) other than `skip`: f ≤ SMO_CLIP_TOLERANCE · max|corner| at a polished
-/// root (`slack`), f ≤ 0 at the span start (sdfmo_trace::clip::inside_clip).
-fn smo_clips_keep(info: SmoInfo, first: u32, count: u32, skip: u32, p: vec3<f32>, slack: bool) -> bool {
+/// The clip voxels of one leaf, gathered once per leaf (sdfmo_trace::clip::LeafClips).
+struct SmoLeafClips {
+    voxels: array<u32, SMO_MAX_CLIP_VOXELS>,
+    count: u32,
+}
+
+/// The clip voxels among the leaf's voxels [first, first + count), in order (at most
+/// SMO_MAX_CLIP_VOXELS in a validated file; any beyond would be ignored, never read out of
+/// bounds).
+fn smo_gather_clips(info: SmoInfo, first: u32, count: u32) -> SmoLeafClips {
+    var clips: SmoLeafClips;
+    clips.count = 0u;
     for (var j = first; j < first + count; j++) {
-        if j == skip || !smo_voxel_is_clip(info, j) {
+        if smo_voxel_is_clip(info, j) && clips.count < SMO_MAX_CLIP_VOXELS {
+            clips.voxels[clips.count] = j;
+            clips.count += 1u;
+        }
+    }
+    return clips;
+}
+
+/// Whether the local point `p` is kept by every clip voxel of the leaf (`clips`) other than
+/// `skip`: f ≤ SMO_CLIP_TOLERANCE · max|corner| at a polished root (`slack`), f ≤ 0 at the span
+/// start (sdfmo_trace::clip::inside_clip).
+fn smo_clips_keep(info: SmoInfo, clips: SmoLeafClips, skip: u32, p: vec3<f32>, slack: bool) -> bool {
+    for (var k = 0u; k < clips.count; k++) {
+        let j = clips.voxels[k];
+        if j == skip {
             continue;
         }
         let c = smo_voxel_corners(info, j);
@@ -466,7 +491,7 @@ fn smo_clips_keep(info: SmoInfo, first: u32, count: u32, skip: u32, p: vec3<f32>
 /// The first candidate hit in [0, best] of voxel `voxel` (corners `c`) that the other clip
 /// voxels of the leaf keep, on the segment local_o + s·local_d, or −1
 /// (sdfmo_trace::clip::intersect_voxel_where with t0 = 0, the leaf's clip test as predicate).
-fn smo_clipped_voxel_hit(info: SmoInfo, first: u32, count: u32, voxel: u32, c: array<f32, 8>,
+fn smo_clipped_voxel_hit(info: SmoInfo, clips: SmoLeafClips, voxel: u32, c: array<f32, 8>,
                          local_o: vec3<f32>, local_d: vec3<f32>, best: f32, surface: bool) -> f32 {
     let len = best;
     if !(len >= 0.0 && len < SMO_FAR) {
@@ -478,7 +503,7 @@ fn smo_clipped_voxel_hit(info: SmoInfo, first: u32, count: u32, voxel: u32, c: a
     }
     if mm.y < 0.0 {
         // Inside everywhere: a volume voxel's only candidate is the segment start.
-        if !surface && smo_clips_keep(info, first, count, voxel, local_o, false) {
+        if !surface && smo_clips_keep(info, clips, voxel, local_o, false) {
             return 0.0;
         }
         return -1.0;
@@ -491,11 +516,11 @@ fn smo_clipped_voxel_hit(info: SmoInfo, first: u32, count: u32, voxel: u32, c: a
     let q = smo_ray_cubic(scaled, local_o, local_d * len);
     let g0 = q.d;
     if ((g0 < 0.0 && !surface) || (g0 == 0.0 && surface))
-        && smo_clips_keep(info, first, count, voxel, local_o, false) {
+        && smo_clips_keep(info, clips, voxel, local_o, false) {
         return 0.0;
     }
     if g0 == 0.0 && q.a == 0.0 && q.b == 0.0 && q.c == 0.0 {
-        if !surface && smo_clips_keep(info, first, count, voxel, local_o, false) {
+        if !surface && smo_clips_keep(info, clips, voxel, local_o, false) {
             return 0.0;
         }
         return -1.0;
@@ -520,7 +545,7 @@ fn smo_clipped_voxel_hit(info: SmoInfo, first: u32, count: u32, voxel: u32, c: a
         if crosses {
             let u = smo_polish(q, sa, sb, ga, gb, SMO_REL_TOLERANCE);
             let s = min(u * len, len);
-            if smo_clips_keep(info, first, count, voxel, local_o + local_d * s, true) {
+            if smo_clips_keep(info, clips, voxel, local_o + local_d * s, true) {
                 return s;
             }
         }
@@ -553,6 +578,11 @@ fn smo_leaf_hit(info: SmoInfo, cell: SmoCell, o: vec3<f32>, d: vec3<f32>) -> Smo
     let local_d = d * inv_size;
     let range = smo_leaf_voxels(info, cell.node);
     let clip = smo_any_clip(info, range.x, range.y);
+    var clips: SmoLeafClips;
+    clips.count = 0u;
+    if clip {
+        clips = smo_gather_clips(info, range.x, range.y);
+    }
     var best_s = cell.t_exit - cell.t_enter;
     var hit: SmoHit;
     hit.hit = false;
@@ -564,7 +594,7 @@ fn smo_leaf_hit(info: SmoInfo, cell: SmoCell, o: vec3<f32>, d: vec3<f32>) -> Smo
         let corners = smo_voxel_corners(info, v);
         var s: f32;
         if clip {
-            s = smo_clipped_voxel_hit(info, range.x, range.y, v, corners, local_o, local_d, best_s, surface);
+            s = smo_clipped_voxel_hit(info, clips, v, corners, local_o, local_d, best_s, surface);
         } else {
             s = smo_intersect_voxel(corners, local_o, local_d, 0.0, best_s, surface);
         }

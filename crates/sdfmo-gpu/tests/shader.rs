@@ -1,5 +1,7 @@
-//! The WGSL compiles and validates with naga (no adapter needed), and the documented binding
-//! layout is the one the shader declares.
+//! The WGSL compiles and validates with naga (no adapter needed), the documented binding
+//! layout is the one the shader declares, and the constants it shares with the CPU kernel have
+//! the Rust values (the uniform's layout is checked against the Rust struct in
+//! `src/renderer.rs`'s tests).
 
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 
@@ -23,7 +25,7 @@ fn render_shader_validates() {
 
 #[test]
 fn library_alone_validates_and_binds_only_the_octree() {
-    let m = module(sdfmo_gpu::TRACE_WGSL);
+    let m = module(&sdfmo_gpu::trace_wgsl());
     Validator::new(ValidationFlags::all(), Capabilities::empty())
         .validate(&m)
         .expect("sdfmo.wgsl validates on its own");
@@ -57,4 +59,69 @@ fn render_bindings_match_the_documented_layout() {
         names,
         ["0:smo", "1:params", "2:pixels", "3:colors", "4:rays"]
     );
+}
+
+/// The value of the module's `const NAME` (an f32 as its bits, or a u32).
+fn const_value(m: &naga::Module, name: &str) -> u64 {
+    let (_, c) = m
+        .constants
+        .iter()
+        .find(|(_, c)| c.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("no const {name}"));
+    match m.global_expressions[c.init] {
+        naga::Expression::Literal(naga::Literal::F32(v)) => u64::from(v.to_bits()),
+        naga::Expression::Literal(naga::Literal::U32(v)) => u64::from(v),
+        ref e => panic!("{name} is {e:?}"),
+    }
+}
+
+/// Issue 20: the constants the WGSL shares with the CPU kernel were written twice, in Rust and
+/// in WGSL. They are now generated from the Rust values (`kernel_constants_wgsl`); here the
+/// compiled module has exactly those values, and exactly the literals the WGSL used to hold
+/// (so images are unchanged).
+#[test]
+fn shared_constants_have_the_rust_values() {
+    use sdfmo_format::kernel::{
+        CLIP_TOLERANCE, MAX_POLISH_STEPS, ROOT_REL_TOLERANCE, TINY_DIR, TRAVERSAL_STACK_SIZE,
+    };
+    let m = module(&sdfmo_gpu::shader_source());
+    let f = |v: f32| u64::from(v.to_bits());
+    let expected = [
+        ("SMO_FAR", f(sdfmo_gpu::SMO_FAR), "3.0e38"),
+        ("SMO_MAX_FINITE", f(f32::MAX), "3.40282347e38"),
+        ("SMO_MIN_POSITIVE", f(f32::MIN_POSITIVE), "1.17549435e-38"),
+        ("SMO_TINY_DIR", f(TINY_DIR), "1e-30"),
+        ("SMO_STACK_SIZE", TRAVERSAL_STACK_SIZE as u64, "50u"),
+        ("SMO_MAX_POLISH_STEPS", u64::from(MAX_POLISH_STEPS), "32u"),
+        ("SMO_REL_TOLERANCE", f(ROOT_REL_TOLERANCE), "1e-6"),
+        ("SMO_CLIP_TOLERANCE", f(CLIP_TOLERANCE), "1e-5"),
+        (
+            "SMO_MAX_CLIP_VOXELS",
+            sdfmo_format::MAX_CLIP_VOXELS_PER_LEAF as u64,
+            "8u",
+        ),
+    ];
+    for (name, value, old_literal) in expected {
+        assert_eq!(const_value(&m, name), value, "{name}");
+        // The literal the hand-written WGSL had, read by naga as it read it then.
+        let ty = if old_literal.ends_with('u') {
+            "u32"
+        } else {
+            "f32"
+        };
+        let old = module(&format!("const {name}: {ty} = {old_literal};"));
+        assert_eq!(const_value(&old, name), value, "{name} changed value");
+    }
+    // The CPU kernel uses the same constants (not copies).
+    assert_eq!(sdfmo_trace::clip::CLIP_TOLERANCE, CLIP_TOLERANCE);
+    // Every shared constant is generated, none is written in the WGSL files.
+    let generated = sdfmo_gpu::kernel_constants_wgsl();
+    assert_eq!(generated.matches("const ").count(), expected.len());
+    let written = sdfmo_gpu::shader_source().replace(&generated, "");
+    for (name, ..) in expected {
+        assert!(
+            !written.contains(&format!("const {name}")),
+            "{name} written by hand"
+        );
+    }
 }

@@ -10,7 +10,7 @@
 //! | [`open_sheet`] (n segments) | 2·n² | no (4n boundary edges) | 1 |
 //! | [`gap_pair`] | 24 | yes | 2 |
 //! | [`demo_part`] | 1,456 | no (the sheet is open) | 6 |
-//! | [`fan_cylinder`] (n segments) | 4n | yes | 1 |
+//! | [`fan_cylinder`] (n segments) | 4n − 4 | yes | 1 |
 //! | [`fan_disc`] (n triangles) | n | no (n boundary edges) | 1 |
 
 use std::collections::HashMap;
@@ -168,34 +168,30 @@ pub fn gap_pair(size: f32, gap: f32) -> TriMesh {
 }
 
 /// A closed cylinder along y (radius `radius`, height `height`, centred at the origin) with
-/// `segments` side quads (at least 3) and caps triangulated as fans from their centres, as CAD
-/// exporters write them: 4·segments triangles, each cap's triangles all sharing its centre.
+/// `segments` side quads (at least 3) and each cap triangulated as a fan from one of its rim
+/// vertices, as CAD exporters (and OBJ polygon triangulation) write n-gons: 4·segments − 4
+/// triangles (2,396 for 600 segments), each cap's triangles all sharing rim vertex 0.
 pub fn fan_cylinder(segments: u32, radius: f32, height: f32) -> TriMesh {
     let n = segments.max(3);
     let h = height * 0.5;
-    let ring = |k: u32| {
-        let a = std::f32::consts::TAU * (k % n) as f32 / n as f32;
-        (radius * a.cos(), radius * a.sin())
-    };
-    // Vertices: bottom ring 0..n, top ring n..2n, bottom centre 2n, top centre 2n + 1.
-    let mut positions = Vec::with_capacity(2 * n as usize + 2);
+    // Vertices: bottom ring 0..n, top ring n..2n; angle grows from +x towards +z.
+    let mut positions = Vec::with_capacity(2 * n as usize);
     for y in [-h, h] {
         for k in 0..n {
-            let (x, z) = ring(k);
-            positions.push(Vec3::new(x, y, z));
+            let a = std::f32::consts::TAU * k as f32 / n as f32;
+            positions.push(Vec3::new(radius * a.cos(), y, radius * a.sin()));
         }
     }
-    positions.push(Vec3::new(0.0, -h, 0.0));
-    positions.push(Vec3::new(0.0, h, 0.0));
-    let (bottom, top) = (2 * n, 2 * n + 1);
-    let mut triangles = Vec::with_capacity(4 * n as usize);
+    let mut triangles = Vec::with_capacity(4 * n as usize - 4);
     for k in 0..n {
         let k1 = (k + 1) % n;
-        // Angle grows from +x towards +z, so outward side normals need (k, k1+n, k1) order.
+        // Outward side normals need (k, k + n, k1) order.
         triangles.push([k, k + n, k1]);
         triangles.push([k1, k + n, k1 + n]);
-        triangles.push([bottom, k, k1]);
-        triangles.push([top, k1 + n, k + n]);
+    }
+    for k in 1..n - 1 {
+        triangles.push([0, k, k + 1]); // bottom cap, normal −y
+        triangles.push([n, n + k + 1, n + k]); // top cap, normal +y
     }
     let len = triangles.len();
     TriMesh::from_valid(positions, triangles, vec![0; len])

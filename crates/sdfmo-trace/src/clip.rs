@@ -34,24 +34,15 @@ use core::ops::Range;
 use glam::Vec3;
 use sdfmo_format::{trilinear, Octree};
 
+use sdfmo_format::MAX_CLIP_VOXELS_PER_LEAF;
+
 use crate::distance::{voxel_sample, DistanceSample};
 use crate::ray_voxel::{min_max, roots_where, RayCubic};
 
-/// Slack of the clip test at a crossing, relative to the clip voxel's largest |corner|: a
-/// candidate that is a polished root is accepted where `f_j ≤ CLIP_TOLERANCE · max|corner_j|`.
-///
-/// Roots are polished to `1e-6` of the segment (below `2e-6` voxel edges), where a trilinear
-/// interpolant bounded by `m` changes by at most about `2√3 · m` per edge, i.e. `7e-6 · m`.
-/// Without slack, a ray through a convex edge of two intersect voxels could see both entries
-/// rejected by rounding (each voxel a hair outside the other) and pass through the edge; with
-/// it the solid grows by at most `1e-5` of the leaf diagonal there.
-///
-/// The span-start candidate (the ray enters the leaf inside a volume voxel) has no slack: it is
-/// exact (no root to polish), and with slack a ray entering a leaf just before it crosses a
-/// clip voxel's face would be accepted at the leaf boundary with the wrong voxel active (the
-/// wrong normal); without it that candidate is rejected and the clip voxel's own crossing a
-/// hair later is the hit.
-pub const CLIP_TOLERANCE: f32 = 1e-5;
+/// Slack of the clip test at a crossing, relative to the clip voxel's largest |corner| (the
+/// format's value, shared with the WGSL kernel; its documentation says why it is needed and why
+/// the span start has none).
+pub use sdfmo_format::kernel::CLIP_TOLERANCE;
 
 /// Whether the point `p` (local frame of the leaf) is on the kept side of the clip voxel
 /// `corners`: `f ≤ CLIP_TOLERANCE · max|corner|` at a polished root (`slack`), `f ≤ 0` at the
@@ -112,9 +103,55 @@ pub fn intersect_voxel_where(
     roots_where(&cubic, 1.0, surface, |u, root| accept(to_t(u), root)).map(to_t)
 }
 
+/// The clip voxels of one leaf (index and corners), gathered once per leaf so the clip test of
+/// a candidate reads only them: at most [`MAX_CLIP_VOXELS_PER_LEAF`] (validation refuses a file
+/// with more), which makes the clip rule's work linear in the leaf's voxels.
+pub(crate) struct LeafClips {
+    voxels: [(u32, [f32; 8]); MAX_CLIP_VOXELS_PER_LEAF],
+    count: usize,
+}
+
+impl LeafClips {
+    /// The clip voxels of `voxels` in order (a leaf's range of a validated octree).
+    #[inline]
+    pub(crate) fn gather<B: AsRef<[u8]>>(octree: &Octree<B>, voxels: Range<u32>) -> LeafClips {
+        let mut clips = LeafClips {
+            voxels: [(0, [0.0; 8]); MAX_CLIP_VOXELS_PER_LEAF],
+            count: 0,
+        };
+        for j in voxels {
+            if octree.voxel_is_clip(j) {
+                // Validation bounds the count; were it exceeded, the extra voxels would be
+                // ignored rather than indexed out of bounds.
+                debug_assert!(clips.count < MAX_CLIP_VOXELS_PER_LEAF, "validated bound");
+                if let Some(slot) = clips.voxels.get_mut(clips.count) {
+                    *slot = (j, octree.voxel_corners(j));
+                    clips.count += 1;
+                }
+            }
+        }
+        clips
+    }
+
+    /// The gathered `(voxel, corners)` pairs.
+    #[inline]
+    pub(crate) fn as_slice(&self) -> &[(u32, [f32; 8])] {
+        &self.voxels[..self.count]
+    }
+
+    /// Whether every clip voxel other than `voxel` keeps the local point `p` ([`inside_clip`]).
+    #[inline]
+    fn keep(&self, voxel: u32, p: Vec3, slack: bool) -> bool {
+        self.as_slice()
+            .iter()
+            .all(|(j, c)| *j == voxel || inside_clip(c, p, slack))
+    }
+}
+
 /// The leaf rule on a leaf with clip voxels: the nearest accepted candidate over the voxels of
 /// `voxels` on the segment `local_o + s·local_d`, `s ∈ [0, len]` (the leaf's local frame), as
-/// `(s, voxel, surface)`; any accepted candidate when `ANY`.
+/// `(s, voxel, surface)`; any accepted candidate when `ANY`. At most 4 candidates per voxel,
+/// each tested against at most [`MAX_CLIP_VOXELS_PER_LEAF`] clip voxels.
 pub(crate) fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(
     octree: &Octree<B>,
     voxels: Range<u32>,
@@ -122,23 +159,17 @@ pub(crate) fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(
     local_d: Vec3,
     len: f32,
 ) -> Option<(f32, u32, bool)> {
+    let clips = LeafClips::gather(octree, voxels.clone());
     let mut best_s = len;
     let mut best: Option<(u32, bool)> = None;
-    for voxel in voxels.clone() {
+    for voxel in voxels {
         let surface = octree.voxel_is_surface(voxel);
         let clip = octree.voxel_is_clip(voxel);
         if surface && clip {
             continue; // clip-only: never hit itself
         }
         let corners = octree.voxel_corners(voxel);
-        let others_keep = |s: f32, root: bool| {
-            let p = local_o + local_d * s;
-            voxels.clone().all(|j| {
-                j == voxel
-                    || !octree.voxel_is_clip(j)
-                    || inside_clip(&octree.voxel_corners(j), p, root)
-            })
-        };
+        let others_keep = |s: f32, root: bool| clips.keep(voxel, local_o + local_d * s, root);
         let found = intersect_voxel_where(
             &corners,
             local_o,
@@ -176,14 +207,15 @@ pub(crate) fn distance_in_leaf<B: AsRef<[u8]>>(
     cell_min: Vec3,
     cell_size: f32,
 ) -> Option<DistanceSample> {
+    let clips = LeafClips::gather(octree, voxels.clone());
     let mut best: Option<DistanceSample> = None;
-    for i in voxels.clone() {
+    for i in voxels {
         if octree.voxel_is_surface(i) && octree.voxel_is_clip(i) {
             continue;
         }
         let mut active = voxel_sample(octree, i, local, cell_min, cell_size, false);
-        for j in voxels.clone() {
-            if j != i && octree.voxel_is_clip(j) {
+        for &(j, _) in clips.as_slice() {
+            if j != i {
                 let clip = voxel_sample(octree, j, local, cell_min, cell_size, true);
                 if clip.distance > active.distance {
                     active = clip;

@@ -1,5 +1,5 @@
 //! Coherent packets of rays that share their origin (the primary rays of a pinhole camera):
-//! one walk of the octree for [`PACKET_SIZE`] rays, with exactly the hits of [`intersect`](crate::intersect) on
+//! one walk of the octree for [`PACKET_SIZE`] rays, with exactly the hits of [`intersect`] on
 //! each ray.
 //!
 //! Why: on the paper views three quarters of the inner nodes a single ray visits lie in the top
@@ -7,7 +7,7 @@
 //! pixels visit the same ones. A packet reads each node once and does the per-ray arithmetic
 //! for all its rays side by side (arrays of lanes the compiler vectorises).
 //!
-//! Why the hits are those of [`intersect`](crate::intersect), bit for bit:
+//! Why the hits are those of [`intersect`], bit for bit:
 //! * every lane computes the same quantities with the same f32 operations as the single-ray
 //!   step (`tm = (mid − o)·inv`, the entry octant, the crossings inside `(t_enter, t_exit)`
 //!   sorted by the same stable comparator network), so a child is in a lane's mask exactly when
@@ -20,7 +20,7 @@
 //! * leaves run the same per-ray leaf test on each lane's span, and a lane stops at its first
 //!   hit, as the single ray does.
 //!
-//! The unit test `packets_hit_exactly_like_single_rays` checks it against [`intersect`](crate::intersect) on many
+//! The unit test `packets_hit_exactly_like_single_rays` checks it against [`intersect`] on many
 //! cameras (eyes on and off the root's mid-planes, axis-parallel rays, partial packets).
 
 use glam::Vec3;
@@ -78,7 +78,7 @@ pub struct RayPacket {
 }
 
 /// The first hit of each lane of `rays` (lanes not traced: `None`): for every traced ray
-/// exactly what [`intersect`](crate::intersect)`(octree, ray, 0.0, t_max)` returns, found in one walk of the
+/// exactly what [`intersect`]`(octree, ray, 0.0, t_max)` returns, found in one walk of the
 /// octree for the whole packet. Fastest when the rays are close together (neighbouring pixels).
 pub fn intersect_packet<B: AsRef<[u8]>>(
     octree: &Octree<B>,

@@ -16,7 +16,9 @@
 //!   not match across the shared face) hits that face instead of leaking through it, which is
 //!   what keeps silhouettes free of pinholes. A tangent touch from outside (`f ≥ 0` on both
 //!   sides) is not a hit; a segment along which `f` is identically zero (it runs in the zero
-//!   set, e.g. in the plane of an internal face of touching shells) is, where it starts.
+//!   set, e.g. in the plane of an internal face of touching shells) is, where it starts. A
+//!   voxel whose corners are all zero (all codes 0 in a file) is never hit: it has no inside,
+//!   no surface and no gradient (`FORMAT.md`, surface section, issue 19).
 //! * **Surface voxel** (no inside): the first `t` where `f` reaches zero, from either side,
 //!   including `t0` itself when `f(t0) = 0`. An interpolant that is zero everywhere has no
 //!   crossing and no hit.
@@ -29,13 +31,10 @@ use glam::Vec3;
 /// The interpolant a voxel is (owned by the format, re-exported here for the kernel's users).
 pub use sdfmo_format::trilinear;
 
-/// Newton/bisection steps at most; bisection alone reaches the tolerance (1e-6 of the segment)
-/// in 20.
-const MAX_POLISH_STEPS: u32 = 32;
-
-/// Tolerance of a polished root, as a fraction of the segment length `t1 − t0` (the segment is
-/// at most √3 voxel edges long, so this is below 2e-6 voxel units).
-pub(crate) const REL_TOLERANCE: f32 = 1e-6;
+// Newton/bisection steps at most, and the tolerance of a polished root as a fraction of the
+// segment length: shared with the WGSL kernel (`sdfmo_format::kernel`).
+use sdfmo_format::kernel::MAX_POLISH_STEPS;
+pub(crate) use sdfmo_format::kernel::ROOT_REL_TOLERANCE as REL_TOLERANCE;
 
 /// A cubic `a s³ + b s² + c s + d` in the segment parameter `s = t − t0`.
 #[derive(Clone, Copy, Debug, PartialEq)]

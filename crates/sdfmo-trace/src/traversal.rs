@@ -18,7 +18,7 @@
 use core::mem::MaybeUninit;
 
 use glam::Vec3;
-use sdfmo_format::{NodeRef, Octree, MAX_DEPTH};
+use sdfmo_format::{NodeRef, Octree};
 
 use crate::ray_voxel::intersect_voxel;
 
@@ -46,12 +46,9 @@ pub struct Hit {
     pub surface: bool,
 }
 
-/// Stack capacity: a node pushes at most four children and pops one, so a descent to depth
-/// `d` holds at most `3d + 1` entries; [`MAX_DEPTH`] bounds `d`.
-const STACK_SIZE: usize = 3 * MAX_DEPTH as usize + 2;
-
-/// Replacement for zero direction components in the plane crossing times.
-const TINY_DIR: f32 = 1e-30;
+// Stack capacity, and the replacement for zero direction components in the plane crossing
+// times: shared with the WGSL kernel (`sdfmo_format::kernel`).
+use sdfmo_format::kernel::{TINY_DIR, TRAVERSAL_STACK_SIZE as STACK_SIZE};
 
 /// A cell waiting on the stack: node, box and the ray's span in it.
 #[derive(Clone, Copy, Debug)]

@@ -27,20 +27,31 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
     if args.device == DeviceArg::Gpu {
         check_gpu_options(&args.opts)?;
     }
-    let octree = PackedOctree::load(&args.octree).map_err(|e| match e {
-        // I/O errors name the file already; format errors do not.
-        sdf_multioctree::format::FormatError::Io(io) => anyhow::Error::new(io),
-        e => anyhow::Error::new(e).context(format!("cannot load octree {}", args.octree.display())),
-    })?;
+    let load = |max_bytes: u64| {
+        PackedOctree::load_with_limit(&args.octree, max_bytes).map_err(|e| match e {
+            // I/O errors name the file already; format errors do not.
+            sdf_multioctree::format::FormatError::Io(io) => anyhow::Error::new(io),
+            e => anyhow::Error::new(e)
+                .context(format!("cannot load octree {}", args.octree.display())),
+        })
+    };
     let source = args.octree.display().to_string();
     match args.device {
         DeviceArg::Cpu => {
+            let octree = load(sdf_multioctree::format::MAX_FILE_SIZE)?;
             let scene = OctreeScene(&octree);
             let mut view = cpu_views(&scene, &args.opts, &source);
             render_all(&mut view, &source, "cpu", None, &args.opts, &outputs)
         }
         DeviceArg::Gpu => {
             let mut gpu = GpuRenderer::new().context("cannot render on a GPU")?;
+            // The adapter's limit before the file is read (issue 19: a 2.18 GB file used to
+            // be read, copied and validated, 4.26 GB at the peak, before it was refused).
+            if let Ok(meta) = std::fs::metadata(&args.octree) {
+                gpu.check_file_size(meta.len())
+                    .with_context(|| format!("cannot render {source} on {}", gpu.adapter_name()))?;
+            }
+            let octree = load(gpu.max_file_bytes())?;
             let on_gpu = gpu
                 .upload(&octree)
                 .with_context(|| format!("cannot upload {source} to the GPU"))?;

@@ -1,0 +1,204 @@
+"""Type stubs of the compiled module ``sdfmo._sdfmo`` (re-exported by ``sdfmo``)."""
+
+import os
+from typing import Literal, Optional, Sequence, Tuple, Union, overload
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+_Path = Union[str, "os.PathLike[str]"]
+_Points = npt.ArrayLike
+_Sign = Literal["auto", "pseudonormal", "winding"]
+_Mode = Literal["lambert", "mask", "depth", "normal"]
+_F32 = npt.NDArray[np.float32]
+_I64 = npt.NDArray[np.int64]
+_U8 = npt.NDArray[np.uint8]
+
+class FormatError(ValueError):
+    """A ``.smo`` file that is truncated, corrupt, of an unknown version or inconsistent."""
+
+class MeshError(ValueError):
+    """A mesh file that is not a readable OBJ, glTF/GLB or STL file."""
+
+class Mesh:
+    """A triangle mesh in model units, with exact distance queries."""
+
+    def __init__(self, vertices: npt.ArrayLike, faces: npt.ArrayLike, *, clean: bool = False) -> None:
+        """A mesh from ``vertices`` ``(n, 3)`` floats and ``faces`` ``(m, 3)`` integers."""
+    @staticmethod
+    def load(path: _Path) -> "Mesh":
+        """Loads an OBJ, glTF/GLB or STL file (welded and cleaned)."""
+    @property
+    def vertices(self) -> _F32:
+        """The vertices, float32 ``(n, 3)``."""
+    @property
+    def faces(self) -> _I64:
+        """The triangles, int64 ``(m, 3)``."""
+    @property
+    def bounds(self) -> _F32:
+        """``[min, max]``, float32 ``(2, 3)``."""
+    @property
+    def is_watertight(self) -> bool:
+        """No boundary and no non-manifold edge."""
+    @property
+    def component_count(self) -> int:
+        """Connected components through shared edges."""
+    @property
+    def vertex_count(self) -> int:
+        """Number of vertices."""
+    @property
+    def face_count(self) -> int:
+        """Number of triangles."""
+    @property
+    def auto_sign(self) -> Literal["pseudonormal", "winding"]:
+        """The sign method ``sign="auto"`` uses on this mesh."""
+    @overload
+    def signed_distance(
+        self,
+        points: _Points,
+        *,
+        sign: _Sign = "auto",
+        return_closest: Literal[False] = False,
+        return_face: Literal[False] = False,
+        threads: Optional[int] = None,
+    ) -> _F32: ...
+    @overload
+    def signed_distance(
+        self,
+        points: _Points,
+        *,
+        sign: _Sign = "auto",
+        return_closest: bool = False,
+        return_face: bool = False,
+        threads: Optional[int] = None,
+    ) -> Union[_F32, Tuple[_F32, _F32], Tuple[_F32, _I64], Tuple[_F32, _F32, _I64]]:
+        """Exact signed distance (negative inside), model units."""
+    @overload
+    def unsigned_distance(
+        self,
+        points: _Points,
+        *,
+        return_closest: Literal[False] = False,
+        return_face: Literal[False] = False,
+        threads: Optional[int] = None,
+    ) -> _F32: ...
+    @overload
+    def unsigned_distance(
+        self,
+        points: _Points,
+        *,
+        return_closest: bool = False,
+        return_face: bool = False,
+        threads: Optional[int] = None,
+    ) -> Union[_F32, Tuple[_F32, _F32], Tuple[_F32, _I64], Tuple[_F32, _F32, _I64]]:
+        """Exact unsigned distance, model units."""
+    def winding_number(self, points: _Points, *, threads: Optional[int] = None) -> _F32:
+        """Generalised winding number at each point."""
+    def contains(self, points: _Points, *, sign: _Sign = "auto", threads: Optional[int] = None) -> npt.NDArray[np.bool_]:
+        """``signed_distance(points) < 0``."""
+    def ray_intersect(
+        self,
+        origins: _Points,
+        directions: _Points,
+        *,
+        t_max: float = ...,
+        threads: Optional[int] = None,
+    ) -> Tuple[_F32, _I64]:
+        """First hit ``(t, face)`` of each ray; ``inf`` and -1 on a miss."""
+    def build(
+        self,
+        depth: int,
+        *,
+        method: Literal["multi", "svo"] = "multi",
+        max_voxels: int = 8,
+        bits: Literal[8, 16] = 8,
+        sign: _Sign = "auto",
+        threads: Optional[int] = None,
+        max_memory: Optional[int] = None,
+    ) -> "Octree":
+        """Builds the sparse SDF octree."""
+    def render(
+        self,
+        width: int = 1024,
+        height: Optional[int] = None,
+        *,
+        mode: _Mode = "lambert",
+        view: int = 0,
+        eye: Optional[Sequence[float]] = None,
+        target: Optional[Sequence[float]] = None,
+        fov: Optional[float] = None,
+        shadows: bool = False,
+        ao: int = 0,
+        threads: Optional[int] = None,
+    ) -> _U8:
+        """Ray traces the mesh (the reference image), uint8 ``(h, w, 3)``."""
+
+class Octree:
+    """A sparse octree of trilinear signed-distance voxels (``.smo``)."""
+
+    @staticmethod
+    def load(path: _Path) -> "Octree":
+        """Loads and validates a ``.smo`` file."""
+    @staticmethod
+    def from_bytes(data: bytes) -> "Octree":
+        """An octree from the bytes of a ``.smo`` file."""
+    def save(self, path: _Path) -> None:
+        """Writes the ``.smo`` file atomically."""
+    def to_bytes(self) -> bytes:
+        """The bytes of the ``.smo`` file."""
+    @property
+    def depth(self) -> int:
+        """Depth of the leaves."""
+    @property
+    def nbytes(self) -> int:
+        """Size of the ``.smo`` file in bytes."""
+    @property
+    def stats(self) -> dict:
+        """Counts, size, transform and (for a fresh build) the builder's statistics."""
+    def distance(self, points: _Points, *, threads: Optional[int] = None) -> _F32:
+        """Stored signed distance, model units; NaN where no cell is stored."""
+    def render(
+        self,
+        width: int = 1024,
+        height: Optional[int] = None,
+        *,
+        mode: _Mode = "lambert",
+        view: int = 0,
+        eye: Optional[Sequence[float]] = None,
+        target: Optional[Sequence[float]] = None,
+        fov: Optional[float] = None,
+        shadows: bool = False,
+        ao: int = 0,
+        threads: Optional[int] = None,
+    ) -> _U8:
+        """Ray traces the octree, uint8 ``(h, w, 3)``."""
+
+def sample_sdf(
+    mesh: Mesh,
+    n: int,
+    *,
+    seed: int = 0,
+    near_fraction: float = 0.95,
+    sigmas: Tuple[float, float] = (0.025, 0.0079),
+    padding: float = 0.1,
+    sign: _Sign = "auto",
+    threads: Optional[int] = None,
+) -> Tuple[_F32, _F32]:
+    """DeepSDF-style samples ``(points (n, 3), sdf (n,))``."""
+
+def psnr(reference: _U8, test: _U8) -> float:
+    """PSNR in dB of two uint8 ``(h, w, 3)`` images."""
+
+@overload
+def flip(reference: _U8, test: _U8, *, return_map: Literal[False] = False) -> float: ...
+@overload
+def flip(reference: _U8, test: _U8, *, return_map: Literal[True]) -> Tuple[float, _F32]:
+    """Mean LDR-FLIP (0 = identical) of two uint8 ``(h, w, 3)`` images."""
+
+def load_png(path: _Path) -> _U8:
+    """Reads a PNG as uint8 ``(h, w, 3)`` RGB."""
+
+def save_png(path: _Path, image: _U8) -> None:
+    """Writes a uint8 ``(h, w, 3)`` image as an 8-bit RGB PNG, atomically."""

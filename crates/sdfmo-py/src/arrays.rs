@@ -1,0 +1,233 @@
+//! numpy arguments: points (any float dtype, any layout, shape `(..., 3)`), images, and the
+//! arrays the calls return.
+
+use glam::DVec3;
+use numpy::ndarray::ArrayView2;
+use numpy::prelude::*;
+use numpy::{PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArray};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyTuple;
+
+/// An `(n, 3)` array of points as numpy holds it: float32 or float64, any strides (C or
+/// Fortran order, or a strided view), never copied.
+pub enum Points<'py> {
+    /// float32 points.
+    F32(PyReadonlyArray2<'py, f32>),
+    /// float64 points.
+    F64(PyReadonlyArray2<'py, f64>),
+}
+
+/// A borrowed view of [`Points`] that can cross into the worker threads.
+#[derive(Clone, Copy)]
+pub enum PointsView<'a> {
+    /// float32 points.
+    F32(ArrayView2<'a, f32>),
+    /// float64 points.
+    F64(ArrayView2<'a, f64>),
+}
+
+impl PointsView<'_> {
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        match self {
+            PointsView::F32(a) => a.nrows(),
+            PointsView::F64(a) => a.nrows(),
+        }
+    }
+
+    /// Point `i` in f64.
+    #[inline]
+    pub fn get(&self, i: usize) -> DVec3 {
+        match self {
+            PointsView::F32(a) => DVec3::new(
+                f64::from(a[[i, 0]]),
+                f64::from(a[[i, 1]]),
+                f64::from(a[[i, 2]]),
+            ),
+            PointsView::F64(a) => DVec3::new(a[[i, 0]], a[[i, 1]], a[[i, 2]]),
+        }
+    }
+}
+
+impl Points<'_> {
+    /// The view for the worker threads.
+    pub fn view(&self) -> PointsView<'_> {
+        match self {
+            Points::F32(a) => PointsView::F32(a.as_array()),
+            Points::F64(a) => PointsView::F64(a.as_array()),
+        }
+    }
+}
+
+/// A points argument and the shape of its leading dimensions (the shape of per-point results).
+pub struct PointsArg<'py> {
+    /// The points, `(n, 3)`.
+    pub points: Points<'py>,
+    /// The argument's shape without its last dimension (`(n,)` for an `(n, 3)` array).
+    pub lead: Vec<usize>,
+}
+
+/// Reads an array argument named `name` whose last dimension must be `width` (3 for points):
+/// numpy arrays of float32 / float64 are used in place; other float dtypes (float16,
+/// longdouble) are converted to float64; anything else that is not a numpy array goes through
+/// `numpy.asarray(x, dtype=float64)` (lists, tuples, array-likes). Integer, bool, complex and
+/// object arrays are refused: a `ValueError` naming the dtype.
+pub fn points_arg<'py>(
+    obj: &Bound<'py, PyAny>,
+    name: &str,
+    width: usize,
+) -> PyResult<PointsArg<'py>> {
+    let py = obj.py();
+    let np = py.import("numpy")?;
+    let arr: Bound<'py, PyUntypedArray> = match obj.cast::<PyUntypedArray>() {
+        Ok(a) => a.clone(),
+        Err(_) => np
+            .call_method1("asarray", (obj, np.getattr("float64")?))
+            .map_err(|e| {
+                PyValueError::new_err(format!(
+                    "{name} must be an array of shape (..., {width}) of floats: {e}"
+                ))
+            })?
+            .cast_into::<PyUntypedArray>()?,
+    };
+    let kind = arr.dtype().kind();
+    let arr = match kind {
+        b'f' => {
+            let size = arr.dtype().itemsize();
+            if size == 4 || size == 8 {
+                arr
+            } else {
+                arr.call_method1("astype", (np.getattr("float64")?,))?
+                    .cast_into::<PyUntypedArray>()?
+            }
+        }
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "{name} must hold floating-point numbers (float32 or float64; float16 and \
+                 longdouble are converted), got dtype {}",
+                arr.dtype().str()?
+            )))
+        }
+    };
+    let shape = arr.shape().to_vec();
+    if shape.is_empty() || shape[shape.len() - 1] != width {
+        return Err(PyValueError::new_err(format!(
+            "{name} must have shape (..., {width}) (one row of {width} coordinates per point), \
+             got shape {shape:?}"
+        )));
+    }
+    let lead = shape[..shape.len() - 1].to_vec();
+    let arr = if shape.len() == 2 {
+        arr
+    } else {
+        // A view where numpy can (C-ordered input); a copy otherwise.
+        arr.call_method1("reshape", ((-1i64, width as i64),))?
+            .cast_into::<PyUntypedArray>()?
+    };
+    let points = if arr.dtype().itemsize() == 4 {
+        Points::F32(
+            arr.cast::<PyArray2<f32>>()?
+                .try_readonly()
+                .map_err(borrow_err)?,
+        )
+    } else {
+        Points::F64(
+            arr.cast::<PyArray2<f64>>()?
+                .try_readonly()
+                .map_err(borrow_err)?,
+        )
+    };
+    Ok(PointsArg { points, lead })
+}
+
+fn borrow_err(e: numpy::BorrowError) -> PyErr {
+    PyValueError::new_err(format!("the array is being written elsewhere: {e}"))
+}
+
+/// The first non-finite point of `view[range]`, as a `ValueError` naming its index.
+pub fn non_finite_error(name: &str, i: usize, p: DVec3) -> PyErr {
+    PyValueError::new_err(format!(
+        "{name}[{i}] = ({}, {}, {}) is not finite (NaN or infinite coordinates are refused)",
+        p.x, p.y, p.z
+    ))
+}
+
+/// A new float32 array of `n` values (zeroed), and the slice to fill without the GIL.
+pub fn new_f32<'py>(py: Python<'py>, n: usize) -> Bound<'py, PyArray1<f32>> {
+    PyArray1::<f32>::zeros(py, n, false)
+}
+
+/// A new int64 array of `n` values.
+pub fn new_i64<'py>(py: Python<'py>, n: usize) -> Bound<'py, PyArray1<i64>> {
+    PyArray1::<i64>::zeros(py, n, false)
+}
+
+/// A new `(n, 3)` float32 array.
+pub fn new_f32x3<'py>(py: Python<'py>, n: usize) -> Bound<'py, PyArray2<f32>> {
+    PyArray2::<f32>::zeros(py, [n, 3], false)
+}
+
+/// `arr` reshaped to `lead + extra` (a view: `arr` is a fresh C-ordered array).
+pub fn shaped<'py>(
+    arr: Bound<'py, PyAny>,
+    lead: &[usize],
+    extra: &[usize],
+) -> PyResult<Bound<'py, PyAny>> {
+    if lead.len() == 1 {
+        return Ok(arr);
+    }
+    let dims: Vec<usize> = lead.iter().chain(extra).copied().collect();
+    let py = arr.py();
+    arr.call_method1("reshape", (PyTuple::new(py, dims)?,))
+}
+
+/// A uint8 `(h, w, 3)` image from row-major RGB bytes.
+pub fn image_array<'py>(
+    py: Python<'py>,
+    rgb: Vec<u8>,
+    width: u32,
+    height: u32,
+) -> PyResult<Bound<'py, PyArray3<u8>>> {
+    let a = numpy::ndarray::Array3::from_shape_vec((height as usize, width as usize, 3), rgb)
+        .map_err(|e| PyValueError::new_err(format!("image buffer: {e}")))?;
+    Ok(a.into_pyarray(py))
+}
+
+/// Reads a uint8 `(h, w, 3)` image argument into an `image::RgbImage` (a copy).
+pub fn image_arg(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<image::RgbImage> {
+    let arr = obj.cast::<PyUntypedArray>().map_err(|_| {
+        PyValueError::new_err(format!(
+            "{name} must be a numpy uint8 array of shape (h, w, 3), got {}",
+            obj.get_type()
+                .name()
+                .map(|n| n.to_string())
+                .unwrap_or_default()
+        ))
+    })?;
+    let shape = arr.shape().to_vec();
+    if arr.dtype().kind() != b'u' || arr.dtype().itemsize() != 1 {
+        return Err(PyValueError::new_err(format!(
+            "{name} must have dtype uint8 (8-bit RGB), got {}",
+            arr.dtype().str()?
+        )));
+    }
+    if shape.len() != 3 || shape[2] != 3 || shape[0] == 0 || shape[1] == 0 {
+        return Err(PyValueError::new_err(format!(
+            "{name} must have shape (h, w, 3) with h, w >= 1, got {shape:?}"
+        )));
+    }
+    let a = arr
+        .cast::<PyArray3<u8>>()?
+        .try_readonly()
+        .map_err(borrow_err)?;
+    let (h, w) = (shape[0], shape[1]);
+    let (Ok(w32), Ok(h32)) = (u32::try_from(w), u32::try_from(h)) else {
+        return Err(PyValueError::new_err(format!(
+            "{name} is too large: {shape:?}"
+        )));
+    };
+    let bytes: Vec<u8> = a.as_array().iter().copied().collect();
+    image::RgbImage::from_raw(w32, h32, bytes)
+        .ok_or_else(|| PyValueError::new_err(format!("{name}: inconsistent image buffer")))
+}

@@ -1,0 +1,198 @@
+//! The Python package `sdfmo` (distribution `sdf-multioctree`): PyO3 bindings of
+//! sdf-multioctree's layers, built into an abi3 wheel for CPython >= 3.9 by maturin.
+//!
+//! This crate is not published on crates.io (`publish = false`): it ships as a wheel. Build and
+//! install it with `pip install ./crates/sdfmo-py` or `maturin build -m
+//! crates/sdfmo-py/Cargo.toml`; the package's documentation, examples and measured numbers are
+//! in `crates/sdfmo-py/README.md` and `docs/results/python.md`.
+//!
+//! Every function is a thin layer over the Rust crates (no geometry of its own): it checks the
+//! numpy arguments, converts model units to the normalised frame and back, and runs the layer's
+//! function without the GIL on the requested threads, interruptible by Ctrl-C ([`run`]). Errors
+//! map onto Python exceptions in [`errors`].
+#![deny(missing_docs)]
+
+mod arrays;
+pub mod errors;
+mod mesh;
+mod octree;
+mod render;
+pub mod run;
+
+use numpy::prelude::*;
+use numpy::PyArray2;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyTuple;
+use sdf_multioctree::distance::sample::{sdf_training_points, TrainingSamples};
+use sdf_multioctree::metrics;
+
+use crate::mesh::Mesh;
+use crate::octree::Octree;
+
+/// psnr(reference, test) -> float
+///
+/// PSNR in dB between two uint8 images of shape ``(h, w, 3)``, over all pixels and channels
+/// (``inf`` for identical images), as ``sdfmo compare`` computes it. ``ValueError`` when the
+/// shapes differ or a dtype is not uint8.
+#[pyfunction]
+fn psnr(py: Python<'_>, reference: &Bound<'_, PyAny>, test: &Bound<'_, PyAny>) -> PyResult<f64> {
+    let a = arrays::image_arg(reference, "reference")?;
+    let b = arrays::image_arg(test, "test")?;
+    py.detach(|| metrics::psnr(&a, &b))
+        .map_err(|e| errors::metrics_error(&e))
+}
+
+/// flip(reference, test, *, return_map=False) -> float | (float, numpy.ndarray)
+///
+/// Mean LDR-FLIP (NVIDIA's perceptual difference; 0 = identical) between two uint8 images of
+/// shape ``(h, w, 3)``, treated as sRGB at 67 pixels per degree, as ``sdfmo compare`` and
+/// NVIDIA's ``flip`` tool compute it. With ``return_map`` also the per-pixel error, float32 of
+/// shape ``(h, w)``.
+#[pyfunction]
+#[pyo3(signature = (reference, test, *, return_map = false))]
+fn flip<'py>(
+    py: Python<'py>,
+    reference: &Bound<'py, PyAny>,
+    test: &Bound<'py, PyAny>,
+    return_map: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    let a = arrays::image_arg(reference, "reference")?;
+    let b = arrays::image_arg(test, "test")?;
+    let r = py
+        .detach(|| metrics::flip(&a, &b))
+        .map_err(|e| errors::metrics_error(&e))?;
+    let mean = r.mean.into_pyobject(py)?.into_any();
+    if !return_map {
+        return Ok(mean);
+    }
+    let map = numpy::PyArray1::from_vec(py, r.map)
+        .reshape([r.height as usize, r.width as usize])?
+        .into_any();
+    Ok(PyTuple::new(py, [mean, map])?.into_any())
+}
+
+/// sample_sdf(mesh, n, *, seed=0, near_fraction=0.95, sigmas=(0.025, 0.0079), padding=0.1, sign="auto", threads=None) -> (points, sdf)
+///
+/// DeepSDF-style training samples of ``mesh``: ``points`` float32 ``(n, 3)`` and their exact
+/// signed distances ``sdf`` float32 ``(n,)``, model units, negative inside.
+///
+/// The first ``round(n * near_fraction)`` points are uniform on the surface (area-weighted)
+/// plus isotropic Gaussian noise, alternating between the two standard deviations ``sigmas``
+/// (fractions of the bounding-box diagonal; the defaults are DeepSDF's variances 0.0025 and
+/// 0.00025 for a shape in the unit sphere); the rest are uniform in the bounding box grown by
+/// ``padding`` times its longest extent on every side. The same ``seed`` gives the same arrays
+/// whatever ``threads``; ``sdf`` equals ``mesh.signed_distance(points, sign=sign)`` exactly.
+/// Releases the GIL; Ctrl-C raises ``KeyboardInterrupt``.
+#[pyfunction]
+#[pyo3(signature = (mesh, n, *, seed = 0, near_fraction = 0.95, sigmas = (0.025, 0.0079), padding = 0.1, sign = "auto", threads = None))]
+#[allow(clippy::too_many_arguments)]
+fn sample_sdf<'py>(
+    py: Python<'py>,
+    mesh: &Bound<'py, Mesh>,
+    n: i64,
+    seed: u64,
+    near_fraction: f64,
+    sigmas: (f64, f64),
+    padding: f64,
+    sign: &str,
+    threads: Option<i64>,
+) -> PyResult<Bound<'py, PyTuple>> {
+    let mode = mesh::sign_arg(sign)?;
+    let threads = run::check_threads(threads)?;
+    let n = usize::try_from(n)
+        .map_err(|_| PyValueError::new_err(format!("n must be >= 0, got {n}")))?;
+    if !(0.0..=1.0).contains(&near_fraction) {
+        return Err(PyValueError::new_err(format!(
+            "near_fraction must be in [0, 1], got {near_fraction}"
+        )));
+    }
+    for (name, v) in [
+        ("sigmas[0]", sigmas.0),
+        ("sigmas[1]", sigmas.1),
+        ("padding", padding),
+    ] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(PyValueError::new_err(format!(
+                "{name} must be finite and >= 0, got {v}"
+            )));
+        }
+    }
+    let params = TrainingSamples {
+        near_fraction: near_fraction as f32,
+        sigmas: [sigmas.0 as f32, sigmas.1 as f32],
+        padding: padding as f32,
+    };
+    let out_p = PyArray2::<f32>::zeros(py, [n, 3], false);
+    let out_d = arrays::new_f32(py, n);
+    // Safety: fresh arrays that no Python code sees until this function returns.
+    let ps = unsafe { out_p.as_slice_mut() }.expect("fresh contiguous array");
+    let ds = unsafe { out_d.as_slice_mut() }.expect("fresh contiguous array");
+    let data = &mesh.get().data;
+    let result = run::run(py, threads, n.max(run::INLINE_ITEMS), |cancel| {
+        let dist = match data.distance(mode) {
+            Ok(d) => d,
+            Err(e) => return Ok(Err(e)),
+        };
+        let pts = sdf_training_points(&data.mesh, n, &params, seed);
+        if cancel.is_set() {
+            return Err(run::Cancelled);
+        }
+        for (o, p) in ps.chunks_exact_mut(3).zip(&pts) {
+            o.copy_from_slice(&p.to_array());
+        }
+        let view = arrays::PointsView::F32(
+            numpy::ndarray::ArrayView2::from_shape((n, 3), &*ps).expect("n x 3"),
+        );
+        mesh::for_chunks(data, view, "points", cancel, |start, chunk| {
+            let d = dist.signed_distances(chunk);
+            for (o, v) in ds[start..start + chunk.len()].iter_mut().zip(d) {
+                *o = data.to_model_length(v);
+            }
+        })
+    })?;
+    result?;
+    PyTuple::new(py, [out_p.into_any(), out_d.into_any()])
+}
+
+/// load_png(path) -> numpy.ndarray
+///
+/// Reads a PNG as uint8 ``(h, w, 3)`` RGB, as ``sdfmo compare`` and NVIDIA's ``flip`` tool read
+/// it (16-bit channels keep their high byte, alpha is dropped, grey is replicated). ``OSError``
+/// subclasses when the file cannot be read, ``ValueError`` when it is not a valid PNG.
+#[pyfunction]
+fn load_png<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyAny>> {
+    let img = py
+        .detach(|| metrics::load_rgb8(&path))
+        .map_err(|e| errors::metrics_error(&e))?;
+    let (w, h) = img.dimensions();
+    Ok(arrays::image_array(py, img.into_raw(), w, h)?.into_any())
+}
+
+/// save_png(path, image)
+///
+/// Writes a uint8 ``(h, w, 3)`` image as an 8-bit RGB PNG, atomically (a temporary file in the
+/// same folder, then renamed), creating the folder if needed.
+#[pyfunction]
+fn save_png(py: Python<'_>, path: std::path::PathBuf, image: &Bound<'_, PyAny>) -> PyResult<()> {
+    let img = arrays::image_arg(image, "image")?;
+    py.detach(|| metrics::save_png(&img, &path))
+        .map_err(|e| errors::metrics_error(&e))
+}
+
+/// The extension module `sdfmo._sdfmo`; `sdfmo/__init__.py` re-exports its names.
+#[pymodule]
+fn _sdfmo(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add_class::<Mesh>()?;
+    m.add_class::<Octree>()?;
+    m.add_function(wrap_pyfunction!(sample_sdf, m)?)?;
+    m.add_function(wrap_pyfunction!(psnr, m)?)?;
+    m.add_function(wrap_pyfunction!(flip, m)?)?;
+    m.add_function(wrap_pyfunction!(load_png, m)?)?;
+    m.add_function(wrap_pyfunction!(save_png, m)?)?;
+    m.add("FormatError", py.get_type::<errors::FormatError>())?;
+    m.add("MeshError", py.get_type::<errors::MeshError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

@@ -1,0 +1,814 @@
+//! `sdfmo.Mesh`: a triangle mesh in model units and the exact queries on it.
+
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+use glam::{DVec3, Vec3};
+use numpy::prelude::*;
+use numpy::{PyArray1, PyArray2, PyUntypedArray};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyTuple;
+use rayon::prelude::*;
+use sdf_multioctree::build::{self, BuildSettings, Method};
+use sdf_multioctree::distance::{MeshDistance, SignMode};
+use sdf_multioctree::format::ValueBits;
+use sdf_multioctree::mesh::{self, Normalization, Topology, TriMesh};
+use sdf_multioctree::render::MeshScene;
+use sdf_multioctree::DEFAULT_MARGIN;
+
+use crate::arrays::{self, PointsArg, PointsView};
+use crate::errors;
+use crate::octree::Octree;
+use crate::render::RenderArgs;
+use crate::run::{self, Cancel, Cancelled};
+
+/// Parses a `sign=` argument.
+pub fn sign_arg(sign: &str) -> PyResult<SignMode> {
+    match sign {
+        "auto" => Ok(SignMode::Auto),
+        "pseudonormal" => Ok(SignMode::PseudoNormal),
+        "winding" => Ok(SignMode::Winding),
+        other => Err(PyValueError::new_err(format!(
+            "sign must be \"auto\", \"pseudonormal\" or \"winding\", got {other:?}"
+        ))),
+    }
+}
+
+/// The name of a resolved sign mode.
+pub fn sign_name(mode: SignMode) -> &'static str {
+    match mode {
+        SignMode::Auto => "auto",
+        SignMode::PseudoNormal => "pseudonormal",
+        SignMode::Winding => "winding",
+    }
+}
+
+/// The mesh and everything derived from it, computed once on first use.
+pub struct MeshData {
+    /// The mesh in model units.
+    pub mesh: TriMesh,
+    /// Model units → the normalised frame the queries run in (the builder's, margin 0.05).
+    pub norm: Normalization,
+    topology: OnceLock<Topology>,
+    /// What `SignMode::Auto` resolves to on this mesh.
+    auto: OnceLock<SignMode>,
+    /// The distance structures of the normalised mesh: pseudo-normal and winding sign.
+    pseudo: OnceLock<MeshDistance>,
+    winding: OnceLock<MeshDistance>,
+}
+
+impl MeshData {
+    /// Wraps a model-unit mesh.
+    pub fn new(mesh: TriMesh) -> MeshData {
+        let norm = Normalization::for_bounds(&mesh.bounds(), DEFAULT_MARGIN);
+        MeshData {
+            mesh,
+            norm,
+            topology: OnceLock::new(),
+            auto: OnceLock::new(),
+            pseudo: OnceLock::new(),
+            winding: OnceLock::new(),
+        }
+    }
+
+    /// The mesh in the normalised frame, exactly as `TriMesh::normalized` maps it (the CLI's
+    /// and the builder's frame).
+    fn normalized(&self) -> TriMesh {
+        self.mesh.normalized(DEFAULT_MARGIN).0
+    }
+
+    /// The topology (edges, components, watertightness).
+    pub fn topology(&self) -> &Topology {
+        self.topology.get_or_init(|| self.mesh.topology())
+    }
+
+    /// The distance structure with the sign `mode` (Auto resolved from the topology), built on
+    /// first use. Call without the GIL: a large mesh takes a while.
+    pub fn distance(&self, mode: SignMode) -> PyResult<&MeshDistance> {
+        let slot = |m: SignMode| match m {
+            SignMode::Winding => &self.winding,
+            _ => &self.pseudo,
+        };
+        let mode = match mode {
+            SignMode::Auto => match self.auto.get() {
+                Some(m) => *m,
+                None => {
+                    let d = MeshDistance::new(&self.normalized(), SignMode::Auto)
+                        .map_err(|e| errors::distance_error(&e))?;
+                    let m = d.sign_mode();
+                    let _ = slot(m).set(d);
+                    let _ = self.auto.set(m);
+                    m
+                }
+            },
+            m => m,
+        };
+        if let Some(d) = slot(mode).get() {
+            return Ok(d);
+        }
+        let d =
+            MeshDistance::new(&self.normalized(), mode).map_err(|e| errors::distance_error(&e))?;
+        let _ = slot(mode).set(d);
+        Ok(slot(mode).get().expect("set above"))
+    }
+
+    /// Any distance structure already built (unsigned queries, winding numbers and rays do
+    /// not depend on the sign), else the automatic one.
+    pub fn any_distance(&self) -> PyResult<&MeshDistance> {
+        match self.pseudo.get().or(self.winding.get()) {
+            Some(d) => Ok(d),
+            None => self.distance(SignMode::Auto),
+        }
+    }
+
+    /// A model-unit point in the normalised frame (in f64, rounded once).
+    #[inline]
+    pub fn to_normalized(&self, p: DVec3) -> Vec3 {
+        ((p - self.norm.center.as_dvec3()) * f64::from(self.norm.scale)).as_vec3()
+    }
+
+    /// A normalised length in model units.
+    #[inline]
+    pub fn to_model_length(&self, d: f32) -> f32 {
+        (f64::from(d) / f64::from(self.norm.scale)) as f32
+    }
+
+    /// A normalised point in model units.
+    #[inline]
+    pub fn to_model(&self, p: Vec3) -> [f32; 3] {
+        (p.as_dvec3() / f64::from(self.norm.scale) + self.norm.center.as_dvec3())
+            .as_vec3()
+            .to_array()
+    }
+}
+
+/// Runs `f` over the points of `view` chunk by chunk: each chunk converted to the normalised
+/// frame of `data` (a non-finite point is a `ValueError` naming its index), then handed to `f`
+/// with the index of its first point. Stops between chunks when `cancel` is set.
+pub fn for_chunks(
+    data: &MeshData,
+    view: PointsView<'_>,
+    name: &str,
+    cancel: &Cancel,
+    mut f: impl FnMut(usize, &[Vec3]),
+) -> Result<PyResult<()>, Cancelled> {
+    let n = view.len();
+    let chunk = run::chunk_len();
+    let mut pts: Vec<Vec3> = Vec::with_capacity(chunk.min(n));
+    let mut start = 0;
+    while start < n {
+        if cancel.is_set() {
+            return Err(Cancelled);
+        }
+        let end = (start + chunk).min(n);
+        pts.clear();
+        for i in start..end {
+            let p = view.get(i);
+            if !p.is_finite() {
+                return Ok(Err(arrays::non_finite_error(name, i, p)));
+            }
+            pts.push(data.to_normalized(p));
+        }
+        f(start, &pts);
+        start = end;
+    }
+    Ok(Ok(()))
+}
+
+/// A triangle mesh in model units, with exact distance queries.
+///
+/// Create one from numpy arrays, ``Mesh(vertices, faces)``, or from a file,
+/// ``Mesh.load(path)``. Queries take points in the mesh's own (model) units and return
+/// distances in model units. Internally every query runs in the builder's normalised frame
+/// (bounding-box centre at the origin, longest extent 1.9), where the f32 arithmetic of the
+/// distance layer is calibrated; the conversion is done in float64.
+///
+/// The distance structures (BVH, pseudo-normals, winding-number tree) are built on the first
+/// query that needs them, once per sign method, without holding the GIL.
+#[pyclass(module = "sdfmo", frozen)]
+pub struct Mesh {
+    pub(crate) data: MeshData,
+}
+
+impl Mesh {
+    /// Wraps a mesh.
+    pub fn from_trimesh(mesh: TriMesh) -> Mesh {
+        Mesh {
+            data: MeshData::new(mesh),
+        }
+    }
+}
+
+/// Reads the `faces` argument: integers of shape `(m, 3)`, each in `[0, vertex_count)`.
+fn faces_arg(obj: &Bound<'_, PyAny>, vertex_count: usize) -> PyResult<Vec<[u32; 3]>> {
+    let py = obj.py();
+    let np = py.import("numpy")?;
+    let arr = match obj.cast::<PyUntypedArray>() {
+        Ok(a) => a.clone(),
+        Err(_) => np
+            .call_method1("asarray", (obj,))
+            .map_err(|e| PyValueError::new_err(format!("faces must be an integer array: {e}")))?
+            .cast_into::<PyUntypedArray>()?,
+    };
+    let kind = arr.dtype().kind();
+    if kind != b'i' && kind != b'u' {
+        return Err(PyValueError::new_err(format!(
+            "faces must hold integers (vertex indices), got dtype {}",
+            arr.dtype().str()?
+        )));
+    }
+    let shape = arr.shape().to_vec();
+    if shape.len() != 2 || shape[1] != 3 {
+        return Err(PyValueError::new_err(format!(
+            "faces must have shape (m, 3) (three vertex indices per triangle), got shape {shape:?}"
+        )));
+    }
+    if shape[0] == 0 {
+        return Err(PyValueError::new_err(
+            "faces is empty: a mesh needs at least one triangle",
+        ));
+    }
+    let as_i64 = arr.call_method1("astype", (np.getattr("int64")?,))?;
+    let a = as_i64.cast::<PyArray2<i64>>()?.readonly();
+    let a = a.as_array();
+    let mut out = Vec::with_capacity(shape[0]);
+    for (t, row) in a.rows().into_iter().enumerate() {
+        let mut tri = [0u32; 3];
+        for (k, &v) in row.iter().enumerate() {
+            if v < 0 || v as u64 >= vertex_count as u64 {
+                return Err(PyValueError::new_err(format!(
+                    "faces[{t}, {k}] = {v} is out of range: there are {vertex_count} vertices \
+                     (indices 0..{vertex_count}, negative indices are refused)"
+                )));
+            }
+            tri[k] = v as u32;
+        }
+        out.push(tri);
+    }
+    Ok(out)
+}
+
+/// The `vertices` argument: floats of shape `(n, 3)`, finite, stored as float32.
+fn vertices_arg(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Vec3>> {
+    let PointsArg { points, lead } = arrays::points_arg(obj, "vertices", 3)?;
+    if lead.len() != 1 {
+        return Err(PyValueError::new_err(format!(
+            "vertices must have shape (n, 3), got leading dimensions {lead:?}"
+        )));
+    }
+    let view = points.view();
+    let mut out = Vec::with_capacity(view.len());
+    for i in 0..view.len() {
+        let p = view.get(i);
+        let q = p.as_vec3();
+        if !q.is_finite() {
+            return Err(arrays::non_finite_error("vertices", i, p));
+        }
+        out.push(q);
+    }
+    if out.len() > u32::MAX as usize {
+        return Err(PyValueError::new_err("more than 2^32 - 1 vertices"));
+    }
+    Ok(out)
+}
+
+impl Mesh {
+    /// Signed (`sign: Some`) or unsigned distances of a batch, with closest points and faces
+    /// when asked.
+    fn distance_batch<'py>(
+        &self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+        sign: Option<SignMode>,
+        return_closest: bool,
+        return_face: bool,
+        threads: Option<i64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let threads = run::check_threads(threads)?;
+        let arg = arrays::points_arg(points, "points", 3)?;
+        let view = arg.points.view();
+        let n = view.len();
+        let out_d = arrays::new_f32(py, n);
+        let out_c = return_closest.then(|| arrays::new_f32x3(py, n));
+        let out_f = return_face.then(|| arrays::new_i64(py, n));
+        // Safety: the arrays were just created here and no Python code sees them until this
+        // function returns; the GIL-free work below is their only writer.
+        let d = unsafe { out_d.as_slice_mut() }.expect("fresh contiguous array");
+        let mut c = out_c
+            .as_ref()
+            .map(|a| unsafe { a.as_slice_mut() }.expect("fresh contiguous array"));
+        let mut f = out_f
+            .as_ref()
+            .map(|a| unsafe { a.as_slice_mut() }.expect("fresh contiguous array"));
+        let data = &self.data;
+        let result = run::run(py, threads, n, |cancel| {
+            let dist = match sign {
+                Some(mode) => data.distance(mode),
+                None => data.any_distance(),
+            };
+            let dist = match dist {
+                Ok(d) => d,
+                Err(e) => return Ok(Err(e)),
+            };
+            let plain = !return_closest && !return_face;
+            for_chunks(data, view, "points", cancel, |start, pts| {
+                let end = start + pts.len();
+                if plain && sign.is_some() {
+                    // Morton-ordered batch of the distance layer.
+                    let ds = dist.signed_distances(pts);
+                    for (o, v) in d[start..end].iter_mut().zip(ds) {
+                        *o = data.to_model_length(v);
+                    }
+                    return;
+                }
+                let res: Vec<(f32, Vec3, u32)> = pts
+                    .par_iter()
+                    .with_min_len(64)
+                    .map(|&p| {
+                        let cp = dist.closest_point(p);
+                        let v = match sign {
+                            Some(_) => dist.sign_closest(p, &cp),
+                            None => cp.distance,
+                        };
+                        (v, cp.point, cp.triangle)
+                    })
+                    .collect();
+                for (k, (v, q, t)) in res.into_iter().enumerate() {
+                    let i = start + k;
+                    d[i] = data.to_model_length(v);
+                    if let Some(c) = c.as_deref_mut() {
+                        c[3 * i..3 * i + 3].copy_from_slice(&data.to_model(q));
+                    }
+                    if let Some(f) = f.as_deref_mut() {
+                        f[i] = i64::from(t);
+                    }
+                }
+            })
+        })?;
+        result?;
+        let lead = &arg.lead;
+        let d_out = arrays::shaped(out_d.into_any(), lead, &[])?;
+        if !return_closest && !return_face {
+            return Ok(d_out);
+        }
+        let mut items = vec![d_out];
+        if let Some(c) = out_c {
+            items.push(arrays::shaped(c.into_any(), lead, &[3])?);
+        }
+        if let Some(f) = out_f {
+            items.push(arrays::shaped(f.into_any(), lead, &[])?);
+        }
+        Ok(PyTuple::new(py, items)?.into_any())
+    }
+}
+
+#[pymethods]
+impl Mesh {
+    /// Mesh(vertices, faces, *, clean=False)
+    ///
+    /// A mesh from numpy arrays: ``vertices`` of shape ``(n, 3)`` (any float dtype, stored as
+    /// float32, model units) and ``faces`` of shape ``(m, 3)`` (any integer dtype, indices into
+    /// ``vertices``). Raises ``ValueError`` for a wrong shape or dtype, a NaN or infinite
+    /// coordinate, or an index out of range (each naming the element).
+    ///
+    /// With ``clean=True`` bit-identical vertices are welded and degenerate and duplicate
+    /// triangles are dropped, as ``Mesh.load`` does (then ``faces`` and the face indices the
+    /// queries return refer to the cleaned triangles). Triangle soups (every triangle with its
+    /// own three vertices, as STL stores them) need it for the topology to see shared edges.
+    #[new]
+    #[pyo3(signature = (vertices, faces, *, clean = false))]
+    fn py_new(
+        vertices: &Bound<'_, PyAny>,
+        faces: &Bound<'_, PyAny>,
+        clean: bool,
+    ) -> PyResult<Self> {
+        let positions = vertices_arg(vertices)?;
+        let triangles = faces_arg(faces, positions.len())?;
+        let parts = vec![0; triangles.len()];
+        let mesh =
+            TriMesh::new(positions, triangles, parts).map_err(|e| errors::array_mesh_error(&e))?;
+        let mesh = if clean {
+            mesh.cleaned().map_err(|e| errors::array_mesh_error(&e))?.0
+        } else {
+            mesh
+        };
+        Ok(Mesh::from_trimesh(mesh))
+    }
+
+    /// Mesh.load(path) -> Mesh
+    ///
+    /// Loads an OBJ, glTF/GLB or STL file (binary or ASCII; the format from the extension,
+    /// confirmed by the content), welding bit-identical vertices and dropping degenerate and
+    /// duplicate triangles, with the command-line tool's rules: regular files only, at most
+    /// 4 GiB and 2^26 triangles, glTF buffers only from the model's own folder. Raises
+    /// ``FileNotFoundError`` / ``PermissionError`` / ``IsADirectoryError`` / ``OSError`` when
+    /// the file cannot be read and ``sdfmo.MeshError`` (a ``ValueError``) when its content is
+    /// not a valid mesh.
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Mesh> {
+        let loaded = py
+            .detach(|| mesh::load_mesh(&path))
+            .map_err(|e| errors::mesh_error(&e))?;
+        Ok(Mesh::from_trimesh(loaded.mesh))
+    }
+
+    /// The vertices, float32 of shape ``(n, 3)``, model units (a copy).
+    #[getter]
+    fn vertices<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f32>> {
+        let flat: Vec<f32> = self
+            .data
+            .mesh
+            .positions()
+            .iter()
+            .flat_map(|p| p.to_array())
+            .collect();
+        let n = self.data.mesh.vertex_count();
+        PyArray1::from_vec(py, flat)
+            .reshape([n, 3])
+            .expect("n * 3 values")
+    }
+
+    /// The triangles, int64 of shape ``(m, 3)``: indices into ``vertices`` (a copy).
+    #[getter]
+    fn faces<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<i64>> {
+        let flat: Vec<i64> = self
+            .data
+            .mesh
+            .triangles()
+            .iter()
+            .flat_map(|t| t.map(i64::from))
+            .collect();
+        let m = self.data.mesh.triangle_count();
+        PyArray1::from_vec(py, flat)
+            .reshape([m, 3])
+            .expect("m * 3 values")
+    }
+
+    /// The axis-aligned bounding box, float32 of shape ``(2, 3)``: ``[min, max]``, model units.
+    #[getter]
+    fn bounds<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f32>> {
+        let b = self.data.mesh.bounds();
+        let flat: Vec<f32> = b
+            .min
+            .to_array()
+            .into_iter()
+            .chain(b.max.to_array())
+            .collect();
+        PyArray1::from_vec(py, flat)
+            .reshape([2, 3])
+            .expect("6 values")
+    }
+
+    /// Whether every edge has exactly two triangles (no boundary, no non-manifold edge).
+    #[getter]
+    fn is_watertight(&self, py: Python<'_>) -> bool {
+        py.detach(|| self.data.topology().watertight)
+    }
+
+    /// Number of connected components (triangles connected through shared edges).
+    #[getter]
+    fn component_count(&self, py: Python<'_>) -> usize {
+        py.detach(|| self.data.topology().component_count)
+    }
+
+    /// Number of vertices.
+    #[getter]
+    fn vertex_count(&self) -> usize {
+        self.data.mesh.vertex_count()
+    }
+
+    /// Number of triangles.
+    #[getter]
+    fn face_count(&self) -> usize {
+        self.data.mesh.triangle_count()
+    }
+
+    /// The sign method ``sign="auto"`` uses on this mesh: ``"pseudonormal"`` for a watertight,
+    /// consistently oriented mesh, ``"winding"`` (generalised winding number) otherwise.
+    #[getter]
+    fn auto_sign(&self, py: Python<'_>) -> PyResult<&'static str> {
+        let data = &self.data;
+        let d = py.detach(|| data.distance(SignMode::Auto))?;
+        Ok(sign_name(d.sign_mode()))
+    }
+
+    fn __repr__(&self) -> String {
+        let b = self.data.mesh.bounds();
+        format!(
+            "sdfmo.Mesh({} vertices, {} faces, bounds {:?}..{:?})",
+            self.data.mesh.vertex_count(),
+            self.data.mesh.triangle_count(),
+            b.min.to_array(),
+            b.max.to_array()
+        )
+    }
+
+    /// signed_distance(points, *, sign="auto", return_closest=False, return_face=False, threads=None)
+    ///
+    /// Exact signed distance from each point to the mesh, negative inside, in model units.
+    ///
+    /// ``points``: shape ``(..., 3)``, any float dtype, C or Fortran order (float32 and
+    /// float64 arrays are read in place, not copied). Returns float32 of shape ``(...)``; with
+    /// ``return_closest`` also the closest points (float32, ``(..., 3)``), with
+    /// ``return_face`` also the index of the closest triangle (int64, ``(...)``), as a tuple
+    /// in that order.
+    ///
+    /// ``sign``: ``"auto"`` (pseudo-normals on a watertight, consistently oriented mesh, the
+    /// generalised winding number otherwise), ``"pseudonormal"`` (angle-weighted
+    /// pseudo-normal of the closest feature; exact for closed manifolds) or ``"winding"``
+    /// (winding number > 1/2 is inside; robust on open, non-manifold and self-intersecting
+    /// meshes). ``threads``: worker threads (``None``: all cores); the values are the same for
+    /// any count. Releases the GIL; Ctrl-C raises ``KeyboardInterrupt``. A NaN or infinite
+    /// point is a ``ValueError`` naming its index.
+    #[pyo3(signature = (points, *, sign = "auto", return_closest = false, return_face = false, threads = None))]
+    fn signed_distance<'py>(
+        &self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+        sign: &str,
+        return_closest: bool,
+        return_face: bool,
+        threads: Option<i64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let mode = sign_arg(sign)?;
+        self.distance_batch(py, points, Some(mode), return_closest, return_face, threads)
+    }
+
+    /// unsigned_distance(points, *, return_closest=False, return_face=False, threads=None)
+    ///
+    /// Exact distance from each point to the nearest point of the mesh (never negative), in
+    /// model units. Arguments and results as ``signed_distance``.
+    #[pyo3(signature = (points, *, return_closest = false, return_face = false, threads = None))]
+    fn unsigned_distance<'py>(
+        &self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+        return_closest: bool,
+        return_face: bool,
+        threads: Option<i64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        self.distance_batch(py, points, None, return_closest, return_face, threads)
+    }
+
+    /// winding_number(points, *, threads=None)
+    ///
+    /// Generalised winding number of the mesh at each point (Jacobson et al. 2013, with the
+    /// hierarchical approximation of Barill et al. 2018): about 1 inside a closed outward
+    /// surface, 0 outside, fractional near the holes of an open one. float32 of shape
+    /// ``(...)`` for points of shape ``(..., 3)``.
+    #[pyo3(signature = (points, *, threads = None))]
+    fn winding_number<'py>(
+        &self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+        threads: Option<i64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let threads = run::check_threads(threads)?;
+        let arg = arrays::points_arg(points, "points", 3)?;
+        let view = arg.points.view();
+        let n = view.len();
+        let out = arrays::new_f32(py, n);
+        // Safety: as in `distance_batch`.
+        let w = unsafe { out.as_slice_mut() }.expect("fresh contiguous array");
+        let data = &self.data;
+        let result = run::run(py, threads, n, |cancel| {
+            let dist = match data.any_distance() {
+                Ok(d) => d,
+                Err(e) => return Ok(Err(e)),
+            };
+            for_chunks(data, view, "points", cancel, |start, pts| {
+                w[start..start + pts.len()]
+                    .par_iter_mut()
+                    .zip(pts.par_iter())
+                    .with_min_len(64)
+                    .for_each(|(o, &p)| *o = dist.winding_number(p));
+            })
+        })?;
+        result?;
+        arrays::shaped(out.into_any(), &arg.lead, &[])
+    }
+
+    /// contains(points, *, sign="auto", threads=None)
+    ///
+    /// Whether each point lies inside the mesh: ``signed_distance(points, sign=sign) < 0``
+    /// (the same sign decision). bool of shape ``(...)``.
+    #[pyo3(signature = (points, *, sign = "auto", threads = None))]
+    fn contains<'py>(
+        &self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+        sign: &str,
+        threads: Option<i64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let mode = sign_arg(sign)?;
+        let d = self.distance_batch(py, points, Some(mode), false, false, threads)?;
+        d.call_method1("__lt__", (0.0f32,))
+    }
+
+    /// ray_intersect(origins, directions, *, t_max=inf, threads=None) -> (t, face)
+    ///
+    /// First hit of each ray ``origin + t * direction`` (t >= 0) on the mesh, with the
+    /// watertight ray-triangle test (a ray through an edge or a vertex never slips through).
+    /// ``origins`` and ``directions``: shape ``(..., 3)``, the same shape, model units; the
+    /// directions need not be unit length (t is in units of the direction) but must be
+    /// non-zero. Returns ``t`` (float32, ``inf`` on a miss) and ``face`` (int64, -1 on a miss).
+    #[pyo3(signature = (origins, directions, *, t_max = f64::INFINITY, threads = None))]
+    fn ray_intersect<'py>(
+        &self,
+        py: Python<'py>,
+        origins: &Bound<'py, PyAny>,
+        directions: &Bound<'py, PyAny>,
+        t_max: f64,
+        threads: Option<i64>,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let threads = run::check_threads(threads)?;
+        if t_max.is_nan() || t_max < 0.0 {
+            return Err(PyValueError::new_err(format!(
+                "t_max must be >= 0 (inf for no limit), got {t_max}"
+            )));
+        }
+        let o = arrays::points_arg(origins, "origins", 3)?;
+        let d = arrays::points_arg(directions, "directions", 3)?;
+        if o.lead != d.lead {
+            return Err(PyValueError::new_err(format!(
+                "origins and directions must have the same shape, got {:?} and {:?}",
+                o.lead, d.lead
+            )));
+        }
+        let (ov, dv) = (o.points.view(), d.points.view());
+        let n = ov.len();
+        for i in 0..n {
+            let v = dv.get(i);
+            if !v.is_finite() {
+                return Err(arrays::non_finite_error("directions", i, v));
+            }
+            if v.as_vec3() == Vec3::ZERO {
+                return Err(PyValueError::new_err(format!(
+                    "directions[{i}] is zero: a ray needs a direction"
+                )));
+            }
+        }
+        let out_t = arrays::new_f32(py, n);
+        let out_f = arrays::new_i64(py, n);
+        // Safety: as in `distance_batch`.
+        let ts = unsafe { out_t.as_slice_mut() }.expect("fresh contiguous array");
+        let fs = unsafe { out_f.as_slice_mut() }.expect("fresh contiguous array");
+        let data = &self.data;
+        let scale = f64::from(data.norm.scale);
+        let t_max_n = (t_max * scale).min(f64::from(f32::MAX)) as f32;
+        let t_max_n = if t_max.is_infinite() {
+            f32::INFINITY
+        } else {
+            t_max_n
+        };
+        let result = run::run(py, threads, n, |cancel| {
+            let dist = match data.any_distance() {
+                Ok(d) => d,
+                Err(e) => return Ok(Err(e)),
+            };
+            for_chunks(data, ov, "origins", cancel, |start, pts| {
+                let end = start + pts.len();
+                ts[start..end]
+                    .par_iter_mut()
+                    .zip(fs[start..end].par_iter_mut())
+                    .enumerate()
+                    .with_min_len(64)
+                    .for_each(|(k, (t, f))| {
+                        let dir = dv.get(start + k).as_vec3();
+                        match dist.ray_hit(pts[k], dir, 0.0, t_max_n) {
+                            Some(h) => {
+                                *t = (f64::from(h.t) / scale) as f32;
+                                *f = i64::from(h.triangle);
+                            }
+                            None => {
+                                *t = f32::INFINITY;
+                                *f = -1;
+                            }
+                        }
+                    });
+            })
+        })?;
+        result?;
+        let t = arrays::shaped(out_t.into_any(), &o.lead, &[])?;
+        let f = arrays::shaped(out_f.into_any(), &o.lead, &[])?;
+        PyTuple::new(py, [t, f])
+    }
+
+    /// build(depth, *, method="multi", max_voxels=8, bits=8, sign="auto", threads=None, max_memory=None) -> Octree
+    ///
+    /// Builds the sparse octree of trilinear signed-distance voxels, as ``sdfmo build`` does:
+    /// ``method`` ``"multi"`` (the multi-octree: up to ``max_voxels`` voxels per leaf, one per
+    /// component) or ``"svo"`` (the classic sparse voxel octree); leaves at ``depth`` (1..=16;
+    /// edge 2/2^depth of the normalised root cube); corners quantised to ``bits`` (8 or 16).
+    /// The output is the same for any ``threads``. The build is refused with ``MemoryError``
+    /// when its predicted peak memory exceeds ``max_memory`` bytes (default: half the physical
+    /// memory, the command-line tool's default). Releases the GIL; Ctrl-C stops it between
+    /// phases and chunks of corners and leaves (the subdivision phase runs to its end).
+    #[pyo3(signature = (depth, *, method = "multi", max_voxels = 8, bits = 8, sign = "auto", threads = None, max_memory = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn build(
+        &self,
+        py: Python<'_>,
+        depth: i64,
+        method: &str,
+        max_voxels: i64,
+        bits: i64,
+        sign: &str,
+        threads: Option<i64>,
+        max_memory: Option<u64>,
+    ) -> PyResult<Octree> {
+        let threads = run::check_threads(threads)?;
+        let depth = u8::try_from(depth)
+            .ok()
+            .filter(|d| (build::MIN_DEPTH..=sdf_multioctree::format::MAX_DEPTH).contains(d))
+            .ok_or_else(|| {
+                PyValueError::new_err(format!(
+                    "depth must be in {}..={}, got {depth}",
+                    build::MIN_DEPTH,
+                    sdf_multioctree::format::MAX_DEPTH
+                ))
+            })?;
+        let method = match method {
+            "multi" => Method::Multi {
+                max_voxels: u8::try_from(max_voxels)
+                    .ok()
+                    .filter(|&m| m >= 1)
+                    .ok_or_else(|| {
+                        PyValueError::new_err(format!(
+                            "max_voxels must be in 1..=255, got {max_voxels}"
+                        ))
+                    })?,
+            },
+            "svo" => Method::Svo,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "method must be \"multi\" or \"svo\", got {other:?}"
+                )))
+            }
+        };
+        let bits = match bits {
+            8 => ValueBits::Eight,
+            16 => ValueBits::Sixteen,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "bits must be 8 or 16, got {other}"
+                )))
+            }
+        };
+        let settings = BuildSettings {
+            depth,
+            method,
+            bits,
+            // The pool is ours (cancellation and reuse); the builder runs in it.
+            threads: None,
+            margin: DEFAULT_MARGIN,
+            sign: sign_arg(sign)?,
+            ..BuildSettings::default()
+        };
+        let budget = max_memory.or_else(build::default_memory_budget);
+        let mesh = &self.data.mesh;
+        let built = run::run(py, threads, usize::MAX, |cancel| {
+            let stop = || cancel.is_set();
+            match build::build_cancellable(mesh, &settings, budget, None, &stop) {
+                Err(build::BuildError::Cancelled) => Err(Cancelled),
+                r => Ok(r),
+            }
+        })?;
+        let (octree, stats) = built.map_err(|e| errors::build_error(&e))?;
+        Ok(Octree::new(octree, Some(stats)))
+    }
+
+    /// render(width=1024, height=None, *, mode="lambert", view=0, eye=None, target=None, fov=None, shadows=False, ao=0, threads=None)
+    ///
+    /// Ray traces the mesh as ``sdfmo render-mesh`` does (the reference image of the paper's
+    /// protocol): normalised exactly as the builder normalises it, so the images line up with
+    /// ``Octree.render``'s, face normals, the same camera and shading. Returns uint8 of shape
+    /// ``(height, width, 3)``. See ``Octree.render`` for the arguments.
+    #[pyo3(signature = (width = 1024, height = None, *, mode = "lambert", view = 0, eye = None, target = None, fov = None, shadows = false, ao = 0, threads = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn render<'py>(
+        &self,
+        py: Python<'py>,
+        width: i64,
+        height: Option<i64>,
+        mode: &str,
+        view: i64,
+        eye: Option<[f32; 3]>,
+        target: Option<[f32; 3]>,
+        fov: Option<f32>,
+        shadows: bool,
+        ao: i64,
+        threads: Option<i64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let args = RenderArgs::parse(
+            width, height, mode, view, eye, target, fov, shadows, ao, threads,
+        )?;
+        let data = &self.data;
+        args.render(py, |settings, camera| {
+            let dist = data.distance(SignMode::Auto)?;
+            sdf_multioctree::render::render(&MeshScene(dist), camera, settings)
+                .map_err(|e| errors::render_error(&e))
+        })
+    }
+}

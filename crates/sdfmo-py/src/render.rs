@@ -1,0 +1,116 @@
+//! The render arguments shared by `Mesh.render` and `Octree.render`: the command-line tool's
+//! camera, modes and limits.
+
+use glam::Vec3;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use sdf_multioctree::render::{Camera, Mode, RenderSettings, Rendered, MAX_AO_SAMPLES};
+
+use crate::arrays;
+use crate::run;
+
+/// Largest image edge (the command-line tool's `--size` limit).
+const MAX_IMAGE_EDGE: i64 = 16384;
+
+/// A checked render request.
+pub struct RenderArgs {
+    camera: Camera,
+    settings: RenderSettings,
+    threads: Option<usize>,
+}
+
+impl RenderArgs {
+    /// Checks the arguments of a `render` call (see `Octree.render`).
+    #[allow(clippy::too_many_arguments)]
+    pub fn parse(
+        width: i64,
+        height: Option<i64>,
+        mode: &str,
+        view: i64,
+        eye: Option<[f32; 3]>,
+        target: Option<[f32; 3]>,
+        fov: Option<f32>,
+        shadows: bool,
+        ao: i64,
+        threads: Option<i64>,
+    ) -> PyResult<RenderArgs> {
+        let height = height.unwrap_or(width);
+        for (name, v) in [("width", width), ("height", height)] {
+            if !(1..=MAX_IMAGE_EDGE).contains(&v) {
+                return Err(PyValueError::new_err(format!(
+                    "{name} must be in 1..={MAX_IMAGE_EDGE}, got {v}"
+                )));
+            }
+        }
+        let mode = match mode {
+            "lambert" => Mode::Lambert,
+            "mask" => Mode::Mask,
+            "depth" => Mode::Depth,
+            "normal" => Mode::Normal,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "mode must be \"lambert\", \"mask\", \"depth\" or \"normal\", got {other:?}"
+                )))
+            }
+        };
+        if !(0..=3).contains(&view) {
+            return Err(PyValueError::new_err(format!(
+                "view must be 0, 1, 2 or 3 (the paper's four cameras), got {view}"
+            )));
+        }
+        if mode != Mode::Lambert && (shadows || ao != 0) {
+            return Err(PyValueError::new_err(
+                "shadows and ao apply to mode=\"lambert\" only (the other modes cast no light rays)",
+            ));
+        }
+        if !(0..=i64::from(MAX_AO_SAMPLES)).contains(&ao) {
+            return Err(PyValueError::new_err(format!(
+                "ao must be in 0..={MAX_AO_SAMPLES} rays per pixel, got {ao}"
+            )));
+        }
+        let threads = run::check_threads(threads)?;
+        let mut camera = Camera::paper_view(view as u32, width as u32, height as u32);
+        if let Some(e) = eye {
+            camera.eye = Vec3::from_array(e);
+        }
+        if let Some(t) = target {
+            camera.target = Vec3::from_array(t);
+        }
+        if let Some(f) = fov {
+            if !(f > 0.0 && f < 180.0) {
+                return Err(PyValueError::new_err(format!(
+                    "fov must be in (0, 180) degrees, got {f}"
+                )));
+            }
+            camera.fov_y_deg = f;
+        }
+        // Non-finite or degenerate cameras (eye == target): the renderer's own message.
+        camera
+            .frame()
+            .map_err(|e| crate::errors::render_error(&e))?;
+        Ok(RenderArgs {
+            camera,
+            settings: RenderSettings {
+                mode,
+                shadows,
+                ao_samples: ao as u32,
+                threads: None,
+            },
+            threads,
+        })
+    }
+
+    /// Renders with `f` (given the settings and the camera) without the GIL and returns the
+    /// image as uint8 `(h, w, 3)`.
+    pub fn render<'py>(
+        &self,
+        py: Python<'py>,
+        f: impl FnOnce(&RenderSettings, &Camera) -> PyResult<Rendered> + Send,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let pixels = (self.camera.width as usize) * (self.camera.height as usize);
+        let r = run::run(py, self.threads, pixels, |_| {
+            Ok(f(&self.settings, &self.camera))
+        })??;
+        Ok(arrays::image_array(py, r.rgb, r.width, r.height)?.into_any())
+    }
+}

@@ -1,0 +1,104 @@
+"""Every bad input, and the exception it raises (the table of docs/results/python.md is
+printed from BAD_INPUTS by scripts/measure.py)."""
+
+import numpy as np
+import pytest
+
+import sdfmo
+
+V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=np.float32)
+F = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+MESH = sdfmo.Mesh(V, F)
+P = np.zeros((4, 3))
+IMG = np.zeros((8, 8, 3), np.uint8)
+
+
+def nan_points():
+    p = np.zeros((5, 3))
+    p[3, 1] = np.nan
+    return p
+
+
+# (description, call, exception, text the message must contain)
+BAD_INPUTS = [
+    ("vertices of shape (4, 2)", lambda: sdfmo.Mesh(V[:, :2], F), ValueError, "shape"),
+    ("vertices of dtype int", lambda: sdfmo.Mesh(V.astype(int), F), ValueError, "dtype"),
+    ("vertices with a NaN", lambda: sdfmo.Mesh(np.where(V == 1, np.nan, V), F), ValueError, "vertices[1]"),
+    ("vertices with an inf", lambda: sdfmo.Mesh(np.where(V == 1, np.inf, V), F), ValueError, "not finite"),
+    ("face index out of range", lambda: sdfmo.Mesh(V, F + 1), ValueError, "faces[1, 2] = 4"),
+    ("negative face index", lambda: sdfmo.Mesh(V, F - 1), ValueError, "faces[0, 0] = -1"),
+    ("faces of dtype float", lambda: sdfmo.Mesh(V, F.astype(float)), ValueError, "integers"),
+    ("faces of shape (4, 4)", lambda: sdfmo.Mesh(V, np.zeros((4, 4), int)), ValueError, "shape"),
+    ("no faces", lambda: sdfmo.Mesh(V, np.zeros((0, 3), int)), ValueError, "at least one"),
+    ("points of shape (4, 2)", lambda: MESH.signed_distance(P[:, :2]), ValueError, "(..., 3)"),
+    ("points of dtype int", lambda: MESH.signed_distance(P.astype(int)), ValueError, "dtype int64"),
+    ("points of dtype complex", lambda: MESH.signed_distance(P.astype(complex)), ValueError, "complex"),
+    ("points of dtype object", lambda: MESH.signed_distance(np.array([[None] * 3])), ValueError, "dtype object"),
+    ("points as a scalar", lambda: MESH.signed_distance(1.0), ValueError, "shape"),
+    ("points with a NaN", lambda: MESH.signed_distance(nan_points()), ValueError, "points[3]"),
+    ("points with a NaN (unsigned)", lambda: MESH.unsigned_distance(nan_points()), ValueError, "points[3]"),
+    ("points with a NaN (winding)", lambda: MESH.winding_number(nan_points()), ValueError, "points[3]"),
+    ("points with a NaN (octree)", lambda: MESH.build(3).distance(nan_points()), ValueError, "points[3]"),
+    ("unknown sign", lambda: MESH.signed_distance(P, sign="normal"), ValueError, "sign must be"),
+    ("threads=0", lambda: MESH.signed_distance(P, threads=0), ValueError, "threads"),
+    ("threads=-2", lambda: MESH.unsigned_distance(P, threads=-2), ValueError, "threads"),
+    ("rays of different shapes", lambda: MESH.ray_intersect(P, P[:2]), ValueError, "same shape"),
+    ("zero ray direction", lambda: MESH.ray_intersect(P, np.zeros((4, 3))), ValueError, "directions[0] is zero"),
+    ("NaN ray origin", lambda: MESH.ray_intersect(nan_points(), np.ones((5, 3))), ValueError, "origins[3]"),
+    ("negative t_max", lambda: MESH.ray_intersect(P, np.ones((4, 3)), t_max=-1), ValueError, "t_max"),
+    ("depth 0", lambda: MESH.build(0), ValueError, "depth"),
+    ("depth 17", lambda: MESH.build(17), ValueError, "depth"),
+    ("max_voxels 0", lambda: MESH.build(4, max_voxels=0), ValueError, "max_voxels"),
+    ("unknown method", lambda: MESH.build(4, method="dense"), ValueError, "method"),
+    ("bits 12", lambda: MESH.build(4, bits=12), ValueError, "bits"),
+    ("max_memory too small", lambda: MESH.build(9, max_memory=1000), MemoryError, "budget"),
+    ("render width 0", lambda: MESH.render(0), ValueError, "width"),
+    ("unknown render mode", lambda: MESH.render(8, mode="phong"), ValueError, "mode"),
+    ("view 4", lambda: MESH.render(8, view=4), ValueError, "view"),
+    ("shadows in mask mode", lambda: MESH.render(8, mode="mask", shadows=True), ValueError, "lambert"),
+    ("eye == target", lambda: MESH.render(8, eye=(0, 0, 0), target=(0, 0, 0)), ValueError, "camera"),
+    ("fov 180", lambda: MESH.render(8, fov=180), ValueError, "fov"),
+    ("sample_sdf n < 0", lambda: sdfmo.sample_sdf(MESH, -1), ValueError, "n must be"),
+    ("sample_sdf near_fraction 2", lambda: sdfmo.sample_sdf(MESH, 10, near_fraction=2), ValueError, "near_fraction"),
+    ("sample_sdf sigma NaN", lambda: sdfmo.sample_sdf(MESH, 10, sigmas=(np.nan, 0.1)), ValueError, "sigmas[0]"),
+    ("psnr of different sizes", lambda: sdfmo.psnr(IMG, IMG[:4]), ValueError, "sizes differ"),
+    ("psnr of float images", lambda: sdfmo.psnr(IMG.astype(float), IMG), ValueError, "uint8"),
+    ("flip of (h, w) images", lambda: sdfmo.flip(IMG[..., 0], IMG[..., 0]), ValueError, "(h, w, 3)"),
+    ("Mesh.load of a missing file", lambda: sdfmo.Mesh.load("/nonexistent/x.stl"), FileNotFoundError, "x.stl"),
+    ("Mesh.load of a directory", lambda: sdfmo.Mesh.load("/"), IsADirectoryError, "/"),
+    ("Mesh.load of a device", lambda: sdfmo.Mesh.load("/dev/zero"), OSError, "/dev/zero"),
+    ("Octree.load of a missing file", lambda: sdfmo.Octree.load("/nonexistent/x.smo"), FileNotFoundError, "x.smo"),
+    ("Octree.from_bytes of junk", lambda: sdfmo.Octree.from_bytes(b"junk" * 40), sdfmo.FormatError, ""),
+    ("Octree.save into a directory", lambda: MESH.build(3).save("/"), OSError, "/"),
+    ("Octree.save into a missing folder", lambda: MESH.build(3).save("/nonexistent/dir/x.smo"), FileNotFoundError, "x.smo"),
+    ("load_png of a missing file", lambda: sdfmo.load_png("/nonexistent/x.png"), FileNotFoundError, "x.png"),
+]
+
+
+@pytest.mark.parametrize("what,call,exc,text", BAD_INPUTS, ids=[b[0] for b in BAD_INPUTS])
+def test_bad_input_raises_its_exception(what, call, exc, text):
+    with pytest.raises(exc) as e:
+        call()
+    assert type(e.value) is exc or (exc is OSError and isinstance(e.value, OSError)), type(e.value)
+    assert text in str(e.value), str(e.value)
+
+
+def test_exception_classes():
+    assert issubclass(sdfmo.FormatError, ValueError)
+    assert issubclass(sdfmo.MeshError, ValueError)
+    assert sdfmo.FormatError.__module__ == "sdfmo"
+    assert sdfmo.FormatError.__doc__
+
+
+def test_every_public_name_has_a_docstring():
+    for name in sdfmo.__all__:
+        if name == "__version__":
+            continue
+        obj = getattr(sdfmo, name)
+        assert obj.__doc__ and len(obj.__doc__) > 20, name
+        if not isinstance(obj, type):
+            continue
+        for attr, value in vars(obj).items():
+            if attr.startswith("_"):
+                continue
+            assert value.__doc__, f"{name}.{attr}"
