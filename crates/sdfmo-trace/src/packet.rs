@@ -22,13 +22,13 @@
 //!
 //! The unit test `packets_hit_exactly_like_single_rays` checks it against [`intersect`] on many
 //! cameras (eyes on and off the root's mid-planes, axis-parallel rays, partial packets).
+//!
+//! [`intersect`]: crate::intersect
 
 use glam::Vec3;
 use sdfmo_format::{NodeRef, Octree, MAX_DEPTH};
 
 use crate::ray_voxel::{intersect_prepared, prepare_voxel, PreparedVoxel};
-#[cfg(doc)]
-use crate::traversal::intersect;
 use crate::traversal::{child_at, le, root_span, split_span, CellStack, Hit};
 
 /// Rays per packet (lanes).
@@ -80,6 +80,8 @@ pub struct RayPacket {
 /// The first hit of each lane of `rays` (lanes not traced: `None`): for every traced ray
 /// exactly what [`intersect`]`(octree, ray, 0.0, t_max)` returns, found in one walk of the
 /// octree for the whole packet. Fastest when the rays are close together (neighbouring pixels).
+///
+/// [`intersect`]: crate::intersect
 pub fn intersect_packet<B: AsRef<[u8]>>(
     octree: &Octree<B>,
     rays: &RayPacket,
