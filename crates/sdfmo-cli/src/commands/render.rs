@@ -171,6 +171,16 @@ type Timing = Option<&'static str>;
 /// The files one view writes: the PNG and, when asked, the EXR.
 type ViewOutputs = (PathBuf, Option<PathBuf>);
 
+/// Several views number the names the user gave (`out.png` → `out_2.png`): derived names,
+/// where a symbolic link is replaced instead of followed; one view writes the name as given.
+fn output_naming(views: usize) -> Naming {
+    if views > 1 {
+        Naming::Derived
+    } else {
+        Naming::Given
+    }
+}
+
 /// Checks the options before any work: flags the mode cannot use are errors, and every output
 /// (numbered per view) must have the right extension and be a file that may be replaced.
 /// Returns the outputs of each view.
@@ -182,13 +192,7 @@ fn check_options(opts: &RenderOptions) -> anyhow::Result<Vec<ViewOutputs>> {
         );
     }
     let views = cameras(opts).len();
-    // Several views number the names the user gave (`out.png` → `out_2.png`): derived names,
-    // where a symbolic link is replaced instead of followed.
-    let naming = if views > 1 {
-        Naming::Derived
-    } else {
-        Naming::Given
-    };
+    let naming = output_naming(views);
     let name = |p: &PathBuf, k: usize| {
         if views > 1 {
             indexed_path(p, k)
@@ -295,11 +299,7 @@ fn render_all(
         ensure_parent(exr)?;
     }
 
-    let naming = if cams.len() > 1 {
-        Naming::Derived
-    } else {
-        Naming::Given
-    };
+    let naming = output_naming(cams.len());
     // A fraction over all views, moved by the renderer's tiles within each (one 2048² view with
     // occlusion takes many seconds).
     let bar = progress::fraction("rendering");
