@@ -237,8 +237,11 @@ def skip_grid(cells: np.ndarray, res: int) -> torch.Tensor:
 
 @torch.no_grad()
 def trace(model: NGLOD, k: int, o: torch.Tensor, d: torch.Tensor, skip: torch.Tensor,
-          eps: float = 1e-4, max_steps: int = 256) -> tuple[torch.Tensor, torch.Tensor]:
-    """Sphere traces rays (o, d) against LOD k; returns (hit mask, t)."""
+          cone: float, max_steps: int = 128) -> tuple[torch.Tensor, torch.Tensor]:
+    """Sphere traces rays (o, d) against LOD k; returns (hit mask, t).
+
+    A ray hits where |f| < cone * t (a quarter of the pixel's footprint at that distance).
+    """
     res = lod_res(k)
     h = 2.0 / res
     n = o.shape[0]
@@ -268,7 +271,7 @@ def trace(model: NGLOD, k: int, o: torch.Tensor, d: torch.Tensor, skip: torch.Te
         if bool(occ.any()):
             sd = model.sdf(p[occ], k)
             step[occ] = sd
-            done_hit[occ] = sd.abs() < eps
+            done_hit[occ] = sd.abs() < cone * tt[occ]
         emp = inside & ~occ
         if bool(emp.any()):
             pe, de, ce = p[emp], dd[emp], cic[emp].to(p.dtype)
@@ -298,12 +301,13 @@ def normals(model: NGLOD, k: int, p: torch.Tensor) -> torch.Tensor:
     return g / g.norm(dim=-1, keepdim=True).clamp(min=1e-12)
 
 
-def render(model: NGLOD, k: int, view: int, size: int, skip: torch.Tensor, chunk: int = 131072) -> np.ndarray:
+def render(model: NGLOD, k: int, view: int, size: int, skip: torch.Tensor, chunk: int = 1 << 20) -> np.ndarray:
     o, d = paper_camera(view, size)
+    cone = 0.25 * 2.0 * math.tan(math.radians(30.0)) / size
     img = torch.zeros(o.shape[0], dtype=torch.uint8)
     for s in range(0, o.shape[0], chunk):
         oc, dc = o[s:s + chunk], d[s:s + chunk]
-        hit, t = trace(model, k, oc, dc, skip)
+        hit, t = trace(model, k, oc, dc, skip, cone)
         hi = torch.nonzero(hit).squeeze(-1)
         if hi.numel() == 0:
             continue
@@ -377,7 +381,7 @@ def cmd_train(a) -> None:
             opt.zero_grad(set_to_none=True)
             loss.backward()
             opt.step()
-            tot += np.array([float(x) for x in losses])
+            tot += np.array([float(x.detach()) for x in losses])
             nb += 1
         e2 = time.perf_counter()
         rec = {"epoch": ep + 1, "loss_per_lod": (tot / nb).tolist(), "loss": float(tot.sum() / nb),

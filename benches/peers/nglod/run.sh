@@ -114,22 +114,27 @@ for m in "${MODELS[@]}"; do
         nice -n "$NICE" "$PY" "$HERE/nglod.py" train "$m" --out "$dir/model" --schedule "$SCHED" \
             --threads "$THREADS" "${curve_args[@]}"
     fi
-    log "$stem: rendering LODs 2-5, 4 views, 1024²"
-    nice -n "$NICE" "$PY" "$HERE/nglod.py" render "$dir/model.pt" --out-dir "$dir/images" --threads "$THREADS"
-    log "$stem: comparing with the mesh references"
-    for k in 2 3 4 5; do
-        for v in 0 1 2 3; do
-            nice -n "$NICE" "$SDFMO" compare "$ref/reference_$v.png" "$dir/images/nglod_lod${k}_$v.png" --json \
-                > "$dir/images/compare_lod${k}_$v.json.tmp"
-            mv "$dir/images/compare_lod${k}_$v.json.tmp" "$dir/images/compare_lod${k}_$v.json"
+    if [ ! -f "$dir/images/render.json" ] || [ "$dir/images/render.json" -ot "$dir/model.pt" ] || [ -n "${NGLOD_RERENDER:-}" ]; then
+        log "$stem: rendering LODs 2-5, 4 views, 1024²"
+        rm -f "$dir/images/render.json"
+        nice -n "$NICE" "$PY" "$HERE/nglod.py" render "$dir/model.pt" --out-dir "$dir/images" --threads "$THREADS"
+        log "$stem: comparing with the mesh references"
+        for k in 2 3 4 5; do
+            for v in 0 1 2 3; do
+                nice -n "$NICE" "$SDFMO" compare "$ref/reference_$v.png" "$dir/images/nglod_lod${k}_$v.png" --json \
+                    > "$dir/images/compare_lod${k}_$v.json.tmp"
+                mv "$dir/images/compare_lod${k}_$v.json.tmp" "$dir/images/compare_lod${k}_$v.json"
+            done
         done
-    done
+    else
+        log "$stem: reusing the renders in $dir/images (newer than the model; NGLOD_RERENDER=1 to redo)"
+    fi
     if [ "$stem" = "$CURVE" ] && [ ! -f "$dir/paper_cost.json" ]; then
         log "$stem: timing the paper schedule's epoch (sampling + 30 steps at batch 512)"
         nice -n "$NICE" "$PY" "$HERE/nglod.py" timepaper "$m" --schedule "$PAPER_SCHED" --out "$dir/paper_cost.json" --threads "$THREADS"
     fi
     log "$stem: SDF check on held-out points"
-    nice -n "$NICE" "$PY" "$HERE/nglod.py" sdfcheck "$m" "$dir/model.pt" --schedule "$SCHED" --out "$dir/sdfcheck.json" \
+    [ -f "$dir/sdfcheck.json" ] && [ "$dir/sdfcheck.json" -nt "$dir/model.pt" ] || nice -n "$NICE" "$PY" "$HERE/nglod.py" sdfcheck "$m" "$dir/model.pt" --schedule "$SCHED" --out "$dir/sdfcheck.json" \
         --threads "$THREADS"
 done
 
