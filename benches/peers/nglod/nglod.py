@@ -498,6 +498,30 @@ def cmd_timepaper(a) -> None:
     atomic_write(a.out, json.dumps(res, indent=1).encode())
 
 
+def cmd_timing(a) -> None:
+    """Render time per frame, interleaved: NGLOD LOD k and the octrees (sdfmo) at depth k + 5, view 0."""
+    torch.set_num_threads(a.threads)
+    model = load_model(a.model)
+    mesh = sdfmo.Mesh.load(a.mesh)
+    lods = [2, 3, 4, 5]
+    skips = {k: skip_grid(model.cells[k - 1].numpy(), lod_res(k)) for k in lods}
+    octrees = {(meth, k + 5): mesh.build(k + 5, method=meth, threads=a.threads) for k in lods for meth in ("svo", "multi")}
+    res = {"threads": a.threads, "size": a.size, "reps": a.reps, "view": 0, "wall_ms": {}, "cpu_ms": {}}
+    def clock(key, fn):
+        w, c = time.perf_counter(), time.process_time()
+        fn()
+        res["wall_ms"].setdefault(key, []).append((time.perf_counter() - w) * 1000.0)
+        res["cpu_ms"].setdefault(key, []).append((time.process_time() - c) * 1000.0)
+    for _ in range(a.reps):
+        for k in lods:
+            clock(f"nglod_lod{k}", lambda: render(model, k, 0, a.size, skips[k]))
+            for meth in ("svo", "multi"):
+                o = octrees[(meth, k + 5)]
+                clock(f"{meth}_d{k + 5}", lambda: o.render(a.size, view=0, threads=a.threads))
+        print("  timing rep done", flush=True)
+    atomic_write(a.out, json.dumps(res, indent=1).encode())
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -529,8 +553,15 @@ def main() -> None:
     tp.add_argument("--steps", type=int, default=30)
     tp.add_argument("--out", required=True)
     tp.add_argument("--threads", type=int, required=True)
+    ti = sub.add_parser("timing")
+    ti.add_argument("mesh")
+    ti.add_argument("model")
+    ti.add_argument("--size", type=int, default=1024)
+    ti.add_argument("--reps", type=int, default=3)
+    ti.add_argument("--out", required=True)
+    ti.add_argument("--threads", type=int, required=True)
     a = ap.parse_args()
-    {"train": cmd_train, "render": cmd_render, "sdfcheck": cmd_sdfcheck, "timepaper": cmd_timepaper}[a.cmd](a)
+    {"timing": cmd_timing, "train": cmd_train, "render": cmd_render, "sdfcheck": cmd_sdfcheck, "timepaper": cmd_timepaper}[a.cmd](a)
 
 
 if __name__ == "__main__":

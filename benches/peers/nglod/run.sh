@@ -133,6 +133,11 @@ for m in "${MODELS[@]}"; do
         log "$stem: timing the paper schedule's epoch (sampling + 30 steps at batch 512)"
         nice -n "$NICE" "$PY" "$HERE/nglod.py" timepaper "$m" --schedule "$PAPER_SCHED" --out "$dir/paper_cost.json" --threads "$THREADS"
     fi
+    if [ "$stem" = "$CURVE" ] && { [ ! -f "$dir/timing.json" ] || [ "$dir/timing.json" -ot "$dir/model.pt" ]; }; then
+        log "$stem: interleaved render timing, view 0 (NGLOD LOD k, SVO and multi-octree at depth k + 5)"
+        nice -n "$NICE" "$PY" "$HERE/nglod.py" timing "$m" "$dir/model.pt" --reps "${NGLOD_TIMING_REPS:-2}" \
+            --out "$dir/timing.json" --threads "$THREADS"
+    fi
     log "$stem: SDF check on held-out points"
     [ -f "$dir/sdfcheck.json" ] && [ "$dir/sdfcheck.json" -nt "$dir/model.pt" ] || nice -n "$NICE" "$PY" "$HERE/nglod.py" sdfcheck "$m" "$dir/model.pt" --schedule "$SCHED" --out "$dir/sdfcheck.json" \
         --threads "$THREADS"
