@@ -42,7 +42,11 @@ def collect(out: str) -> dict:
     for d in sorted(glob.glob(os.path.join(out, "models", "*"))):
         stem = os.path.basename(d)
         rj = os.path.join(d, "images", "render.json")
-        if not os.path.exists(rj):
+        need = [rj, os.path.join(d, "sdfcheck.json")] + [os.path.join(d, "images", f"compare_lod{k}_{v}.json")
+                                                         for k in LODS for v in range(4)]
+        missing = [p for p in need if not os.path.exists(p)]
+        if missing:
+            print(f"report.py: {stem} left out (not finished: {os.path.relpath(missing[0], out)} missing)", file=sys.stderr)
             continue
         m = {"train": load(os.path.join(d, "model.train.json")), "render": load(rj), "lods": {}}
         for k in LODS:
