@@ -17,7 +17,8 @@ pub struct Cli {
 /// The commands of `sdfmo`.
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Mesh statistics: triangles, vertices, parts, components, open and non-manifold edges.
+    /// Mesh statistics: triangles, vertices, parts, components, open and non-manifold edges;
+    /// for a `.smo` file, its levels with their voxels and bytes.
     Info(InfoArgs),
     /// Signed distances of points to a mesh (in the normalised frame of the octree).
     Distance(DistanceArgs),
@@ -36,7 +37,9 @@ pub enum Command {
 /// `sdfmo info`.
 #[derive(Debug, Args)]
 pub struct InfoArgs {
-    /// Mesh file (OBJ, glTF/GLB, STL); without it, the built-in demo part.
+    /// Mesh file (OBJ, glTF/GLB, STL), or a `.smo` octree (recognised by its magic bytes; a
+    /// file with levels may be a prefix, e.g. a download in progress); without it, the
+    /// built-in demo part.
     pub mesh: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the human summary.
     #[arg(long)]
@@ -138,9 +141,24 @@ pub struct BuildArgs {
     /// Output `.smo` file (written atomically; must end in `.smo`).
     #[arg(short, long, value_name = "OUT.smo")]
     pub output: PathBuf,
+    /// Levels of detail: write every level from `--coarsest` to DEPTH, coarsest first (a
+    /// version-2.0 file; each level is what a build of that depth makes).
+    #[arg(long)]
+    pub lod: bool,
+    /// The coarsest level written with `--lod`, 1..=DEPTH (default: DEPTH − 4, at least 1).
+    #[arg(long, value_name = "LEVEL", requires = "lod", value_parser = parse_depth)]
+    pub coarsest: Option<u8>,
     /// Print one JSON object on stdout instead of the human summary.
     #[arg(long)]
     pub json: bool,
+}
+
+impl BuildArgs {
+    /// The coarsest level to build: `None` without `--lod`.
+    pub fn coarsest_level(&self) -> Option<u8> {
+        self.lod
+            .then(|| self.coarsest.unwrap_or(self.depth.saturating_sub(4).max(1)))
+    }
 }
 
 /// What a render computes and writes.
@@ -227,6 +245,10 @@ pub struct RenderArgs {
     /// Trace on the CPU or on a GPU (the same images; `--json` adds `device` and `gpu_ms`).
     #[arg(long, value_enum, default_value_t = DeviceArg::Cpu)]
     pub device: DeviceArg,
+    /// Draw level LEVEL of a file with levels (`sdfmo build --lod`; default: the finest). A
+    /// file without levels has one, its depth.
+    #[arg(long, value_name = "LEVEL", value_parser = clap::value_parser!(u8).range(0..=16))]
+    pub lod: Option<u8>,
     /// Camera, mode and outputs.
     #[command(flatten)]
     pub opts: RenderOptions,

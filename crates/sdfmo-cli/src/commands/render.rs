@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use glam::Vec3;
 use sdf_multioctree::distance::{MeshDistance, SignMode};
-use sdf_multioctree::format::PackedOctree;
+use sdf_multioctree::format::{PackedOctree, SmoFile};
 use sdf_multioctree::render::shading::{light_dir, DepthRange, AMBIENT, LIGHT_INTENSITY};
 use sdf_multioctree::render::{
     self, Camera, Counters, MeshScene, Mode, OctreeScene, RenderPlan, RenderSettings, Rendered,
@@ -27,12 +27,20 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
     if args.device == DeviceArg::Gpu {
         check_gpu_options(&args.opts)?;
     }
-    let load = |max_bytes: u64| {
-        PackedOctree::load_with_limit(&args.octree, max_bytes).map_err(|e| match e {
+    let load = |max_bytes: u64| -> anyhow::Result<PackedOctree> {
+        let file = SmoFile::load_with_limit(&args.octree, max_bytes).map_err(|e| match e {
             // I/O errors name the file already; format errors do not.
             sdf_multioctree::format::FormatError::Io(io) => anyhow::Error::new(io),
             e => anyhow::Error::new(e)
                 .context(format!("cannot load octree {}", args.octree.display())),
+        })?;
+        let (coarsest, finest) = file.level_range();
+        file.into_level(args.lod).with_context(|| {
+            format!(
+                "{} has levels {coarsest}..={finest}, not level {}",
+                args.octree.display(),
+                args.lod.unwrap_or(finest)
+            )
         })
     };
     let source = args.octree.display().to_string();
