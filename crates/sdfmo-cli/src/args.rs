@@ -249,6 +249,11 @@ pub struct RenderArgs {
     /// file without levels has one, its depth.
     #[arg(long, value_name = "LEVEL", value_parser = clap::value_parser!(u8).range(0..=16))]
     pub lod: Option<u8>,
+    /// Screen-space error of a file with levels: each ray stops at the coarsest level whose
+    /// voxels project to at most E pixels at its hit distance (CPU only; default: off, the
+    /// finest level or `--lod`).
+    #[arg(long, value_name = "E", conflicts_with = "lod", value_parser = parse_pixel_error)]
+    pub pixel_error: Option<f32>,
     /// Camera, mode and outputs.
     #[command(flatten)]
     pub opts: RenderOptions,
@@ -378,6 +383,14 @@ pub fn parse_threads(s: &str) -> Result<usize, String> {
 const MAX_DEPTH: u8 = sdf_multioctree::format::MAX_DEPTH;
 
 /// Parses an octree depth in 1..=16 (the builder's range).
+/// Parses a screen-space error in pixels: a finite number > 0.
+pub fn parse_pixel_error(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(e) if e.is_finite() && e > 0.0 => Ok(e),
+        _ => Err(format!("the pixel error must be a number > 0, got {s:?}")),
+    }
+}
+
 pub fn parse_depth(s: &str) -> Result<u8, String> {
     match s.trim().parse::<i64>() {
         Ok(d) if (1..=i64::from(MAX_DEPTH)).contains(&d) => Ok(d as u8),
