@@ -8,8 +8,10 @@
 //! choice: [`intersect_lod`] with [`LevelChoice::PixelError`] lets each ray stop at the
 //! coarsest level whose voxels project below a number of pixels at the hit distance.
 
+use glam::Vec3;
 use sdfmo_format::{cell_size, LodOctree, PackedOctree};
 
+use crate::ray_voxel::unit_cube_span;
 use crate::traversal::{intersect, Hit, Ray};
 
 /// Which level a ray is traced at.
@@ -63,12 +65,15 @@ impl LodHit {
 
 /// The first hit of `ray` in `[t_min, t_max]` at the level `choice` selects.
 ///
-/// With [`LevelChoice::PixelError`] the ray is traced at the coarsest level first; where it hits
-/// at a distance that needs a finer level it is traced again at that level, and so on: the
-/// level only grows, so a ray costs at most one trace per level, and in practice one or two (a
-/// far object is done at the coarse level, a near one pays a coarse trace before the fine
-/// one). The hit returned is at a level fine enough for its own distance; a ray that misses
-/// the coarsest level misses.
+/// With [`LevelChoice::PixelError`], let `[t_in, t_out]` be the ray's span in the root cube
+/// (within `[t_min, t_max]`): every hit lies there, so the levels a hit can need lie between
+/// `k_far = level_for_distance(t_out)` and `k_near = level_for_distance(t_in)`. The ray is
+/// traced at `k_far`; where it hits at a distance that needs a finer level it is traced again
+/// at that level, and so on (the level only grows: at most one trace per level, in practice one
+/// or two). Where it misses at a level below `k_near` it is traced once more at `k_near` (a thin
+/// part a coarse level lost may be there; any hit at `k_near` is fine enough). So the hit
+/// returned is at a level at least as fine as its own distance needs, and a ray misses only
+/// where a level fine enough for every point of its span misses.
 pub fn intersect_lod(
     lod: &LodOctree,
     ray: &Ray,
@@ -87,10 +92,24 @@ pub fn intersect_lod(
             pixels,
             pixel_angle,
         } => {
-            let mut level = coarsest;
+            // The root cube [-1, 1]³ is the unit cube at (p + 1) / 2, with the same t.
+            let (t_in, t_out) = unit_cube_span((ray.origin + Vec3::ONE) * 0.5, ray.dir * 0.5)?;
+            let (t_in, t_out) = (t_in.max(t_min), t_out.min(t_max));
+            if t_in > t_out {
+                return None;
+            }
+            let level_at = |t: f32| level_for_distance(t, pixels, pixel_angle, coarsest, finest);
+            let near = level_at(t_in);
+            let mut level = level_at(t_out);
             loop {
-                let hit = intersect(lod.level(level)?, ray, t_min, t_max)?;
-                let need = level_for_distance(hit.t, pixels, pixel_angle, coarsest, finest);
+                let Some(hit) = intersect(lod.level(level)?, ray, t_min, t_max) else {
+                    if level >= near {
+                        return None;
+                    }
+                    level = near;
+                    continue;
+                };
+                let need = level_at(hit.t);
                 if need <= level {
                     return Some(LodHit { hit, level });
                 }
@@ -103,7 +122,6 @@ pub fn intersect_lod(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::Vec3;
     use sdfmo_format::{cell_corners, LeafInput, OctreeMeta, ValueBits, Voxel};
 
     fn sphere(depth: u8) -> PackedOctree {
@@ -149,11 +167,12 @@ mod tests {
     #[test]
     fn choices_trace_the_right_level() {
         let lod = LodOctree::from_levels((2..=6).map(sphere).collect()).unwrap();
-        let dir = Vec3::new(0.05, 0.02, -1.0).normalize();
         for &dist in &[1.2f32, 3.0, 20.0, 200.0] {
+            // Aimed at a point inside the sphere, off its centre.
+            let origin = Vec3::new(0.0, 0.0, dist);
             let ray = Ray {
-                origin: Vec3::new(0.0, 0.0, dist),
-                dir,
+                origin,
+                dir: (Vec3::new(0.1, 0.05, 0.3) - origin).normalize(),
             };
             for k in 2..=6 {
                 let h = intersect_lod(&lod, &ray, 0.0, f32::INFINITY, LevelChoice::Level(k));
