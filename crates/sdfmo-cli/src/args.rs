@@ -32,6 +32,29 @@ pub enum Command {
     Compare(CompareArgs),
     /// Build, render and compare over meshes, methods and depths: tables, plots and a web page.
     Sweep(SweepArgs),
+    /// Writes seeded CAD-like parts (plates with holes and slots, bosses, fins, fillets, stacked
+    /// blocks, open sheets) as OBJ files, with a manifest for `sweep --manifest`.
+    GenerateParts(GeneratePartsArgs),
+}
+
+/// `sdfmo generate-parts`.
+#[derive(Debug, Args)]
+pub struct GeneratePartsArgs {
+    /// Number of parts, 1..=1000000.
+    #[arg(short = 'n', long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    pub count: u64,
+    /// Seed of the set: part i is `cad_part(part_seed(SEED, i))`, the same on every run.
+    #[arg(long, value_name = "SEED", default_value_t = 1)]
+    pub seed: u64,
+    /// Index of the first part (to extend a set: the parts FIRST..FIRST+N).
+    #[arg(long, value_name = "FIRST", default_value_t = 0)]
+    pub first: u64,
+    /// Output folder (created if missing): `part_NNNNNN.obj` and `manifest.csv` (id,path).
+    #[arg(short, long, value_name = "DIR")]
+    pub output: PathBuf,
+    /// Print one JSON object on stdout instead of the human summary.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `sdfmo info`.
@@ -316,6 +339,44 @@ pub struct SweepArgs {
     /// Print one JSON object on stdout (the rows) instead of the human summary.
     #[arg(long)]
     pub json: bool,
+    /// Sweep the models a manifest lists (one path per line, or CSV `id,path`; relative to the
+    /// manifest's folder), each in its own process with a ledger in the output folder
+    /// (docs/scale.md).
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["meshes", "merge"])]
+    pub manifest: Option<PathBuf>,
+    /// With --manifest: refuse paths outside the manifest's folder (absolute, `..`, links).
+    #[arg(long, requires = "manifest")]
+    pub confine: bool,
+    /// With --manifest: run shard K of N (0-based): the models at positions K, K + N, … Default:
+    /// from SLURM_ARRAY_TASK_ID/SLURM_ARRAY_TASK_COUNT, or JOB_COMPLETION_INDEX and
+    /// SDFMO_SHARD_COUNT, else the whole manifest.
+    #[arg(long, value_name = "K/N", requires = "manifest", value_parser = crate::commands::sweep::manifest::parse_shard)]
+    pub shard: Option<crate::commands::sweep::manifest::Shard>,
+    /// With --manifest: wall-time limit of each model in seconds; a model over it is killed and
+    /// recorded as failed.
+    #[arg(long, value_name = "SECONDS", requires = "manifest", value_parser = parse_timeout)]
+    pub model_timeout: Option<f64>,
+    /// With --manifest: run again the models the ledger holds as failed.
+    #[arg(long, requires = "manifest")]
+    pub retry_failed: bool,
+    /// Merge the output folders of shards (or of one manifest sweep) into one dataset report
+    /// in -o: distributions of the gain per depth, failures, provenance.
+    #[arg(long, value_name = "DIR", num_args = 1.., conflicts_with = "meshes")]
+    pub merge: Vec<PathBuf>,
+    /// Internal: sweep one mesh as a shard's child process under this model name, print one
+    /// JSON line (its rows) and write its images, nothing else.
+    #[arg(long, value_name = "NAME", hide = true, conflicts_with_all = ["manifest", "merge"])]
+    pub isolated_model: Option<String>,
+}
+
+/// Parses a timeout in seconds (positive, at most a week).
+pub fn parse_timeout(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(t) if t > 0.0 && t <= 7.0 * 86400.0 => Ok(t),
+        _ => Err(format!(
+            "expected a time limit in seconds, more than 0 and at most 604800, got {s:?}"
+        )),
+    }
 }
 
 /// Largest image edge accepted (a 16384² RGB image is 800 MB).
