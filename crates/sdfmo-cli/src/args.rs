@@ -17,7 +17,8 @@ pub struct Cli {
 /// The commands of `sdfmo`.
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Mesh statistics: triangles, vertices, parts, components, open and non-manifold edges.
+    /// Mesh statistics: triangles, vertices, parts, components, open and non-manifold edges;
+    /// for a `.smo` file, its levels with their voxels and bytes.
     Info(InfoArgs),
     /// Signed distances of points to a mesh (in the normalised frame of the octree).
     Distance(DistanceArgs),
@@ -31,12 +32,37 @@ pub enum Command {
     Compare(CompareArgs),
     /// Build, render and compare over meshes, methods and depths: tables, plots and a web page.
     Sweep(SweepArgs),
+    /// Writes seeded CAD-like parts (plates with holes and slots, bosses, fins, fillets, stacked
+    /// blocks, open sheets) as OBJ files, with a manifest for `sweep --manifest`.
+    GenerateParts(GeneratePartsArgs),
+}
+
+/// `sdfmo generate-parts`.
+#[derive(Debug, Args)]
+pub struct GeneratePartsArgs {
+    /// Number of parts, 1..=1000000.
+    #[arg(short = 'n', long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    pub count: u64,
+    /// Seed of the set: part i is `cad_part(part_seed(SEED, i))`, the same on every run.
+    #[arg(long, value_name = "SEED", default_value_t = 1)]
+    pub seed: u64,
+    /// Index of the first part (to extend a set: the parts FIRST..FIRST+N).
+    #[arg(long, value_name = "FIRST", default_value_t = 0)]
+    pub first: u64,
+    /// Output folder (created if missing): `part_NNNNNN.obj` and `manifest.csv` (id,path).
+    #[arg(short, long, value_name = "DIR")]
+    pub output: PathBuf,
+    /// Print one JSON object on stdout instead of the human summary.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `sdfmo info`.
 #[derive(Debug, Args)]
 pub struct InfoArgs {
-    /// Mesh file (OBJ, glTF/GLB, STL); without it, the built-in demo part.
+    /// Mesh file (OBJ, glTF/GLB, STL), or a `.smo` octree (recognised by its magic bytes; a
+    /// file with levels may be a prefix, e.g. a download in progress); without it, the
+    /// built-in demo part.
     pub mesh: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the human summary.
     #[arg(long)]
@@ -138,9 +164,24 @@ pub struct BuildArgs {
     /// Output `.smo` file (written atomically; must end in `.smo`).
     #[arg(short, long, value_name = "OUT.smo")]
     pub output: PathBuf,
+    /// Levels of detail: write every level from `--coarsest` to DEPTH, coarsest first (a
+    /// version-2.0 file; each level is what a build of that depth makes).
+    #[arg(long)]
+    pub lod: bool,
+    /// The coarsest level written with `--lod`, 1..=DEPTH (default: DEPTH − 4, at least 1).
+    #[arg(long, value_name = "LEVEL", requires = "lod", value_parser = parse_depth)]
+    pub coarsest: Option<u8>,
     /// Print one JSON object on stdout instead of the human summary.
     #[arg(long)]
     pub json: bool,
+}
+
+impl BuildArgs {
+    /// The coarsest level to build: `None` without `--lod`.
+    pub fn coarsest_level(&self) -> Option<u8> {
+        self.lod
+            .then(|| self.coarsest.unwrap_or(self.depth.saturating_sub(4).max(1)))
+    }
 }
 
 /// What a render computes and writes.
@@ -227,6 +268,15 @@ pub struct RenderArgs {
     /// Trace on the CPU or on a GPU (the same images; `--json` adds `device` and `gpu_ms`).
     #[arg(long, value_enum, default_value_t = DeviceArg::Cpu)]
     pub device: DeviceArg,
+    /// Draw level LEVEL of a file with levels (`sdfmo build --lod`; default: the finest). A
+    /// file without levels has one, its depth.
+    #[arg(long, value_name = "LEVEL", value_parser = clap::value_parser!(u8).range(0..=16))]
+    pub lod: Option<u8>,
+    /// Screen-space error of a file with levels: each ray stops at the coarsest level whose
+    /// voxels project to at most E pixels at its hit distance (CPU only; default: off, the
+    /// finest level or `--lod`).
+    #[arg(long, value_name = "E", conflicts_with = "lod", value_parser = parse_pixel_error)]
+    pub pixel_error: Option<f32>,
     /// Camera, mode and outputs.
     #[command(flatten)]
     pub opts: RenderOptions,
@@ -289,6 +339,44 @@ pub struct SweepArgs {
     /// Print one JSON object on stdout (the rows) instead of the human summary.
     #[arg(long)]
     pub json: bool,
+    /// Sweep the models a manifest lists (one path per line, or CSV `id,path`; relative to the
+    /// manifest's folder), each in its own process with a ledger in the output folder
+    /// (docs/scale.md).
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["meshes", "merge"])]
+    pub manifest: Option<PathBuf>,
+    /// With --manifest: refuse paths outside the manifest's folder (absolute, `..`, links).
+    #[arg(long, requires = "manifest")]
+    pub confine: bool,
+    /// With --manifest: run shard K of N (0-based): the models at positions K, K + N, … Default:
+    /// from SLURM_ARRAY_TASK_ID/SLURM_ARRAY_TASK_COUNT, or JOB_COMPLETION_INDEX and
+    /// SDFMO_SHARD_COUNT, else the whole manifest.
+    #[arg(long, value_name = "K/N", requires = "manifest", value_parser = crate::commands::sweep::manifest::parse_shard)]
+    pub shard: Option<crate::commands::sweep::manifest::Shard>,
+    /// With --manifest: wall-time limit of each model in seconds; a model over it is killed and
+    /// recorded as failed.
+    #[arg(long, value_name = "SECONDS", requires = "manifest", value_parser = parse_timeout)]
+    pub model_timeout: Option<f64>,
+    /// With --manifest: run again the models the ledger holds as failed.
+    #[arg(long, requires = "manifest")]
+    pub retry_failed: bool,
+    /// Merge the output folders of shards (or of one manifest sweep) into one dataset report
+    /// in -o: distributions of the gain per depth, failures, provenance.
+    #[arg(long, value_name = "DIR", num_args = 1.., conflicts_with = "meshes")]
+    pub merge: Vec<PathBuf>,
+    /// Internal: sweep one mesh as a shard's child process under this model name, print one
+    /// JSON line (its rows) and write its images, nothing else.
+    #[arg(long, value_name = "NAME", hide = true, conflicts_with_all = ["manifest", "merge"])]
+    pub isolated_model: Option<String>,
+}
+
+/// Parses a timeout in seconds (positive, at most a week).
+pub fn parse_timeout(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(t) if t > 0.0 && t <= 7.0 * 86400.0 => Ok(t),
+        _ => Err(format!(
+            "expected a time limit in seconds, more than 0 and at most 604800, got {s:?}"
+        )),
+    }
 }
 
 /// Largest image edge accepted (a 16384² RGB image is 800 MB).
@@ -356,6 +444,14 @@ pub fn parse_threads(s: &str) -> Result<usize, String> {
 const MAX_DEPTH: u8 = sdf_multioctree::format::MAX_DEPTH;
 
 /// Parses an octree depth in 1..=16 (the builder's range).
+/// Parses a screen-space error in pixels: a finite number > 0.
+pub fn parse_pixel_error(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(e) if e.is_finite() && e > 0.0 => Ok(e),
+        _ => Err(format!("the pixel error must be a number > 0, got {s:?}")),
+    }
+}
+
 pub fn parse_depth(s: &str) -> Result<u8, String> {
     match s.trim().parse::<i64>() {
         Ok(d) if (1..=i64::from(MAX_DEPTH)).contains(&d) => Ok(d as u8),

@@ -2,7 +2,8 @@
 //!
 //! Every command prints a short human summary, or with `--json` exactly one JSON object on
 //! stdout. Errors are one line on stderr (the whole cause chain, `{:#}`, each cause once) and
-//! exit code 2, out of memory included; a
+//! exit code 2, out of memory included; a dataset sweep that recorded failed models exits with
+//! 3 after writing everything; a
 //! closed stdout (broken pipe, e.g. `sdfmo distance … | head`) counts as success. Long work shows
 //! a progress bar on stderr only when stderr is a terminal.
 //!
@@ -103,6 +104,11 @@ fn main() -> ExitCode {
     match result {
         Ok(Ok(())) => ExitCode::SUCCESS,
         Ok(Err(err)) if is_broken_pipe(&err) => ExitCode::SUCCESS,
+        Ok(Err(err)) if err.is::<commands::sweep::shard::ModelsFailed>() => {
+            // A shard that ran every model but recorded failures: not an error of the command.
+            let _ = writeln!(std::io::stderr(), "sdfmo: {err}");
+            ExitCode::from(commands::sweep::shard::EXIT_MODELS_FAILED)
+        }
         Ok(Err(err)) => {
             let _ = writeln!(std::io::stderr(), "sdfmo: error: {err:#}");
             ExitCode::from(EXIT_ERROR)
@@ -121,6 +127,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::RenderMesh(a) => commands::render::run_mesh(&a),
         Command::Compare(a) => commands::compare::run(&a),
         Command::Sweep(a) => commands::sweep::run(&a),
+        Command::GenerateParts(a) => commands::generate::run(&a),
     }
 }
 

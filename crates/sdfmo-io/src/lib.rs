@@ -1,6 +1,6 @@
 //! Safe file I/O for sdf-multioctree, shared by every crate that reads or writes files.
 //!
-//! Three rules, each in its own module:
+//! Four rules, each in its own module:
 //! - **Writes are atomic and never clobber special files** ([`write_atomic`], [`OutputBatch`]):
 //!   the bytes go to a fresh temporary file created with `O_EXCL` in the destination's
 //!   directory, are synced, then renamed over the destination. A destination that exists and is
@@ -14,6 +14,8 @@
 //! - **Reads take regular files only, with a size limit known before reading**
 //!   ([`read_regular`]): devices and FIFOs are refused at once (no endless `/dev/zero`, no
 //!   blocking FIFO), and a file larger than the caller's limit is refused before allocating.
+//! - **Logs are appended one whole record at a time** ([`AppendLog`]): one write and a sync
+//!   per record, a torn last line dropped on reopening.
 //! - **Relative resources stay in their folder** ([`resolve_in_folder`]): absolute paths, `..`
 //!   components and symbolic links that lead outside the folder are refused.
 //!
@@ -28,6 +30,7 @@
 //! ```
 #![deny(missing_docs)]
 
+mod append;
 mod confine;
 mod random;
 mod read;
@@ -36,6 +39,7 @@ mod write;
 use std::fmt;
 use std::path::PathBuf;
 
+pub use append::AppendLog;
 pub use confine::resolve_in_folder;
 pub use random::SplitMix64;
 pub use read::{open_regular, read_regular, read_regular_to_string};

@@ -12,12 +12,15 @@
 //! | [`demo_part`] | 1,456 | no (the sheet is open) | 6 |
 //! | [`fan_cylinder`] (n segments) | 4n − 4 | yes | 1 |
 //! | [`fan_disc`] (n triangles) | n | no (n boundary edges) | 1 |
+//! | [`cad::cad_part`] (seeded) | hundreds to thousands | every part but its sheet | 1–23 |
 
 use std::collections::HashMap;
 
 use glam::{Mat3, Vec3};
 
 use crate::mesh::TriMesh;
+
+pub mod cad;
 
 /// Depth-7 voxel edge in the normalised frame (`2 / 2^7`): the demo's thin plate and gap are
 /// sized against it.

@@ -3,6 +3,7 @@
 pub mod build;
 pub mod compare;
 pub mod distance;
+pub mod generate;
 pub mod info;
 pub mod render;
 pub mod sweep;

@@ -1,8 +1,17 @@
 //! `sdfmo sweep`: for each mesh, method and depth, build, render the paper's four views, compare
 //! with the mesh reference; write the results as JSON, CSV, a Markdown table, plots and a page.
+//!
+//! Over a dataset (`--manifest`, docs/scale.md): [`manifest`] (which models, which shard),
+//! [`shard`] (run a shard: one process per model, [`isolate`]; one ledger line per model,
+//! [`ledger`]) and [`merge`] (the shards' folders into one dataset report).
 
+mod isolate;
+mod ledger;
+pub mod manifest;
+mod merge;
 mod plots;
 mod report;
+pub mod shard;
 
 use std::path::{Path, PathBuf};
 
@@ -12,7 +21,7 @@ use sdf_multioctree::build::{self, BuildSettings};
 use sdf_multioctree::distance::SignMode;
 use sdf_multioctree::metrics;
 use sdf_multioctree::render::{Camera, OctreeScene, PaperProtocol};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use serde_json::json;
 
 use crate::args::{MethodArg, SweepArgs};
@@ -21,7 +30,7 @@ use crate::output::{print_json, print_text, write_derived_png};
 use crate::progress;
 
 /// One line of the results: a model built with a method at a depth, measured over the views.
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
 pub struct Row {
     /// Model name (file stem, or `demo`).
     pub model: String,
@@ -56,7 +65,7 @@ pub struct Row {
 }
 
 /// What the sweep knows of a model besides its rows.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Model {
     /// Name used in the rows and file names.
     pub model: String,
@@ -69,7 +78,7 @@ pub struct Model {
 }
 
 /// Settings recorded next to the results.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct SweepSettings {
     /// Depths swept.
     pub depths: Vec<u8>,
@@ -105,15 +114,46 @@ pub fn reference_file(view: usize) -> String {
     format!("reference_{view}.png")
 }
 
-/// Runs the sweep.
-pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
-    let depths: Vec<u8> = args.depths.clone().collect();
+/// The methods of the sweep, each once, in the order given.
+fn unique_methods(args: &SweepArgs) -> Vec<MethodArg> {
     let mut methods: Vec<MethodArg> = Vec::new();
     for m in &args.methods {
         if !methods.contains(m) {
             methods.push(*m);
         }
     }
+    methods
+}
+
+/// The settings a sweep records.
+fn sweep_settings(args: &SweepArgs) -> SweepSettings {
+    SweepSettings {
+        depths: args.depths.clone().collect(),
+        methods: unique_methods(args)
+            .iter()
+            .map(|m| m.name().to_owned())
+            .collect(),
+        size: args.size,
+        max_voxels: args.max_voxels,
+        // Provenance: the number of workers actually used, never `null`.
+        threads: Some(args.threads.unwrap_or_else(rayon::current_num_threads)),
+        views: Camera::paper_views(args.size, args.size).len(),
+    }
+}
+
+/// Runs the sweep.
+pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
+    if !args.merge.is_empty() {
+        return merge::run(args);
+    }
+    if let Some(manifest) = &args.manifest {
+        return shard::run(args, manifest, &sweep_settings(args));
+    }
+    if let Some(name) = &args.isolated_model {
+        return run_isolated(args, name);
+    }
+    let depths: Vec<u8> = args.depths.clone().collect();
+    let methods = unique_methods(args);
     let paths: Vec<Option<&Path>> = if args.meshes.is_empty() {
         vec![None]
     } else {
@@ -135,15 +175,7 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
     }
     let out = &args.output;
     sdf_multioctree::io::create_derived_dir(out, Path::new("images"))?;
-    let settings = SweepSettings {
-        depths: depths.clone(),
-        methods: methods.iter().map(|m| m.name().to_owned()).collect(),
-        size: args.size,
-        max_voxels: args.max_voxels,
-        // Provenance: the number of workers actually used, never `null`.
-        threads: Some(args.threads.unwrap_or_else(rayon::current_num_threads)),
-        views: Camera::paper_views(args.size, args.size).len(),
-    };
+    let settings = sweep_settings(args);
 
     let steps = inputs.len() * (1 + methods.len() * depths.len());
     let bar = progress::steps(steps as u64, "starting");
@@ -160,6 +192,7 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
             depths: &depths,
             budget,
             bar: &bar,
+            tables: true,
         };
         let model = sweep_model(&sweep, &input, &models, &mut rows)?;
         models.push(model);
@@ -198,6 +231,7 @@ fn build_settings(args: &SweepArgs, method: MethodArg, depth: u8) -> BuildSettin
         margin: sdf_multioctree::DEFAULT_MARGIN,
         sign: SignMode::Auto,
         leaf: build::LeafParams::OURS,
+        coarsest_level: None,
     }
 }
 
@@ -211,6 +245,42 @@ struct Sweep<'a> {
     depths: &'a [u8],
     budget: Option<u64>,
     bar: &'a indicatif::ProgressBar,
+    /// Rewrite the tables after each row (false in a shard's model process, which prints its
+    /// rows instead).
+    tables: bool,
+}
+
+/// A shard's model process (`--isolated-model NAME`): sweeps its one mesh under `name`, writes
+/// its images into the output folder and prints `{"model", "rows"}` as one JSON line.
+fn run_isolated(args: &SweepArgs, name: &str) -> anyhow::Result<()> {
+    let [path] = args.meshes.as_slice() else {
+        anyhow::bail!("--isolated-model takes exactly one mesh");
+    };
+    let mut input = load_input(Some(path))?;
+    input.name = sanitize(name);
+    let methods = unique_methods(args);
+    let depths: Vec<u8> = args.depths.clone().collect();
+    let budget = memory_budget(args.max_memory);
+    for &method in &methods {
+        let deepest = build_settings(args, method, *args.depths.end());
+        build::check_memory(&input.mesh, &deepest, budget)
+            .with_context(|| format!("cannot sweep {} {}", method.name(), input.source))?;
+    }
+    sdf_multioctree::io::create_derived_dir(&args.output, Path::new("images"))?;
+    let settings = sweep_settings(args);
+    let bar = indicatif::ProgressBar::hidden();
+    let sweep = Sweep {
+        args,
+        settings: &settings,
+        methods: &methods,
+        depths: &depths,
+        budget,
+        bar: &bar,
+        tables: false,
+    };
+    let mut rows = Vec::new();
+    let model = sweep_model(&sweep, &input, &[], &mut rows)?;
+    print_json(&serde_json::to_value(shard::ModelOutput { model, rows })?)
 }
 
 /// Renders the reference of one model, then builds, renders and compares every configuration;
@@ -228,6 +298,7 @@ fn sweep_model(
         depths,
         budget,
         bar,
+        tables,
     } = *sweep;
     let name = &input.name;
     let img_dir: PathBuf =
@@ -306,7 +377,9 @@ fn sweep_model(
             });
             // Keep the files current after every row: a long sweep that is stopped keeps its
             // results so far.
-            report::write_tables(&args.output, settings, models, rows)?;
+            if tables {
+                report::write_tables(&args.output, settings, models, rows)?;
+            }
             bar.inc(1);
         }
     }

@@ -31,7 +31,7 @@ const PALETTE: [RGBColor; 8] = [
 ];
 
 /// Registers the embedded font under plotters' default family name, once.
-fn register_font() -> anyhow::Result<()> {
+pub(super) fn register_font() -> anyhow::Result<()> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     let ok = *REGISTERED.get_or_init(|| {
         plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())

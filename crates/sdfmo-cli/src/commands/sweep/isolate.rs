@@ -1,0 +1,202 @@
+//! Failure isolation: each model of a manifest sweep runs in a child process of this same
+//! binary (`sdfmo sweep MESH --isolated-model NAME …`), with a wall-time limit and an
+//! address-space limit.
+//!
+//! Why a process rather than cancelling inside this one: a model can fail in ways no in-process
+//! cancellation reaches. A hostile file may drive a loader or the BVH into a long loop that
+//! checks no flag, a stack overflow aborts the whole process, an allocation that fails ends it
+//! (the CLI's allocator exits on out-of-memory), and a bug panics. A child is killed at its
+//! deadline whatever it is doing (SIGKILL), its memory is capped by the kernel (`RLIMIT_AS`) and
+//! its crash is one failed model in the ledger, while the shard goes on. The cost is a process
+//! start and a mesh load per model, milliseconds against the seconds a model takes (measured in
+//! docs/results/dataset.md). The child dies with the shard (`PR_SET_PDEATHSIG`), so a killed
+//! shard leaves no orphan writing into its folder.
+
+use std::ffi::OsString;
+use std::io::Read;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Most bytes of a child's stdout kept (its one JSON line).
+const MAX_STDOUT: u64 = 64 << 20;
+/// Most bytes of a child's stderr kept (its tail: the error line is the last).
+const STDERR_TAIL: usize = 16 << 10;
+
+/// What one child process did.
+#[derive(Debug)]
+pub struct ChildRun {
+    /// Its stdout when it exited with 0; else its error line.
+    pub result: Result<Vec<u8>, String>,
+    /// Wall time from spawn to exit (ms).
+    pub wall_ms: f64,
+    /// Peak resident set size the kernel measured (bytes).
+    pub peak_rss_bytes: Option<u64>,
+}
+
+/// Limits of one child.
+#[derive(Clone, Copy, Debug)]
+pub struct Limits {
+    /// Killed after this long.
+    pub timeout: Option<Duration>,
+    /// Address-space limit (`RLIMIT_AS`), bytes.
+    pub address_space: Option<u64>,
+}
+
+/// Runs this binary with `args` under `limits`.
+pub fn run_child(args: &[OsString], limits: Limits) -> anyhow::Result<ChildRun> {
+    let exe = std::env::current_exe()
+        .map_err(|e| anyhow::anyhow!("cannot find the sdfmo binary to run a model in: {e}"))?;
+    let mut cmd = Command::new(exe);
+    cmd.args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::process::CommandExt;
+        let address_space = limits.address_space;
+        // SAFETY: the closure runs in the child between fork and exec and calls only
+        // async-signal-safe functions (prctl, setrlimit), allocating nothing.
+        unsafe {
+            cmd.pre_exec(move || {
+                if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL, 0, 0, 0) != 0 {
+                    return Err(std::io::Error::last_os_error());
+                }
+                if let Some(bytes) = address_space {
+                    let lim = libc::rlimit {
+                        rlim_cur: bytes as libc::rlim_t,
+                        rlim_max: bytes as libc::rlim_t,
+                    };
+                    if libc::setrlimit(libc::RLIMIT_AS, &lim) != 0 {
+                        return Err(std::io::Error::last_os_error());
+                    }
+                }
+                Ok(())
+            });
+        }
+    }
+    let start = Instant::now();
+    let mut child = cmd
+        .spawn()
+        .map_err(|e| anyhow::anyhow!("cannot start a model's process: {e}"))?;
+    let pid = child.id();
+    let mut stdout = child.stdout.take().expect("piped stdout");
+    let mut stderr = child.stderr.take().expect("piped stderr");
+    let out = std::thread::spawn(move || {
+        let mut buf = Vec::new();
+        let _ = (&mut stdout).take(MAX_STDOUT).read_to_end(&mut buf);
+        // Drain the rest so the child never blocks on a full pipe.
+        let _ = std::io::copy(&mut stdout, &mut std::io::sink());
+        buf
+    });
+    let err = std::thread::spawn(move || {
+        let mut tail: Vec<u8> = Vec::new();
+        let mut chunk = [0u8; 8192];
+        while let Ok(n) = stderr.read(&mut chunk) {
+            if n == 0 {
+                break;
+            }
+            tail.extend_from_slice(&chunk[..n]);
+            if tail.len() > 2 * STDERR_TAIL {
+                tail.drain(..tail.len() - STDERR_TAIL);
+            }
+        }
+        tail
+    });
+    // A waiter thread reaps the child (wait4, for its peak memory); this thread waits for it
+    // with the deadline, without polling.
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(wait(pid));
+    });
+    let mut timed_out = false;
+    let status = match limits.timeout {
+        Some(t) => match rx.recv_timeout(t) {
+            Ok(s) => s,
+            Err(_) => {
+                timed_out = true;
+                // SAFETY: kill(2) on the child's pid, which the waiter has not reaped yet (it
+                // has sent nothing), so the pid still names our child.
+                unsafe { libc::kill(pid as libc::pid_t, libc::SIGKILL) };
+                rx.recv().unwrap_or(Wait::Unknown)
+            }
+        },
+        None => rx.recv().unwrap_or(Wait::Unknown),
+    };
+    drop(child);
+    let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+    let stdout = out.join().unwrap_or_default();
+    let stderr = err.join().unwrap_or_default();
+    let last_line = || {
+        String::from_utf8_lossy(&stderr)
+            .lines()
+            .rev()
+            .map(str::trim)
+            .find(|l| !l.is_empty())
+            .map(|l| {
+                let l = l.strip_prefix("sdfmo: error: ").unwrap_or(l);
+                l.chars().take(400).collect::<String>()
+            })
+    };
+    let (result, peak) = match status {
+        _ if timed_out => (
+            Err(format!(
+                "timed out after {:.0} s (--model-timeout)",
+                limits.timeout.unwrap_or_default().as_secs_f64()
+            )),
+            None,
+        ),
+        Wait::Exited(0, peak) => (Ok(stdout), peak),
+        Wait::Exited(code, peak) => (
+            Err(last_line().unwrap_or_else(|| format!("exited with code {code}"))),
+            peak,
+        ),
+        Wait::Signaled(sig, peak) => (
+            Err(match last_line() {
+                Some(l) => format!("killed by signal {sig}: {l}"),
+                None => format!("killed by signal {sig}"),
+            }),
+            peak,
+        ),
+        Wait::Unknown => (Err("its process could not be waited for".to_owned()), None),
+    };
+    Ok(ChildRun {
+        result,
+        wall_ms,
+        peak_rss_bytes: peak,
+    })
+}
+
+/// How a child ended, with its peak resident memory.
+enum Wait {
+    Exited(i32, Option<u64>),
+    Signaled(i32, Option<u64>),
+    Unknown,
+}
+
+/// Reaps `pid` with wait4, retrying on EINTR.
+fn wait(pid: u32) -> Wait {
+    let mut status: libc::c_int = 0;
+    // SAFETY: an all-zero rusage is a valid value of the plain C struct.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    loop {
+        // SAFETY: wait4 writes only to the two valid, exclusive pointers passed.
+        let r = unsafe { libc::wait4(pid as libc::pid_t, &mut status, 0, &mut usage) };
+        if r == pid as libc::pid_t {
+            break;
+        }
+        if r == -1 && std::io::Error::last_os_error().kind() == std::io::ErrorKind::Interrupted {
+            continue;
+        }
+        return Wait::Unknown;
+    }
+    // ru_maxrss is in kilobytes on Linux.
+    let peak = u64::try_from(usage.ru_maxrss).ok().map(|kb| kb * 1024);
+    if libc::WIFEXITED(status) {
+        Wait::Exited(libc::WEXITSTATUS(status), peak)
+    } else if libc::WIFSIGNALED(status) {
+        Wait::Signaled(libc::WTERMSIG(status), peak)
+    } else {
+        Wait::Unknown
+    }
+}

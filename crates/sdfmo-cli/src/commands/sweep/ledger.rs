@@ -1,0 +1,220 @@
+//! The ledger of a shard: `DIR/ledger.jsonl`, one JSON line per finished model (its rows, or
+//! its error), appended with [`sdf_multioctree::io::AppendLog`] (one write and a sync per
+//! line; a line torn by a kill is dropped when the ledger is reopened).
+//!
+//! Every record carries the hash of the settings that decide its rows ([`settings_hash`]). A
+//! rerun with the same settings skips every model its ledger holds (done or failed; failed ones
+//! again with `--retry-failed`), so a killed or preempted shard resumes where it stopped; a rerun
+//! with other settings ignores the older records and starts over (they stay in the file, and
+//! neither the shard's report nor a merge reads them).
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use serde::{Deserialize, Serialize};
+
+use super::{Model, Row, SweepSettings};
+
+/// The ledger's file name inside a shard's output folder.
+pub const LEDGER_FILE: &str = "ledger.jsonl";
+/// Version of the record layout.
+pub const LEDGER_VERSION: u32 = 1;
+/// Largest ledger read back (about a million records of a few kilobytes would not fit: a shard
+/// of ABC's size is tens of thousands).
+const MAX_LEDGER_BYTES: u64 = 4 << 30;
+
+/// One finished model: its rows, or why it has none.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Record {
+    /// [`LEDGER_VERSION`].
+    pub ledger: u32,
+    /// [`settings_hash`] of the run that wrote it.
+    pub settings: String,
+    /// Position of the model in the manifest.
+    pub index: usize,
+    /// Its manifest id.
+    pub id: String,
+    /// Its model name (rows, image folder).
+    pub name: String,
+    /// The path it was loaded from (empty when the manifest line named none).
+    pub source: String,
+    /// The model's facts when it succeeded.
+    pub model: Option<Model>,
+    /// Its rows (empty when it failed).
+    pub rows: Vec<Row>,
+    /// The error line when it failed.
+    pub error: Option<String>,
+    /// Wall time of the model, child process included (ms).
+    pub wall_ms: f64,
+    /// Peak resident memory of the model's process, when it reported it (bytes).
+    pub peak_rss_bytes: Option<u64>,
+}
+
+impl Record {
+    /// Whether the model succeeded.
+    pub fn ok(&self) -> bool {
+        self.error.is_none() && self.model.is_some()
+    }
+}
+
+/// The hash of what decides a sweep's rows: depths, methods, image size, voxel cap, views and
+/// the program's version (not the thread count, which changes no row, nor the limits, which
+/// only decide whether a model fails). CRC-32 of the settings' JSON, 8 hex digits: a
+/// fingerprint to tell runs apart, not a defence against forgery.
+pub fn settings_hash(settings: &SweepSettings) -> String {
+    let key = serde_json::json!({
+        "version": env!("CARGO_PKG_VERSION"),
+        "depths": settings.depths,
+        "methods": settings.methods,
+        "size": settings.size,
+        "max_voxels": settings.max_voxels,
+        "views": settings.views,
+    });
+    format!("{:08x}", crc32fast::hash(key.to_string().as_bytes()))
+}
+
+/// A shard's ledger, open for appending, with the records of the current settings.
+pub struct Ledger {
+    log: sdf_multioctree::io::AppendLog,
+    hash: String,
+    /// Records of the current settings by id (the first of an id wins).
+    records: HashMap<String, Record>,
+    /// Records of other settings, or unreadable lines, that were ignored.
+    pub ignored: usize,
+}
+
+impl Ledger {
+    /// Opens (or creates) `dir/ledger.jsonl` and reads the records written with `hash`.
+    pub fn open(dir: &Path, hash: &str) -> anyhow::Result<Ledger> {
+        let path = ledger_path(dir);
+        let (log, bytes) = sdf_multioctree::io::AppendLog::open(&path, MAX_LEDGER_BYTES)?;
+        let (records, ignored) = parse(&bytes, hash);
+        Ok(Ledger {
+            log,
+            hash: hash.to_owned(),
+            records,
+            ignored,
+        })
+    }
+
+    /// The record of `id` under the current settings, if any.
+    pub fn get(&self, id: &str) -> Option<&Record> {
+        self.records.get(id)
+    }
+
+    /// Appends `record` (stamped with the current settings' hash) and keeps it.
+    pub fn append(&mut self, mut record: Record) -> anyhow::Result<()> {
+        record.settings.clone_from(&self.hash);
+        record.ledger = LEDGER_VERSION;
+        let line = serde_json::to_string(&record).context("cannot serialise a ledger record")?;
+        self.log.append(line.as_bytes())?;
+        self.records.entry(record.id.clone()).or_insert(record);
+        Ok(())
+    }
+
+    /// Every record of the current settings, in manifest order.
+    pub fn records(&self) -> Vec<&Record> {
+        let mut v: Vec<&Record> = self.records.values().collect();
+        v.sort_by_key(|r| r.index);
+        v
+    }
+}
+
+/// `dir/ledger.jsonl`.
+pub fn ledger_path(dir: &Path) -> PathBuf {
+    dir.join(LEDGER_FILE)
+}
+
+/// Reads the records of `hash` from a finished shard's folder (for `--merge`), in manifest
+/// order, with the count of records of other settings.
+pub fn read(dir: &Path, hash: &str) -> anyhow::Result<(Vec<Record>, usize)> {
+    let path = ledger_path(dir);
+    let bytes = sdf_multioctree::io::read_regular(&path, MAX_LEDGER_BYTES)?;
+    let complete = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+    let (records, ignored) = parse(&bytes[..complete], hash);
+    let mut v: Vec<Record> = records.into_values().collect();
+    v.sort_by_key(|r| r.index);
+    Ok((v, ignored))
+}
+
+/// The records of `hash` by id (first wins), and how many lines were ignored.
+fn parse(bytes: &[u8], hash: &str) -> (HashMap<String, Record>, usize) {
+    let mut records = HashMap::new();
+    let mut ignored = 0;
+    for line in bytes.split(|&b| b == b'\n').filter(|l| !l.is_empty()) {
+        match serde_json::from_slice::<Record>(line) {
+            Ok(r) if r.settings == hash && r.ledger == LEDGER_VERSION => {
+                records.entry(r.id.clone()).or_insert(r);
+            }
+            _ => ignored += 1,
+        }
+    }
+    (records, ignored)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn settings(size: u32) -> SweepSettings {
+        SweepSettings {
+            depths: vec![5, 6],
+            methods: vec!["svo".into(), "multi".into()],
+            size,
+            max_voxels: 8,
+            threads: Some(1),
+            views: 4,
+        }
+    }
+
+    fn record(id: &str, index: usize) -> Record {
+        Record {
+            ledger: 0,
+            settings: String::new(),
+            index,
+            id: id.into(),
+            name: id.into(),
+            source: format!("{id}.obj"),
+            model: None,
+            rows: Vec::new(),
+            error: Some("cannot read".into()),
+            wall_ms: 1.0,
+            peak_rss_bytes: None,
+        }
+    }
+
+    #[test]
+    fn the_hash_follows_the_settings_that_decide_rows_only() {
+        let a = settings(64);
+        let mut b = a.clone();
+        b.threads = Some(7);
+        assert_eq!(settings_hash(&a), settings_hash(&b));
+        assert_ne!(settings_hash(&a), settings_hash(&settings(65)));
+        assert_eq!(settings_hash(&a).len(), 8);
+    }
+
+    #[test]
+    fn a_rerun_sees_its_records_and_other_settings_start_over() {
+        let dir = tempfile::tempdir().unwrap();
+        let (h1, h2) = (settings_hash(&settings(64)), settings_hash(&settings(32)));
+        let mut l = Ledger::open(dir.path(), &h1).unwrap();
+        l.append(record("b", 1)).unwrap();
+        l.append(record("a", 0)).unwrap();
+        drop(l);
+        let l = Ledger::open(dir.path(), &h1).unwrap();
+        assert!(l.get("a").is_some() && l.get("b").is_some());
+        assert_eq!(
+            l.records().iter().map(|r| r.index).collect::<Vec<_>>(),
+            [0, 1]
+        );
+        drop(l);
+        let mut l = Ledger::open(dir.path(), &h2).unwrap();
+        assert!(l.get("a").is_none());
+        assert_eq!(l.ignored, 2);
+        l.append(record("a", 0)).unwrap();
+        drop(l);
+        let (v, ignored) = read(dir.path(), &h2).unwrap();
+        assert_eq!((v.len(), ignored), (1, 2));
+    }
+}

@@ -1,0 +1,230 @@
+//! The dataset report's plots: the CDF of the PSNR gain and of the size ratio per depth, and
+//! build and render time against triangle count.
+
+use std::path::Path;
+
+use anyhow::anyhow;
+use plotters::prelude::*;
+
+use super::DatasetStats;
+use crate::commands::sweep::{Model, Row, SweepSettings};
+use crate::output::write_derived_png;
+
+const WIDTH: u32 = 1100;
+const HEIGHT: u32 = 560;
+
+/// One colour per depth (or method), cycled.
+const COLORS: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(148, 103, 189),
+    RGBColor(255, 127, 14),
+    RGBColor(23, 190, 207),
+];
+
+/// Writes the plots into `out`; returns their file names.
+pub fn write(
+    out: &Path,
+    settings: &SweepSettings,
+    _stats: &DatasetStats,
+    models: &[Model],
+    rows: &[Row],
+) -> anyhow::Result<Vec<String>> {
+    crate::commands::sweep::plots::register_font()?;
+    let mut files = Vec::new();
+    let per_depth = |f: &dyn Fn(&Row, &Row) -> f64| -> Vec<(String, Vec<f64>)> {
+        settings
+            .depths
+            .iter()
+            .map(|&d| {
+                let v: Vec<f64> = models
+                    .iter()
+                    .filter_map(|m| {
+                        let find = |method: &str| {
+                            rows.iter()
+                                .find(|r| r.model == m.model && r.method == method && r.depth == d)
+                        };
+                        Some(f(find("multi")?, find("svo")?)).filter(|v| v.is_finite())
+                    })
+                    .collect();
+                (format!("depth {d}"), v)
+            })
+            .collect()
+    };
+    let gains = per_depth(&|m, s| match (m.psnr, s.psnr) {
+        (Some(a), Some(b)) => a - b,
+        (None, None) => 0.0,
+        _ => f64::NAN,
+    });
+    let ratios = per_depth(&|m, s| m.bytes as f64 / s.bytes.max(1) as f64);
+    for (file, title, xlabel, series) in [
+        (
+            "dataset_psnr_gain_cdf.png",
+            "Share of models with a PSNR gain ≤ x (multi-octree − SVO, same depth)",
+            "ΔPSNR (dB)",
+            gains,
+        ),
+        (
+            "dataset_size_ratio_cdf.png",
+            "Share of models with a size ratio ≤ x (multi-octree / SVO, same depth)",
+            "size ratio",
+            ratios,
+        ),
+    ] {
+        let img = cdf(title, xlabel, &series)?;
+        write_derived_png(&out.join(file), &img)?;
+        files.push(file.to_owned());
+    }
+    // Build and render time at the deepest depth against triangles, per method.
+    let deepest = settings.depths.iter().copied().max().unwrap_or(0);
+    let mut points: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+    for method in &settings.methods {
+        for (what, pick) in [
+            ("build", (|r: &Row| r.build_ms) as fn(&Row) -> f64),
+            ("render", |r: &Row| r.render_ms),
+        ] {
+            let v = models
+                .iter()
+                .filter_map(|m| {
+                    let r = rows.iter().find(|r| {
+                        r.model == m.model && r.method == *method && r.depth == deepest
+                    })?;
+                    Some((m.triangles.max(1) as f64, pick(r).max(1e-3)))
+                })
+                .collect();
+            points.push((format!("{method} {what}, depth {deepest}"), v));
+        }
+    }
+    let img = scatter(
+        "Build and render time (per view) against triangles",
+        &points,
+    )?;
+    write_derived_png(&out.join("dataset_time_vs_triangles.png"), &img)?;
+    files.push("dataset_time_vs_triangles.png".to_owned());
+    Ok(files)
+}
+
+/// The range of `values` padded by 5 %, never empty.
+fn padded(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
+    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+        (lo.min(v), hi.max(v))
+    });
+    if !(lo.is_finite() && hi.is_finite()) {
+        return 0.0..1.0;
+    }
+    let pad = ((hi - lo) * 0.05).max(1e-3);
+    lo - pad..hi + pad
+}
+
+/// Empirical CDFs, one line per series.
+fn cdf(
+    title: &str,
+    xlabel: &str,
+    series: &[(String, Vec<f64>)],
+) -> anyhow::Result<image::RgbImage> {
+    let mut buf = vec![0u8; (WIDTH * HEIGHT * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (WIDTH, HEIGHT)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
+        let xr = padded(series.iter().flat_map(|s| s.1.iter().copied()));
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 22))
+            .margin(12)
+            .x_label_area_size(48)
+            .y_label_area_size(64)
+            .build_cartesian_2d(xr, 0.0..1.0)
+            .map_err(|e| anyhow!("{e}"))?;
+        chart
+            .configure_mesh()
+            .x_desc(xlabel)
+            .y_desc("share of models")
+            .label_style(("sans-serif", 16))
+            .axis_desc_style(("sans-serif", 18))
+            .draw()
+            .map_err(|e| anyhow!("{e}"))?;
+        for (k, (label, values)) in series.iter().enumerate() {
+            let mut v = values.clone();
+            v.sort_by(f64::total_cmp);
+            let n = v.len() as f64;
+            let color = COLORS[k % COLORS.len()];
+            let pts: Vec<(f64, f64)> = v
+                .iter()
+                .enumerate()
+                .flat_map(|(i, &x)| [(x, i as f64 / n), (x, (i + 1) as f64 / n)])
+                .collect();
+            chart
+                .draw_series(LineSeries::new(pts, color.stroke_width(3)))
+                .map_err(|e| anyhow!("{e}"))?
+                .label(format!("{label} ({} models)", v.len()))
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(3))
+                });
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .label_font(("sans-serif", 16))
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| anyhow!("{e}"))?;
+        root.present().map_err(|e| anyhow!("{e}"))?;
+    }
+    image::RgbImage::from_raw(WIDTH, HEIGHT, buf).ok_or_else(|| anyhow!("plot buffer size"))
+}
+
+/// A log–log scatter plot, one colour per series.
+fn scatter(title: &str, series: &[(String, Vec<(f64, f64)>)]) -> anyhow::Result<image::RgbImage> {
+    let mut buf = vec![0u8; (WIDTH * HEIGHT * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (WIDTH, HEIGHT)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
+        let all = || series.iter().flat_map(|s| s.1.iter().copied());
+        let log_range = |v: &mut dyn Iterator<Item = f64>| {
+            let (lo, hi) = v.fold((f64::INFINITY, 0.0f64), |(lo, hi), x| {
+                (lo.min(x), hi.max(x))
+            });
+            if lo.is_finite() && hi > 0.0 {
+                lo / 1.3..hi * 1.3
+            } else {
+                1.0..10.0
+            }
+        };
+        let xr = log_range(&mut all().map(|p| p.0));
+        let yr = log_range(&mut all().map(|p| p.1));
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 22))
+            .margin(12)
+            .x_label_area_size(48)
+            .y_label_area_size(72)
+            .build_cartesian_2d(xr.log_scale(), yr.log_scale())
+            .map_err(|e| anyhow!("{e}"))?;
+        chart
+            .configure_mesh()
+            .x_desc("triangles")
+            .y_desc("time (ms)")
+            .label_style(("sans-serif", 16))
+            .axis_desc_style(("sans-serif", 18))
+            .draw()
+            .map_err(|e| anyhow!("{e}"))?;
+        for (k, (label, pts)) in series.iter().enumerate() {
+            let color = COLORS[k % COLORS.len()];
+            chart
+                .draw_series(pts.iter().map(|&p| Circle::new(p, 3, color.filled())))
+                .map_err(|e| anyhow!("{e}"))?
+                .label(label.as_str())
+                .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .label_font(("sans-serif", 16))
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| anyhow!("{e}"))?;
+        root.present().map_err(|e| anyhow!("{e}"))?;
+    }
+    image::RgbImage::from_raw(WIDTH, HEIGHT, buf).ok_or_else(|| anyhow!("plot buffer size"))
+}

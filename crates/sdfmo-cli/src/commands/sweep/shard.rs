@@ -1,0 +1,302 @@
+//! `sdfmo sweep --manifest FILE [--shard K/N] -o DIR`: one shard of a dataset sweep. Each model
+//! of the shard runs in its own process ([`super::isolate`]); each finished model, done or
+//! failed, is one line of `DIR/ledger.jsonl` ([`super::ledger`]); a rerun skips what the ledger
+//! holds. At the end the shard writes its tables (`results.json`, `results.csv`, `table.md`)
+//! over its successful models and `shard.json` (which shard, settings, failures), and exits
+//! with [`ModelsFailed`] (exit code 3) when any model of the shard failed.
+
+use std::ffi::OsString;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context};
+use serde::{Deserialize, Serialize};
+
+use super::isolate::{self, Limits};
+use super::ledger::{self, Ledger, Record};
+use super::manifest::{Entry, Manifest, Shard};
+use super::{report, Model, Row, SweepSettings};
+use crate::args::SweepArgs;
+use crate::output::{print_json, print_text, write_derived};
+use crate::progress;
+
+/// File name of a shard's description inside its output folder.
+pub const SHARD_FILE: &str = "shard.json";
+
+/// Exit code of a shard (or merge) that finished but recorded failed models.
+pub const EXIT_MODELS_FAILED: u8 = 3;
+
+/// The error a shard ends with when some of its models failed: every model was tried and
+/// recorded, the outputs are written, and the exit code ([`EXIT_MODELS_FAILED`]) tells a job
+/// scheduler apart from an error of the shard itself (exit code 2).
+#[derive(Debug)]
+pub struct ModelsFailed {
+    /// Failed models.
+    pub failed: usize,
+    /// Models of the shard.
+    pub total: usize,
+}
+
+impl std::fmt::Display for ModelsFailed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} of {} models failed (recorded in the ledger and shard.json)",
+            self.failed, self.total
+        )
+    }
+}
+
+impl std::error::Error for ModelsFailed {}
+
+/// What `shard.json` says.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ShardInfo {
+    /// The manifest as given.
+    pub manifest: String,
+    /// Entries in the whole manifest.
+    pub manifest_entries: usize,
+    /// Which shard.
+    pub shard: Shard,
+    /// [`ledger::settings_hash`] of the settings.
+    pub settings_hash: String,
+    /// The settings.
+    pub settings: SweepSettings,
+    /// Models of this shard.
+    pub models: usize,
+    /// Models that succeeded.
+    pub done: usize,
+    /// Models that failed: (name, error).
+    pub failures: Vec<Failure>,
+    /// Wall time of this invocation (ms).
+    pub wall_ms: f64,
+    /// Models this invocation ran (the others were in the ledger already).
+    pub ran: usize,
+}
+
+/// A model that failed.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Failure {
+    /// Position in the manifest.
+    pub index: usize,
+    /// Manifest id.
+    pub id: String,
+    /// Model name.
+    pub model: String,
+    /// Path (empty when the manifest line named none).
+    pub source: String,
+    /// The error line.
+    pub error: String,
+}
+
+impl Failure {
+    /// The failure a ledger record holds, if it is one.
+    pub fn of(r: &Record) -> Option<Failure> {
+        (!r.ok()).then(|| Failure {
+            index: r.index,
+            id: r.id.clone(),
+            model: r.name.clone(),
+            source: r.source.clone(),
+            error: r.error.clone().unwrap_or_else(|| "no result".to_owned()),
+        })
+    }
+}
+
+/// What a model's process prints (one JSON line on stdout).
+#[derive(Debug, Serialize, Deserialize)]
+pub struct ModelOutput {
+    /// The model's facts.
+    pub model: Model,
+    /// Its rows.
+    pub rows: Vec<Row>,
+}
+
+/// Runs this process's shard of `manifest_path`.
+pub fn run(args: &SweepArgs, manifest_path: &Path, settings: &SweepSettings) -> anyhow::Result<()> {
+    let start = Instant::now();
+    let manifest = Manifest::read(manifest_path, args.confine)?;
+    let shard = Shard::resolve(args.shard)?;
+    let out = &args.output;
+    sdf_multioctree::io::create_derived_dir(out, Path::new("images"))?;
+    let hash = ledger::settings_hash(settings);
+    // One folder per shard: a ledger of another shard (or manifest) is never appended to.
+    let info_path = out.join(SHARD_FILE);
+    if info_path.exists() {
+        let old: ShardInfo =
+            serde_json::from_slice(&sdf_multioctree::io::read_regular(&info_path, 16 << 20)?)
+                .with_context(|| format!("{} is not a shard description", info_path.display()))?;
+        if old.shard != shard || old.manifest_entries != manifest.entries.len() {
+            bail!(
+                "{} holds shard {} of a manifest of {} models; this is shard {shard} of {} models: \
+                 give each shard its own -o folder",
+                out.display(),
+                old.shard,
+                old.manifest_entries,
+                manifest.entries.len()
+            );
+        }
+    }
+    let mut ledger = Ledger::open(out, &hash)?;
+    let mine: Vec<&Entry> = manifest
+        .entries
+        .iter()
+        .filter(|e| shard.owns(e.index))
+        .collect();
+    let todo: Vec<&Entry> = mine
+        .iter()
+        .copied()
+        .filter(|e| match ledger.get(&e.id) {
+            None => true,
+            Some(r) => args.retry_failed && !r.ok(),
+        })
+        .collect();
+    let skipped = mine.len() - todo.len();
+    let limits = Limits {
+        timeout: args.model_timeout.map(Duration::from_secs_f64),
+        // The kernel's cap: twice the build budget and 1 GiB for the address space a process
+        // reserves beyond what it touches (thread stacks, allocator arenas, the binary).
+        address_space: super::memory_budget(args.max_memory)
+            .map(|b| b.saturating_mul(2).saturating_add(1 << 30)),
+    };
+    let bar = progress::steps(todo.len() as u64, "starting");
+    if ledger.ignored > 0 {
+        bar.println(format!(
+            "shard {shard}: {} ledger records of other settings ignored (starting over)",
+            ledger.ignored
+        ));
+    }
+    if skipped > 0 {
+        bar.println(format!(
+            "shard {shard}: {skipped} of {} models already in {} (skipped)",
+            mine.len(),
+            ledger::ledger_path(out).display()
+        ));
+    }
+    for e in &todo {
+        bar.set_message(e.name.clone());
+        let record = run_entry(args, e, limits)?;
+        ledger.append(record)?;
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+
+    let records = ledger.records();
+    let mut models: Vec<Model> = Vec::new();
+    let mut rows: Vec<Row> = Vec::new();
+    let mut failures: Vec<Failure> = Vec::new();
+    for r in records.iter().filter(|r| shard.owns(r.index)) {
+        match (&r.model, Failure::of(r)) {
+            (Some(m), None) => {
+                models.push(m.clone());
+                rows.extend(r.rows.iter().cloned());
+            }
+            (_, f) => failures.extend(f),
+        }
+    }
+    let files = report::write_tables(out, settings, &models, &rows)?;
+    let info = ShardInfo {
+        manifest: manifest_path.display().to_string(),
+        manifest_entries: manifest.entries.len(),
+        shard,
+        settings_hash: hash,
+        settings: settings.clone(),
+        models: mine.len(),
+        done: models.len(),
+        failures: failures.clone(),
+        wall_ms: start.elapsed().as_secs_f64() * 1e3,
+        ran: todo.len(),
+    };
+    let bytes = serde_json::to_vec_pretty(&info).context("cannot serialise shard.json")?;
+    write_derived(&info_path, &bytes)?;
+    if args.json {
+        print_json(&serde_json::json!({
+            "output": out.display().to_string(),
+            "shard": info,
+            "files": files,
+        }))?;
+    } else {
+        let mut s = format!(
+            "shard {shard}: {} models, {} done, {} failed, {} ran now, {} skipped ({}).\n",
+            mine.len(),
+            models.len(),
+            failures.len(),
+            todo.len(),
+            skipped,
+            ledger::ledger_path(out).display()
+        );
+        for f in &failures {
+            s.push_str(&format!(
+                "  failed: {} ({}): {}\n",
+                f.model, f.source, f.error
+            ));
+        }
+        print_text(&s)?;
+    }
+    if !failures.is_empty() {
+        return Err(ModelsFailed {
+            failed: failures.len(),
+            total: mine.len(),
+        }
+        .into());
+    }
+    Ok(())
+}
+
+/// Runs one manifest entry in its own process and returns its ledger record.
+fn run_entry(args: &SweepArgs, e: &Entry, limits: Limits) -> anyhow::Result<Record> {
+    let mut record = Record {
+        ledger: ledger::LEDGER_VERSION,
+        settings: String::new(),
+        index: e.index,
+        id: e.id.clone(),
+        name: e.name.clone(),
+        source: String::new(),
+        model: None,
+        rows: Vec::new(),
+        error: None,
+        wall_ms: 0.0,
+        peak_rss_bytes: None,
+    };
+    let path = match &e.path {
+        Ok(p) => p,
+        Err(problem) => {
+            record.error = Some(format!("manifest line {}: {problem}", e.line));
+            return Ok(record);
+        }
+    };
+    record.source = path.display().to_string();
+    let run = isolate::run_child(&child_args(args, path, &e.name), limits)?;
+    record.wall_ms = run.wall_ms;
+    record.peak_rss_bytes = run.peak_rss_bytes;
+    match run.result.and_then(|out| {
+        serde_json::from_slice::<ModelOutput>(&out)
+            .map_err(|err| format!("its process printed no result ({err})"))
+    }) {
+        Ok(o) => {
+            record.model = Some(o.model);
+            record.rows = o.rows;
+        }
+        Err(err) => record.error = Some(err),
+    }
+    Ok(record)
+}
+
+/// The arguments of the process that sweeps one model: the same settings, this model only.
+fn child_args(args: &SweepArgs, path: &Path, name: &str) -> Vec<OsString> {
+    let mut v: Vec<OsString> = vec!["sweep".into(), path.into(), "--isolated-model".into()];
+    v.push(name.into());
+    v.push(format!("--depths={}..{}", args.depths.start(), args.depths.end()).into());
+    let methods: Vec<&str> = args.methods.iter().map(|m| m.name()).collect();
+    v.push(format!("--methods={}", methods.join(",")).into());
+    v.push(format!("--size={}", args.size).into());
+    v.push(format!("--max-voxels={}", args.max_voxels).into());
+    if let Some(m) = args.max_memory {
+        v.push(format!("--max-memory={m}").into());
+    }
+    if let Some(t) = args.threads {
+        v.push(format!("--threads={t}").into());
+    }
+    v.push("-o".into());
+    v.push(args.output.clone().into_os_string());
+    v
+}
