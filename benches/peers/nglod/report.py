@@ -229,7 +229,9 @@ def main() -> None:
       "from autograd of the network, the paper protocol (4 views, 1024², fov 60°, lambert, two-sided, black "
       "background, 8-bit). PSNR and FLIP are `sdfmo compare` against the sweep's own mesh references "
       f"(`{os.path.relpath(a.sweep)}/images/MODEL/reference_K.png`), so each cell compares with the sweep's "
-      "cell for cell.")
+      "cell for cell. The octree rows are that `sdfmo sweep` (depths 7–10, 1024², "
+      f"{sweep['settings']['threads']} threads), run {sweep['provenance']['date']} on commit "
+      f"`{sweep['provenance']['git_commit'][:10]}`.")
     w("- Size: bytes of float32 parameters needed to render LOD k: the features of levels 1..k, decoder k, "
       "and the octree as one child-mask byte per internal node. The paper's NGLOD sizes (0.14 / 0.76 / 5.16 / "
       "38.71 MB at LOD 2–5) match **dense** feature grids ((2^(k+1)+1)³ × 32 floats per level), which the "
