@@ -459,7 +459,10 @@ mod tests {
             Shard { index: 4, count: 8 }
         );
         let given = Shard { index: 0, count: 2 };
-        assert_eq!(Shard::resolve_from(Some(given), env(&slurm)).unwrap(), given);
+        assert_eq!(
+            Shard::resolve_from(Some(given), env(&slurm)).unwrap(),
+            given
+        );
         let k8s = [("JOB_COMPLETION_INDEX", "2"), ("SDFMO_SHARD_COUNT", "3")];
         assert_eq!(
             Shard::resolve_from(None, env(&k8s)).unwrap(),
