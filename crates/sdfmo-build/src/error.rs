@@ -32,6 +32,16 @@ pub enum BuildError {
         /// The budget in bytes.
         budget: u64,
     },
+    /// The levels of detail asked for cannot be built ([`BuildSettings::coarsest_level`](crate::BuildSettings::coarsest_level)).
+    #[error("levels {coarsest}..={depth}: {why}")]
+    InvalidLevels {
+        /// The coarsest level asked for.
+        coarsest: u8,
+        /// The leaf depth.
+        depth: u8,
+        /// What is wrong.
+        why: &'static str,
+    },
     /// `Method::Multi { max_voxels: 0 }`.
     #[error("max_voxels must be at least 1 (got {0})")]
     InvalidMaxVoxels(u8),

@@ -48,7 +48,9 @@ use std::time::Instant;
 use glam::Vec3;
 use rayon::prelude::*;
 use sdfmo_distance::{sign_by_pseudo_normal, Feature, MeshDistance, SignMode};
-use sdfmo_format::{cell_size, quant, LeafInput, OctreeMeta, PackedOctree, ValueBits, MAX_DEPTH};
+use sdfmo_format::{
+    cell_size, quant, LeafInput, LodOctree, OctreeMeta, PackedOctree, ValueBits, MAX_DEPTH,
+};
 use sdfmo_mesh::TriMesh;
 
 pub use budget::{
@@ -98,6 +100,10 @@ pub struct BuildSettings {
     /// The thresholds of the multi-octree's per-leaf decision ([`LeafParams::OURS`] by
     /// default, or [`LeafParams::PAPER`]); the SVO ignores them.
     pub leaf: LeafParams,
+    /// Levels of detail: `Some(c)` with `MIN_DEPTH ≤ c ≤ depth` makes [`build_lod`] build
+    /// every level `c..=depth`, each what a build of that depth makes (`None`: the leaf level
+    /// alone). [`build`] makes one level and refuses `Some(c)` with `c < depth`.
+    pub coarsest_level: Option<u8>,
 }
 
 impl BuildSettings {
@@ -121,6 +127,7 @@ impl Default for BuildSettings {
             margin: 0.05,
             sign: SignMode::Auto,
             leaf: LeafParams::OURS,
+            coarsest_level: None,
         }
     }
 }
@@ -267,6 +274,13 @@ pub fn build_cancellable(
     cancel: &(dyn Fn() -> bool + Sync),
 ) -> Result<(PackedOctree, BuildStats)> {
     validate(mesh, settings)?;
+    if let Some(c) = settings.coarsest_level.filter(|&c| c < settings.depth) {
+        return Err(BuildError::InvalidLevels {
+            coarsest: c,
+            depth: settings.depth,
+            why: "build makes one level; build_lod makes levels",
+        });
+    }
     check_memory(mesh, settings, budget)?;
     match settings.threads {
         Some(n) => {
@@ -274,6 +288,73 @@ pub fn build_cancellable(
             pool.install(|| build_in_pool(mesh, settings, progress, cancel))
         }
         None => build_in_pool(mesh, settings, progress, cancel),
+    }
+}
+
+/// Builds the levels of detail `settings.coarsest_level..=settings.depth` of `mesh` (the leaf
+/// level alone with `coarsest_level: None`): level `k` is exactly the octree [`build`] makes at
+/// depth `k` with the same settings, so it renders as that build does. The levels share the
+/// normalisation transform (it depends on the mesh's bounds and the margin only). Returns the
+/// levels and each level's statistics, coarsest first; `progress` covers the whole build (each
+/// level weighted by 4^level, the growth of a surface's cells per level).
+///
+/// The simplest correct construction: one build per level (each level's subdivision, corners
+/// and leaf decisions are its own; sharing the coarse levels' work with the fine one is not
+/// done). The memory check is the finest level's (the levels are built one after the other;
+/// the coarser ones held meanwhile are at most a third of the finest one's size).
+///
+/// # Errors
+/// [`BuildError::InvalidLevels`] when the coarsest level is below [`MIN_DEPTH`] or above the
+/// depth, and every error of [`build_cancellable`].
+pub fn build_lod(
+    mesh: &TriMesh,
+    settings: &BuildSettings,
+    budget: Option<u64>,
+    progress: Option<&(dyn Fn(f32) + Sync)>,
+    cancel: &(dyn Fn() -> bool + Sync),
+) -> Result<(LodOctree, Vec<BuildStats>)> {
+    let depth = settings.depth;
+    let coarsest = settings.coarsest_level.unwrap_or(depth);
+    if coarsest < MIN_DEPTH || coarsest > depth {
+        return Err(BuildError::InvalidLevels {
+            coarsest,
+            depth,
+            why: "the coarsest level must be in 1..=depth",
+        });
+    }
+    validate(mesh, settings)?;
+    check_memory(mesh, settings, budget)?;
+    let weight = |k: u8| 4f64.powi(i32::from(k));
+    let total: f64 = (coarsest..=depth).map(weight).sum();
+    let run = || -> Result<(LodOctree, Vec<BuildStats>)> {
+        let mut levels = Vec::new();
+        let mut stats = Vec::new();
+        let mut done = 0.0;
+        for k in coarsest..=depth {
+            let level_settings = BuildSettings {
+                depth: k,
+                coarsest_level: None,
+                ..*settings
+            };
+            let w = weight(k);
+            let scaled = |f: f32| {
+                if let Some(p) = progress {
+                    p((((done + w * f64::from(f)) / total) as f32).clamp(0.0, 1.0));
+                }
+            };
+            let (octree, st) = build_in_pool(mesh, &level_settings, Some(&scaled), cancel)?;
+            done += w;
+            levels.push(octree);
+            stats.push(st);
+        }
+        Ok((LodOctree::from_levels(levels)?, stats))
+    };
+    match settings.threads {
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()?
+            .install(run),
+        None => run(),
     }
 }
 

@@ -17,7 +17,8 @@ pub struct Cli {
 /// The commands of `sdfmo`.
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Mesh statistics: triangles, vertices, parts, components, open and non-manifold edges.
+    /// Mesh statistics: triangles, vertices, parts, components, open and non-manifold edges;
+    /// for a `.smo` file, its levels with their voxels and bytes.
     Info(InfoArgs),
     /// Signed distances of points to a mesh (in the normalised frame of the octree).
     Distance(DistanceArgs),
@@ -59,7 +60,9 @@ pub struct GeneratePartsArgs {
 /// `sdfmo info`.
 #[derive(Debug, Args)]
 pub struct InfoArgs {
-    /// Mesh file (OBJ, glTF/GLB, STL); without it, the built-in demo part.
+    /// Mesh file (OBJ, glTF/GLB, STL), or a `.smo` octree (recognised by its magic bytes; a
+    /// file with levels may be a prefix, e.g. a download in progress); without it, the
+    /// built-in demo part.
     pub mesh: Option<PathBuf>,
     /// Print one JSON object on stdout instead of the human summary.
     #[arg(long)]
@@ -161,9 +164,24 @@ pub struct BuildArgs {
     /// Output `.smo` file (written atomically; must end in `.smo`).
     #[arg(short, long, value_name = "OUT.smo")]
     pub output: PathBuf,
+    /// Levels of detail: write every level from `--coarsest` to DEPTH, coarsest first (a
+    /// version-2.0 file; each level is what a build of that depth makes).
+    #[arg(long)]
+    pub lod: bool,
+    /// The coarsest level written with `--lod`, 1..=DEPTH (default: DEPTH − 4, at least 1).
+    #[arg(long, value_name = "LEVEL", requires = "lod", value_parser = parse_depth)]
+    pub coarsest: Option<u8>,
     /// Print one JSON object on stdout instead of the human summary.
     #[arg(long)]
     pub json: bool,
+}
+
+impl BuildArgs {
+    /// The coarsest level to build: `None` without `--lod`.
+    pub fn coarsest_level(&self) -> Option<u8> {
+        self.lod
+            .then(|| self.coarsest.unwrap_or(self.depth.saturating_sub(4).max(1)))
+    }
 }
 
 /// What a render computes and writes.
@@ -250,6 +268,15 @@ pub struct RenderArgs {
     /// Trace on the CPU or on a GPU (the same images; `--json` adds `device` and `gpu_ms`).
     #[arg(long, value_enum, default_value_t = DeviceArg::Cpu)]
     pub device: DeviceArg,
+    /// Draw level LEVEL of a file with levels (`sdfmo build --lod`; default: the finest). A
+    /// file without levels has one, its depth.
+    #[arg(long, value_name = "LEVEL", value_parser = clap::value_parser!(u8).range(0..=16))]
+    pub lod: Option<u8>,
+    /// Screen-space error of a file with levels: each ray stops at the coarsest level whose
+    /// voxels project to at most E pixels at its hit distance (CPU only; default: off, the
+    /// finest level or `--lod`).
+    #[arg(long, value_name = "E", conflicts_with = "lod", value_parser = parse_pixel_error)]
+    pub pixel_error: Option<f32>,
     /// Camera, mode and outputs.
     #[command(flatten)]
     pub opts: RenderOptions,
@@ -417,6 +444,14 @@ pub fn parse_threads(s: &str) -> Result<usize, String> {
 const MAX_DEPTH: u8 = sdf_multioctree::format::MAX_DEPTH;
 
 /// Parses an octree depth in 1..=16 (the builder's range).
+/// Parses a screen-space error in pixels: a finite number > 0.
+pub fn parse_pixel_error(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(e) if e.is_finite() && e > 0.0 => Ok(e),
+        _ => Err(format!("the pixel error must be a number > 0, got {s:?}")),
+    }
+}
+
 pub fn parse_depth(s: &str) -> Result<u8, String> {
     match s.trim().parse::<i64>() {
         Ok(d) if (1..=i64::from(MAX_DEPTH)).contains(&d) => Ok(d as u8),

@@ -585,6 +585,44 @@ mod tests {
         assert_eq!(spread_bits(0x3ff), 0x0924_9249);
     }
 
+    #[test]
+    fn map_points_answers_in_the_callers_order() {
+        // 1,001 shuffled points (one NaN) around a sphere: each answer is the one-point query's,
+        // bit for bit, at the caller's index, whatever order the batch visited them in.
+        let sphere = sdfmo_mesh::procedural::sphere(Vec3::ZERO, 0.5, 3);
+        let md = MeshDistance::new(&sphere, SignMode::Winding).unwrap();
+        let mut next = uniform_stream(11, 2.0, 1.0);
+        let mut pts: Vec<Vec3> = (0..1000)
+            .map(|_| Vec3::new(next(), next(), next()))
+            .collect();
+        pts.insert(500, Vec3::NAN);
+        let got = md.map_points(&pts, |md, p| {
+            let c = md.closest_point(p);
+            (
+                c.distance.to_bits(),
+                c.triangle,
+                md.winding_number(p).to_bits(),
+            )
+        });
+        assert_eq!(got.len(), pts.len());
+        for (&p, g) in pts.iter().zip(&got) {
+            let c = md.closest_point(p);
+            assert_eq!(
+                *g,
+                (
+                    c.distance.to_bits(),
+                    c.triangle,
+                    md.winding_number(p).to_bits()
+                ),
+                "{p:?}"
+            );
+        }
+        let signed = md.signed_distances(&pts);
+        for (&p, &d) in pts.iter().zip(&signed) {
+            assert_eq!(d.to_bits(), md.signed_distance(p).to_bits(), "{p:?}");
+        }
+    }
+
     /// A reproducible stream of values `u · scale − offset`, u uniform in [0, 1) (the project's
     /// `SplitMix64`).
     fn uniform_stream(seed: u64, scale: f32, offset: f32) -> impl FnMut() -> f32 {

@@ -61,6 +61,7 @@ mod error;
 mod file;
 mod interpolant;
 pub mod kernel;
+mod lod;
 mod morton;
 mod octree;
 pub mod quant;
@@ -79,6 +80,10 @@ pub use file::{
 };
 pub use interpolant::{
     cell_corners, cell_size, child_coord, corner_offset, trilinear, trilinear_gradient,
+};
+pub use lod::{
+    lod_header_size, LevelEntry, LodOctree, LodPrefix, SmoFile, LOD_HEADER_FIXED,
+    LOD_HEADER_TRAILER, LOD_LEVEL_ENTRY, LOD_VERSION_MAJOR, LOD_VERSION_MINOR,
 };
 pub use octree::{NodeRef, Octree, PackedOctree, PackedOctreeView};
 

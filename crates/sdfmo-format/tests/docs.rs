@@ -3,7 +3,8 @@
 
 use glam::Vec3;
 use sdfmo_format::{
-    LeafInput, OctreeMeta, PackedOctree, ValueBits, Voxel, HEADER_FIELDS, HEADER_SIZE,
+    FormatError, LeafInput, LodOctree, OctreeMeta, PackedOctree, ValueBits, Voxel, HEADER_FIELDS,
+    HEADER_SIZE,
 };
 
 fn format_md() -> String {
@@ -43,11 +44,16 @@ fn docs_header_table_matches_code() {
 
 /// Bytes of the hex dump between the worked-example markers.
 fn documented_example(md: &str) -> Vec<u8> {
+    documented_hex(md, "worked-example-hex")
+}
+
+/// Bytes of the hex dump between the markers `<!-- NAME: begin -->` and `<!-- NAME: end -->`.
+fn documented_hex(md: &str, name: &str) -> Vec<u8> {
     let begin = md
-        .find("<!-- worked-example-hex: begin -->")
+        .find(&format!("<!-- {name}: begin -->"))
         .expect("begin marker");
     let end = md
-        .find("<!-- worked-example-hex: end -->")
+        .find(&format!("<!-- {name}: end -->"))
         .expect("end marker");
     let mut bytes = Vec::new();
     for line in md[begin..end].lines() {
@@ -117,4 +123,51 @@ fn docs_worked_example_matches_writer() {
     assert_eq!(c[0xc0..0xc8], 4u64.to_le_bytes());
     assert_eq!(c[0x18..0x38], bytes[0x18..0x38]);
     assert_eq!(c[0x40..0xc0], bytes[0x40..0xc0]);
+}
+
+/// The worked example of a file with levels: its header byte for byte, its levels' places, and
+/// the prefix rule as the text states it.
+#[test]
+fn docs_lod_example_matches_writer() {
+    let meta = |depth| OctreeMeta {
+        depth,
+        bits: ValueBits::Eight,
+        center: Vec3::new(1.0, 0.0, -2.0),
+        scale: 0.5,
+    };
+    let mut corners = [0.5f32; 8];
+    corners[0] = -0.5;
+    let level0 = PackedOctree::from_leaves(
+        meta(0),
+        vec![LeafInput {
+            coord: [0, 0, 0],
+            voxels: vec![Voxel {
+                corners,
+                surface: false,
+                clip: false,
+            }],
+        }],
+    )
+    .unwrap();
+    assert_eq!(level0.byte_size(), 164);
+    let md = format_md();
+    let level1 = PackedOctree::from_bytes(&documented_example(&md)).unwrap();
+    let lod = LodOctree::from_levels(vec![level0.clone(), level1.clone()]).unwrap();
+    let bytes = lod.to_bytes();
+    assert_eq!(bytes.len(), 468);
+    assert_eq!(bytes[..104], documented_hex(&md, "lod-example-hex")[..]);
+    assert_eq!(bytes[104..268], level0.as_bytes()[..]);
+    assert!(bytes[268..272].iter().all(|&b| b == 0));
+    assert_eq!(bytes[272..], level1.as_bytes()[..]);
+    for cut in 268..468 {
+        let p = LodOctree::from_prefix(&bytes[..cut]).unwrap();
+        assert_eq!(p.octree.levels(), std::slice::from_ref(&level0));
+    }
+    for cut in 104..268 {
+        assert!(matches!(
+            LodOctree::from_prefix(&bytes[..cut]),
+            Err(FormatError::Truncated { needed: 268, .. })
+        ));
+    }
+    assert_eq!(LodOctree::from_prefix(&bytes).unwrap().octree, lod);
 }

@@ -322,18 +322,15 @@ impl Mesh {
                     }
                     return;
                 }
-                let res: Vec<(f32, Vec3, u32)> = pts
-                    .par_iter()
-                    .with_min_len(64)
-                    .map(|&p| {
-                        let cp = dist.closest_point(p);
-                        let v = match sign {
-                            Some(_) => dist.sign_closest(p, &cp),
-                            None => cp.distance,
-                        };
-                        (v, cp.point, cp.triangle)
-                    })
-                    .collect();
+                // Morton-ordered like the batch above (up to 2× per point on shuffled points).
+                let res: Vec<(f32, Vec3, u32)> = dist.map_points(pts, |dist, p| {
+                    let cp = dist.closest_point(p);
+                    let v = match sign {
+                        Some(_) => dist.sign_closest(p, &cp),
+                        None => cp.distance,
+                    };
+                    (v, cp.point, cp.triangle)
+                });
                 for (k, (v, q, t)) in res.into_iter().enumerate() {
                     let i = start + k;
                     d[i] = data.to_model_length(v);
@@ -578,11 +575,8 @@ impl Mesh {
                 Err(e) => return Ok(Err(e)),
             };
             for_chunks(data, view, "points", cancel, |start, pts| {
-                w[start..start + pts.len()]
-                    .par_iter_mut()
-                    .zip(pts.par_iter())
-                    .with_min_len(64)
-                    .for_each(|(o, &p)| *o = dist.winding_number(p));
+                let ws = dist.map_points(pts, |dist, p| dist.winding_number(p));
+                w[start..start + pts.len()].copy_from_slice(&ws);
             })
         })?;
         result?;

@@ -38,7 +38,7 @@ use std::path::PathBuf;
 pub use camera::{Camera, CameraFrame};
 #[cfg(feature = "mesh-reference")]
 pub use mesh::{apply_normalization, mesh_in_octree_frame, octree_normalization, MeshScene};
-pub use octree::OctreeScene;
+pub use octree::{LodScene, OctreeScene};
 pub use output::{encode_exr, encode_png, save_exr, save_png};
 pub use plan::{Counters, Mode, RenderPlan, RenderSettings, MAX_AO_SAMPLES};
 #[cfg(feature = "mesh-reference")]

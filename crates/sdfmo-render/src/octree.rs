@@ -1,9 +1,10 @@
 //! The packed octree as a scene, through `sdfmo-trace`'s kernel.
 
 use glam::Vec3;
-use sdfmo_format::{cell_size, PackedOctree};
+use sdfmo_format::{cell_size, LodOctree, PackedOctree};
 use sdfmo_trace::{
-    hit_normal, intersect, intersect_packet, occluded, occupied_bounds, Hit, Ray, RayPacket,
+    hit_normal, intersect, intersect_lod, intersect_packet, occluded, occupied_bounds, Hit,
+    LevelChoice, LodHit, Ray, RayPacket,
 };
 
 use crate::scene::{Traceable, PACKET};
@@ -67,5 +68,58 @@ impl Traceable for OctreeScene<'_> {
     fn epsilon(&self) -> f32 {
         let leaf = cell_size(self.0.depth());
         OCTREE_EPSILON_LEAVES * leaf
+    }
+}
+
+/// A file with levels of detail as a [`Traceable`], each ray at the level `choice` selects
+/// (`sdfmo_trace::intersect_lod`): with [`LevelChoice::PixelError`], the coarsest level whose
+/// voxels project below the given pixels at the ray's hit distance. (A fixed level is better
+/// drawn as `OctreeScene(lod.level(k))`, which traces packets.)
+#[derive(Clone, Copy)]
+pub struct LodScene<'a> {
+    /// The levels.
+    pub lod: &'a LodOctree,
+    /// How each ray picks its level.
+    pub choice: LevelChoice,
+}
+
+impl Traceable for LodScene<'_> {
+    type Hit = LodHit;
+
+    #[inline]
+    fn first_hit(&self, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> Option<LodHit> {
+        intersect_lod(self.lod, &Ray { origin, dir }, t_min, t_max, self.choice)
+    }
+
+    #[inline]
+    fn hit_t(&self, hit: &LodHit) -> f32 {
+        hit.hit.t
+    }
+
+    /// The analytic gradient of the hit voxel's trilinear interpolant, in the hit's level.
+    #[inline]
+    fn normal(&self, origin: Vec3, dir: Vec3, hit: &LodHit) -> Vec3 {
+        hit_normal(hit.octree(self.lod), &Ray { origin, dir }, &hit.hit)
+    }
+
+    /// Shadow rays test the finest level (a shadow's level of detail is not chosen per ray).
+    #[inline]
+    fn occluded(&self, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> bool {
+        occluded(self.lod.finest(), &Ray { origin, dir }, t_min, t_max)
+    }
+
+    /// The union of every level's occupied cells [`OCCUPIED_LEVELS`] below the root (a
+    /// level's leaves need not lie within a coarser level's: each build keeps its own cells).
+    fn occupied_bounds(&self) -> Option<(Vec3, Vec3)> {
+        self.lod
+            .levels()
+            .iter()
+            .filter_map(|l| occupied_bounds(l, OCCUPIED_LEVELS))
+            .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
+    }
+
+    /// The finest level's epsilon (the smallest).
+    fn epsilon(&self) -> f32 {
+        OCTREE_EPSILON_LEAVES * cell_size(self.lod.depth())
     }
 }

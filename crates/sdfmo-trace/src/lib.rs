@@ -32,12 +32,14 @@
 
 pub mod clip;
 pub mod distance;
+pub mod lod;
 pub mod normal;
 pub mod packet;
 pub mod ray_voxel;
 pub mod traversal;
 
 pub use distance::{distance_at, DistanceSample};
+pub use lod::{intersect_lod, level_for_distance, pixel_angle, LevelChoice, LodHit};
 pub use normal::{hit_normal, trilinear_gradient};
 pub use packet::{intersect_packet, RayPacket, PACKET_SIZE};
 pub use ray_voxel::{intersect_voxel, unit_cube_span};

@@ -24,7 +24,11 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
         margin: sdf_multioctree::DEFAULT_MARGIN,
         sign: args.sign.mode(),
         leaf: build::LeafParams::OURS,
+        coarsest_level: args.coarsest_level(),
     };
+    if settings.coarsest_level.is_some() {
+        return run_lod(args, &input, &settings);
+    }
     let budget = memory_budget(args.max_memory);
     let bar = progress::fraction(&format!("building {} depth {}", input.name, args.depth));
     let on_progress = |f: f32| progress::set_fraction(&bar, f);
@@ -91,6 +95,80 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
         .map(|(name, ms)| format!("{name} {ms:.1} ms"))
         .collect();
     let _ = writeln!(s, "  phases: {}", phases.join(", "));
+    print_text(&s)
+}
+
+/// `sdfmo build --lod`: every level from the coarsest to the depth, one build each, in one
+/// version-2.0 file.
+fn run_lod(
+    args: &BuildArgs,
+    input: &crate::commands::InputMesh,
+    settings: &BuildSettings,
+) -> anyhow::Result<()> {
+    let budget = memory_budget(args.max_memory);
+    let coarsest = settings.coarsest_level.unwrap_or(settings.depth);
+    let bar = progress::fraction(&format!(
+        "building {} levels {coarsest}..={}",
+        input.name, args.depth
+    ));
+    let on_progress = |f: f32| progress::set_fraction(&bar, f);
+    let built = build::build_lod(&input.mesh, settings, budget, Some(&on_progress), &|| false);
+    bar.finish_and_clear();
+    let (lod, stats) =
+        built.with_context(|| format!("cannot build the levels of {}", input.source))?;
+    ensure_parent(&args.output)?;
+    lod.save(&args.output)?;
+    let entries = lod.entries();
+    let total_ms: f64 = stats.iter().map(|s| s.build_ms).sum();
+    if args.json {
+        let levels: Vec<serde_json::Value> = stats
+            .iter()
+            .zip(&entries)
+            .map(|(st, e)| {
+                let mut j = stats_json(st);
+                j["level"] = json!(e.level);
+                j["offset"] = json!(e.offset);
+                j
+            })
+            .collect();
+        let j = json!({
+            "mesh": input.source,
+            "method": args.method.name(),
+            "depth": args.depth,
+            "coarsest": coarsest,
+            "bits": args.bits.count(),
+            "bytes": lod.byte_size(),
+            "build_ms": total_ms,
+            "levels": levels,
+            "output": args.output.display().to_string(),
+        });
+        return print_json(&j);
+    }
+    let mut s = format!(
+        "{} → {} ({} levels {coarsest}..={}, {}-bit): {} bytes ({:.3} MB), {:.1} ms\n",
+        input.source,
+        args.output.display(),
+        args.method.name(),
+        args.depth,
+        args.bits.count(),
+        lod.byte_size(),
+        lod.byte_size() as f64 / 1e6,
+        total_ms
+    );
+    for (st, e) in stats.iter().zip(&entries) {
+        let _ = writeln!(
+            s,
+            "  level {:>2}: leaves {}, voxels {} ({} surface), {} bytes at {}, {:.1} ms",
+            e.level, st.leaves, st.voxels, st.surface_voxels, e.size, e.offset, st.build_ms
+        );
+        if st.cap_hits > 0 {
+            let _ = writeln!(
+                s,
+                "    warning: {} leaves hit the cap of {} voxels",
+                st.cap_hits, args.max_voxels
+            );
+        }
+    }
     print_text(&s)
 }
 

@@ -1,5 +1,13 @@
 //! `sdfmo info`: what a mesh is made of.
 
+use std::fmt::Write as _;
+use std::io::Read as _;
+use std::path::Path;
+
+use anyhow::Context;
+use sdf_multioctree::format::{
+    FormatError, LevelEntry, LodOctree, PackedOctree, SmoFile, MAGIC, MAX_FILE_SIZE,
+};
 use serde_json::json;
 
 use crate::args::InfoArgs;
@@ -9,6 +17,11 @@ use crate::output::{json_f32, print_json, print_text};
 /// Prints the triangle, vertex, part and component counts, the open and non-manifold edges, the
 /// watertight flag, the bounds and what loading cleaned up.
 pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
+    if let Some(path) = args.mesh.as_deref() {
+        if is_smo(path) {
+            return run_smo(path, args.json);
+        }
+    }
     let input = load_input(args.mesh.as_deref())?;
     let m = &input.mesh;
     let topo = m.topology();
@@ -77,6 +90,96 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
             r.duplicate_triangles,
             r.input_triangles
         ));
+    }
+    print_text(&s)
+}
+
+/// Whether the file starts with the `.smo` magic (an unreadable file is left to the mesh
+/// loader, whose error names it).
+fn is_smo(path: &Path) -> bool {
+    let mut head = [0u8; 8];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .is_ok()
+        && head == MAGIC
+}
+
+/// One level of a `.smo` file as `info` lists it: level, bytes, and the counts when loaded.
+fn level_json(e: &LevelEntry, octree: Option<&PackedOctree>) -> serde_json::Value {
+    json!({
+        "level": e.level,
+        "offset": e.offset,
+        "bytes": e.size,
+        "loaded": octree.is_some(),
+        "leaves": octree.map(|o| o.leaf_count()),
+        "voxels": octree.map(|o| o.voxel_count()),
+        "surface_voxels": octree.map(|o| o.surface_voxel_count()),
+    })
+}
+
+/// `sdfmo info FILE.smo`: the levels (one for a 1.x file) with leaves, voxels and bytes. A
+/// file with levels may be a prefix: its complete levels are listed as loaded, the others with
+/// their declared bytes only.
+fn run_smo(path: &Path, as_json: bool) -> anyhow::Result<()> {
+    let bytes = sdf_multioctree::io::read_regular(path, MAX_FILE_SIZE)?;
+    let cannot = || format!("cannot read octree {}", path.display());
+    let (version, file_size, levels): (&str, u64, Vec<(LevelEntry, Option<PackedOctree>)>) =
+        if SmoFile::has_levels(&bytes) {
+            let p = LodOctree::from_prefix(&bytes).with_context(cannot)?;
+            let loaded = p.octree.levels().to_vec();
+            let mut loaded = loaded.into_iter();
+            let rows = p.declared.iter().map(|e| (*e, loaded.next())).collect();
+            ("2.0 (levels)", p.file_size, rows)
+        } else {
+            let o = PackedOctree::from_bytes(&bytes)
+                .map_err(|e: FormatError| anyhow::Error::new(e))
+                .with_context(cannot)?;
+            let e = LevelEntry {
+                level: o.depth(),
+                offset: 0,
+                size: o.byte_size() as u64,
+            };
+            ("1.x", o.byte_size() as u64, vec![(e, Some(o))])
+        };
+    if as_json {
+        return print_json(&json!({
+            "source": path.display().to_string(),
+            "kind": "octree",
+            "version": version,
+            "file_size": file_size,
+            "bytes_read": bytes.len(),
+            "levels": levels.iter().map(|(e, o)| level_json(e, o.as_ref())).collect::<Vec<_>>(),
+        }));
+    }
+    let mut s = format!(
+        "{}\n  .smo {version}, {file_size} bytes ({} read)\n",
+        path.display(),
+        bytes.len()
+    );
+    for (e, o) in &levels {
+        match o {
+            Some(o) => {
+                let _ = writeln!(
+                    s,
+                    "  level {:>2}  leaves {:>9}  voxels {:>9} ({} surface)  {:>10} bytes",
+                    e.level,
+                    o.leaf_count(),
+                    o.voxel_count(),
+                    o.surface_voxel_count(),
+                    e.size
+                );
+            }
+            None => {
+                let _ = writeln!(
+                    s,
+                    "  level {:>2}  not in the {} bytes read  {:>10} bytes at {}",
+                    e.level,
+                    bytes.len(),
+                    e.size,
+                    e.offset
+                );
+            }
+        }
     }
     print_text(&s)
 }

@@ -6,12 +6,13 @@ use std::path::PathBuf;
 use anyhow::Context;
 use glam::Vec3;
 use sdf_multioctree::distance::{MeshDistance, SignMode};
-use sdf_multioctree::format::PackedOctree;
+use sdf_multioctree::format::{PackedOctree, SmoFile};
 use sdf_multioctree::render::shading::{light_dir, DepthRange, AMBIENT, LIGHT_INTENSITY};
 use sdf_multioctree::render::{
-    self, Camera, Counters, MeshScene, Mode, OctreeScene, RenderPlan, RenderSettings, Rendered,
-    Traceable,
+    self, Camera, Counters, LodScene, MeshScene, Mode, OctreeScene, RenderPlan, RenderSettings,
+    Rendered, Traceable,
 };
+use sdf_multioctree::trace::{pixel_angle, LevelChoice};
 use sdfmo_gpu::{GpuCamera, GpuMode, GpuRenderer, GpuTiming, Shading};
 use serde_json::json;
 
@@ -27,15 +28,26 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
     if args.device == DeviceArg::Gpu {
         check_gpu_options(&args.opts)?;
     }
-    let load = |max_bytes: u64| {
-        PackedOctree::load_with_limit(&args.octree, max_bytes).map_err(|e| match e {
+    let load = |max_bytes: u64| -> anyhow::Result<PackedOctree> {
+        let file = SmoFile::load_with_limit(&args.octree, max_bytes).map_err(|e| match e {
             // I/O errors name the file already; format errors do not.
             sdf_multioctree::format::FormatError::Io(io) => anyhow::Error::new(io),
             e => anyhow::Error::new(e)
                 .context(format!("cannot load octree {}", args.octree.display())),
+        })?;
+        let (coarsest, finest) = file.level_range();
+        file.into_level(args.lod).with_context(|| {
+            format!(
+                "{} has levels {coarsest}..={finest}, not level {}",
+                args.octree.display(),
+                args.lod.unwrap_or(finest)
+            )
         })
     };
     let source = args.octree.display().to_string();
+    if let Some(pixels) = args.pixel_error {
+        return run_pixel_error(args, pixels, &outputs);
+    }
     match args.device {
         DeviceArg::Cpu => {
             let octree = load(sdf_multioctree::format::MAX_FILE_SIZE)?;
@@ -109,6 +121,40 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
             render_all(&mut view, &source, &device, timing, &args.opts, &outputs)
         }
     }
+}
+
+/// `sdfmo render --pixel-error E`: each ray at the coarsest level whose voxels project below
+/// E pixels at its hit distance (`sdfmo_trace::intersect_lod`), on the CPU.
+fn run_pixel_error(args: &RenderArgs, pixels: f32, outputs: &[ViewOutputs]) -> anyhow::Result<()> {
+    if args.device == DeviceArg::Gpu {
+        anyhow::bail!(
+            "--pixel-error is not available with --device gpu yet (the WGSL kernel traces one \
+             level: use --lod); use --device cpu"
+        );
+    }
+    let file = SmoFile::load(&args.octree)
+        .with_context(|| format!("cannot load octree {}", args.octree.display()))?;
+    let SmoFile::Levels(lod) = file else {
+        anyhow::bail!(
+            "{} has no levels of detail (build it with `sdfmo build --lod`)",
+            args.octree.display()
+        );
+    };
+    let source = args.octree.display().to_string();
+    let settings = settings(&args.opts);
+    let mut view = |cam: &Camera, progress: &Progress<'_>| -> anyhow::Result<ViewRender> {
+        let scene = LodScene {
+            lod: &lod,
+            choice: LevelChoice::PixelError {
+                pixels,
+                pixel_angle: pixel_angle(cam.fov_y_deg, cam.height),
+            },
+        };
+        let r = render::render_with_progress(&scene, cam, &settings, progress)
+            .with_context(|| format!("cannot render {source}"))?;
+        Ok((r, None))
+    };
+    render_all(&mut view, &source, "cpu", None, &args.opts, outputs)
 }
 
 /// The GPU kernel renders the primary rays only: shadows, occlusion and a thread count are

@@ -231,6 +231,7 @@ fn build_settings(args: &SweepArgs, method: MethodArg, depth: u8) -> BuildSettin
         margin: sdf_multioctree::DEFAULT_MARGIN,
         sign: SignMode::Auto,
         leaf: build::LeafParams::OURS,
+        coarsest_level: None,
     }
 }
 

@@ -1,0 +1,459 @@
+"""Collects what run.sh measured into results.json (the sweep's row schema) and docs/results/nglod.md.
+
+Every number written comes from the files under OUT (the training logs, render timings,
+`sdfmo compare` outputs, SDF checks) and the sweep's results.json; nothing is typed in.
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import json
+import math
+import os
+import statistics
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+LODS = [2, 3, 4, 5]
+
+
+def atomic_write(path: str, data: bytes | str) -> None:
+    if isinstance(data, str):
+        data = data.encode()
+    d = os.path.dirname(os.path.abspath(path))
+    os.makedirs(d, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=d, prefix=".tmp-")
+    with os.fdopen(fd, "wb") as f:
+        f.write(data)
+    os.replace(tmp, path)
+
+
+def load(path: str):
+    with open(path) as f:
+        return json.load(f)
+
+
+def collect(out: str) -> dict:
+    models = {}
+    for d in sorted(glob.glob(os.path.join(out, "models", "*"))):
+        stem = os.path.basename(d)
+        rj = os.path.join(d, "images", "render.json")
+        if not os.path.exists(rj):
+            continue
+        m = {"train": load(os.path.join(d, "model.train.json")), "render": load(rj), "lods": {}}
+        for k in LODS:
+            cmp = [load(os.path.join(d, "images", f"compare_lod{k}_{v}.json")) for v in range(4)]
+            psnrs = [c["psnr"] for c in cmp]
+            flips = [c["flip"] for c in cmp]
+            m["lods"][k] = {
+                "psnr_views": psnrs,
+                "flip_views": flips,
+                "psnr": None if any(p is None for p in psnrs) else statistics.fmean(psnrs),
+                "flip": statistics.fmean(flips),
+                "render_ms_views": m["render"]["render_ms_views"][str(k)],
+                "render_cpu_ms_views": m["render"]["render_cpu_ms_views"][str(k)],
+                "size": m["render"]["sizes"][str(k)],
+            }
+        sc = os.path.join(d, "sdfcheck.json")
+        m["sdfcheck"] = load(sc) if os.path.exists(sc) else None
+        tj = os.path.join(d, "timing.json")
+        m["timing"] = load(tj) if os.path.exists(tj) else None
+        pc = os.path.join(d, "paper_cost.json")
+        m["paper_cost"] = load(pc) if os.path.exists(pc) else None
+        models[stem] = m
+    if not models:
+        sys.exit(f"report.py: no rendered model under {out}/models")
+    return models
+
+
+def rows_of(models: dict) -> list[dict]:
+    rows = []
+    for stem, m in models.items():
+        for k in LODS:
+            r = m["lods"][k]
+            rows.append({
+                "model": stem, "method": "nglod", "depth": k + 5, "lod": k,
+                "psnr": r["psnr"], "flip": r["flip"], "bytes": r["size"]["bytes"],
+                "build_ms": m["train"]["train_s"] * 1000.0,
+                "render_ms": statistics.fmean(r["render_ms_views"]),
+                "psnr_views": r["psnr_views"], "flip_views": r["flip_views"],
+            })
+    return rows
+
+
+def sweep_rows(sweep: dict) -> dict:
+    return {(r["model"], r["method"], r["depth"]): r for r in sweep["rows"]}
+
+
+def f(x, nd=2):
+    if x is None:
+        return "∞"
+    return f"{x:.{nd}f}"
+
+
+def mb(b):
+    return f"{b / 1e6:.3f}"
+
+
+def comparable(m: dict, target: int) -> int:
+    """The LOD whose size is closest to `target` bytes (in log ratio)."""
+    return min(LODS, key=lambda k: abs(math.log(m["lods"][k]["size"]["bytes"] / target)))
+
+
+def not_smaller(m: dict, target: int):
+    ks = [k for k in LODS if m["lods"][k]["size"]["bytes"] >= target]
+    return min(ks) if ks else None
+
+
+def plot_curve(m: dict, stem: str, path: str) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    ep = m["train"]["epochs"]
+    fig, ax = plt.subplots(1, 2, figsize=(10, 3.6))
+    x = [e["epoch"] for e in ep]
+    for j in range(len(ep[0]["loss_per_lod"])):
+        ax[0].semilogy(x, [e["loss_per_lod"][j] for e in ep], label=f"LOD {j + 1}")
+    ax[0].set_xlabel("epoch")
+    ax[0].set_ylabel("training L2 loss (mean per sample)")
+    ax[0].legend(fontsize=8)
+    ax[0].set_title(f"{stem}: loss per LOD")
+    pe = [e for e in ep if "psnr_view0" in e]
+    for k in LODS:
+        ax[1].plot([e["epoch"] for e in pe], [e["psnr_view0"][str(k)] for e in pe], marker="o", label=f"LOD {k}")
+    ax[1].set_xlabel("epoch")
+    ax[1].set_ylabel("PSNR (dB), view 0 at 256²")
+    ax[1].legend(fontsize=8)
+    ax[1].set_title(f"{stem}: PSNR vs epoch")
+    fig.tight_layout()
+    tmp = path + ".tmp.png"
+    fig.savefig(tmp, dpi=90)
+    os.replace(tmp, path)
+
+
+def montage(out: str, sweep_dir: str, stem: str, path: str) -> None:
+    """Reference and LODs 2-5 of view 0, each downsampled 2x (512²), side by side."""
+    import sdfmo
+    imgs = [sdfmo.load_png(os.path.join(sweep_dir, "images", stem, "reference_0.png"))]
+    imgs += [sdfmo.load_png(os.path.join(out, "models", stem, "images", f"nglod_lod{k}_0.png")) for k in LODS]
+    small = [im.reshape(im.shape[0] // 2, 2, im.shape[1] // 2, 2, 3).mean((1, 3)).round().astype(np.uint8) for im in imgs]
+    gap = np.full((small[0].shape[0], 4, 3), 255, np.uint8)
+    row = [small[0]]
+    for s in small[1:]:
+        row += [gap, s]
+    tmp = path + ".tmp.png"
+    sdfmo.save_png(tmp, np.concatenate(row, axis=1))
+    os.replace(tmp, path)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--sweep", required=True)
+    ap.add_argument("--curve", required=True)
+    ap.add_argument("--docs")
+    ap.add_argument("--combined")
+    ap.add_argument("--rows-only", action="store_true")
+    a = ap.parse_args()
+
+    models = collect(a.out)
+    rows = rows_of(models)
+    details = {stem: {
+        "schedule": m["train"]["schedule"], "threads": m["train"]["threads"], "torch": m["train"]["torch"],
+        "cells_per_level": m["train"]["cells"], "corners_per_level": m["train"]["corners"],
+        "train_s": m["train"]["train_s"], "train_cpu_s": m["train"].get("train_cpu_s"),
+        "sizes": {str(k): m["lods"][k]["size"] for k in LODS},
+        "render_threads": m["render"]["threads"],
+        "render_ms_views": {str(k): m["lods"][k]["render_ms_views"] for k in LODS},
+        "render_cpu_ms_views": {str(k): m["lods"][k]["render_cpu_ms_views"] for k in LODS},
+        "sdfcheck": m["sdfcheck"], "paper_cost": m["paper_cost"],
+    } for stem, m in models.items()}
+    res = {"rows": rows, "nglod": details,
+           "provenance": {"date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+                          "producer": "benches/peers/nglod/run.sh"}}
+    atomic_write(os.path.join(a.out, "results.json"), json.dumps(res, indent=1))
+    if a.rows_only or not a.docs:
+        return
+
+    sweep = load(os.path.join(a.sweep, "results.json"))
+    sr = sweep_rows(sweep)
+    sweep_threads = sweep["settings"]["threads"]
+    docs = a.docs
+    figdir = os.path.join(docs, "nglod")
+    os.makedirs(figdir, exist_ok=True)
+    curve = a.curve if a.curve in models else next(iter(models))
+    plot_curve(models[curve], curve, os.path.join(figdir, f"curve_{curve}.png"))
+    montage(a.out, a.sweep, curve, os.path.join(figdir, f"lods_{curve}_view0.png"))
+    atomic_write(os.path.join(figdir, "results.json"), json.dumps(res, indent=1))
+
+    L = []
+    w = L.append
+    any_m = next(iter(models.values()))
+    sched = any_m["train"]["schedule"]
+    thr = any_m["render"]["threads"]
+    w("# NGLOD against the multi-octree (the paper's Tables 3–5, issue 22)")
+    w("")
+    w("*Generated by `benches/peers/nglod/run.sh " + " ".join(models) + "` on "
+      + res["provenance"]["date"] + "; do not edit by hand (the prose around the numbers is in "
+      "`benches/peers/nglod/report.py`).*")
+    w("")
+    w("**Read this first.** The numbers below were measured on the project's shared 2-core machine "
+      "while other engineers compiled Rust on the same cores (every heavy step ran under `nice -n 19`): "
+      "wall times are inflated several times and vary run to run; CPU times are given beside them. "
+      f"The NGLOD models were trained with the **`{sched.get('name', 'custom')}` schedule**, "
+      "not the paper's (see *Schedule* below): NGLOD's PSNR here is a lower bound on what its full "
+      "schedule reaches. Models run: " + ", ".join(models) + ".")
+    w("")
+    w("## What was run")
+    w("")
+    w("- NGLOD written from its paper in PyTorch (`benches/peers/nglod/nglod.py`): a sparse octree of the "
+      "surface with LOD k at resolution 2^(k+1) (LOD 1–5: 4³ … 64³; a cell is kept when the exact unsigned "
+      "distance from its centre is at most its half-diagonal), 32 learned floats at the distinct corners of "
+      "the kept cells of each level, trilinearly interpolated and summed over levels 1..k, one decoder per LOD "
+      "([features, xyz] → 128 ReLU → 1), L2 loss summed over the 5 LODs, Adam.")
+    w("- Training samples: `sdfmo.sample_sdf` on the mesh normalised into [-1, 1]³ exactly as the octree "
+      "builder does: uniform in the bounding box padded by 10 % of its longest extent, near the surface "
+      "(surface points + Gaussian noise of σ = 0.01 in the normalised frame), and on the surface; fresh "
+      "samples every `resample_every` epochs.")
+    w("- Rendering: a sphere tracer over the sparse octree of the rendered LOD (cells not kept are skipped "
+      "through a Chebyshev distance map of the level's grid), hit when |f| is below a quarter of the pixel's footprint at that distance, at most 128 steps (a ray "
+      "still stepping then is a miss), normals "
+      "from autograd of the network, the paper protocol (4 views, 1024², fov 60°, lambert, two-sided, black "
+      "background, 8-bit). PSNR and FLIP are `sdfmo compare` against the sweep's own mesh references "
+      f"(`{os.path.relpath(a.sweep)}/images/MODEL/reference_K.png`), so each cell compares with the sweep's "
+      "cell for cell.")
+    w("- Size: bytes of float32 parameters needed to render LOD k: the features of levels 1..k, decoder k, "
+      "and the octree as one child-mask byte per internal node. The paper's NGLOD sizes (0.14 / 0.76 / 5.16 / "
+      "38.71 MB at LOD 2–5) match **dense** feature grids ((2^(k+1)+1)³ × 32 floats per level), which the "
+      "NGLOD code trains; the `dense MB` column gives that count for comparison.")
+    w(f"- Render time: one frame per view and LOD, wall clock of the whole Python tracer, torch with "
+      f"{thr} threads, views outer and LODs inner (interleaved), mean over the 4 views. The octree columns "
+      f"are the sweep's render times (Rust, {sweep_threads} threads) measured in the same session.")
+    w("")
+    w("## Schedule")
+    w("")
+    w("- **Used here** (`" + str(sched.get("name", "custom")) + "`): `" + json.dumps(sched) + "`. Adam on the L2 "
+      "loss summed over LODs 1–5; fresh samples (uniform : near : surface as in the JSON) every "
+      "`resample_every` epochs.")
+    w("- **The paper's** (NGLOD's published recipe as we read it, `NGLOD_SCHEDULE=paper`): 250 epochs, batch 512, "
+      "Adam lr 1e-3, 500,000 fresh samples per epoch (100k uniform, 200k near, 200k on the surface). Its cost on this "
+      "machine is extrapolated below from timed steps.")
+    w("- **Budget.** The issue asks for the five models in about two hours of two idle cores. Per model that is "
+      "about 24 minutes for training, rendering 16 frames of 1024² and comparing; the measured costs below "
+      "(training per epoch, render per frame) say what a schedule costs. This session had far less than two idle "
+      "cores (other engineers compiled Rust throughout, NGLOD ran at nice 19), so the `short` schedule was "
+      "chosen to finish at least one model end to end and as many more as time allowed.")
+    w("")
+
+    # Table 3 per model
+    w("## Table 3 layout per model (depth d against LOD d − 5)")
+    w("")
+    for stem, m in models.items():
+        w(f"### {stem}")
+        w("")
+        w("| depth / LOD | NGLOD PSNR | FLIP | MB | dense MB | ms/frame (CPU ms) | SVO PSNR | MB | ms | multi PSNR | FLIP | MB | ms |")
+        w("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+        for k in LODS:
+            r = m["lods"][k]
+            s = sr.get((stem, "svo", k + 5))
+            u = sr.get((stem, "multi", k + 5))
+            cells = [f"{k + 5} / {k}", f(r["psnr"]), f"{r['flip']:.4f}", mb(r["size"]["bytes"]),
+                     mb(r["size"]["dense_bytes"]),
+                     f"{statistics.fmean(r['render_ms_views']):.0f} ({statistics.fmean(r['render_cpu_ms_views']):.0f})"]
+            for q in (s,):
+                cells += [f(q["psnr"]), mb(q["bytes"]), f"{q['render_ms']:.1f}"] if q else ["–"] * 3
+            cells += [f(u["psnr"]), f"{u['flip']:.4f}", mb(u["bytes"]), f"{u['render_ms']:.1f}"] if u else ["–"] * 4
+            w("| " + " | ".join(cells) + " |")
+        w("")
+
+    # Tables 4 and 5
+    def table45(title, pick, note):
+        w(title)
+        w("")
+        w(note)
+        w("")
+        w("| model | multi d9 PSNR | MB | ms | SVO d9 PSNR | MB | NGLOD LOD | PSNR | MB | ms | ΔPSNR multi − NGLOD | size NGLOD / multi | time NGLOD / multi |")
+        w("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+        out = []
+        for stem, m in models.items():
+            u = sr.get((stem, "multi", 9))
+            s = sr.get((stem, "svo", 9))
+            if not u:
+                continue
+            k = pick(m, u["bytes"])
+            if k is None:
+                w(f"| {stem} | {f(u['psnr'])} | {mb(u['bytes'])} | {u['render_ms']:.1f} | "
+                  f"{f(s['psnr']) if s else '–'} | {mb(s['bytes']) if s else '–'} | none | – | – | – | – | – | – |")
+                continue
+            r = m["lods"][k]
+            ms = statistics.fmean(r["render_ms_views"])
+            dp = None if (u["psnr"] is None or r["psnr"] is None) else u["psnr"] - r["psnr"]
+            out.append((stem, k, dp, r["size"]["bytes"] / u["bytes"], ms / u["render_ms"]))
+            w(f"| {stem} | {f(u['psnr'])} | {mb(u['bytes'])} | {u['render_ms']:.1f} | "
+              f"{f(s['psnr']) if s else '–'} | {mb(s['bytes']) if s else '–'} | {k} | {f(r['psnr'])} | "
+              f"{mb(r['size']['bytes'])} | {ms:.0f} | {('+' if dp is not None and dp >= 0 else '') + f(dp)} | "
+              f"{r['size']['bytes'] / u['bytes']:.2f} | {ms / u['render_ms']:.0f} |")
+        w("")
+        return out
+
+    t4 = table45("## Table 4: depth 9 against NGLOD of comparable size",
+                 comparable, "NGLOD's LOD whose size is closest (in ratio) to the multi-octree's at depth 9.")
+    t5 = table45("## Table 5: depth 9 against NGLOD of not smaller size",
+                 not_smaller, "The smallest NGLOD LOD at least as large as the multi-octree at depth 9 "
+                 "(\"none\" where even LOD 5 is smaller).")
+
+    w("By the paper's count (dense feature grids, the `dense MB` column) the pairing changes: "
+      + "; ".join(
+          f"{stem}: comparable LOD {min(LODS, key=lambda k: abs(math.log(m['lods'][k]['size']['dense_bytes'] / sr[(stem, 'multi', 9)]['bytes'])))}"
+          + f", not smaller LOD {next((k for k in LODS if m['lods'][k]['size']['dense_bytes'] >= sr[(stem, 'multi', 9)]['bytes']), 'none')}"
+          for stem, m in models.items() if (stem, "multi", 9) in sr)
+      + ". The tables above use the sparse count, which is what this implementation stores.")
+    w("")
+
+    # Claims
+    w("## The claims, checked")
+    w("")
+    n = len(t4)
+    wins = [t for t in t4 if t[2] is not None and t[2] > 0]
+    w(f"- **Multi-octree PSNR above NGLOD at comparable size: {len(wins)} of {n} models** run "
+      f"(of the 5 the issue names; models not run are not counted). ΔPSNR: "
+      + ", ".join(f"{t[0]} {('+' if t[2] >= 0 else '') + f(t[2])} dB (LOD {t[1]})" for t in t4 if t[2] is not None) + ".")
+    if t5:
+        w("- Against NGLOD of not smaller size: multi-octree ahead on "
+          f"{sum(1 for t in t5 if t[2] is not None and t[2] > 0)} of {len(t5)} models where such a LOD exists ("
+          + ", ".join(f"{t[0]} LOD {t[1]} {('+' if t[2] >= 0 else '') + f(t[2])} dB" for t in t5 if t[2] is not None) + ").")
+    if t4:
+        w(f"- **Render time** NGLOD / multi-octree at comparable size: "
+          + ", ".join(f"{t[0]} {t[4]:.0f}×" for t in t4)
+          + f" (median {statistics.median(t[4] for t in t4):.0f}×). Not like for like: a PyTorch tracer "
+          f"({thr} threads) against the Rust kernel ({sweep_threads} threads), both on the loaded machine; the "
+          "paper's claim is 10–20× on its own CPU implementations.")
+        w(f"- **Size** NGLOD / multi-octree at comparable size: "
+          + ", ".join(f"{t[0]} {t[3]:.2f}" for t in t4) + ".")
+    nw = []
+    for stem, m in models.items():
+        for k in LODS:
+            r = m["lods"][k]
+            for meth in ("svo", "multi"):
+                q = sr.get((stem, meth, k + 5))
+                if q and r["psnr"] is not None and q["psnr"] is not None and r["psnr"] > q["psnr"]:
+                    nw.append(f"{stem} LOD {k} ({f(r['psnr'])} dB, {mb(r['size']['bytes'])} MB) over {meth} d{k + 5} "
+                              f"({f(q['psnr'])} dB, {mb(q['bytes'])} MB)")
+    smaller_better = []
+    for stem, m in models.items():
+        for k in LODS:
+            r = m["lods"][k]
+            for meth in ("svo", "multi"):
+                for d in (7, 8, 9, 10):
+                    q = sr.get((stem, meth, d))
+                    if q and r["psnr"] is not None and q["psnr"] is not None and r["psnr"] >= q["psnr"] \
+                            and r["size"]["bytes"] <= q["bytes"]:
+                        smaller_better.append(f"{stem} LOD {k} vs {meth} d{d}")
+    w("- **Where NGLOD wins.** At the paired depth (LOD k against depth k + 5): "
+      + ("; ".join(nw) if nw else "nowhere in these runs") + ". Smaller *and* at least as good as an octree "
+      "of any depth 7–10: " + (", ".join(smaller_better) if smaller_better else "no case in these runs") + ".")
+    w("")
+
+    # Interleaved timing
+    tms = [(stem, m["timing"]) for stem, m in models.items() if m.get("timing")]
+    if tms:
+        w("## Render time, interleaved (view 0, same machine, same threads)")
+        w("")
+        for stem, tm in tms:
+            w(f"{stem}: {tm['reps']} rounds of [NGLOD LOD k, SVO d k+5, multi d k+5 for k = 2..5], each a 1024² frame of "
+              f"view 0, {tm['threads']} threads for torch and for sdfmo (`Octree.render` from Python, the same Rust "
+              "renderer as the sweep); median wall ms (median CPU ms) per frame:")
+            w("")
+            w("| depth / LOD | NGLOD | SVO | multi | NGLOD / multi (wall) | NGLOD / multi (CPU) |")
+            w("|---|---:|---:|---:|---:|---:|")
+            for k in LODS:
+                med = lambda key, kind="wall_ms": statistics.median(tm[kind][key])
+                n_, s_, u_ = f"nglod_lod{k}", f"svo_d{k + 5}", f"multi_d{k + 5}"
+                w(f"| {k + 5} / {k} | {med(n_):.0f} ({med(n_, 'cpu_ms'):.0f}) | {med(s_):.0f} ({med(s_, 'cpu_ms'):.0f}) | "
+                  f"{med(u_):.0f} ({med(u_, 'cpu_ms'):.0f}) | {med(n_) / med(u_):.0f}× | "
+                  f"{med(n_, 'cpu_ms') / med(u_, 'cpu_ms'):.0f}× |")
+            w("")
+        w("The Table 3 render times above are single frames taken as each step ran (the sweep's while other work "
+          "shared the cores), so their ratios are noisier than these.")
+        w("")
+
+    # Training curve and cost
+    cm = models[curve]
+    w(f"## Training curve ({curve})")
+    w("")
+    w(f"![loss and PSNR per epoch](nglod/curve_{curve}.png)")
+    w("")
+    ep = cm["train"]["epochs"]
+    w(f"{len(ep)} epochs of {ep[0]['steps']} steps (batch {sched['batch']}); PSNR on view 0 at 256² against "
+      "the mesh rendered at 256² (the curve's own reference, not the 1024² protocol). Last epochs' summed loss: "
+      + ", ".join(f"{e['loss']:.3e}" for e in ep[-3:]) + "; PSNR at the last curve points (LOD 5): "
+      + ", ".join(f"{e['psnr_view0']['5']:.2f}" for e in ep if "psnr_view0" in e) + ".")
+    w(f"Training took {cm['train']['train_s']:.0f} s wall, {cm['train'].get('train_cpu_s', float('nan')):.0f} s CPU "
+      f"(torch {cm['train']['torch']}, {cm['train']['threads']} threads).")
+    w("")
+    pc = cm["paper_cost"]
+    if pc:
+        w("**Cost of the paper's schedule (an extrapolation, not a run).** One epoch of the paper schedule "
+          f"was timed on {curve}: sampling {pc['samples_per_epoch']:,} points took {pc['sample_wall_s']:.1f} s wall "
+          f"({pc['sample_cpu_s']:.1f} s CPU), one Adam step at batch {pc['schedule']['batch']} "
+          f"{pc['step_wall_s_median'] * 1000:.0f} ms wall ({pc['step_cpu_s_median'] * 1000:.0f} ms CPU, median of "
+          f"{pc['steps_timed']}); {pc['steps_per_epoch']} steps per epoch make an epoch "
+          f"{pc['epoch_wall_s']:.0f} s wall ({pc['epoch_cpu_s']:.0f} s CPU) and {pc['schedule']['epochs']} epochs "
+          f"**{pc['total_wall_s'] / 3600:.1f} h wall ({pc['total_cpu_s'] / 3600:.1f} h CPU) per model** at "
+          f"{pc['threads']} threads on this loaded machine. The session's short schedule used "
+          f"{cm['train'].get('train_cpu_s', float('nan')) / pc['total_cpu_s'] * 100:.1f} % of that CPU time.")
+        rend_min = sum(sum(cm["lods"][k]["render_cpu_ms_views"]) for k in LODS) / 60000.0
+        left = 48.0 - rend_min  # CPU-minutes
+        w("")
+        w(f"**What the issue's budget allows.** Two hours of two cores for five models is 24 min per model "
+          f"(48 CPU-minutes). Rendering the 16 frames took {rend_min:.0f} CPU-minutes on {curve}; the rest, "
+          f"{max(left, 0):.0f} CPU-minutes if training used both cores fully, is "
+          f"{max(left, 0) * 60 / pc['total_cpu_s'] * 100:.1f} % of the paper schedule's CPU time (measured on this "
+          "loaded machine; an idle one would do better, but not by the factor missing): NGLOD's recipe does not "
+          "fit the budget on this CPU, so any schedule that does is a shortened one, as here.")
+        w("")
+
+    # SDF check
+    w("## SDF check on held-out points")
+    w("")
+    w("|f_k − d| in the normalised frame (the root cube has edge 2; a depth-9 voxel has edge 0.0039) on points "
+      "drawn like the training set with a seed no epoch used (uniform / near / surface = 1 : 2 : 2).")
+    w("")
+    w("| model | LOD | mean | max | mean on the surface | max on the surface | mean, uniform points |")
+    w("|---|---:|---:|---:|---:|---:|---:|")
+    for stem, m in models.items():
+        if not m["sdfcheck"]:
+            continue
+        for k in range(1, 6):
+            r = m["sdfcheck"]["per_lod"][str(k)]
+            w(f"| {stem} | {k} | {r['mean']:.5f} | {r['max']:.4f} | {r['surface_mean']:.5f} | {r['surface_max']:.4f} | {r['uniform_mean']:.5f} |")
+    w("")
+    w(f"## Renders per LOD ({curve}, view 0)")
+    w("")
+    w("Left to right: the mesh reference, LOD 2, 3, 4, 5 (1024² frames shown at 512²).")
+    w("")
+    w(f"![{curve} per LOD](nglod/lods_{curve}_view0.png)")
+    w("")
+    if a.combined:
+        w("## Combined sweep (`sdfmo sweep --extra-rows`)")
+        w("")
+        for png in ("plot_psnr_vs_size.png", "plot_psnr_vs_render_time.png"):
+            src = os.path.join(a.combined, png)
+            if os.path.exists(src):
+                dst = os.path.join(figdir, png)
+                with open(src, "rb") as fsrc:
+                    atomic_write(dst, fsrc.read())
+                w(f"![{png}](nglod/{png})")
+                w("")
+        tm = os.path.join(a.combined, "table.md")
+        if os.path.exists(tm):
+            w(open(tm).read())
+    atomic_write(os.path.join(docs, "nglod.md"), "\n".join(L) + "\n")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,123 @@
+//! Levels of detail end to end: `build_lod` against separate builds, the file's prefixes
+//! against the whole file, and the per-ray level choice against fixed levels (images).
+
+use sdfmo_build::{build, build_lod, BuildError, BuildSettings, Method};
+use sdfmo_format::{LodOctree, PackedOctree, SmoFile};
+use sdfmo_render::{render, Camera, LodScene, OctreeScene, RenderSettings};
+use sdfmo_trace::{pixel_angle, LevelChoice};
+
+const MULTI: Method = Method::Multi { max_voxels: 8 };
+
+fn lod_settings(depth: u8, coarsest: u8, method: Method) -> BuildSettings {
+    BuildSettings {
+        coarsest_level: Some(coarsest),
+        ..BuildSettings::new(depth, method)
+    }
+}
+
+/// Level k of a file with levels is, byte for byte, the file a build of depth k writes (so it
+/// renders exactly as that build does), for both methods.
+#[test]
+fn every_level_is_the_build_of_its_depth() {
+    let mesh = sdfmo_mesh::procedural::demo_part();
+    for method in [Method::Svo, MULTI] {
+        let (lod, stats) =
+            build_lod(&mesh, &lod_settings(6, 3, method), None, None, &|| false).expect("lod");
+        assert_eq!((lod.coarsest(), lod.depth()), (3, 6));
+        assert_eq!(stats.len(), 4);
+        for k in 3..=6 {
+            let (alone, st) = build(&mesh, &BuildSettings::new(k, method), None).expect("build");
+            assert_eq!(
+                lod.level(k).unwrap().as_bytes(),
+                alone.as_bytes(),
+                "level {k}"
+            );
+            assert_eq!(stats[usize::from(k - 3)].voxels, st.voxels);
+        }
+    }
+}
+
+#[test]
+fn level_settings_are_checked() {
+    let mesh = sdfmo_mesh::procedural::demo_part();
+    for (depth, coarsest) in [(5, 6), (5, 0)] {
+        let r = build_lod(
+            &mesh,
+            &lod_settings(depth, coarsest, MULTI),
+            None,
+            None,
+            &|| false,
+        );
+        assert!(
+            matches!(r, Err(BuildError::InvalidLevels { .. })),
+            "{depth} {coarsest}"
+        );
+    }
+    // `build` makes one level: asked for several, it refuses rather than ignore the setting.
+    let r = build(&mesh, &lod_settings(5, 3, MULTI), None);
+    assert!(matches!(r, Err(BuildError::InvalidLevels { .. })));
+    // The leaf level alone is a file of one level.
+    let (one, _) = build_lod(&mesh, &lod_settings(5, 5, MULTI), None, None, &|| false).unwrap();
+    assert_eq!(one.levels().len(), 1);
+}
+
+/// Every level-boundary prefix of the file loads and renders the image of that level of the
+/// whole file; a cut inside a level renders the level before.
+#[test]
+fn prefixes_render_their_levels() {
+    let mesh = sdfmo_mesh::procedural::demo_part();
+    let (lod, _) = build_lod(&mesh, &lod_settings(6, 3, MULTI), None, None, &|| false).unwrap();
+    let bytes = lod.to_bytes();
+    let SmoFile::Levels(whole) = SmoFile::from_bytes(&bytes).unwrap() else {
+        panic!("read as 1.x")
+    };
+    assert_eq!(whole, lod);
+    let cam = Camera::paper_view(1, 96, 96);
+    let settings = RenderSettings::default();
+    let image = |o: &PackedOctree| render(&OctreeScene(o), &cam, &settings).unwrap().rgb;
+    for (i, e) in lod.entries().iter().enumerate() {
+        let p = LodOctree::from_prefix(&bytes[..e.end() as usize]).unwrap();
+        assert_eq!(p.octree.levels().len(), i + 1);
+        let loaded = p.octree.level(e.level).unwrap();
+        assert_eq!(
+            image(loaded),
+            image(lod.level(e.level).unwrap()),
+            "level {}",
+            e.level
+        );
+        if i > 0 {
+            let cut = LodOctree::from_prefix(&bytes[..(e.offset + e.size / 2) as usize]).unwrap();
+            assert_eq!(cut.octree.depth(), e.level - 1);
+        }
+    }
+}
+
+/// The screen-space choice: an error budget no voxel meets draws the finest level everywhere,
+/// one every voxel meets draws the coarsest, and a budget in between mixes levels by distance.
+#[test]
+fn pixel_error_picks_levels_by_distance() {
+    let mesh = sdfmo_mesh::procedural::demo_part();
+    let (lod, _) = build_lod(&mesh, &lod_settings(6, 3, MULTI), None, None, &|| false).unwrap();
+    let cam = Camera::paper_view(0, 96, 96);
+    let settings = RenderSettings::default();
+    let pa = pixel_angle(cam.fov_y_deg, cam.height);
+    let with = |pixels: f32| {
+        let scene = LodScene {
+            lod: &lod,
+            choice: LevelChoice::PixelError {
+                pixels,
+                pixel_angle: pa,
+            },
+        };
+        render(&scene, &cam, &settings).unwrap().rgb
+    };
+    let fixed = |k: u8| {
+        render(&OctreeScene(lod.level(k).unwrap()), &cam, &settings)
+            .unwrap()
+            .rgb
+    };
+    assert_eq!(with(1e-6), fixed(6));
+    assert_eq!(with(1e6), fixed(3));
+    let mid = with(2.0);
+    assert_ne!(mid, fixed(3));
+}

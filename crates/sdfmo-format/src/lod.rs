@@ -1,0 +1,740 @@
+//! Levels of detail: the version-2.0 `.smo` file, one complete 1.x octree per level, coarsest
+//! first, so that any prefix of the file that ends on a level boundary is itself a file of
+//! fewer levels (`FORMAT.md`, section "Levels of detail").
+//!
+//! A file without levels is a 1.x file, written and read by [`Octree`](crate::Octree) exactly
+//! as before; [`SmoFile`] reads either.
+
+use std::path::Path;
+
+use glam::Vec3;
+
+use crate::crc32::crc32;
+use crate::error::{FormatError, Result};
+use crate::file::MAGIC;
+use crate::octree::bytes_at;
+use crate::{
+    OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, FORMAT_VERSION_MAJOR, MAX_DEPTH,
+    MAX_FILE_SIZE,
+};
+
+/// Major version of a file with levels of detail (the 1.x layout is one octree; 2.0 is a
+/// header, a level table and one 1.x octree per level).
+pub const LOD_VERSION_MAJOR: u16 = 2;
+/// Minor version this crate writes for files with levels.
+pub const LOD_VERSION_MINOR: u16 = 0;
+/// Bytes of the fixed part of a 2.0 header (before the level table).
+pub const LOD_HEADER_FIXED: usize = 64;
+/// Bytes of one level-table entry (`offset` u64, `size` u64).
+pub const LOD_LEVEL_ENTRY: usize = 16;
+/// Bytes after the level table: the header's CRC-32 (u32) and 4 zero bytes.
+pub const LOD_HEADER_TRAILER: usize = 8;
+
+/// The smallest 1.x file: a 128-byte header and the checksum (an empty octree).
+const MIN_BLOCK: u64 = 132;
+
+#[inline]
+fn align8(x: u64) -> u64 {
+    x.div_ceil(8) * 8
+}
+
+/// Header bytes of a 2.0 file with `levels` levels (a multiple of 8).
+pub const fn lod_header_size(levels: usize) -> usize {
+    LOD_HEADER_FIXED + LOD_LEVEL_ENTRY * levels + LOD_HEADER_TRAILER
+}
+
+/// Where one level lies in a 2.0 file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LevelEntry {
+    /// The level: its leaves have edge `2 / 2^level`.
+    pub level: u8,
+    /// Byte offset of the level's 1.x octree (a multiple of 8).
+    pub offset: u64,
+    /// Bytes of the level's 1.x octree (its own header to its own CRC-32).
+    pub size: u64,
+}
+
+impl LevelEntry {
+    /// One past the level's last byte: a prefix of at least this many bytes holds the level.
+    pub fn end(&self) -> u64 {
+        self.offset + self.size
+    }
+}
+
+/// An octree with levels of detail: level `k` (coarsest ≤ k ≤ depth) is a complete octree of
+/// depth `k`, as a depth-`k` build would make it, all sharing one transform and quantisation.
+///
+/// Made by [`LodOctree::from_levels`] (from builds), or read by [`LodOctree::from_bytes`]
+/// (the whole file), [`LodOctree::from_prefix`] (the complete levels of a prefix) and
+/// [`LodOctree::load`]. Its file is [`LodOctree::to_bytes`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct LodOctree {
+    levels: Vec<PackedOctree>,
+}
+
+/// What [`LodOctree::from_prefix`] read: the complete levels, and what the file declares.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct LodPrefix {
+    /// The complete levels of the prefix (at least the coarsest).
+    pub octree: LodOctree,
+    /// Every level the whole file holds, with its place (from the header).
+    pub declared: Vec<LevelEntry>,
+    /// The whole file's size (from the header).
+    pub file_size: u64,
+}
+
+impl LodPrefix {
+    /// Whether every declared level was loaded.
+    pub fn is_complete(&self) -> bool {
+        self.octree.levels.len() == self.declared.len()
+    }
+}
+
+/// The description a 2.0 header gives (validated, CRC checked).
+struct LodHeader {
+    meta: OctreeMeta,
+    coarsest: u8,
+    entries: Vec<LevelEntry>,
+    file_size: u64,
+}
+
+fn corrupt<T>(field: &'static str, reason: impl Into<String>) -> Result<T> {
+    Err(FormatError::corrupt(field, reason))
+}
+
+fn u16_at(b: &[u8], at: usize) -> u16 {
+    u16::from_le_bytes(bytes_at::<2>(b, at))
+}
+fn u32_at(b: &[u8], at: usize) -> u32 {
+    u32::from_le_bytes(bytes_at::<4>(b, at))
+}
+fn u64_at(b: &[u8], at: usize) -> u64 {
+    u64::from_le_bytes(bytes_at::<8>(b, at))
+}
+fn f32_at(b: &[u8], at: usize) -> f32 {
+    f32::from_le_bytes(bytes_at::<4>(b, at))
+}
+
+/// Reads and checks a 2.0 header from the first bytes of `bytes` (which may be a prefix of
+/// the file: only the header must be complete). O(levels).
+fn read_header(bytes: &[u8]) -> Result<LodHeader> {
+    let len = bytes.len();
+    if len < MAGIC.len() {
+        return Err(FormatError::Truncated {
+            len,
+            needed: LOD_HEADER_FIXED as u64,
+        });
+    }
+    if bytes[..8] != MAGIC {
+        let mut found = [0u8; 8];
+        found.copy_from_slice(&bytes[..8]);
+        return Err(FormatError::BadMagic { found });
+    }
+    if len < 12 {
+        return Err(FormatError::Truncated {
+            len,
+            needed: LOD_HEADER_FIXED as u64,
+        });
+    }
+    let (major, minor) = (u16_at(bytes, 8), u16_at(bytes, 10));
+    if major != LOD_VERSION_MAJOR {
+        return Err(FormatError::UnsupportedVersion {
+            major,
+            minor,
+            supported: LOD_VERSION_MAJOR,
+        });
+    }
+    if len < LOD_HEADER_FIXED {
+        return Err(FormatError::Truncated {
+            len,
+            needed: LOD_HEADER_FIXED as u64,
+        });
+    }
+    let depth = bytes[20];
+    let coarsest = bytes[21];
+    let count = bytes[22];
+    if depth > MAX_DEPTH {
+        return Err(FormatError::InvalidDepth {
+            depth,
+            max: MAX_DEPTH,
+        });
+    }
+    if coarsest > depth || u16::from(count) != u16::from(depth - coarsest) + 1 {
+        return corrupt(
+            "levels",
+            format!(
+                "coarsest {coarsest}, depth {depth}, {count} levels (must be depth − coarsest + 1)"
+            ),
+        );
+    }
+    let header_size = u64::from(u32_at(bytes, 12));
+    let expected = lod_header_size(count as usize) as u64;
+    if header_size != expected {
+        return corrupt(
+            "header_size",
+            format!("{header_size} (a 2.0 header with {count} levels has {expected} bytes)"),
+        );
+    }
+    if (len as u64) < header_size {
+        return Err(FormatError::Truncated {
+            len,
+            needed: header_size,
+        });
+    }
+    let hs = header_size as usize;
+    let crc_at = hs - LOD_HEADER_TRAILER;
+    let stored = u32_at(bytes, crc_at);
+    let computed = crc32(&bytes[..crc_at]);
+    if stored != computed {
+        return Err(FormatError::ChecksumMismatch { stored, computed });
+    }
+    if u32_at(bytes, crc_at + 4) != 0 {
+        return corrupt("header padding", "non-zero byte after the header's CRC-32");
+    }
+    let flags = u32_at(bytes, 16);
+    if flags != 0 {
+        return corrupt(
+            "flags",
+            format!("{flags:#x} (a 2.0 header defines no flag)"),
+        );
+    }
+    let Some(bits) = ValueBits::from_bits(bytes[23]) else {
+        return corrupt("value_bits", format!("{} (must be 8 or 16)", bytes[23]));
+    };
+    let meta = OctreeMeta {
+        depth,
+        bits,
+        center: Vec3::new(f32_at(bytes, 24), f32_at(bytes, 28), f32_at(bytes, 32)),
+        scale: f32_at(bytes, 36),
+    };
+    meta.validate()?;
+    if bytes[48..LOD_HEADER_FIXED].iter().any(|&b| b != 0) {
+        return corrupt("reserved", "bytes 48..64 must be 0");
+    }
+    let file_size = u64_at(bytes, 40);
+    if file_size > MAX_FILE_SIZE {
+        return corrupt(
+            "file_size",
+            format!("{file_size} (above the limit {MAX_FILE_SIZE})"),
+        );
+    }
+    let mut entries = Vec::with_capacity(count as usize);
+    let mut next = header_size;
+    for i in 0..count as usize {
+        let at = LOD_HEADER_FIXED + i * LOD_LEVEL_ENTRY;
+        let (offset, size) = (u64_at(bytes, at), u64_at(bytes, at + 8));
+        if offset != next {
+            return corrupt(
+                "level table",
+                format!(
+                    "level {} at offset {offset} (must be {next})",
+                    coarsest as usize + i
+                ),
+            );
+        }
+        if !(MIN_BLOCK..=MAX_FILE_SIZE).contains(&size) {
+            return corrupt(
+                "level table",
+                format!("level {} of {size} bytes", coarsest as usize + i),
+            );
+        }
+        let entry = LevelEntry {
+            level: coarsest + i as u8,
+            offset,
+            size,
+        };
+        // Both ≤ 2^34: no overflow.
+        next = align8(entry.end());
+        entries.push(entry);
+    }
+    let end = entries.last().map_or(header_size, LevelEntry::end);
+    if file_size != end {
+        return corrupt(
+            "file_size",
+            format!("{file_size} (the level table ends at {end})"),
+        );
+    }
+    Ok(LodHeader {
+        meta,
+        coarsest,
+        entries,
+        file_size,
+    })
+}
+
+/// Validates the level at `entry` (complete in `bytes`) and checks it against the header.
+fn read_level(bytes: &[u8], entry: &LevelEntry, meta: &OctreeMeta) -> Result<PackedOctree> {
+    let (from, to) = (entry.offset as usize, entry.end() as usize);
+    let view = PackedOctreeView::new(&bytes[from..to]).map_err(|e| FormatError::Corrupt {
+        field: "level",
+        reason: format!("level {}: {e}", entry.level),
+    })?;
+    let m = view.meta();
+    let same = m.depth == entry.level
+        && m.bits == meta.bits
+        && m.center.to_array().map(f32::to_bits) == meta.center.to_array().map(f32::to_bits)
+        && m.scale.to_bits() == meta.scale.to_bits();
+    if !same {
+        return corrupt(
+            "level",
+            format!(
+                "level {}'s octree has depth {}, {} bits, center {:?}, scale {} (the header: \
+                 {} bits, center {:?}, scale {})",
+                entry.level,
+                m.depth,
+                m.bits.bits(),
+                m.center.to_array(),
+                m.scale,
+                meta.bits.bits(),
+                meta.center.to_array(),
+                meta.scale
+            ),
+        );
+    }
+    Ok(view.to_octree())
+}
+
+/// The zero padding between the end of level `entry` and the next level (or nothing after the
+/// last), as far as `bytes` reaches.
+fn check_gap(bytes: &[u8], entry: &LevelEntry, next: Option<&LevelEntry>) -> Result<()> {
+    if let Some(n) = next {
+        let to = (n.offset as usize).min(bytes.len());
+        if bytes[entry.end() as usize..to].iter().any(|&b| b != 0) {
+            return corrupt(
+                "padding",
+                format!("non-zero byte after level {}", entry.level),
+            );
+        }
+    }
+    Ok(())
+}
+
+impl LodOctree {
+    /// The levels of one file, coarsest first: `levels[i]` must have depth `levels[0]`'s + `i`,
+    /// and all the same value bits, centre and scale (bit for bit). Errors when empty, or when
+    /// a level breaks that rule.
+    pub fn from_levels(levels: Vec<PackedOctree>) -> Result<LodOctree> {
+        let Some(first) = levels.first() else {
+            return corrupt("levels", "a file with levels needs at least one");
+        };
+        let m0 = *first.meta();
+        for (i, l) in levels.iter().enumerate() {
+            let m = l.meta();
+            let depth_ok = usize::from(m.depth) == usize::from(m0.depth) + i;
+            let frame_ok = m.bits == m0.bits
+                && m.center.to_array().map(f32::to_bits) == m0.center.to_array().map(f32::to_bits)
+                && m.scale.to_bits() == m0.scale.to_bits();
+            if !depth_ok || !frame_ok {
+                return corrupt(
+                    "levels",
+                    format!(
+                        "level {i} has depth {}, {} bits, center {:?}, scale {} (expected \
+                         depth {}, {} bits, center {:?}, scale {})",
+                        m.depth,
+                        m.bits.bits(),
+                        m.center.to_array(),
+                        m.scale,
+                        usize::from(m0.depth) + i,
+                        m0.bits.bits(),
+                        m0.center.to_array(),
+                        m0.scale
+                    ),
+                );
+            }
+        }
+        // Canonical bytes, so that the file is a function of the octrees.
+        let levels = levels.into_iter().map(|l| l.into_canonical()).collect();
+        Ok(LodOctree { levels })
+    }
+
+    /// The coarsest level.
+    pub fn coarsest(&self) -> u8 {
+        self.levels[0].depth()
+    }
+
+    /// The finest level (the leaf depth).
+    pub fn depth(&self) -> u8 {
+        self.coarsest() + (self.levels.len() - 1) as u8
+    }
+
+    /// Transform and quantisation, with `depth` the finest level.
+    pub fn meta(&self) -> OctreeMeta {
+        OctreeMeta {
+            depth: self.depth(),
+            ..*self.levels[0].meta()
+        }
+    }
+
+    /// The levels, coarsest first.
+    pub fn levels(&self) -> &[PackedOctree] {
+        &self.levels
+    }
+
+    /// The octree of level `level` (its leaves at that depth), if the file has it.
+    pub fn level(&self, level: u8) -> Option<&PackedOctree> {
+        let i = level.checked_sub(self.coarsest())?;
+        self.levels.get(i as usize)
+    }
+
+    /// The finest level's octree.
+    pub fn finest(&self) -> &PackedOctree {
+        &self.levels[self.levels.len() - 1]
+    }
+
+    /// Where each level lies in [`LodOctree::to_bytes`].
+    pub fn entries(&self) -> Vec<LevelEntry> {
+        let mut offset = lod_header_size(self.levels.len()) as u64;
+        self.levels
+            .iter()
+            .map(|l| {
+                let e = LevelEntry {
+                    level: l.depth(),
+                    offset,
+                    size: l.byte_size() as u64,
+                };
+                offset = align8(e.end());
+                e
+            })
+            .collect()
+    }
+
+    /// Bytes of the file [`LodOctree::to_bytes`] writes.
+    pub fn byte_size(&self) -> u64 {
+        self.entries().last().map_or(0, LevelEntry::end)
+    }
+
+    /// The version-2.0 file (`FORMAT.md`, "Levels of detail"): the header with the level table
+    /// and its CRC-32, then each level's 1.x octree, coarsest first, each at a multiple of 8.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let entries = self.entries();
+        let size = self.byte_size() as usize;
+        let mut out = vec![0u8; size];
+        let meta = self.meta();
+        out[..8].copy_from_slice(&MAGIC);
+        out[8..10].copy_from_slice(&LOD_VERSION_MAJOR.to_le_bytes());
+        out[10..12].copy_from_slice(&LOD_VERSION_MINOR.to_le_bytes());
+        let hs = lod_header_size(entries.len());
+        out[12..16].copy_from_slice(&(hs as u32).to_le_bytes());
+        // 16..20: flags, 0.
+        out[20] = meta.depth;
+        out[21] = self.coarsest();
+        out[22] = entries.len() as u8;
+        out[23] = meta.bits.bits();
+        for (k, v) in [meta.center.x, meta.center.y, meta.center.z, meta.scale]
+            .iter()
+            .enumerate()
+        {
+            out[24 + 4 * k..28 + 4 * k].copy_from_slice(&v.to_le_bytes());
+        }
+        out[40..48].copy_from_slice(&(size as u64).to_le_bytes());
+        for (i, e) in entries.iter().enumerate() {
+            let at = LOD_HEADER_FIXED + i * LOD_LEVEL_ENTRY;
+            out[at..at + 8].copy_from_slice(&e.offset.to_le_bytes());
+            out[at + 8..at + 16].copy_from_slice(&e.size.to_le_bytes());
+        }
+        let crc_at = hs - LOD_HEADER_TRAILER;
+        let crc = crc32(&out[..crc_at]);
+        out[crc_at..crc_at + 4].copy_from_slice(&crc.to_le_bytes());
+        for (e, l) in entries.iter().zip(&self.levels) {
+            out[e.offset as usize..e.end() as usize].copy_from_slice(l.as_bytes());
+        }
+        out
+    }
+
+    /// Reads a whole version-2.0 file: the header (its CRC-32, fields, level table), then every
+    /// level as a 1.x octree ([`Octree::new`](crate::Octree::new)'s checks) with the header's
+    /// depth, bits and transform, and zero padding between levels. A file shorter or longer
+    /// than its `file_size` is refused. O(bytes.len()) time and memory.
+    pub fn from_bytes(bytes: &[u8]) -> Result<LodOctree> {
+        let header = read_header(bytes)?;
+        let len = bytes.len() as u64;
+        if len < header.file_size {
+            return Err(FormatError::Truncated {
+                len: bytes.len(),
+                needed: header.file_size,
+            });
+        }
+        if len > header.file_size {
+            return corrupt(
+                "file_size",
+                format!(
+                    "{} (the data has {len} bytes: trailing bytes)",
+                    header.file_size
+                ),
+            );
+        }
+        Ok(LodOctree::from_prefix(bytes)?.octree)
+    }
+
+    /// Reads the complete levels of a prefix of a version-2.0 file (a download in progress, a
+    /// read of the first N bytes): the header must be complete; every level that ends within
+    /// the prefix is validated and loaded, coarsest first; a level cut by the end of the prefix
+    /// and those after it are left out. Errors: no complete level (a
+    /// [`FormatError::Truncated`] that names the bytes the coarsest level needs), a corrupt
+    /// header or complete level, non-zero padding, or more bytes than the file declares.
+    pub fn from_prefix(bytes: &[u8]) -> Result<LodPrefix> {
+        let header = read_header(bytes)?;
+        let len = bytes.len() as u64;
+        if len > header.file_size {
+            return corrupt(
+                "file_size",
+                format!(
+                    "{} (the data has {len} bytes: trailing bytes)",
+                    header.file_size
+                ),
+            );
+        }
+        let mut levels = Vec::new();
+        for (i, e) in header.entries.iter().enumerate() {
+            if e.end() > len {
+                break;
+            }
+            levels.push(read_level(bytes, e, &header.meta)?);
+            check_gap(bytes, e, header.entries.get(i + 1))?;
+        }
+        if levels.is_empty() {
+            return Err(FormatError::Truncated {
+                len: bytes.len(),
+                needed: header.entries[0].end(),
+            });
+        }
+        debug_assert_eq!(levels[0].depth(), header.coarsest);
+        Ok(LodPrefix {
+            octree: LodOctree { levels },
+            declared: header.entries,
+            file_size: header.file_size,
+        })
+    }
+
+    /// Reads and validates a whole version-2.0 file of at most [`MAX_FILE_SIZE`] bytes.
+    pub fn load(path: &Path) -> Result<LodOctree> {
+        LodOctree::from_bytes(&sdfmo_io::read_regular(path, MAX_FILE_SIZE)?)
+    }
+
+    /// Writes [`LodOctree::to_bytes`] atomically ([`sdfmo_io::write_atomic`]).
+    pub fn save(&self, path: &Path) -> Result<()> {
+        Ok(sdfmo_io::write_atomic(path, self.to_bytes())?)
+    }
+}
+
+/// A `.smo` file of either kind: one octree (version 1.x) or levels of detail (2.0).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum SmoFile {
+    /// A 1.x file: one octree, leaves at one depth.
+    Octree(PackedOctree),
+    /// A 2.0 file: one octree per level.
+    Levels(LodOctree),
+}
+
+impl SmoFile {
+    /// Reads either kind from bytes, by the major version (bytes 8..10): 1 → [`PackedOctree::from_bytes`],
+    /// 2 → [`LodOctree::from_bytes`]; anything else is the 1.x reader's error.
+    pub fn from_bytes(bytes: &[u8]) -> Result<SmoFile> {
+        if SmoFile::has_levels(bytes) {
+            return Ok(SmoFile::Levels(LodOctree::from_bytes(bytes)?));
+        }
+        debug_assert_eq!(FORMAT_VERSION_MAJOR, 1);
+        Ok(SmoFile::Octree(PackedOctree::from_bytes(bytes)?))
+    }
+
+    /// Reads and validates a `.smo` file of either kind of at most [`MAX_FILE_SIZE`] bytes.
+    pub fn load(path: &Path) -> Result<SmoFile> {
+        SmoFile::load_with_limit(path, MAX_FILE_SIZE)
+    }
+
+    /// [`SmoFile::load`] with an explicit size limit in bytes, checked before reading.
+    pub fn load_with_limit(path: &Path, max_bytes: u64) -> Result<SmoFile> {
+        SmoFile::from_bytes(&sdfmo_io::read_regular(path, max_bytes)?)
+    }
+
+    /// Whether `bytes` start like a version-2.0 file (magic and major version 2).
+    pub fn has_levels(bytes: &[u8]) -> bool {
+        bytes.len() >= 10 && bytes[..8] == MAGIC && u16_at(bytes, 8) == LOD_VERSION_MAJOR
+    }
+
+    /// The octree to draw at `level`, or the finest one with `None`: a 1.x file has the one
+    /// level `depth`. `None` when the file has no such level.
+    pub fn level(&self, level: Option<u8>) -> Option<&PackedOctree> {
+        match (self, level) {
+            (SmoFile::Octree(o), None) => Some(o),
+            (SmoFile::Octree(o), Some(l)) => (l == o.depth()).then_some(o),
+            (SmoFile::Levels(l), None) => Some(l.finest()),
+            (SmoFile::Levels(l), Some(k)) => l.level(k),
+        }
+    }
+
+    /// [`SmoFile::level`], by value (no copy).
+    pub fn into_level(self, level: Option<u8>) -> Option<PackedOctree> {
+        match self {
+            SmoFile::Octree(o) => (level.is_none() || level == Some(o.depth())).then_some(o),
+            SmoFile::Levels(l) => {
+                let k = level.unwrap_or(l.depth());
+                let i = k.checked_sub(l.coarsest())?;
+                l.levels.into_iter().nth(usize::from(i))
+            }
+        }
+    }
+
+    /// The levels the file holds: `(coarsest, finest)`.
+    pub fn level_range(&self) -> (u8, u8) {
+        match self {
+            SmoFile::Octree(o) => (o.depth(), o.depth()),
+            SmoFile::Levels(l) => (l.coarsest(), l.depth()),
+        }
+    }
+
+    /// The finest octree.
+    pub fn finest(&self) -> &PackedOctree {
+        match self {
+            SmoFile::Octree(o) => o,
+            SmoFile::Levels(l) => l.finest(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{cell_corners, LeafInput, Voxel};
+
+    /// A sphere of radius 0.6 at `depth`, as the leaf cells it passes through.
+    fn sphere(depth: u8) -> PackedOctree {
+        let n = 1u32 << depth;
+        let mut leaves = Vec::new();
+        for x in 0..n {
+            for y in 0..n {
+                for z in 0..n {
+                    let corners = cell_corners(depth, [x, y, z], |p| p.length() - 0.6);
+                    let lo = corners.iter().cloned().fold(f32::INFINITY, f32::min);
+                    let hi = corners.iter().cloned().fold(f32::NEG_INFINITY, f32::max);
+                    if lo <= 0.0 && hi >= 0.0 {
+                        leaves.push(LeafInput {
+                            coord: [x, y, z],
+                            voxels: vec![Voxel {
+                                corners,
+                                surface: (x + y) % 5 == 0,
+                                clip: false,
+                            }],
+                        });
+                    }
+                }
+            }
+        }
+        let meta = OctreeMeta {
+            depth,
+            bits: ValueBits::Eight,
+            center: Vec3::new(0.5, -1.0, 2.0),
+            scale: 0.25,
+        };
+        PackedOctree::from_leaves(meta, leaves).unwrap()
+    }
+
+    fn lod() -> LodOctree {
+        LodOctree::from_levels((1..=4).map(sphere).collect()).unwrap()
+    }
+
+    #[test]
+    fn round_trip_is_identical() {
+        let l = lod();
+        let bytes = l.to_bytes();
+        assert_eq!(bytes.len() as u64, l.byte_size());
+        let back = LodOctree::from_bytes(&bytes).unwrap();
+        assert_eq!(back, l);
+        assert_eq!(back.to_bytes(), bytes);
+        assert_eq!((back.coarsest(), back.depth()), (1, 4));
+        for k in 1..=4 {
+            assert_eq!(back.level(k).unwrap(), &sphere(k));
+        }
+        assert!(back.level(0).is_none() && back.level(5).is_none());
+        match SmoFile::from_bytes(&bytes).unwrap() {
+            SmoFile::Levels(x) => assert_eq!(x, l),
+            SmoFile::Octree(_) => panic!("read as 1.x"),
+        }
+    }
+
+    #[test]
+    fn one_x_files_stay_one_x() {
+        let o = sphere(4);
+        match SmoFile::from_bytes(o.as_bytes()).unwrap() {
+            SmoFile::Octree(x) => assert_eq!(x.as_bytes(), o.as_bytes()),
+            SmoFile::Levels(_) => panic!("read as levels"),
+        }
+        // Neither reader takes the other's files.
+        assert!(matches!(
+            LodOctree::from_bytes(o.as_bytes()),
+            Err(FormatError::UnsupportedVersion { major: 1, .. })
+        ));
+        assert!(matches!(
+            PackedOctree::from_bytes(&lod().to_bytes()),
+            Err(FormatError::UnsupportedVersion { major: 2, .. })
+        ));
+    }
+
+    /// Every level boundary loads exactly the levels before it; every cut inside a level loads
+    /// the levels before that one (or, inside the coarsest or the header, is refused).
+    #[test]
+    fn prefixes_load_the_complete_levels() {
+        let l = lod();
+        let bytes = l.to_bytes();
+        let entries = l.entries();
+        for cut in 0..=bytes.len() {
+            let complete = entries.iter().filter(|e| e.end() <= cut as u64).count();
+            match LodOctree::from_prefix(&bytes[..cut]) {
+                Ok(p) => {
+                    assert_eq!(p.octree.levels().len(), complete, "cut {cut}");
+                    assert_eq!(p.declared, entries);
+                    assert_eq!(p.is_complete(), complete == entries.len());
+                    assert_eq!(p.octree.levels(), &l.levels()[..complete]);
+                }
+                Err(e) => {
+                    assert_eq!(complete, 0, "cut {cut}: {e}");
+                    assert!(matches!(e, FormatError::Truncated { .. }), "cut {cut}: {e}");
+                }
+            }
+            if cut < bytes.len() {
+                assert!(LodOctree::from_bytes(&bytes[..cut]).is_err());
+            }
+        }
+        // A level-boundary prefix is itself a valid file's levels: re-written, it is the file
+        // of those levels.
+        let e = entries[1];
+        let p = LodOctree::from_prefix(&bytes[..e.end() as usize]).unwrap();
+        let two = LodOctree::from_levels(l.levels()[..2].to_vec()).unwrap();
+        assert_eq!(p.octree.to_bytes(), two.to_bytes());
+    }
+
+    #[test]
+    fn corrupt_bytes_are_refused() {
+        let bytes = lod().to_bytes();
+        // Any single flipped byte is an error (header CRC, a level's CRC, padding), never a panic.
+        for at in 0..bytes.len() {
+            let mut b = bytes.clone();
+            b[at] ^= 0x20;
+            assert!(LodOctree::from_bytes(&b).is_err(), "byte {at}");
+            let _ = LodOctree::from_prefix(&b);
+        }
+        let mut longer = bytes.clone();
+        longer.push(0);
+        assert!(LodOctree::from_bytes(&longer).is_err());
+    }
+
+    #[test]
+    fn levels_must_be_consecutive_and_share_a_frame() {
+        assert!(LodOctree::from_levels(vec![]).is_err());
+        assert!(LodOctree::from_levels(vec![sphere(2), sphere(4)]).is_err());
+        let mut other = sphere(3).meta().to_owned();
+        other.scale = 0.5;
+        let moved = PackedOctree::from_leaves(
+            other,
+            sphere(3)
+                .leaves()
+                .map(|(c, v)| LeafInput {
+                    coord: c,
+                    voxels: v,
+                })
+                .collect(),
+        )
+        .unwrap();
+        assert!(LodOctree::from_levels(vec![sphere(2), moved]).is_err());
+    }
+}

@@ -1,0 +1,201 @@
+//! Levels of detail (`.smo` 2.0, [`LodOctree`]): tracing a file at one level, or at the level
+//! each ray needs by screen-space error.
+//!
+//! Level `k` of a file with levels is a complete octree of depth `k` ([`LodOctree::level`]):
+//! every query of this crate takes it as it is — [`intersect`], [`intersect_packet`](crate::intersect_packet),
+//! [`distance_at`](crate::distance_at), [`hit_normal`](crate::hit_normal) — so a traversal
+//! "stopped at level `k`" is the traversal of that octree. What is new here is the per-ray
+//! choice: [`intersect_lod`] with [`LevelChoice::PixelError`] lets each ray stop at the
+//! coarsest level whose voxels project below a number of pixels at the hit distance.
+
+use glam::Vec3;
+use sdfmo_format::{cell_size, LodOctree, PackedOctree};
+
+use crate::ray_voxel::unit_cube_span;
+use crate::traversal::{intersect, Hit, Ray};
+
+/// Which level a ray is traced at.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LevelChoice {
+    /// This level (clamped to the file's levels).
+    Level(u8),
+    /// The coarsest level whose voxel edge `2 / 2^k` projects to at most `pixels` pixels at the
+    /// hit distance `t`: `2 / 2^k ≤ pixels · t · pixel_angle`, with `pixel_angle` the angle one
+    /// pixel subtends (a pinhole camera of vertical field of view `fov` and `height` pixels:
+    /// `2 · tan(fov / 2) / height`, [`pixel_angle`]). The ray's direction must be unit length,
+    /// so that `t` is a distance.
+    PixelError {
+        /// The largest projected voxel edge allowed, in pixels (> 0).
+        pixels: f32,
+        /// Radians per pixel (> 0).
+        pixel_angle: f32,
+    },
+}
+
+/// Radians one pixel subtends at the centre of a pinhole camera of vertical field of view
+/// `fov_degrees` and `height` pixels: `2 · tan(fov / 2) / height`.
+pub fn pixel_angle(fov_degrees: f32, height: u32) -> f32 {
+    2.0 * (0.5 * fov_degrees.to_radians()).tan() / height as f32
+}
+
+/// The coarsest level in `coarsest..=finest` whose voxel edge `2 / 2^k` projects to at most
+/// `pixels` pixels at distance `t` (`finest` when none does; `coarsest` at `t = ∞`).
+pub fn level_for_distance(t: f32, pixels: f32, pixel_angle: f32, coarsest: u8, finest: u8) -> u8 {
+    let budget = pixels * t * pixel_angle;
+    (coarsest..=finest)
+        .find(|&k| cell_size(k) <= budget)
+        .unwrap_or(finest)
+}
+
+/// A hit of [`intersect_lod`]: the hit in the level's octree, and the level.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LodHit {
+    /// The hit, in the octree of `level` ([`LodOctree::level`]): its voxel indices refer to it.
+    pub hit: Hit,
+    /// The level it was found at.
+    pub level: u8,
+}
+
+impl LodHit {
+    /// The octree the hit belongs to (for [`hit_normal`](crate::hit_normal)).
+    pub fn octree<'a>(&self, lod: &'a LodOctree) -> &'a PackedOctree {
+        lod.level(self.level).unwrap_or(lod.finest())
+    }
+}
+
+/// The first hit of `ray` in `[t_min, t_max]` at the level `choice` selects.
+///
+/// With [`LevelChoice::PixelError`], let `[t_in, t_out]` be the ray's span in the root cube
+/// (within `[t_min, t_max]`): every hit lies there, so the levels a hit can need lie between
+/// `k_far = level_for_distance(t_out)` and `k_near = level_for_distance(t_in)`. The ray is
+/// traced at `k_far`; where it hits at a distance that needs a finer level it is traced again
+/// at that level, and so on (the level only grows: at most one trace per level, in practice one
+/// or two). Where it misses at a level below `k_near` it is traced once more at `k_near` (a thin
+/// part a coarse level lost may be there; any hit at `k_near` is fine enough). So the hit
+/// returned is at a level at least as fine as its own distance needs, and a ray misses only
+/// where a level fine enough for every point of its span misses.
+pub fn intersect_lod(
+    lod: &LodOctree,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    choice: LevelChoice,
+) -> Option<LodHit> {
+    let (coarsest, finest) = (lod.coarsest(), lod.depth());
+    match choice {
+        LevelChoice::Level(k) => {
+            let level = k.clamp(coarsest, finest);
+            let octree = lod.level(level)?;
+            intersect(octree, ray, t_min, t_max).map(|hit| LodHit { hit, level })
+        }
+        LevelChoice::PixelError {
+            pixels,
+            pixel_angle,
+        } => {
+            // The root cube [-1, 1]³ is the unit cube at (p + 1) / 2, with the same t.
+            let (t_in, t_out) = unit_cube_span((ray.origin + Vec3::ONE) * 0.5, ray.dir * 0.5)?;
+            let (t_in, t_out) = (t_in.max(t_min), t_out.min(t_max));
+            if t_in > t_out {
+                return None;
+            }
+            let level_at = |t: f32| level_for_distance(t, pixels, pixel_angle, coarsest, finest);
+            let near = level_at(t_in);
+            let mut level = level_at(t_out);
+            loop {
+                let Some(hit) = intersect(lod.level(level)?, ray, t_min, t_max) else {
+                    if level >= near {
+                        return None;
+                    }
+                    level = near;
+                    continue;
+                };
+                let need = level_at(hit.t);
+                if need <= level {
+                    return Some(LodHit { hit, level });
+                }
+                level = need;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sdfmo_format::{cell_corners, LeafInput, OctreeMeta, ValueBits, Voxel};
+
+    fn sphere(depth: u8) -> PackedOctree {
+        let n = 1u32 << depth;
+        let mut leaves = Vec::new();
+        for x in 0..n {
+            for y in 0..n {
+                for z in 0..n {
+                    let corners = cell_corners(depth, [x, y, z], |p| p.length() - 0.6);
+                    let lo = corners.iter().cloned().fold(f32::INFINITY, f32::min);
+                    let hi = corners.iter().cloned().fold(f32::NEG_INFINITY, f32::max);
+                    if lo <= 0.0 && hi >= 0.0 {
+                        leaves.push(LeafInput {
+                            coord: [x, y, z],
+                            voxels: vec![Voxel {
+                                corners,
+                                surface: false,
+                                clip: false,
+                            }],
+                        });
+                    }
+                }
+            }
+        }
+        PackedOctree::from_leaves(OctreeMeta::unit(depth, ValueBits::Eight), leaves).unwrap()
+    }
+
+    #[test]
+    fn level_for_distance_is_the_coarsest_below_the_budget() {
+        let pa = pixel_angle(60.0, 1024);
+        // At t = 3, one pixel is 3·pa ≈ 0.00338: level 10's edge 0.00195 fits, level 9's
+        // 0.0039 does not.
+        assert_eq!(level_for_distance(3.0, 1.0, pa, 2, 12), 10);
+        // Four times farther: two levels coarser.
+        assert_eq!(level_for_distance(12.0, 1.0, pa, 2, 12), 8);
+        assert_eq!(level_for_distance(3.0, 1.0, pa, 2, 9), 9);
+        assert_eq!(level_for_distance(f32::INFINITY, 1.0, pa, 2, 9), 2);
+        assert_eq!(level_for_distance(1e6, 1.0, pa, 4, 9), 4);
+    }
+
+    /// A fixed level is that level's octree; the pixel-error choice ends at the level its hit
+    /// distance needs and agrees with a trace of that level.
+    #[test]
+    fn choices_trace_the_right_level() {
+        let lod = LodOctree::from_levels((2..=6).map(sphere).collect()).unwrap();
+        for &dist in &[1.2f32, 3.0, 20.0, 200.0] {
+            // Aimed at a point inside the sphere, off its centre.
+            let origin = Vec3::new(0.0, 0.0, dist);
+            let ray = Ray {
+                origin,
+                dir: (Vec3::new(0.1, 0.05, 0.3) - origin).normalize(),
+            };
+            for k in 2..=6 {
+                let h = intersect_lod(&lod, &ray, 0.0, f32::INFINITY, LevelChoice::Level(k));
+                let direct = intersect(lod.level(k).unwrap(), &ray, 0.0, f32::INFINITY);
+                assert_eq!(h.map(|h| h.hit), direct);
+                assert_eq!(h.map(|h| h.level), direct.map(|_| k));
+            }
+            let (pixels, pa) = (1.0, pixel_angle(60.0, 256));
+            let choice = LevelChoice::PixelError {
+                pixels,
+                pixel_angle: pa,
+            };
+            let h = intersect_lod(&lod, &ray, 0.0, f32::INFINITY, choice).expect("hits the sphere");
+            assert!(level_for_distance(h.hit.t, pixels, pa, 2, 6) <= h.level);
+            let direct = intersect(lod.level(h.level).unwrap(), &ray, 0.0, f32::INFINITY);
+            assert_eq!(Some(h.hit), direct);
+            // Far away the coarsest level does; near, the finest is needed.
+            if dist >= 200.0 {
+                assert_eq!(h.level, 2);
+            }
+            if dist <= 1.2 {
+                assert_eq!(h.level, 6);
+            }
+        }
+    }
+}
