@@ -111,6 +111,9 @@ struct Axis<'a> {
     log: bool,
     /// Integer values (depths): padded by half a step, labelled at integers only.
     integer: bool,
+    /// How many labels (and bold grid lines) plotters may place: on an integer axis as many as
+    /// integers, so that every grid line is labelled (ten put unlabelled lines at half depths).
+    labels: usize,
 }
 
 impl Axis<'static> {
@@ -120,6 +123,7 @@ impl Axis<'static> {
             label,
             log: false,
             integer: false,
+            labels: 10,
         }
     }
 
@@ -163,6 +167,7 @@ const PLOTS: [(&str, &str, Axis<'static>, Axis<'static>, Extract); 4] = [
             label: "depth",
             log: false,
             integer: true,
+            labels: 10,
         },
         Axis::log("build time (ms)"),
         |r| r.build_ms.map(|ms| (f64::from(r.depth), ms)),
@@ -323,6 +328,21 @@ fn plot(title: &str, x: &Axis, y: &Axis, series: &[Series]) -> anyhow::Result<im
     };
     let xr = range(xs(), x.log, x.integer);
     let yr = range(ys(), y.log, y.integer);
+    let integer_labels = |a: &Axis, r: &std::ops::Range<f64>| {
+        if a.integer {
+            (r.end - r.start).round().max(1.0) as usize
+        } else {
+            a.labels
+        }
+    };
+    let x = &Axis {
+        labels: integer_labels(x, &xr),
+        ..*x
+    };
+    let y = &Axis {
+        labels: integer_labels(y, &yr),
+        ..*y
+    };
     let mut buf = vec![0u8; (WIDTH * HEIGHT * 3) as usize];
     let (kx, ky) = (log_ticks(&xr), log_ticks(&yr));
     match (x.log, y.log) {
@@ -389,8 +409,8 @@ where
     let mut mesh = chart.configure_mesh();
     mesh.x_desc(x.label)
         .y_desc(y.label)
-        .x_labels(10)
-        .y_labels(10)
+        .x_labels(x.labels)
+        .y_labels(y.labels)
         .x_label_formatter(&x_fmt)
         .y_label_formatter(&y_fmt)
         .light_line_style(RGBColor(235, 235, 235))

@@ -255,8 +255,17 @@ mod tests {
         assert!(matches!(missing, ExtraRowsError::Read(_)), "{missing}");
         assert!(matches!(err("{"), ExtraRowsError::Schema { .. }));
         // A missing required field, an unknown one (a typo), a wrong type.
-        let e = err(r#"[{"model": "a", "method": "m", "depth": 7, "flip": 0.1, "bytes": 1}]"#);
-        assert!(e.to_string().contains("render_ms"), "{e}");
+        let e = err(
+            r#"[{"model": "a", "method": "m", "depth": 7, "psnr": null, "flip": 0.1,
+            "bytes": 1}]"#,
+        );
+        assert!(e.to_string().contains("missing field `render_ms`"), "{e}");
+        // `psnr` may be null (identical images) but not missing.
+        let e = err(
+            r#"[{"model": "a", "method": "m", "depth": 7, "flip": 0.1, "bytes": 1,
+            "render_ms": 1.0}]"#,
+        );
+        assert!(e.to_string().contains("missing field `psnr`"), "{e}");
         let e = err(&NGLOD.replace("\"lod\"", "\"lods\""));
         assert!(e.to_string().contains("lods"), "{e}");
         let e = err(&NGLOD.replace("\"depth\": 7", "\"depth\": \"7\""));

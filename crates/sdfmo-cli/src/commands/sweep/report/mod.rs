@@ -157,7 +157,7 @@ mod tests {
         .collect();
         assert!(keys.windows(2).all(|w| w[0] < w[1]), "{text}");
         let row = &text[text.find("\"rows\"").unwrap()..];
-        assert!(row.find("\"bytes\"").unwrap() < row.find("\"build_ms\"").unwrap());
+        assert!(row.find("\"build_ms\"").unwrap() < row.find("\"bytes\"").unwrap());
         assert!(
             !text.contains("extra_rows") && !text.contains("\"lod\""),
             "{text}"
