@@ -333,6 +333,14 @@ pub struct SweepArgs {
     /// Worker threads for builds and renders (default: all cores).
     #[arg(long, value_name = "N", value_parser = parse_threads)]
     pub threads: Option<usize>,
+    /// Renders of each view per configuration; the render time is their median, 1..=100.
+    #[arg(long, value_name = "N", default_value_t = 5, value_parser = clap::value_parser!(u16).range(1..=100))]
+    pub frames: u16,
+    /// Rows from another producer (a results.json, or a JSON array of rows in its row schema;
+    /// docs/cli.md), merged into the tables, plots and page; repeatable. Checked before any
+    /// work: a bad file or a row repeating one of this sweep's configurations is an error.
+    #[arg(long = "extra-rows", value_name = "FILE")]
+    pub extra_rows: Vec<PathBuf>,
     /// Output directory (created if missing).
     #[arg(short, long, value_name = "DIR", default_value = "sweep")]
     pub output: PathBuf,

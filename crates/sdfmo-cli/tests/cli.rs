@@ -430,6 +430,84 @@ fn a_tiny_sweep_writes_every_output() {
     assert!(leftovers.is_empty(), "{leftovers:?}");
 }
 
+#[test]
+fn extra_rows_join_the_sweep_and_bad_files_fail_in_one_line() {
+    let dir = tmp("extra-rows");
+    let good = dir.join("nglod.json");
+    std::fs::write(
+        &good,
+        r#"[{"model": "demo", "method": "nglod", "depth": 4, "lod": 1, "psnr": 21.5,
+             "flip": 0.2, "bytes": 5000, "render_ms": 300.0}]"#,
+    )
+    .unwrap();
+    // Refused before any work: a value out of range, a configuration the sweep makes itself.
+    let text = std::fs::read_to_string(&good).unwrap();
+    for (name, (from, to), needle) in [
+        (
+            "bad.json",
+            ("0.2", "1.2"),
+            "row 0 (demo nglod depth 4): flip 1.2 must be within 0..=1",
+        ),
+        (
+            "again.json",
+            ("nglod", "svo"),
+            "which this sweep already has",
+        ),
+    ] {
+        let file = dir.join(name);
+        std::fs::write(&file, text.replace(from, to)).unwrap();
+        let out = dir.join("x");
+        let args = os![
+            "sweep",
+            "--depths",
+            "4",
+            "--size",
+            "16",
+            "--extra-rows",
+            file,
+            "-o",
+            out
+        ];
+        fails_cleanly(&args, needle);
+    }
+    assert!(
+        !dir.join("x").exists(),
+        "nothing is written before the rows are checked"
+    );
+    let out = dir.join("out");
+    let j = json_ok(&os![
+        "sweep",
+        "--depths",
+        "4",
+        "--size",
+        "16",
+        "--frames",
+        "2",
+        "--extra-rows",
+        good,
+        "-o",
+        out,
+    ]);
+    assert_eq!(j["rows"].as_array().unwrap().len(), 3);
+    let results: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    assert_eq!(results["provenance"]["frames"], 2);
+    assert_eq!(results["extra_rows"][0]["rows"], 1);
+    assert_eq!(results["rows"][2]["lod"], 1);
+    let table = std::fs::read_to_string(out.join("table.md")).unwrap();
+    assert!(
+        table.contains("PSNR dB nglod") && table.contains("21.50 (LOD 1)"),
+        "{table}"
+    );
+    let csv = std::fs::read_to_string(out.join("results.csv")).unwrap();
+    assert!(csv.lines().next().unwrap().ends_with(",lod"), "{csv}");
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(
+        html.contains("Rows of nglod from another producer"),
+        "{html}"
+    );
+}
+
 fn walk(dir: &Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
     for e in std::fs::read_dir(dir).unwrap() {

@@ -43,6 +43,7 @@
 mod flip;
 mod io;
 mod psnr;
+mod window;
 
 use std::fmt;
 use std::path::PathBuf;
@@ -50,6 +51,7 @@ use std::path::PathBuf;
 pub use flip::{flip, flip_heatmap, flip_with_ppd, FlipResult, DEFAULT_PPD};
 pub use io::{load_rgb8, save_png, MAX_IMAGE_FILE_SIZE};
 pub use psnr::{mse, psnr};
+pub use window::{hottest_window, median, most_different_window, Window};
 
 /// Which of the two compared images an error is about.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -14,6 +14,7 @@
 
 mod arrays;
 pub mod errors;
+mod kwargs;
 mod mesh;
 mod octree;
 mod render;
@@ -23,7 +24,7 @@ use numpy::prelude::*;
 use numpy::PyArray2;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::PyTuple;
+use pyo3::types::{PyDict, PyTuple};
 use sdf_multioctree::distance::sample::{sdf_training_points, TrainingSamples};
 use sdf_multioctree::metrics;
 
@@ -85,21 +86,24 @@ fn flip<'py>(
 /// whatever ``threads``; ``sdf`` equals ``mesh.signed_distance(points, sign=sign)`` exactly.
 /// Releases the GIL; Ctrl-C raises ``KeyboardInterrupt``.
 #[pyfunction]
-#[pyo3(signature = (mesh, n, *, seed = 0, near_fraction = 0.95, sigmas = (0.025, 0.0079), padding = 0.1, sign = "auto", threads = None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(
+    signature = (mesh, n, **options),
+    text_signature = "(mesh, n, *, seed=0, near_fraction=0.95, sigmas=(0.025, 0.0079), padding=0.1, sign='auto', threads=None)"
+)]
 fn sample_sdf<'py>(
     py: Python<'py>,
     mesh: &Bound<'py, Mesh>,
     n: i64,
-    seed: u64,
-    near_fraction: f64,
-    sigmas: (f64, f64),
-    padding: f64,
-    sign: &str,
-    threads: Option<i64>,
+    options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let mode = mesh::sign_arg(sign)?;
-    let threads = run::check_threads(threads)?;
+    let mut k = kwargs::Kwargs::new("sample_sdf", options);
+    let seed: u64 = k.take("seed", 0)?;
+    let near_fraction: f64 = k.take("near_fraction", 0.95)?;
+    let sigmas: (f64, f64) = k.take("sigmas", (0.025, 0.0079))?;
+    let padding: f64 = k.take("padding", 0.1)?;
+    let mode = mesh::sign_arg(&k.take::<String>("sign", "auto".to_owned())?)?;
+    let threads = run::check_threads(k.take("threads", None)?)?;
+    k.finish()?;
     let n = usize::try_from(n)
         .map_err(|_| PyValueError::new_err(format!("n must be >= 0, got {n}")))?;
     if !(0.0..=1.0).contains(&near_fraction) {

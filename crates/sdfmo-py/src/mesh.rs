@@ -8,7 +8,7 @@ use numpy::prelude::*;
 use numpy::{PyArray1, PyArray2, PyUntypedArray};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::PyTuple;
+use pyo3::types::{PyDict, PyTuple};
 use rayon::prelude::*;
 use sdf_multioctree::build::{self, BuildSettings, Method};
 use sdf_multioctree::distance::{MeshDistance, SignMode};
@@ -19,8 +19,9 @@ use sdf_multioctree::DEFAULT_MARGIN;
 
 use crate::arrays::{self, PointsArg, PointsView};
 use crate::errors;
+use crate::kwargs::Kwargs;
 use crate::octree::Octree;
-use crate::render::RenderArgs;
+use crate::render::{RenderArgs, RenderOptions};
 use crate::run::{self, Cancel, Cancelled};
 
 /// Parses a `sign=` argument.
@@ -699,20 +700,24 @@ impl Mesh {
     /// when its predicted peak memory exceeds ``max_memory`` bytes (default: half the physical
     /// memory, the command-line tool's default). Releases the GIL; Ctrl-C stops it between
     /// phases and chunks of corners and leaves (the subdivision phase runs to its end).
-    #[pyo3(signature = (depth, *, method = "multi", max_voxels = 8, bits = 8, sign = "auto", threads = None, max_memory = None))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(
+        signature = (depth, **options),
+        text_signature = "($self, depth, *, method='multi', max_voxels=8, bits=8, sign='auto', threads=None, max_memory=None)"
+    )]
     fn build(
         &self,
         py: Python<'_>,
         depth: i64,
-        method: &str,
-        max_voxels: i64,
-        bits: i64,
-        sign: &str,
-        threads: Option<i64>,
-        max_memory: Option<u64>,
+        options: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Octree> {
-        let threads = run::check_threads(threads)?;
+        let mut k = Kwargs::new("build", options);
+        let method: String = k.take("method", "multi".to_owned())?;
+        let max_voxels: i64 = k.take("max_voxels", 8)?;
+        let bits: i64 = k.take("bits", 8)?;
+        let sign: String = k.take("sign", "auto".to_owned())?;
+        let threads = run::check_threads(k.take("threads", None)?)?;
+        let max_memory: Option<u64> = k.take("max_memory", None)?;
+        k.finish()?;
         let depth = u8::try_from(depth)
             .ok()
             .filter(|d| (build::MIN_DEPTH..=sdf_multioctree::format::MAX_DEPTH).contains(d))
@@ -723,7 +728,7 @@ impl Mesh {
                     sdf_multioctree::format::MAX_DEPTH
                 ))
             })?;
-        let method = match method {
+        let method = match method.as_str() {
             "multi" => Method::Multi {
                 max_voxels: u8::try_from(max_voxels)
                     .ok()
@@ -757,7 +762,7 @@ impl Mesh {
             // The pool is ours (cancellation and reuse); the builder runs in it.
             threads: None,
             margin: DEFAULT_MARGIN,
-            sign: sign_arg(sign)?,
+            sign: sign_arg(&sign)?,
             ..BuildSettings::default()
         };
         let budget = max_memory.or_else(build::default_memory_budget);
@@ -779,25 +784,16 @@ impl Mesh {
     /// protocol): normalised exactly as the builder normalises it, so the images line up with
     /// ``Octree.render``'s, face normals, the same camera and shading. Returns uint8 of shape
     /// ``(height, width, 3)``. See ``Octree.render`` for the arguments.
-    #[pyo3(signature = (width = 1024, height = None, *, mode = "lambert", view = 0, eye = None, target = None, fov = None, shadows = false, ao = 0, threads = None))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (width = 1024, height = None, **options), text_signature = "($self, width=1024, height=None, *, mode='lambert', view=0, eye=None, target=None, fov=None, shadows=False, ao=0, threads=None)")]
     fn render<'py>(
         &self,
         py: Python<'py>,
         width: i64,
         height: Option<i64>,
-        mode: &str,
-        view: i64,
-        eye: Option<[f32; 3]>,
-        target: Option<[f32; 3]>,
-        fov: Option<f32>,
-        shadows: bool,
-        ao: i64,
-        threads: Option<i64>,
+        options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let args = RenderArgs::parse(
-            width, height, mode, view, eye, target, fov, shadows, ao, threads,
-        )?;
+        let options = RenderOptions::from_kwargs("render", options)?;
+        let args = RenderArgs::parse(width, height, options)?;
         let data = &self.data;
         args.render(py, |settings, camera| {
             let dist = data.distance(SignMode::Auto)?;

@@ -14,7 +14,7 @@ use sdf_multioctree::trace::distance_at;
 
 use crate::arrays;
 use crate::errors;
-use crate::render::RenderArgs;
+use crate::render::{RenderArgs, RenderOptions};
 use crate::run::{self, Cancelled};
 
 /// A sparse octree of trilinear signed-distance voxels (the ``.smo`` format), as built by
@@ -211,25 +211,16 @@ impl Octree {
     /// ``"mask"``, ``"depth"`` or ``"normal"``; ``shadows`` and ``ao`` (ambient-occlusion
     /// rays per pixel, 0..=1024) apply to lambert only. The image is the same for any
     /// ``threads``. Releases the GIL.
-    #[pyo3(signature = (width = 1024, height = None, *, mode = "lambert", view = 0, eye = None, target = None, fov = None, shadows = false, ao = 0, threads = None))]
-    #[allow(clippy::too_many_arguments)]
+    #[pyo3(signature = (width = 1024, height = None, **options), text_signature = "($self, width=1024, height=None, *, mode='lambert', view=0, eye=None, target=None, fov=None, shadows=False, ao=0, threads=None)")]
     fn render<'py>(
         &self,
         py: Python<'py>,
         width: i64,
         height: Option<i64>,
-        mode: &str,
-        view: i64,
-        eye: Option<[f32; 3]>,
-        target: Option<[f32; 3]>,
-        fov: Option<f32>,
-        shadows: bool,
-        ao: i64,
-        threads: Option<i64>,
+        options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let args = RenderArgs::parse(
-            width, height, mode, view, eye, target, fov, shadows, ao, threads,
-        )?;
+        let options = RenderOptions::from_kwargs("render", options)?;
+        let args = RenderArgs::parse(width, height, options)?;
         let octree = &self.octree;
         args.render(py, |settings, camera| {
             sdf_multioctree::render::render(&OctreeScene(octree), camera, settings)

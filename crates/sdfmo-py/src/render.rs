@@ -4,10 +4,49 @@
 use glam::Vec3;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use sdf_multioctree::render::{Camera, Mode, RenderSettings, Rendered, MAX_AO_SAMPLES};
 
 use crate::arrays;
+use crate::kwargs::Kwargs;
 use crate::run;
+
+/// The keyword-only options of `render`, with their Python defaults.
+pub struct RenderOptions {
+    mode: String,
+    view: i64,
+    eye: Option<[f32; 3]>,
+    target: Option<[f32; 3]>,
+    fov: Option<f32>,
+    shadows: bool,
+    ao: i64,
+    threads: Option<i64>,
+}
+
+impl RenderOptions {
+    /// Reads the options from the call's keywords (`function` names the call in errors).
+    ///
+    /// # Errors
+    /// `TypeError` for an unknown keyword or a value of the wrong type.
+    pub fn from_kwargs(
+        function: &'static str,
+        kwargs: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<RenderOptions> {
+        let mut k = Kwargs::new(function, kwargs);
+        let options = RenderOptions {
+            mode: k.take("mode", "lambert".to_owned())?,
+            view: k.take("view", 0)?,
+            eye: k.take("eye", None)?,
+            target: k.take("target", None)?,
+            fov: k.take("fov", None)?,
+            shadows: k.take("shadows", false)?,
+            ao: k.take("ao", 0)?,
+            threads: k.take("threads", None)?,
+        };
+        k.finish()?;
+        Ok(options)
+    }
+}
 
 /// Largest image edge (the command-line tool's `--size` limit).
 const MAX_IMAGE_EDGE: i64 = 16384;
@@ -21,19 +60,17 @@ pub struct RenderArgs {
 
 impl RenderArgs {
     /// Checks the arguments of a `render` call (see `Octree.render`).
-    #[allow(clippy::too_many_arguments)]
-    pub fn parse(
-        width: i64,
-        height: Option<i64>,
-        mode: &str,
-        view: i64,
-        eye: Option<[f32; 3]>,
-        target: Option<[f32; 3]>,
-        fov: Option<f32>,
-        shadows: bool,
-        ao: i64,
-        threads: Option<i64>,
-    ) -> PyResult<RenderArgs> {
+    pub fn parse(width: i64, height: Option<i64>, options: RenderOptions) -> PyResult<RenderArgs> {
+        let RenderOptions {
+            mode,
+            view,
+            eye,
+            target,
+            fov,
+            shadows,
+            ao,
+            threads,
+        } = options;
         let height = height.unwrap_or(width);
         for (name, v) in [("width", width), ("height", height)] {
             if !(1..=MAX_IMAGE_EDGE).contains(&v) {
@@ -42,7 +79,7 @@ impl RenderArgs {
                 )));
             }
         }
-        let mode = match mode {
+        let mode = match mode.as_str() {
             "lambert" => Mode::Lambert,
             "mask" => Mode::Mask,
             "depth" => Mode::Depth,

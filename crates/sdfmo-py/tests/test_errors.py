@@ -102,3 +102,29 @@ def test_every_public_name_has_a_docstring():
             if attr.startswith("_"):
                 continue
             assert value.__doc__, f"{name}.{attr}"
+
+
+def test_keyword_options_keep_pythons_errors_and_signatures():
+    # render, build and sample_sdf read their keyword-only options from **kwargs (one options
+    # struct each on the Rust side): unknown or mistyped keywords must still fail as Python's
+    # own argument checks do, and help() must still show every option.
+    cases = [
+        (lambda: MESH.render(8, colour="red"), "render() got an unexpected keyword argument 'colour'"),
+        (lambda: MESH.build(3).render(8, shadow=True), "unexpected keyword argument 'shadow'"),
+        (lambda: MESH.build(4, method=1), "argument 'method'"),
+        (lambda: MESH.build(4, depth_max=5), "build() got an unexpected keyword argument 'depth_max'"),
+        (lambda: sdfmo.sample_sdf(MESH, 10, seeds=1), "sample_sdf() got an unexpected keyword argument 'seeds'"),
+        (lambda: sdfmo.sample_sdf(MESH, 10, sigmas="big"), "argument 'sigmas'"),
+        (lambda: MESH.render(8, 8, "mask"), ""),  # keyword-only, as before
+    ]
+    for call, text in cases:
+        with pytest.raises(TypeError, match=text.replace("(", r"\(").replace(")", r"\)")):
+            call()
+    assert "mode='lambert'" in sdfmo.Mesh.render.__text_signature__
+    assert "max_memory=None" in sdfmo.Mesh.build.__text_signature__
+    assert "near_fraction=0.95" in sdfmo.sample_sdf.__text_signature__
+    # The options still arrive: another mode gives another image.
+    lambert = MESH.render(16, view=1, threads=1)
+    mask = MESH.render(16, mode="mask", view=1, threads=1)
+    assert lambert.shape == mask.shape == (16, 16, 3)
+    assert not np.array_equal(lambert, mask)

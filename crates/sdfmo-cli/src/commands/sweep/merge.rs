@@ -400,12 +400,21 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
             })
         })
         .collect();
-    let provenance = super::report::Provenance::current(&settings);
+    let provenance = super::report::Provenance::current(&settings, usize::from(args.frames));
+    // The single run's model (its summary and CSV), the dataset's additions beside it.
+    let report = super::report::Report::new(
+        settings.clone(),
+        provenance.clone(),
+        models.clone(),
+        rows.clone(),
+        Vec::new(),
+    );
     let results = serde_json::json!({
         "settings": settings,
         "provenance": provenance,
         "models": models,
         "rows": rows,
+        "summary": report.summary,
         "failures": failures,
         "dataset": stats,
         "shards": shard_list,
@@ -417,7 +426,7 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
     write_derived(&out.join("results.json"), text.as_bytes())?;
     write_derived(
         &out.join("results.csv"),
-        super::report::csv(&rows).as_bytes(),
+        super::report::csv::csv(&report)?.as_bytes(),
     )?;
     write_derived(
         &out.join("failures.csv"),

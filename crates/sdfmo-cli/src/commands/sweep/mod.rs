@@ -21,78 +21,14 @@ use sdf_multioctree::build::{self, BuildSettings};
 use sdf_multioctree::distance::SignMode;
 use sdf_multioctree::metrics;
 use sdf_multioctree::render::{Camera, OctreeScene, PaperProtocol};
-use serde::{Deserialize, Serialize};
 use serde_json::json;
+
+pub use report::{Model, Provenance, Report, Row, SweepSettings};
 
 use crate::args::{MethodArg, SweepArgs};
 use crate::commands::{load_input, memory_budget, with_threads, InputMesh};
 use crate::output::{print_json, print_text, write_derived_png};
 use crate::progress;
-
-/// One line of the results: a model built with a method at a depth, measured over the views.
-#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
-pub struct Row {
-    /// Model name (file stem, or `demo`).
-    pub model: String,
-    /// `svo` or `multi`.
-    pub method: String,
-    /// Octree depth.
-    pub depth: u8,
-    /// Mean PSNR over the views in dB; `None` (JSON `null`) when infinite (identical images).
-    pub psnr: Option<f64>,
-    /// Mean FLIP over the views.
-    pub flip: f64,
-    /// Bytes of the packed octree as saved.
-    pub bytes: usize,
-    /// Build time (ms).
-    pub build_ms: f64,
-    /// Mean render time of one view (ms).
-    pub render_ms: f64,
-    /// Octree nodes (inner and leaves).
-    pub nodes: usize,
-    /// Leaves.
-    pub leaves: usize,
-    /// Voxels.
-    pub voxels: usize,
-    /// Surface voxels.
-    pub surface_voxels: usize,
-    /// Leaves that hit the voxel cap.
-    pub cap_hits: usize,
-    /// PSNR of each view (`None` = infinite).
-    pub psnr_views: Vec<Option<f64>>,
-    /// FLIP of each view.
-    pub flip_views: Vec<f64>,
-}
-
-/// What the sweep knows of a model besides its rows.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
-pub struct Model {
-    /// Name used in the rows and file names.
-    pub model: String,
-    /// Path, or `demo`.
-    pub source: String,
-    /// Triangles after loading.
-    pub triangles: usize,
-    /// Mean render time of one reference view (ms).
-    pub reference_render_ms: f64,
-}
-
-/// Settings recorded next to the results.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
-pub struct SweepSettings {
-    /// Depths swept.
-    pub depths: Vec<u8>,
-    /// Methods swept.
-    pub methods: Vec<String>,
-    /// Width and height of each view.
-    pub size: u32,
-    /// Voxel cap of the multi-octree.
-    pub max_voxels: u8,
-    /// Worker threads (`None`: all cores).
-    pub threads: Option<usize>,
-    /// Views per configuration.
-    pub views: usize,
-}
 
 /// Relative path (from the output directory) of an image of the sweep.
 pub fn image_rel(model: &str, file: &str) -> String {
@@ -173,6 +109,26 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
                 .with_context(|| format!("cannot sweep {} {}", method.name(), input.source))?;
         }
     }
+    // The models' names are settled before any work, so that a row of `--extra-rows` that
+    // would repeat one of this sweep's configurations is refused now.
+    let mut taken: Vec<String> = Vec::new();
+    let names: Vec<String> = inputs
+        .iter()
+        .map(|input| {
+            let name = unique_name(&sanitize(&input.name), &taken);
+            taken.push(name.clone());
+            name
+        })
+        .collect();
+    let swept: Vec<(String, String, Vec<u8>)> = names
+        .iter()
+        .flat_map(|n| {
+            methods
+                .iter()
+                .map(|m| (n.clone(), m.name().to_owned(), depths.clone()))
+        })
+        .collect();
+    let extra = report::extra::load(&args.extra_rows, &swept)?;
     let out = &args.output;
     sdf_multioctree::io::create_derived_dir(out, Path::new("images"))?;
     let settings = sweep_settings(args);
@@ -183,36 +139,47 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
     let mut rows: Vec<Row> = Vec::new();
     let mut models: Vec<Model> = Vec::new();
     let mut files: Vec<String> = Vec::new();
-    for mut input in inputs {
-        input.name = unique_name(&sanitize(&input.name), &models);
+    let report_of = |models: &[Model], rows: &[Row]| {
+        let mut all = rows.to_vec();
+        all.extend(extra.rows.iter().cloned());
+        Report::new(
+            settings.clone(),
+            Provenance::current(&settings, usize::from(args.frames)),
+            models.to_vec(),
+            all,
+            extra.files.clone(),
+        )
+    };
+    for (mut input, name) in inputs.into_iter().zip(names) {
+        input.name = name;
         let sweep = Sweep {
             args,
-            settings: &settings,
             methods: &methods,
             depths: &depths,
             budget,
             bar: &bar,
-            tables: true,
+            report_of: Some(&report_of),
         };
         let model = sweep_model(&sweep, &input, &models, &mut rows)?;
         models.push(model);
-        files = report::write_tables(out, &settings, &models, &rows)?;
+        files = report::write_tables(out, &report_of(&models, &rows))?;
     }
     bar.set_message("plots and page");
-    files.extend(plots::write_plots(out, &rows)?);
-    files.push(report::write_html(out, &settings, &models, &rows, &files)?);
+    let report = report_of(&models, &rows);
+    files.extend(plots::write_plots(out, &report.rows)?);
+    files.push(report::write_html(out, &report, &files)?);
     bar.finish_and_clear();
 
     if args.json {
         return print_json(&json!({
             "output": out.display().to_string(),
             "settings": settings,
-            "models": models,
-            "rows": rows,
+            "models": report.models,
+            "rows": report.rows,
             "files": files,
         }));
     }
-    let mut s = report::table_md(&settings, &models, &rows);
+    let mut s = report::table_md(&report);
     s.push_str(&format!(
         "\nWrote {} (open {} in a browser).\n",
         files.join(", "),
@@ -235,19 +202,18 @@ fn build_settings(args: &SweepArgs, method: MethodArg, depth: u8) -> BuildSettin
     }
 }
 
-/// What every model of a sweep shares: the arguments, the settings the report records, the
+/// What every model of a sweep shares: the arguments, the report of the results so far, the
 /// configurations, the memory budget and the progress bar.
 #[derive(Clone, Copy)]
 struct Sweep<'a> {
     args: &'a SweepArgs,
-    settings: &'a SweepSettings,
     methods: &'a [MethodArg],
     depths: &'a [u8],
     budget: Option<u64>,
     bar: &'a indicatif::ProgressBar,
-    /// Rewrite the tables after each row (false in a shard's model process, which prints its
-    /// rows instead).
-    tables: bool,
+    /// The report of the models and rows so far (with the extra rows), rewritten after each
+    /// row; `None` in a shard's model process, which prints its rows instead.
+    report_of: Option<&'a dyn Fn(&[Model], &[Row]) -> Report>,
 }
 
 /// A shard's model process (`--isolated-model NAME`): sweeps its one mesh under `name`, writes
@@ -267,16 +233,14 @@ fn run_isolated(args: &SweepArgs, name: &str) -> anyhow::Result<()> {
             .with_context(|| format!("cannot sweep {} {}", method.name(), input.source))?;
     }
     sdf_multioctree::io::create_derived_dir(&args.output, Path::new("images"))?;
-    let settings = sweep_settings(args);
     let bar = indicatif::ProgressBar::hidden();
     let sweep = Sweep {
         args,
-        settings: &settings,
         methods: &methods,
         depths: &depths,
         budget,
         bar: &bar,
-        tables: false,
+        report_of: None,
     };
     let mut rows = Vec::new();
     let model = sweep_model(&sweep, &input, &[], &mut rows)?;
@@ -293,12 +257,11 @@ fn sweep_model(
 ) -> anyhow::Result<Model> {
     let Sweep {
         args,
-        settings,
         methods,
         depths,
         budget,
         bar,
-        tables,
+        report_of,
     } = *sweep;
     let name = &input.name;
     let img_dir: PathBuf =
@@ -310,7 +273,8 @@ fn sweep_model(
         args.size,
         args.threads,
     )
-    .with_context(|| format!("cannot render the reference of {}", input.source))?;
+    .with_context(|| format!("cannot render the reference of {}", input.source))?
+    .with_frames(usize::from(args.frames));
     for (k, reference) in protocol.references().iter().enumerate() {
         write_derived_png(&img_dir.join(reference_file(k)), reference)?;
     }
@@ -361,13 +325,14 @@ fn sweep_model(
                 psnr: psnr.is_finite().then_some(psnr),
                 flip: score.flip(),
                 bytes: stats.bytes,
-                build_ms: stats.build_ms,
+                lod: None,
+                build_ms: Some(stats.build_ms),
                 render_ms: score.render_ms(),
-                nodes: stats.nodes,
-                leaves: stats.leaves,
-                voxels: stats.voxels,
-                surface_voxels: stats.surface_voxels,
-                cap_hits: stats.cap_hits,
+                nodes: Some(stats.nodes),
+                leaves: Some(stats.leaves),
+                voxels: Some(stats.voxels),
+                surface_voxels: Some(stats.surface_voxels),
+                cap_hits: Some(stats.cap_hits),
                 psnr_views: score
                     .views
                     .iter()
@@ -377,8 +342,8 @@ fn sweep_model(
             });
             // Keep the files current after every row: a long sweep that is stopped keeps its
             // results so far.
-            if tables {
-                report::write_tables(&args.output, settings, models, rows)?;
+            if let Some(report_of) = report_of {
+                report::write_tables(&args.output, &report_of(models, rows))?;
             }
             bar.inc(1);
         }
@@ -412,8 +377,8 @@ pub fn sanitize(name: &str) -> String {
 }
 
 /// `name`, or `name_2`, `name_3`, … when a model of that name is already there.
-fn unique_name(name: &str, models: &[Model]) -> String {
-    let taken = |n: &str| models.iter().any(|m| m.model == n);
+fn unique_name(name: &str, names: &[String]) -> String {
+    let taken = |n: &str| names.iter().any(|m| m == n);
     if !taken(name) {
         return name.to_owned();
     }
@@ -432,12 +397,7 @@ mod tests {
         assert_eq!(sanitize("abc 1<x>"), "abc_1_x_");
         assert_eq!(sanitize("..hidden"), "hidden");
         assert_eq!(sanitize(""), "mesh");
-        let m = |n: &str| Model {
-            model: n.into(),
-            source: n.into(),
-            triangles: 1,
-            reference_render_ms: 0.0,
-        };
+        let m = |n: &str| n.to_owned();
         assert_eq!(unique_name("a", &[m("b")]), "a");
         assert_eq!(unique_name("a", &[m("a"), m("a_2")]), "a_3");
     }

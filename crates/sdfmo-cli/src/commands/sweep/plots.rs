@@ -16,19 +16,66 @@ use crate::output::write_derived_png;
 const WIDTH: u32 = 1100;
 const HEIGHT: u32 = 600;
 /// Width of the legend column right of the chart (outside the data).
-const LEGEND_WIDTH: u32 = 210;
+const LEGEND_WIDTH: u32 = 250;
 
-/// Colours of the models' lines (a colour per model, cycled).
-const PALETTE: [RGBColor; 8] = [
-    RGBColor(31, 119, 180),
-    RGBColor(214, 39, 40),
-    RGBColor(44, 160, 44),
+/// Text sizes in pixels of the 1100-pixel plot. The page shows two plots a row, each at about
+/// 48 % of a 1600-pixel page (≈ 0.7×): tick labels of 22 pixels read at ≈ 15 CSS pixels, the
+/// size of the page's own small text (15-pixel labels read at 10, which was too small).
+const TITLE_PX: u32 = 32;
+const TICK_PX: u32 = 22;
+const AXIS_PX: u32 = 24;
+const LEGEND_PX: u32 = 20;
+const POINT_LABEL_PX: u32 = 17;
+
+/// A colour per method, the same in every plot: the SVO blue, the multi-octree red, NGLOD green
+/// (tab10's first three), other producers' methods the next colours in turn.
+const SVO: RGBColor = RGBColor(31, 119, 180);
+const MULTI: RGBColor = RGBColor(214, 39, 40);
+const NGLOD: RGBColor = RGBColor(44, 160, 44);
+const OTHERS: [RGBColor; 5] = [
     RGBColor(148, 103, 189),
     RGBColor(255, 127, 14),
     RGBColor(140, 86, 75),
     RGBColor(227, 119, 194),
     RGBColor(23, 190, 207),
 ];
+
+/// The colour of `method`; `others` lists the methods without a fixed colour, in order.
+fn method_color(method: &str, others: &[&str]) -> RGBColor {
+    match method {
+        "svo" => SVO,
+        "multi" => MULTI,
+        "nglod" => NGLOD,
+        m => OTHERS[others.iter().position(|o| *o == m).unwrap_or(0) % OTHERS.len()],
+    }
+}
+
+/// How a model's points are marked (the colour says the method): a shape per model, cycled.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Mark {
+    Circle,
+    Triangle,
+    Square,
+    Cross,
+}
+
+const MARKS: [Mark; 4] = [Mark::Circle, Mark::Triangle, Mark::Square, Mark::Cross];
+
+/// Draws a point's mark `$mark` at `$at` (the area's coordinates) in `$color` on the drawing
+/// area `$area`. A macro, as each shape is its own element type and the chart's and the legend's
+/// areas are of different coordinate types.
+macro_rules! draw_mark {
+    ($area:expr, $mark:expr, $at:expr, $color:expr) => {{
+        let (at, color) = ($at, $color);
+        match $mark {
+            Mark::Circle => $area.draw(&Circle::new(at, 6, color.filled())),
+            Mark::Triangle => $area.draw(&TriangleMarker::new(at, 7, color.filled())),
+            Mark::Square => $area
+                .draw(&(EmptyElement::at(at) + Rectangle::new([(-5, -5), (5, 5)], color.filled()))),
+            Mark::Cross => $area.draw(&Cross::new(at, 6, color.stroke_width(3))),
+        }
+    }};
+}
 
 /// Registers the embedded font under plotters' default family name, once.
 pub(super) fn register_font() -> anyhow::Result<()> {
@@ -44,11 +91,13 @@ pub(super) fn register_font() -> anyhow::Result<()> {
     }
 }
 
-/// One line of a plot.
+/// One line of a plot: a model's method.
 struct Series {
     label: String,
     color: RGBColor,
-    /// Dashed with triangles (the SVO baseline) or solid with dots (the multi-octree, others).
+    /// The model's mark; models after the first are also dashed, so two models of one method
+    /// stay apart where their marks overlap.
+    mark: Mark,
     dashed: bool,
     points: Vec<(f64, f64)>,
     /// The depth of each point, written beside it.
@@ -62,6 +111,9 @@ struct Axis<'a> {
     log: bool,
     /// Integer values (depths): padded by half a step, labelled at integers only.
     integer: bool,
+    /// How many labels (and bold grid lines) plotters may place: on an integer axis as many as
+    /// integers, so that every grid line is labelled (ten put unlabelled lines at half depths).
+    labels: usize,
 }
 
 impl Axis<'static> {
@@ -71,6 +123,7 @@ impl Axis<'static> {
             label,
             log: false,
             integer: false,
+            labels: 10,
         }
     }
 
@@ -114,9 +167,10 @@ const PLOTS: [(&str, &str, Axis<'static>, Axis<'static>, Extract); 4] = [
             label: "depth",
             log: false,
             integer: true,
+            labels: 10,
         },
         Axis::log("build time (ms)"),
-        |r| Some((f64::from(r.depth), r.build_ms)),
+        |r| r.build_ms.map(|ms| (f64::from(r.depth), ms)),
     ),
 ];
 
@@ -124,11 +178,17 @@ const PLOTS: [(&str, &str, Axis<'static>, Axis<'static>, Extract); 4] = [
 pub fn write_plots(dir: &Path, rows: &[Row]) -> anyhow::Result<Vec<String>> {
     register_font()?;
     let mut models: Vec<&str> = Vec::new();
+    let mut others: Vec<&str> = Vec::new();
     for r in rows {
         if !models.contains(&r.model.as_str()) {
             models.push(&r.model);
         }
+        let fixed = ["svo", "multi", "nglod"].contains(&r.method.as_str());
+        if !fixed && !others.contains(&r.method.as_str()) {
+            others.push(&r.method);
+        }
     }
+    let one_model = models.len() == 1;
     // A line follows a method from shallow to deep, whichever way its x values go (render time
     // need not grow with depth).
     let mut by_depth: Vec<&Row> = rows.iter().collect();
@@ -141,7 +201,11 @@ pub fn write_plots(dir: &Path, rows: &[Row]) -> anyhow::Result<Vec<String>> {
             if !(px.is_finite() && py.is_finite()) || (x.log && px <= 0.0) || (y.log && py <= 0.0) {
                 continue;
             }
-            let label = format!("{} {}", r.model, r.method);
+            let label = if one_model {
+                super::report::tables::label(&r.method).to_owned()
+            } else {
+                format!("{} {}", r.model, super::report::tables::label(&r.method))
+            };
             match series.iter_mut().find(|s| s.label == label) {
                 Some(s) => {
                     s.points.push((px, py));
@@ -151,8 +215,9 @@ pub fn write_plots(dir: &Path, rows: &[Row]) -> anyhow::Result<Vec<String>> {
                     let m = models.iter().position(|m| *m == r.model).unwrap_or(0);
                     series.push(Series {
                         label,
-                        color: PALETTE[m % PALETTE.len()],
-                        dashed: r.method == "svo",
+                        color: method_color(&r.method, &others),
+                        mark: MARKS[m % MARKS.len()],
+                        dashed: m % 2 == 1,
                         points: vec![(px, py)],
                         depths: vec![r.depth],
                     });
@@ -263,6 +328,21 @@ fn plot(title: &str, x: &Axis, y: &Axis, series: &[Series]) -> anyhow::Result<im
     };
     let xr = range(xs(), x.log, x.integer);
     let yr = range(ys(), y.log, y.integer);
+    let integer_labels = |a: &Axis, r: &std::ops::Range<f64>| {
+        if a.integer {
+            (r.end - r.start).round().max(1.0) as usize
+        } else {
+            a.labels
+        }
+    };
+    let x = &Axis {
+        labels: integer_labels(x, &xr),
+        ..*x
+    };
+    let y = &Axis {
+        labels: integer_labels(y, &yr),
+        ..*y
+    };
     let mut buf = vec![0u8; (WIDTH * HEIGHT * 3) as usize];
     let (kx, ky) = (log_ticks(&xr), log_ticks(&yr));
     match (x.log, y.log) {
@@ -320,51 +400,51 @@ where
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let (area, legend) = root.split_horizontally(WIDTH - LEGEND_WIDTH);
     let mut chart = ChartBuilder::on(&area)
-        .caption(title, ("sans-serif", 26))
+        .caption(title, ("sans-serif", TITLE_PX))
         .margin(16)
-        .x_label_area_size(48)
-        .y_label_area_size(70)
+        .x_label_area_size(62)
+        .y_label_area_size(90)
         .build_cartesian_2d(xr, yr)
         .map_err(|e| err(&e))?;
-    chart
-        .configure_mesh()
-        .x_desc(x.label)
+    let mut mesh = chart.configure_mesh();
+    mesh.x_desc(x.label)
         .y_desc(y.label)
-        .x_labels(10)
-        .y_labels(10)
+        .x_labels(x.labels)
+        .y_labels(y.labels)
         .x_label_formatter(&x_fmt)
         .y_label_formatter(&y_fmt)
         .light_line_style(RGBColor(235, 235, 235))
-        .label_style(("sans-serif", 15))
-        .axis_desc_style(("sans-serif", 17))
-        .draw()
-        .map_err(|e| err(&e))?;
-    for s in series {
-        let color = s.color;
-        let style = color.stroke_width(2);
-        // Multi-octree dashed with triangles, SVO solid with circles.
-        let points = s.points.iter().copied();
-        let drawn = if s.dashed {
-            let marks = points
-                .clone()
-                .map(|p| TriangleMarker::new(p, 5, color.filled()));
-            (chart.draw_series(DashedLineSeries::new(points, 8, 5, style)))
-                .map(|_| ())
-                .and_then(|()| chart.draw_series(marks).map(|_| ()))
-        } else {
-            let marks = points.clone().map(|p| Circle::new(p, 4, color.filled()));
-            (chart.draw_series(LineSeries::new(points, style)))
-                .map(|_| ())
-                .and_then(|()| chart.draw_series(marks).map(|_| ()))
-        };
-        drawn.map_err(|e| err(&e))?;
+        .label_style(("sans-serif", TICK_PX))
+        .axis_desc_style(("sans-serif", AXIS_PX));
+    // An axis of integers (depths) has a grid line at each integer and none between: the
+    // light lines plotters adds between labels would be unlabelled fractions of a depth.
+    if x.integer {
+        mesh.x_max_light_lines(0);
     }
-    // Each point's depth beside it (not on the depth plot, where x is the depth): multi-octree
-    // labels above right, SVO labels below right, so the two methods' labels do not collide.
+    if y.integer {
+        mesh.y_max_light_lines(0);
+    }
+    mesh.draw().map_err(|e| err(&e))?;
+    for s in series {
+        let style = s.color.stroke_width(3);
+        let points = s.points.iter().copied();
+        if s.dashed {
+            chart.draw_series(DashedLineSeries::new(points, 10, 6, style))
+        } else {
+            chart.draw_series(LineSeries::new(points, style))
+        }
+        .map_err(|e| err(&e))?;
+        let area = chart.plotting_area();
+        for &p in &s.points {
+            draw_mark!(area, s.mark, p, s.color).map_err(|e| err(&e))?;
+        }
+    }
+    // Each point's depth beside it (not on the depth plot, where x is the depth): the SVO's
+    // labels below right, the others' above right, so the methods' labels do not collide.
     if !x.integer {
         for s in series {
-            let offset = if s.dashed { (6, 4) } else { (6, -17) };
-            let font = ("sans-serif", 13).into_font().color(&s.color);
+            let offset = if s.color == SVO { (7, 5) } else { (7, -22) };
+            let font = ("sans-serif", POINT_LABEL_PX).into_font().color(&s.color);
             chart
                 .draw_series(s.points.iter().zip(&s.depths).map(|(&p, d)| {
                     EmptyElement::at(p) + Text::new(format!("d{d}"), offset, font.clone())
@@ -373,29 +453,31 @@ where
         }
     }
     // The legend in its own column, outside the data.
-    let text = ("sans-serif", 15).into_font();
+    let text = ("sans-serif", LEGEND_PX).into_font();
     let mut ly = 60;
     for s in series {
-        let (color, line) = (s.color, vec![(8, ly), (40, ly)]);
-        let drawn = if s.dashed {
-            (legend.draw(&DashedPathElement::new(line, 6, 4, color.stroke_width(2))))
-                .and_then(|()| legend.draw(&TriangleMarker::new((24, ly), 5, color.filled())))
+        let line = vec![(8, ly), (44, ly)];
+        let style = s.color.stroke_width(3);
+        if s.dashed {
+            legend.draw(&DashedPathElement::new(line, 7, 4, style))
         } else {
-            (legend.draw(&PathElement::new(line, color.stroke_width(2))))
-                .and_then(|()| legend.draw(&Circle::new((24, ly), 4, color.filled())))
-        };
-        drawn.map_err(|e| err(&e))?;
+            legend.draw(&PathElement::new(line, style))
+        }
+        .map_err(|e| err(&e))?;
+        draw_mark!(legend, s.mark, (26, ly), s.color).map_err(|e| err(&e))?;
         legend
-            .draw(&Text::new(s.label.clone(), (48, ly - 8), text.clone()))
+            .draw(&Text::new(s.label.clone(), (54, ly - 10), text.clone()))
             .map_err(|e| err(&e))?;
-        ly += 24;
+        ly += 30;
     }
     if !series.is_empty() && !x.integer {
         legend
             .draw(&Text::new(
                 "dN = octree depth".to_owned(),
                 (8, ly + 8),
-                ("sans-serif", 13).into_font().color(&RGBColor(90, 90, 90)),
+                ("sans-serif", POINT_LABEL_PX)
+                    .into_font()
+                    .color(&RGBColor(90, 90, 90)),
             ))
             .map_err(|e| err(&e))?;
     }
@@ -429,7 +511,7 @@ mod tests {
             psnr,
             flip: 0.1 / f64::from(depth),
             bytes: 1000 << depth,
-            build_ms: 3.0 * f64::from(depth),
+            build_ms: Some(3.0 * f64::from(depth)),
             render_ms: 10.0 + f64::from(depth),
             ..Row::default()
         }
@@ -453,8 +535,18 @@ mod tests {
             // Text and lines leave dark and coloured pixels on the white background.
             let dark = img.pixels().filter(|p| p.0.iter().all(|&c| c < 80)).count();
             assert!(dark > 500, "{f}: {dark} dark pixels");
-            let blue = img.pixels().filter(|p| p.0 == [31, 119, 180]).count();
-            assert!(blue > 50, "{f}: model line missing ({blue} pixels)");
+            // A colour per method: the SVO blue, the multi-octree red.
+            let count = |c: RGBColor| img.pixels().filter(|p| p.0 == [c.0, c.1, c.2]).count();
+            assert!(
+                count(SVO) > 50,
+                "{f}: SVO line missing ({} pixels)",
+                count(SVO)
+            );
+            assert!(
+                count(MULTI) > 30,
+                "{f}: multi line missing ({} pixels)",
+                count(MULTI)
+            );
         }
         std::fs::remove_dir_all(&dir).unwrap();
     }

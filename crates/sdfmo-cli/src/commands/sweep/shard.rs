@@ -193,7 +193,16 @@ pub fn run(args: &SweepArgs, manifest_path: &Path, settings: &SweepSettings) -> 
             (_, f) => failures.extend(f),
         }
     }
-    let files = report::write_tables(out, settings, &models, &rows)?;
+    let files = report::write_tables(
+        out,
+        &report::Report::new(
+            settings.clone(),
+            report::Provenance::current(settings, usize::from(args.frames)),
+            models.clone(),
+            rows.clone(),
+            Vec::new(),
+        ),
+    )?;
     let info = ShardInfo {
         manifest: manifest_path.display().to_string(),
         manifest_entries: manifest.entries.len(),
@@ -290,6 +299,7 @@ fn child_args(args: &SweepArgs, path: &Path, name: &str) -> Vec<OsString> {
     v.push(format!("--methods={}", methods.join(",")).into());
     v.push(format!("--size={}", args.size).into());
     v.push(format!("--max-voxels={}", args.max_voxels).into());
+    v.push(format!("--frames={}", args.frames).into());
     if let Some(m) = args.max_memory {
         v.push(format!("--max-memory={m}").into());
     }

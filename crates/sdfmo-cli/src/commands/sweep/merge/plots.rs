@@ -81,8 +81,8 @@ pub fn write(
     let mut points: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     for method in &settings.methods {
         for (what, pick) in [
-            ("build", (|r: &Row| r.build_ms) as fn(&Row) -> f64),
-            ("render", |r: &Row| r.render_ms),
+            ("build", (|r: &Row| r.build_ms) as fn(&Row) -> Option<f64>),
+            ("render", |r: &Row| Some(r.render_ms)),
         ] {
             let v = models
                 .iter()
@@ -90,7 +90,7 @@ pub fn write(
                     let r = rows.iter().find(|r| {
                         r.model == m.model && r.method == *method && r.depth == deepest
                     })?;
-                    Some((m.triangles.max(1) as f64, pick(r).max(1e-3)))
+                    Some((m.triangles.max(1) as f64, pick(r)?.max(1e-3)))
                 })
                 .collect();
             points.push((format!("{method} {what}, depth {deepest}"), v));

@@ -1,0 +1,55 @@
+//! table.md: a table per model laid out like the paper's Tables 1–2, the multi-octree against the
+//! SVO one level deeper, and a summary across models.
+
+use std::fmt::Write as _;
+
+use super::model::Report;
+use super::tables::{model_heading, model_table, protocol, shallower_table, summary_table, Table};
+
+/// A table as GitHub Markdown, numbers right-aligned. Cells hold no `|` or newline: they are
+/// numbers and the headings above, and model names are sanitised (letters, digits, `-_.`).
+fn markdown(t: &Table) -> String {
+    let mut s = format!("| {} |\n", t.header.join(" | "));
+    let _ = writeln!(s, "|{}", "---:|".repeat(t.header.len()));
+    for r in &t.rows {
+        let _ = writeln!(s, "| {} |", r.join(" | "));
+    }
+    s
+}
+
+/// table.md's text.
+pub fn table_md(report: &Report) -> String {
+    let mut s = format!("# sdfmo sweep\n\n{}\n", protocol(report));
+    for e in &report.extra_rows {
+        let _ = writeln!(
+            s,
+            "\nRows of {} from another producer: {} ({} rows).",
+            e.methods.join(", "),
+            e.file,
+            e.rows
+        );
+    }
+    for name in &report.model_names() {
+        let _ = write!(
+            s,
+            "\n## {}\n\n{}",
+            model_heading(report, name),
+            markdown(&model_table(report, name))
+        );
+        if let Some(t) = shallower_table(report, name) {
+            let _ = write!(
+                s,
+                "\nMulti-octree at depth d against the SVO at depth d + 1:\n\n{}",
+                markdown(&t)
+            );
+        }
+    }
+    if let Some(t) = summary_table(report) {
+        let _ = write!(
+            s,
+            "\n## Summary over the models (multi-octree against SVO)\n\n{}",
+            markdown(&t)
+        );
+    }
+    s
+}
