@@ -3,8 +3,8 @@
 use glam::Vec3;
 use sdfmo_format::{cell_size, LodOctree, PackedOctree};
 use sdfmo_trace::{
-    hit_normal, intersect, intersect_lod, intersect_packet, occluded, occupied_bounds, Hit,
-    LevelChoice, LodHit, Ray, RayPacket,
+    hit_normal, intersect, intersect_lod, intersect_lod_packet, intersect_packet, occluded,
+    occupied_bounds, Hit, LevelChoice, LodHit, Ray, RayPacket,
 };
 
 use crate::scene::{Traceable, PACKET};
@@ -74,7 +74,7 @@ impl Traceable for OctreeScene<'_> {
 /// A file with levels of detail as a [`Traceable`], each ray at the level `choice` selects
 /// (`sdfmo_trace::intersect_lod`): with [`LevelChoice::PixelError`], the coarsest level whose
 /// voxels project below the given pixels at the ray's hit distance. (A fixed level is better
-/// drawn as `OctreeScene(lod.level(k))`, which traces packets.)
+/// also drawn as `OctreeScene(lod.level(k))`.)
 #[derive(Clone, Copy)]
 pub struct LodScene<'a> {
     /// The levels.
@@ -89,6 +89,18 @@ impl Traceable for LodScene<'_> {
     #[inline]
     fn first_hit(&self, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> Option<LodHit> {
         intersect_lod(self.lod, &Ray { origin, dir }, t_min, t_max, self.choice)
+    }
+
+    /// [`intersect_lod_packet`]: one walk of one level for the packet where every lane needs
+    /// the same level (the same hits as ray by ray).
+    #[inline]
+    fn first_hits(&self, rays: &RayPacket, out: &mut [Option<LodHit>; PACKET]) {
+        let hits = intersect_lod_packet(self.lod, rays, self.choice);
+        for (l, hit) in hits.into_iter().enumerate() {
+            if rays.lanes >> l & 1 != 0 {
+                out[l] = hit;
+            }
+        }
     }
 
     #[inline]

@@ -39,7 +39,9 @@ pub mod ray_voxel;
 pub mod traversal;
 
 pub use distance::{distance_at, DistanceSample};
-pub use lod::{intersect_lod, level_for_distance, pixel_angle, LevelChoice, LodHit};
+pub use lod::{
+    intersect_lod, intersect_lod_packet, level_for_distance, pixel_angle, LevelChoice, LodHit,
+};
 pub use normal::{hit_normal, trilinear_gradient};
 pub use packet::{intersect_packet, RayPacket, PACKET_SIZE};
 pub use ray_voxel::{intersect_voxel, unit_cube_span};

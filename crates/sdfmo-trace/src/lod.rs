@@ -11,6 +11,7 @@
 use glam::Vec3;
 use sdfmo_format::{cell_size, LodOctree, PackedOctree};
 
+use crate::packet::{intersect_packet, RayPacket, PACKET_SIZE};
 use crate::ray_voxel::unit_cube_span;
 use crate::traversal::{intersect, Hit, Ray};
 
@@ -45,6 +46,85 @@ pub fn level_for_distance(t: f32, pixels: f32, pixel_angle: f32, coarsest: u8, f
     (coarsest..=finest)
         .find(|&k| cell_size(k) <= budget)
         .unwrap_or(finest)
+}
+
+/// The levels a hit of `ray` in `[t_min, t_max]` can need by [`LevelChoice::PixelError`]:
+/// `(near, far)`, those of the ends of its span in the root cube `[-1, 1]³` (distances are
+/// `t · |dir|`); `None` when the span is empty.
+fn span_levels(
+    lod: &LodOctree,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    pixels: f32,
+    pixel_angle: f32,
+) -> Option<(u8, u8)> {
+    // The root cube [-1, 1]³ is the unit cube at (p + 1) / 2, with the same t.
+    let (t_in, t_out) = unit_cube_span((ray.origin + Vec3::ONE) * 0.5, ray.dir * 0.5)?;
+    let (t_in, t_out) = (t_in.max(t_min), t_out.min(t_max));
+    if t_in > t_out {
+        return None;
+    }
+    let scale = ray.dir.length();
+    let at =
+        |t: f32| level_for_distance(t * scale, pixels, pixel_angle, lod.coarsest(), lod.depth());
+    Some((at(t_in), at(t_out)))
+}
+
+/// [`intersect_lod`] for a packet of rays (lanes not traced: `None`; each traced lane exactly
+/// what [`intersect_lod`]`(lod, ray, 0.0, t_max, choice)` returns). A fixed level, and a
+/// pixel-error choice under which every traced lane's span needs one and the same level (a
+/// far object: its whole depth range needs one level), walk that level's octree once for the
+/// packet ([`intersect_packet`]); otherwise lane by lane.
+pub fn intersect_lod_packet(
+    lod: &LodOctree,
+    rays: &RayPacket,
+    choice: LevelChoice,
+) -> [Option<LodHit>; PACKET_SIZE] {
+    let packet_at = |level: u8| -> [Option<LodHit>; PACKET_SIZE] {
+        match lod.level(level) {
+            Some(octree) => {
+                intersect_packet(octree, rays).map(|h| h.map(|hit| LodHit { hit, level }))
+            }
+            None => [None; PACKET_SIZE],
+        }
+    };
+    let lanes = || (0..PACKET_SIZE).filter(|l| rays.lanes >> l & 1 != 0);
+    match choice {
+        LevelChoice::Level(k) => packet_at(k.clamp(lod.coarsest(), lod.depth())),
+        LevelChoice::PixelError {
+            pixels,
+            pixel_angle,
+        } => {
+            let ray = |l: usize| Ray {
+                origin: rays.origin,
+                dir: rays.dirs[l],
+            };
+            let mut common: Option<u8> = None;
+            let mut uniform = true;
+            for l in lanes() {
+                match span_levels(lod, &ray(l), 0.0, rays.t_max, pixels, pixel_angle) {
+                    // A lane that misses the root cube misses at every level.
+                    None => {}
+                    Some((near, far)) if near == far && common.is_none_or(|c| c == near) => {
+                        common = Some(near)
+                    }
+                    Some(_) => uniform = false,
+                }
+            }
+            match (uniform, common) {
+                (true, Some(level)) => packet_at(level),
+                (true, None) => [None; PACKET_SIZE],
+                (false, _) => {
+                    let mut out = [None; PACKET_SIZE];
+                    for l in lanes() {
+                        out[l] = intersect_lod(lod, &ray(l), 0.0, rays.t_max, choice);
+                    }
+                    out
+                }
+            }
+        }
+    }
 }
 
 /// A hit of [`intersect_lod`]: the hit in the level's octree, and the level.
@@ -92,15 +172,11 @@ pub fn intersect_lod(
             pixels,
             pixel_angle,
         } => {
-            // The root cube [-1, 1]³ is the unit cube at (p + 1) / 2, with the same t.
-            let (t_in, t_out) = unit_cube_span((ray.origin + Vec3::ONE) * 0.5, ray.dir * 0.5)?;
-            let (t_in, t_out) = (t_in.max(t_min), t_out.min(t_max));
-            if t_in > t_out {
-                return None;
-            }
-            let level_at = |t: f32| level_for_distance(t, pixels, pixel_angle, coarsest, finest);
-            let near = level_at(t_in);
-            let mut level = level_at(t_out);
+            let (near, far) = span_levels(lod, ray, t_min, t_max, pixels, pixel_angle)?;
+            let scale = ray.dir.length();
+            let level_at =
+                |t: f32| level_for_distance(t * scale, pixels, pixel_angle, coarsest, finest);
+            let mut level = far;
             loop {
                 let Some(hit) = intersect(lod.level(level)?, ray, t_min, t_max) else {
                     if level >= near {
@@ -196,6 +272,42 @@ mod tests {
             if dist <= 1.2 {
                 assert_eq!(h.level, 6);
             }
+        }
+    }
+
+    /// The packet form gives every lane what the ray-by-ray form gives, near (mixed levels,
+    /// lane by lane) and far (one level for the packet), with directions of any length.
+    #[test]
+    fn packets_match_rays() {
+        let lod = LodOctree::from_levels((2..=6).map(sphere).collect()).unwrap();
+        let choice = LevelChoice::PixelError {
+            pixels: 1.0,
+            pixel_angle: pixel_angle(60.0, 128),
+        };
+        for &dist in &[1.5f32, 3.0, 40.0] {
+            let origin = Vec3::new(0.2, 0.1, dist);
+            let dirs: [Vec3; PACKET_SIZE] = core::array::from_fn(|l| {
+                let target = Vec3::new(-0.7 + 0.1 * l as f32, 0.05 * (l % 3) as f32, 0.0);
+                (target - origin) * (0.5 + l as f32 * 0.1)
+            });
+            let rays = RayPacket {
+                origin,
+                dirs,
+                lanes: (u32::MAX >> (32 - PACKET_SIZE as u32)) & !2,
+                t_max: f32::INFINITY,
+            };
+            let got = intersect_lod_packet(&lod, &rays, choice);
+            let mut hits = 0;
+            for (l, dir) in dirs.iter().enumerate() {
+                let want = if l == 1 {
+                    None
+                } else {
+                    intersect_lod(&lod, &Ray { origin, dir: *dir }, 0.0, f32::INFINITY, choice)
+                };
+                assert_eq!(got[l], want, "distance {dist}, lane {l}");
+                hits += usize::from(want.is_some());
+            }
+            assert!(hits > 2, "distance {dist}: {hits} hits");
         }
     }
 }

@@ -442,13 +442,13 @@ mod tests {
         for bad in ["8/8", "1/0", "x/2", "2", "-1/3"] {
             assert!(parse_shard(bad).is_err(), "{bad}");
         }
-        let env = |vars: &'static [(&'static str, &'static str)]| {
+        fn env<'a>(vars: &'a [(&'a str, &'a str)]) -> impl Fn(&str) -> Option<String> + 'a {
             move |k: &str| {
                 vars.iter()
                     .find(|(n, _)| *n == k)
                     .map(|(_, v)| v.to_string())
             }
-        };
+        }
         let slurm = [
             ("SLURM_ARRAY_TASK_ID", "5"),
             ("SLURM_ARRAY_TASK_MIN", "1"),
@@ -458,10 +458,10 @@ mod tests {
             Shard::resolve_from(None, env(&slurm)).unwrap(),
             Shard { index: 4, count: 8 }
         );
-        let given = Some(Shard { index: 0, count: 2 });
+        let given = Shard { index: 0, count: 2 };
         assert_eq!(
-            Shard::resolve_from(given, env(&slurm)).unwrap(),
-            given.unwrap()
+            Shard::resolve_from(Some(given), env(&slurm)).unwrap(),
+            given
         );
         let k8s = [("JOB_COMPLETION_INDEX", "2"), ("SDFMO_SHARD_COUNT", "3")];
         assert_eq!(

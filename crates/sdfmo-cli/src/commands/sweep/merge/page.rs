@@ -283,7 +283,7 @@ pub fn html(p: &Page) -> String {
         ("ΔFLIP", |d: &DepthStats| &d.flip_change, 4),
         ("Size ratio multi / SVO", |d: &DepthStats| &d.size_ratio, 3),
     ] {
-        let _ = write!(s, "<h3>{}</h3>\n", esc(title));
+        let _ = writeln!(s, "<h3>{}</h3>", esc(title));
         s.push_str(&html_table(
             &qh,
             &distribution_rows(&st.depths, pick, digits),
@@ -295,11 +295,11 @@ pub fn html(p: &Page) -> String {
          <img class=\"plot\" src=\"dataset_time_vs_triangles.png\" alt=\"build and render time against triangles\">\n",
     );
     if let Some(t) = &st.time_per_model {
-        let _ = write!(
+        let _ = writeln!(
             s,
             "<p>Wall time per model (its process: load, reference, every build, render and \
              compare): mean {:.0} ms over {} models ({:.1} s in all); least squares {:.0} ms + \
-             {:.4} ms × triangles.</p>\n",
+             {:.4} ms × triangles.</p>",
             t.mean_ms,
             t.models,
             t.total_ms / 1e3,
@@ -315,14 +315,14 @@ pub fn html(p: &Page) -> String {
             .map_or(0, |x| x.triangles)
     };
     for d in &st.depths {
-        let _ = write!(s, "<h3>Depth {}</h3>\n", d.depth);
+        let _ = writeln!(s, "<h3>Depth {}</h3>", d.depth);
         for (m, g) in &d.worst {
             if !p.shown.contains(m) {
                 continue;
             }
-            let _ = write!(
+            let _ = writeln!(
                 s,
-                "<div><b>{}</b> ({} triangles): ΔPSNR {} dB<br>\n",
+                "<div><b>{}</b> ({} triangles): ΔPSNR {} dB<br>",
                 esc(m),
                 triangles(m),
                 num(*g, 2)
@@ -346,7 +346,7 @@ pub fn html(p: &Page) -> String {
             s.push_str("</div>\n");
         }
     }
-    let _ = write!(s, "<h2>Failures ({})</h2>\n", p.failures.len());
+    let _ = writeln!(s, "<h2>Failures ({})</h2>", p.failures.len());
     if p.failures.is_empty() {
         s.push_str("<p>None.</p>\n");
     } else {
