@@ -182,8 +182,8 @@ def main() -> None:
     atomic_write(os.path.join(a.out, "results.json"), json.dumps(res, indent=1))
     if a.rows_only or not a.docs:
         return
-
     sweep = load(os.path.join(a.sweep, "results.json"))
+
     sr = sweep_rows(sweep)
     sweep_threads = sweep["settings"]["threads"]
     docs = a.docs
@@ -210,7 +210,10 @@ def main() -> None:
       "wall times are inflated several times and vary run to run; CPU times are given beside them. "
       f"The NGLOD models were trained with the **`{sched.get('name', 'custom')}` schedule**, "
       "not the paper's (see *Schedule* below): NGLOD's PSNR here is a lower bound on what its full "
-      "schedule reaches. Models run: " + ", ".join(models) + ".")
+      "schedule reaches. Models run: " + ", ".join(models) + "."
+      + (" In the sweep but with no finished NGLOD run (not counted anywhere below): "
+         + ", ".join(m["model"] for m in sweep["models"] if m["model"] not in models) + "."
+         if any(m["model"] not in models for m in sweep["models"]) else ""))
     w("")
     w("## What was run")
     w("")
