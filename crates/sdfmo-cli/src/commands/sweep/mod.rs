@@ -202,6 +202,9 @@ fn build_settings(args: &SweepArgs, method: MethodArg, depth: u8) -> BuildSettin
     }
 }
 
+/// Makes the report of the models and rows so far (with the extra rows).
+type ReportOf<'a> = dyn Fn(&[Model], &[Row]) -> Report + 'a;
+
 /// What every model of a sweep shares: the arguments, the report of the results so far, the
 /// configurations, the memory budget and the progress bar.
 #[derive(Clone, Copy)]
@@ -213,7 +216,7 @@ struct Sweep<'a> {
     bar: &'a indicatif::ProgressBar,
     /// The report of the models and rows so far (with the extra rows), rewritten after each
     /// row; `None` in a shard's model process, which prints its rows instead.
-    report_of: Option<&'a dyn Fn(&[Model], &[Row]) -> Report>,
+    report_of: Option<&'a ReportOf<'a>>,
 }
 
 /// A shard's model process (`--isolated-model NAME`): sweeps its one mesh under `name`, writes
