@@ -2,7 +2,7 @@
 //! each ray needs by screen-space error.
 //!
 //! Level `k` of a file with levels is a complete octree of depth `k` ([`LodOctree::level`]):
-//! every query of this crate takes it as it is — [`intersect`], [`intersect_packet`](crate::intersect_packet),
+//! every query of this crate takes it as it is — [`intersect`], [`intersect_packet`],
 //! [`distance_at`](crate::distance_at), [`hit_normal`](crate::hit_normal) — so a traversal
 //! "stopped at level `k`" is the traversal of that octree. What is new here is the per-ray
 //! choice: [`intersect_lod`] with [`LevelChoice::PixelError`] lets each ray stop at the
