@@ -97,6 +97,10 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
 /// Whether the file starts with the `.smo` magic (an unreadable file is left to the mesh
 /// loader, whose error names it).
 fn is_smo(path: &Path) -> bool {
+    // Only a regular file is opened: opening a FIFO blocks until a writer comes (hostile.rs).
+    if !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+        return false;
+    }
     let mut head = [0u8; 8];
     std::fs::File::open(path)
         .and_then(|mut f| f.read_exact(&mut head))
