@@ -526,8 +526,11 @@ fn build_in_pool(
     let depth = settings.depth;
     report(0.0)?;
 
-    // 1. Normalise.
+    // 1. Normalise, after re-triangulating flat fans (same surface; their wedges would make
+    // every query and cell list near them O(n)).
     let t = Instant::now();
+    let reshaped = sdfmo_distance::reshape_fans(mesh);
+    let mesh = reshaped.as_ref().map_or(mesh, |r| &r.mesh);
     let (norm_mesh, norm) = mesh.normalized(settings.margin);
     // Both methods: where the multi-octree has nothing to add it must equal the SVO.
     let norm_mesh = norm_mesh.transformed(|p| snap_to_grid(p, depth, settings.bits));

@@ -67,7 +67,7 @@ use rayon::prelude::*;
 use sdfmo_mesh::{EdgeAdjacency, TriMesh};
 
 pub use bvh_build::{
-    box_overlap, BvhBuilder, MAX_PLOC_BOX_OVERLAP, MAX_PLOC_VALENCE, SAH_DEPTH_BOUND,
+    box_overlap, reshape_fans, BvhBuilder, MAX_PLOC_BOX_OVERLAP, MAX_PLOC_VALENCE, SAH_DEPTH_BOUND,
 };
 pub use point_triangle::{closest_point_on_triangle, Feature};
 pub use ray_triangle::WatertightRay;

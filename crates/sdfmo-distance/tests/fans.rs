@@ -9,7 +9,7 @@ use glam::Vec3;
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use sdfmo_distance::{BvhBuilder, MeshDistance, SignMode, MAX_BVH_DEPTH};
+use sdfmo_distance::{reshape_fans, BvhBuilder, MeshDistance, SignMode, MAX_BVH_DEPTH};
 use sdfmo_mesh::procedural::{fan_cylinder, fan_disc};
 use sdfmo_mesh::TriMesh;
 
@@ -52,6 +52,53 @@ fn fan_cylinders_and_fans_build_shallow_and_answer_exactly() {
     let md = MeshDistance::new(&disc, SignMode::Auto).unwrap();
     assert_eq!(md.bvh_builder(), BvhBuilder::BinnedSah);
     check_against_brute_force(&disc, 50, 1, false);
+}
+
+#[test]
+fn reshaped_fans_answer_the_original_meshs_distances() {
+    // The re-triangulated surface is the same surface: its distances equal brute force over
+    // the original triangles, its tree is PLOC's again, and the closed cylinder stays closed.
+    for (mesh, samples, closed) in [
+        (fan_cylinder(5_000, 1.0, 0.5), 300, true),
+        (fan_disc(50_000), 100, false),
+    ] {
+        let reshaped = reshape_fans(&mesh).expect("a fan-shaped mesh is reshaped");
+        assert!(reshaped.regions >= 1);
+        let md = MeshDistance::new(&reshaped.mesh, SignMode::Auto).unwrap();
+        assert_eq!(md.bvh_builder(), BvhBuilder::Ploc);
+        assert_eq!(
+            md.sign_mode(),
+            MeshDistance::new(&mesh, SignMode::Auto)
+                .unwrap()
+                .sign_mode()
+        );
+        let b = mesh.bounds();
+        let pad = b.size().max_element() * 0.3;
+        let mut rng = ChaCha8Rng::seed_from_u64(samples as u64);
+        for i in 0..samples {
+            let mut p = Vec3::new(
+                rng.random_range(b.min.x - pad..b.max.x + pad),
+                rng.random_range(b.min.y - pad..b.max.y + pad),
+                rng.random_range(b.min.z - pad..b.max.z + pad),
+            );
+            if i % 2 == 0 {
+                // Half of them close to the surface, where the fans' wedges were the trouble.
+                let [a, b, c] = mesh.triangle(rng.random_range(0..mesh.triangle_count()));
+                p = (a + b + c) / 3.0 + (p - b) * 0.01;
+            }
+            let want = oracle_distance(&mesh, 0..mesh.triangle_count(), p);
+            let got = md.closest_point(p).distance;
+            assert!(
+                (f64::from(got) - want).abs() <= 1e-5 * (1.0 + want),
+                "{p}: {got} vs {want}"
+            );
+            if closed && want > 1e-3 {
+                assert_eq!(md.signed_distance(p) < 0.0, inside_convex(&mesh, p), "{p}");
+            }
+        }
+    }
+    // An ordinary closed mesh is left alone.
+    assert!(reshape_fans(&l_prism()).is_none());
 }
 
 #[test]

@@ -9,7 +9,7 @@ use common::*;
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use sdfmo_distance::{MeshDistance, SignMode};
+use sdfmo_distance::{reshape_fans, MeshDistance, SignMode};
 use sdfmo_mesh::{load_mesh, TriMesh};
 
 /// A mesh of the shared test data (resolved by `build.rs` through `sdfmo-testdata`), normalised;
@@ -122,4 +122,22 @@ fn closed_cad_part_has_no_sign_errors_near_edges_and_vertices() {
         compared > off_surface * 9 / 10,
         "{compared} of {off_surface}"
     );
+}
+
+#[test]
+#[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
+fn no_shared_mesh_is_reshaped_as_a_fan() {
+    // `reshape_fans` must leave every ordinary mesh alone: their octrees, images and distances
+    // stay byte-identical to what they were before it existed.
+    for name in [
+        "abc1.stl",
+        "abc3.stl",
+        "abc5.stl",
+        "abc8.stl",
+        "abc5_parts.obj",
+        "stanford-bunny.obj",
+        "teapot.obj",
+    ] {
+        assert!(reshape_fans(&load_normalized(name)).is_none(), "{name}");
+    }
 }

@@ -20,6 +20,7 @@
 
 mod clean;
 mod error;
+mod flat;
 mod load;
 mod mesh;
 pub mod procedural;
@@ -29,6 +30,7 @@ pub mod write;
 
 pub use clean::{clean, weld_within, CleanReport};
 pub use error::{MeshError, Result};
+pub use flat::{retriangulate_flat_regions, FlatRegionSettings, Retriangulated};
 pub use load::{
     detect_format, load_mesh, load_mesh_from_bytes, load_mesh_from_bytes_with_limits,
     load_mesh_with_limits, mesh_name, LoadLimits, LoadedMesh, MeshFormat,

@@ -103,6 +103,9 @@ impl PaperProtocol {
         size: u32,
         threads: Option<usize>,
     ) -> Result<PaperProtocol, ProtocolError> {
+        // Only the surface matters for the images: flat fans re-triangulated.
+        let reshaped = sdfmo_distance::reshape_fans(mesh);
+        let mesh = reshaped.as_ref().map_or(mesh, |r| &r.mesh);
         let (normalized, _) = mesh.normalized(margin);
         let dist =
             MeshDistance::new(&normalized, SignMode::Auto).map_err(ProtocolError::Distance)?;

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use anyhow::{bail, Context};
 use glam::Vec3;
-use sdf_multioctree::distance::MeshDistance;
+use sdf_multioctree::distance::{reshape_fans, MeshDistance};
 use serde_json::json;
 
 use crate::args::DistanceArgs;
@@ -42,7 +42,10 @@ pub fn run(args: &DistanceArgs) -> anyhow::Result<()> {
     let text = sdf_multioctree::io::read_regular_to_string(&args.points, MAX_POINTS_FILE)?;
     let points = parse_points(&text, &args.points)?;
     let input = load_input(Some(&args.mesh))?;
-    let (normalized, _) = input.mesh.normalized(sdf_multioctree::DEFAULT_MARGIN);
+    // Only distances are printed, so flat fans may be re-triangulated (same surface).
+    let reshaped = reshape_fans(&input.mesh);
+    let mesh = reshaped.as_ref().map_or(&input.mesh, |r| &r.mesh);
+    let (normalized, _) = mesh.normalized(sdf_multioctree::DEFAULT_MARGIN);
     let dist = MeshDistance::new(&normalized, args.sign.mode())
         .with_context(|| format!("cannot prepare distance queries on {}", input.source))?;
 

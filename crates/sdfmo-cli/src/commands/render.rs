@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use glam::Vec3;
-use sdf_multioctree::distance::{MeshDistance, SignMode};
+use sdf_multioctree::distance::{reshape_fans, MeshDistance, SignMode};
 use sdf_multioctree::format::{PackedOctree, SmoFile};
 use sdf_multioctree::render::shading::{light_dir, DepthRange, AMBIENT, LIGHT_INTENSITY};
 use sdf_multioctree::render::{
@@ -200,7 +200,10 @@ fn cpu_views<'a, T: Traceable>(
 pub fn run_mesh(args: &RenderMeshArgs) -> anyhow::Result<()> {
     let outputs = check_options(&args.opts)?;
     let input = load_input(args.mesh.as_deref())?;
-    let (normalized, _) = input.mesh.normalized(sdf_multioctree::DEFAULT_MARGIN);
+    // Only the surface matters for the images: flat fans re-triangulated.
+    let reshaped = reshape_fans(&input.mesh);
+    let mesh = reshaped.as_ref().map_or(&input.mesh, |r| &r.mesh);
+    let (normalized, _) = mesh.normalized(sdf_multioctree::DEFAULT_MARGIN);
     let dist = MeshDistance::new(&normalized, SignMode::Auto)
         .with_context(|| format!("cannot prepare ray queries on {}", input.source))?;
     let scene = MeshScene(&dist);
