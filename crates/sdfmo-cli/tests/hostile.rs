@@ -877,31 +877,20 @@ fn issue19_catalogue() {
 // ---- Issue 19, items 2 and 5: clip work and GPU limits ---------------------------------------
 // (Kept apart from the rest of issue 19's catalogue to ease merging.)
 
-/// A valid-looking `.smo` of every leaf at depth 4 (4,096 leaves) holding 255 volume voxels,
-/// of which the last `clips` have the clip bit: voxels 0..254 are the plane `x = 0.49` (local
-/// cell coordinates, inside below), voxel 254 the plane `x = 0.51` (inside above). The solid
-/// the clip rule makes of them is empty, and it is the worst order for the rule: every
-/// candidate of a voxel passes every clip voxel but the last one, which rejects it. With
-/// `clips` above the format's bound the file is written at the bound, then the extra clip bits
-/// are set and the checksum recomputed (the writer refuses such a file).
+/// A valid-looking `.smo` of every leaf at depth 4 (4,096 leaves) holding the 255 volume
+/// voxels of [`clip_flood_voxels`], of which the last `clips` have the clip bit: the worst order
+/// for the clip rule. With `clips` above the format's bound the file is written at the bound,
+/// then the extra clip bits are set and the checksum recomputed (the writer refuses such a
+/// file).
 fn clip_flood(clips: usize) -> Vec<u8> {
     use sdf_multioctree::format::{
-        crc32, LeafInput, OctreeMeta, PackedOctree, ValueBits, Voxel, MAX_CLIP_VOXELS_PER_LEAF,
+        crc32, LeafInput, OctreeMeta, PackedOctree, ValueBits, MAX_CLIP_VOXELS_PER_LEAF,
     };
+    use sdfmo_format::testing::clip_flood_voxels;
     const DEPTH: u8 = 4;
     const VOXELS: usize = 255;
-    let h = 2.0 / f32::from(1u8 << DEPTH);
     let written = clips.min(MAX_CLIP_VOXELS_PER_LEAF);
-    let voxels: Vec<Voxel> = (0..VOXELS)
-        .map(|k| Voxel {
-            corners: core::array::from_fn(|i| {
-                let x = (i >> 2) as f32;
-                h * if k == VOXELS - 1 { 0.51 - x } else { x - 0.49 }
-            }),
-            surface: false,
-            clip: k >= VOXELS - written,
-        })
-        .collect();
+    let voxels = clip_flood_voxels(DEPTH, written);
     let side = 1u32 << DEPTH;
     let leaves = (0..side * side * side)
         .map(|i| LeafInput {

@@ -595,30 +595,15 @@ impl SmoFile {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{cell_corners, LeafInput, Voxel};
+    use crate::testing::sphere_leaves;
+    use crate::LeafInput;
 
-    /// A sphere of radius 0.6 at `depth`, as the leaf cells it passes through.
+    /// A sphere of radius 0.6 at `depth`, as the leaf cells it passes through, some of its
+    /// voxels surface voxels.
     fn sphere(depth: u8) -> PackedOctree {
-        let n = 1u32 << depth;
-        let mut leaves = Vec::new();
-        for x in 0..n {
-            for y in 0..n {
-                for z in 0..n {
-                    let corners = cell_corners(depth, [x, y, z], |p| p.length() - 0.6);
-                    let lo = corners.iter().cloned().fold(f32::INFINITY, f32::min);
-                    let hi = corners.iter().cloned().fold(f32::NEG_INFINITY, f32::max);
-                    if lo <= 0.0 && hi >= 0.0 {
-                        leaves.push(LeafInput {
-                            coord: [x, y, z],
-                            voxels: vec![Voxel {
-                                corners,
-                                surface: (x + y) % 5 == 0,
-                                clip: false,
-                            }],
-                        });
-                    }
-                }
-            }
+        let mut leaves = sphere_leaves(depth, 0.6);
+        for leaf in &mut leaves {
+            leaf.voxels[0].surface = (leaf.coord[0] + leaf.coord[1]) % 5 == 0;
         }
         let meta = OctreeMeta {
             depth,
