@@ -13,6 +13,7 @@ use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
 use crate::file::MAGIC;
 use crate::octree::bytes_at;
+use crate::validate::check_magic;
 use crate::{
     OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, FORMAT_VERSION_MAJOR, MAX_DEPTH,
     MAX_FILE_SIZE,
@@ -119,17 +120,7 @@ fn f32_at(b: &[u8], at: usize) -> f32 {
 /// the file: only the header must be complete). O(levels).
 fn read_header(bytes: &[u8]) -> Result<LodHeader> {
     let len = bytes.len();
-    if len < MAGIC.len() {
-        return Err(FormatError::Truncated {
-            len,
-            needed: LOD_HEADER_FIXED as u64,
-        });
-    }
-    if bytes[..8] != MAGIC {
-        let mut found = [0u8; 8];
-        found.copy_from_slice(&bytes[..8]);
-        return Err(FormatError::BadMagic { found });
-    }
+    check_magic(bytes, LOD_HEADER_FIXED)?;
     if len < 12 {
         return Err(FormatError::Truncated {
             len,
@@ -454,15 +445,7 @@ impl LodOctree {
                 needed: header.file_size,
             });
         }
-        if len > header.file_size {
-            return corrupt(
-                "file_size",
-                format!(
-                    "{} (the data has {len} bytes: trailing bytes)",
-                    header.file_size
-                ),
-            );
-        }
+        // A longer file is refused by `from_prefix`.
         Ok(LodOctree::from_prefix(bytes)?.octree)
     }
 
