@@ -110,6 +110,13 @@ fn case(name: &str, args: &[&dyn AsRef<std::ffi::OsStr>], needle: &'static str) 
     }
 }
 
+impl Case {
+    /// The case with the time bound `limit` instead of the default 2 s.
+    fn within(self, limit: Duration) -> Case {
+        Case { limit, ..self }
+    }
+}
+
 /// Runs a case: exit 2, nothing on stdout, one stderr line containing the needle, no fragment
 /// of it (between ": ") said twice, within the time limit.
 fn check(c: &Case) {
@@ -519,22 +526,23 @@ fn deep_builds_are_refused_in_seconds() {
                 eprintln!("note: depth {depth} fits this machine's budget: case skipped");
                 continue;
             }
-            let mut c = case(
-                &format!("abc5 depth {depth}"),
-                &[
-                    &"build",
-                    &abc5,
-                    &"-d",
-                    &depth.to_string(),
-                    &"-o",
-                    &dir.path().join("deep.smo"),
-                ],
-                "more than the budget",
+            cases.push(
+                case(
+                    &format!("abc5 depth {depth}"),
+                    &[
+                        &"build",
+                        &abc5,
+                        &"-d",
+                        &depth.to_string(),
+                        &"-o",
+                        &dir.path().join("deep.smo"),
+                    ],
+                    "more than the budget",
+                )
+                .within(Duration::from_secs(5)),
             );
-            c.limit = Duration::from_secs(5);
-            cases.push(c);
         }
-        let mut c = case(
+        let c = case(
             "sweep abc5 depth 13",
             &[
                 &"sweep",
@@ -545,8 +553,8 @@ fn deep_builds_are_refused_in_seconds() {
                 &dir.path().join("deep_sweep"),
             ],
             "more than the budget",
-        );
-        c.limit = Duration::from_secs(5);
+        )
+        .within(Duration::from_secs(5));
         if budget.is_some_and(|b| {
             let s = sdf_multioctree::build::BuildSettings {
                 depth: 13,
@@ -949,16 +957,17 @@ fn issue_19_clip_work_and_gpu_limits() {
     std::fs::write(&flood, clip_flood(255)).unwrap();
     let png = dir.path().join("flood.png");
     let mut cases = Vec::new();
-    let mut c = case(
-        "255 clip voxels per leaf, 1024² on the CPU",
-        &[&"render", &flood, &"--size", &"1024x1024", &"-o", &png],
-        "clip voxels, more than the 8",
+    cases.push(
+        case(
+            "255 clip voxels per leaf, 1024² on the CPU",
+            &[&"render", &flood, &"--size", &"1024x1024", &"-o", &png],
+            "clip voxels, more than the 8",
+        )
+        .within(Duration::from_secs(1)),
     );
-    c.limit = Duration::from_secs(1);
-    cases.push(c);
     if gpu_available() {
         // Opening the adapter is part of this case's time (about 0.1–0.3 s on lavapipe).
-        let mut c = case(
+        cases.push(case(
             "255 clip voxels per leaf, 1024² on the GPU",
             &[
                 &"render",
@@ -971,21 +980,17 @@ fn issue_19_clip_work_and_gpu_limits() {
                 &png,
             ],
             "clip voxels, more than the 8",
-        );
-        c.limit = Duration::from_secs(2);
-        cases.push(c);
+        ));
         // A sparse file one word past the kernel's 32-bit limit: never read.
         let big = dir.path().join("big.smo");
         let f = std::fs::File::create(&big).unwrap();
         f.set_len(sdfmo_gpu::MAX_GPU_FILE_BYTES + 4).unwrap();
         drop(f);
-        let mut c = case(
+        cases.push(case(
             "a 4 GiB file on the GPU",
             &[&"render", &big, &"--device", &"gpu", &"-o", &png],
             "the octree",
-        );
-        c.limit = Duration::from_secs(2);
-        cases.push(c);
+        ));
     }
     for c in &cases {
         check(c);
