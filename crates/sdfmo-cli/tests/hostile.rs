@@ -110,6 +110,13 @@ fn case(name: &str, args: &[&dyn AsRef<std::ffi::OsStr>], needle: &'static str) 
     }
 }
 
+impl Case {
+    /// The case with the time bound `limit` instead of the default 2 s.
+    fn within(self, limit: Duration) -> Case {
+        Case { limit, ..self }
+    }
+}
+
 /// Runs a case: exit 2, nothing on stdout, one stderr line containing the needle, no fragment
 /// of it (between ": ") said twice, within the time limit.
 fn check(c: &Case) {
@@ -519,22 +526,23 @@ fn deep_builds_are_refused_in_seconds() {
                 eprintln!("note: depth {depth} fits this machine's budget: case skipped");
                 continue;
             }
-            let mut c = case(
-                &format!("abc5 depth {depth}"),
-                &[
-                    &"build",
-                    &abc5,
-                    &"-d",
-                    &depth.to_string(),
-                    &"-o",
-                    &dir.path().join("deep.smo"),
-                ],
-                "more than the budget",
+            cases.push(
+                case(
+                    &format!("abc5 depth {depth}"),
+                    &[
+                        &"build",
+                        &abc5,
+                        &"-d",
+                        &depth.to_string(),
+                        &"-o",
+                        &dir.path().join("deep.smo"),
+                    ],
+                    "more than the budget",
+                )
+                .within(Duration::from_secs(5)),
             );
-            c.limit = Duration::from_secs(5);
-            cases.push(c);
         }
-        let mut c = case(
+        let c = case(
             "sweep abc5 depth 13",
             &[
                 &"sweep",
@@ -545,8 +553,8 @@ fn deep_builds_are_refused_in_seconds() {
                 &dir.path().join("deep_sweep"),
             ],
             "more than the budget",
-        );
-        c.limit = Duration::from_secs(5);
+        )
+        .within(Duration::from_secs(5));
         if budget.is_some_and(|b| {
             let s = sdf_multioctree::build::BuildSettings {
                 depth: 13,
@@ -877,31 +885,20 @@ fn issue19_catalogue() {
 // ---- Issue 19, items 2 and 5: clip work and GPU limits ---------------------------------------
 // (Kept apart from the rest of issue 19's catalogue to ease merging.)
 
-/// A valid-looking `.smo` of every leaf at depth 4 (4,096 leaves) holding 255 volume voxels,
-/// of which the last `clips` have the clip bit: voxels 0..254 are the plane `x = 0.49` (local
-/// cell coordinates, inside below), voxel 254 the plane `x = 0.51` (inside above). The solid
-/// the clip rule makes of them is empty, and it is the worst order for the rule: every
-/// candidate of a voxel passes every clip voxel but the last one, which rejects it. With
-/// `clips` above the format's bound the file is written at the bound, then the extra clip bits
-/// are set and the checksum recomputed (the writer refuses such a file).
+/// A valid-looking `.smo` of every leaf at depth 4 (4,096 leaves) holding the 255 volume
+/// voxels of [`clip_flood_voxels`], of which the last `clips` have the clip bit: the worst order
+/// for the clip rule. With `clips` above the format's bound the file is written at the bound,
+/// then the extra clip bits are set and the checksum recomputed (the writer refuses such a
+/// file).
 fn clip_flood(clips: usize) -> Vec<u8> {
     use sdf_multioctree::format::{
-        crc32, LeafInput, OctreeMeta, PackedOctree, ValueBits, Voxel, MAX_CLIP_VOXELS_PER_LEAF,
+        crc32, LeafInput, OctreeMeta, PackedOctree, ValueBits, MAX_CLIP_VOXELS_PER_LEAF,
     };
+    use sdfmo_format::testing::clip_flood_voxels;
     const DEPTH: u8 = 4;
     const VOXELS: usize = 255;
-    let h = 2.0 / f32::from(1u8 << DEPTH);
     let written = clips.min(MAX_CLIP_VOXELS_PER_LEAF);
-    let voxels: Vec<Voxel> = (0..VOXELS)
-        .map(|k| Voxel {
-            corners: core::array::from_fn(|i| {
-                let x = (i >> 2) as f32;
-                h * if k == VOXELS - 1 { 0.51 - x } else { x - 0.49 }
-            }),
-            surface: false,
-            clip: k >= VOXELS - written,
-        })
-        .collect();
+    let voxels = clip_flood_voxels(DEPTH, written);
     let side = 1u32 << DEPTH;
     let leaves = (0..side * side * side)
         .map(|i| LeafInput {
@@ -960,16 +957,17 @@ fn issue_19_clip_work_and_gpu_limits() {
     std::fs::write(&flood, clip_flood(255)).unwrap();
     let png = dir.path().join("flood.png");
     let mut cases = Vec::new();
-    let mut c = case(
-        "255 clip voxels per leaf, 1024² on the CPU",
-        &[&"render", &flood, &"--size", &"1024x1024", &"-o", &png],
-        "clip voxels, more than the 8",
+    cases.push(
+        case(
+            "255 clip voxels per leaf, 1024² on the CPU",
+            &[&"render", &flood, &"--size", &"1024x1024", &"-o", &png],
+            "clip voxels, more than the 8",
+        )
+        .within(Duration::from_secs(1)),
     );
-    c.limit = Duration::from_secs(1);
-    cases.push(c);
     if gpu_available() {
         // Opening the adapter is part of this case's time (about 0.1–0.3 s on lavapipe).
-        let mut c = case(
+        cases.push(case(
             "255 clip voxels per leaf, 1024² on the GPU",
             &[
                 &"render",
@@ -982,21 +980,17 @@ fn issue_19_clip_work_and_gpu_limits() {
                 &png,
             ],
             "clip voxels, more than the 8",
-        );
-        c.limit = Duration::from_secs(2);
-        cases.push(c);
+        ));
         // A sparse file one word past the kernel's 32-bit limit: never read.
         let big = dir.path().join("big.smo");
         let f = std::fs::File::create(&big).unwrap();
         f.set_len(sdfmo_gpu::MAX_GPU_FILE_BYTES + 4).unwrap();
         drop(f);
-        let mut c = case(
+        cases.push(case(
             "a 4 GiB file on the GPU",
             &[&"render", &big, &"--device", &"gpu", &"-o", &png],
             "the octree",
-        );
-        c.limit = Duration::from_secs(2);
-        cases.push(c);
+        ));
     }
     for c in &cases {
         check(c);

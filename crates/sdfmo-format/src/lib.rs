@@ -65,7 +65,7 @@ mod lod;
 mod morton;
 mod octree;
 pub mod quant;
-#[cfg(feature = "test-support")]
+#[cfg(any(test, feature = "test-support"))]
 pub mod testing;
 mod validate;
 

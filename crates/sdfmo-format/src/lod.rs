@@ -13,6 +13,7 @@ use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
 use crate::file::MAGIC;
 use crate::octree::bytes_at;
+use crate::validate::check_magic;
 use crate::{
     OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, FORMAT_VERSION_MAJOR, MAX_DEPTH,
     MAX_FILE_SIZE,
@@ -119,17 +120,7 @@ fn f32_at(b: &[u8], at: usize) -> f32 {
 /// the file: only the header must be complete). O(levels).
 fn read_header(bytes: &[u8]) -> Result<LodHeader> {
     let len = bytes.len();
-    if len < MAGIC.len() {
-        return Err(FormatError::Truncated {
-            len,
-            needed: LOD_HEADER_FIXED as u64,
-        });
-    }
-    if bytes[..8] != MAGIC {
-        let mut found = [0u8; 8];
-        found.copy_from_slice(&bytes[..8]);
-        return Err(FormatError::BadMagic { found });
-    }
+    check_magic(bytes, LOD_HEADER_FIXED)?;
     if len < 12 {
         return Err(FormatError::Truncated {
             len,
@@ -454,15 +445,7 @@ impl LodOctree {
                 needed: header.file_size,
             });
         }
-        if len > header.file_size {
-            return corrupt(
-                "file_size",
-                format!(
-                    "{} (the data has {len} bytes: trailing bytes)",
-                    header.file_size
-                ),
-            );
-        }
+        // A longer file is refused by `from_prefix`.
         Ok(LodOctree::from_prefix(bytes)?.octree)
     }
 
@@ -595,30 +578,15 @@ impl SmoFile {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{cell_corners, LeafInput, Voxel};
+    use crate::testing::sphere_leaves;
+    use crate::LeafInput;
 
-    /// A sphere of radius 0.6 at `depth`, as the leaf cells it passes through.
+    /// A sphere of radius 0.6 at `depth`, as the leaf cells it passes through, some of its
+    /// voxels surface voxels.
     fn sphere(depth: u8) -> PackedOctree {
-        let n = 1u32 << depth;
-        let mut leaves = Vec::new();
-        for x in 0..n {
-            for y in 0..n {
-                for z in 0..n {
-                    let corners = cell_corners(depth, [x, y, z], |p| p.length() - 0.6);
-                    let lo = corners.iter().cloned().fold(f32::INFINITY, f32::min);
-                    let hi = corners.iter().cloned().fold(f32::NEG_INFINITY, f32::max);
-                    if lo <= 0.0 && hi >= 0.0 {
-                        leaves.push(LeafInput {
-                            coord: [x, y, z],
-                            voxels: vec![Voxel {
-                                corners,
-                                surface: (x + y) % 5 == 0,
-                                clip: false,
-                            }],
-                        });
-                    }
-                }
-            }
+        let mut leaves = sphere_leaves(depth, 0.6);
+        for leaf in &mut leaves {
+            leaf.voxels[0].surface = (leaf.coord[0] + leaf.coord[1]) % 5 == 0;
         }
         let meta = OctreeMeta {
             depth,

@@ -1,7 +1,9 @@
 //! Test octrees shared by the tests of several crates (feature `test-support`, enabled only in
-//! their dev-dependencies): convex solids built by hand from *intersect* voxels (format 1.1),
-//! and the analytic ray hit they must reproduce. Kept here, once, so the tracer's, the
-//! renderer's and the GPU's tests check the same solid the same way.
+//! their dev-dependencies, and in this crate's own tests): convex solids built by hand from
+//! *intersect* voxels (format 1.1) and the analytic ray hit they must reproduce, the sphere's
+//! SVO, the clip rule's worst-case leaf, and a pinhole camera's rays. Kept here, once, so the
+//! tracer's, the renderer's, the GPU's and the command line's tests check the same solid the
+//! same way.
 
 use glam::{Mat3, Vec3};
 
@@ -110,6 +112,63 @@ pub fn analytic_hit(planes: &[Plane], origin: Vec3, dir: Vec3, grow: f32) -> Opt
 pub fn skew_cube() -> (Mat3, Vec3, f32) {
     let rot = Mat3::from_axis_angle(Vec3::new(0.3, 1.0, 0.2).normalize(), 0.6);
     (rot, Vec3::new(0.031, -0.047, 0.023), 0.513)
+}
+
+/// The sphere of radius `r` about the origin as an SVO at `depth`: one volume voxel sampling
+/// `|p| − r` in every leaf cell whose corners straddle zero (some ≤ 0, some > 0).
+pub fn sphere_leaves(depth: u8, r: f32) -> Vec<LeafInput> {
+    leaves_by_cell(depth, |coord| {
+        let c = cell_corners(depth, coord, |p| p.length() - r);
+        if c.iter().any(|&v| v <= 0.0) && c.iter().any(|&v| v > 0.0) {
+            vec![Voxel {
+                corners: c,
+                surface: false,
+                clip: false,
+            }]
+        } else {
+            Vec::new()
+        }
+    })
+}
+
+/// The 255 volume voxels of a leaf at `depth` that make the clip rule's worst case, the last
+/// `clips` with the clip bit: voxels 0..254 are the plane `x = 0.49` (local cell coordinates,
+/// inside below), voxel 254 the plane `x = 0.51` (inside above). The solid the clip rule makes
+/// of them is empty, and every candidate of a voxel passes every clip voxel but the last one,
+/// which rejects it. `clips` above [`MAX_CLIP_VOXELS_PER_LEAF`](crate::MAX_CLIP_VOXELS_PER_LEAF)
+/// is a leaf the writer refuses.
+pub fn clip_flood_voxels(depth: u8, clips: usize) -> Vec<Voxel> {
+    const VOXELS: usize = 255;
+    let h = crate::cell_size(depth);
+    (0..VOXELS)
+        .map(|k| Voxel {
+            corners: core::array::from_fn(|i| {
+                let x = (i >> 2) as f32;
+                h * if k == VOXELS - 1 { 0.51 - x } else { x - 0.49 }
+            }),
+            surface: false,
+            clip: k >= VOXELS - clips,
+        })
+        .collect()
+}
+
+/// The unit directions of a `side`² pinhole camera at `eye` looking at the origin (up +y),
+/// spread `spread` at the image's edge, row by row from the bottom: the primary rays the
+/// tracer's tests shoot.
+pub fn pinhole_dirs(eye: Vec3, side: u32, spread: f32) -> Vec<Vec3> {
+    let fwd = (-eye).normalize();
+    let right = fwd.cross(Vec3::Y).normalize();
+    let up = right.cross(fwd);
+    let half = side as f32 / 2.0;
+    let mut out = Vec::new();
+    for py in 0..side {
+        for px in 0..side {
+            let u = (px as f32 + 0.5) / half - 1.0;
+            let v = (py as f32 + 0.5) / half - 1.0;
+            out.push((fwd + spread * (u * right + v * up)).normalize());
+        }
+    }
+    out
 }
 
 /// Issue 19 item 8: `leaves` (at `depth`) with a voxel whose corners are all 0, of the kind

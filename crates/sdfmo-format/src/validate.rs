@@ -40,13 +40,13 @@ impl<B: AsRef<[u8]>> Octree<B> {
     }
 }
 
-/// The checks of [`Octree::new`], in order; on success the octree's description.
-fn validate(bytes: &[u8]) -> Result<(OctreeMeta, Counts, Sections)> {
-    let len = bytes.len();
-    if len < MAGIC.len() {
+/// The first check of every reader: `bytes` start with [`MAGIC`]. Shorter than the magic is
+/// [`FormatError::Truncated`], needing `header_len` bytes (the header of the version read).
+pub(crate) fn check_magic(bytes: &[u8], header_len: usize) -> Result<()> {
+    if bytes.len() < MAGIC.len() {
         return Err(FormatError::Truncated {
-            len,
-            needed: HEADER_SIZE as u64,
+            len: bytes.len(),
+            needed: header_len as u64,
         });
     }
     if bytes[..8] != MAGIC {
@@ -54,6 +54,13 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, Counts, Sections)> {
         found.copy_from_slice(&bytes[..8]);
         return Err(FormatError::BadMagic { found });
     }
+    Ok(())
+}
+
+/// The checks of [`Octree::new`], in order; on success the octree's description.
+fn validate(bytes: &[u8]) -> Result<(OctreeMeta, Counts, Sections)> {
+    let len = bytes.len();
+    check_magic(bytes, HEADER_SIZE)?;
     if len < HEADER_SIZE {
         return Err(FormatError::Truncated {
             len,

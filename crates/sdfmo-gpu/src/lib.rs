@@ -13,7 +13,8 @@
 //!   format 1.1, the nearest hit that every other clip voxel of the leaf keeps — the clip rule
 //!   of `sdfmo-format`'s FORMAT.md, read from the same buffer: the clip bitmap after the
 //!   corners).
-//! - [`RENDER_WGSL`] (`src/render.wgsl`): one primary ray per pixel, shaded as `sdfmo-render`
+//! - [`render_wgsl`] (`src/render.wgsl` after the uniform struct generated from the host's):
+//!   one primary ray per pixel, shaded as `sdfmo-render`
 //!   shades it (mask, depth, normal, lambert; no shadows or occlusion), the entry point
 //!   [`ENTRY_POINT`] with workgroups of [`WORKGROUP_SIZE`]².
 //!
@@ -29,7 +30,7 @@
 //! | 3 | storage, read_write | `colors: array<u32>` | per pixel: `0x00BBGGRR` |
 //! | 4 | storage, read | `rays: array<vec4<f32>>` | the camera's column and row terms as double-float pairs ([`GpuCamera::ray_terms`]) |
 //!
-//! Only binding 0 belongs to the library ([`trace_wgsl`]); 1–4 are [`RENDER_WGSL`]'s. The kernel
+//! Only binding 0 belongs to the library ([`trace_wgsl`]); 1–4 are [`render_wgsl`]'s. The kernel
 //! reads the header's counts and section offsets itself; the one value the host passes is
 //! the dequantisation factor `diagonal / Q` ([`GpuOctree::dequant`], computed in f64 by
 //! `sdfmo_format::quant::dequant_scale` so the corners decode exactly as on the CPU).
@@ -56,6 +57,7 @@
 
 mod error;
 mod renderer;
+mod shared_struct;
 
 pub use error::{GpuError, Result};
 pub use renderer::{
@@ -113,17 +115,24 @@ pub fn trace_wgsl() -> String {
     format!("{}\n{TRACE_WGSL_BODY}", kernel_constants_wgsl())
 }
 
-/// The image kernel (`src/render.wgsl`): one primary ray per pixel, shaded; needs
-/// [`trace_wgsl`] before it ([`shader_source`]).
-pub const RENDER_WGSL: &str = include_str!("render.wgsl");
+/// `src/render.wgsl` as written: the image kernel without the uniform struct it shares with the
+/// host ([`render_wgsl`] puts it before it).
+const RENDER_WGSL_BODY: &str = include_str!("render.wgsl");
 
-/// The compute entry point of [`RENDER_WGSL`].
+/// The image kernel: one primary ray per pixel, shaded. The uniform `SmoRenderParams`
+/// generated from the host's struct, followed by `src/render.wgsl`; needs [`trace_wgsl`]
+/// before it ([`shader_source`]).
+pub fn render_wgsl() -> String {
+    format!("{}\n{RENDER_WGSL_BODY}", renderer::params_wgsl())
+}
+
+/// The compute entry point of [`render_wgsl`].
 pub const ENTRY_POINT: &str = "smo_render";
 
 /// Workgroup edge of [`ENTRY_POINT`] (`@workgroup_size(8, 8, 1)`).
 pub const WORKGROUP_SIZE: u32 = 8;
 
-/// The complete shader module: [`trace_wgsl`] followed by [`RENDER_WGSL`].
+/// The complete shader module: [`trace_wgsl`] followed by [`render_wgsl`].
 pub fn shader_source() -> String {
-    format!("{}\n{RENDER_WGSL}", trace_wgsl())
+    format!("{}\n{}", trace_wgsl(), render_wgsl())
 }

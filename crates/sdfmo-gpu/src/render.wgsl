@@ -3,7 +3,9 @@
 //
 // BINDING LAYOUT (group 0):
 //   binding 0  storage, read        smo: array<u32>          the `.smo` file (see sdfmo.wgsl)
-//   binding 1  uniform              params: SmoRenderParams  camera, mode, shading (below)
+//   binding 1  uniform              params: SmoRenderParams  camera, mode, shading (generated
+//                                                            before this file from the host's
+//                                                            struct: renderer.rs, `Params`)
 //   binding 2  storage, read_write  pixels: array<SmoPixel>  per pixel: normal, t
 //   binding 3  storage, read_write  colors: array<u32>       per pixel: 0x00BBGGRR, 8 bits each
 //   binding 4  storage, read        rays: array<vec4<f32>>   the camera's ray terms (below)
@@ -16,30 +18,6 @@
 // direction matches the CPU's bit for bit except within ~2^-20 ulp of a rounding tie.
 // Pixels are row-major from the top-left, `y · width + x`. Dispatch ⌈width/8⌉ × ⌈height/8⌉
 // workgroups of 8 × 8.
-
-/// The render's parameters (std140-compatible: 16-byte rows).
-struct SmoRenderParams {
-    /// Eye position, normalised octree coordinates.
-    eye: vec3<f32>,
-    /// The octree's dequantisation factor (sdfmo.wgsl).
-    dequant: f32,
-    /// Unit direction toward the light.
-    light: vec3<f32>,
-    /// Intensity of the directional light.
-    light_intensity: f32,
-    /// Image width and height in pixels.
-    width: u32,
-    height: u32,
-    /// 0 mask, 1 depth, 2 normal, 3 lambert.
-    mode: u32,
-    /// Ambient term of the lambert shading.
-    ambient: f32,
-    /// Depth mode: distances mapped to 255 and to the darkest grey.
-    depth_near: f32,
-    depth_far: f32,
-    _pad0: f32,
-    _pad1: f32,
-}
 
 /// One pixel's hit: the viewer-facing unit normal (0 for the background and in the mask and
 /// depth modes) and the ray parameter (SMO_FAR for the background).

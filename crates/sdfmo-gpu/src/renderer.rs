@@ -8,6 +8,7 @@ use sdfmo_format::quant::dequant_scale;
 use sdfmo_format::{PackedOctree, PackedOctreeView};
 use wgpu::util::DeviceExt;
 
+use crate::shared_struct::shared_struct;
 use crate::{shader_source, GpuError, Result, ENTRY_POINT, SMO_FAR, WORKGROUP_SIZE};
 
 /// What each pixel shows (the modes of `sdfmo-render`, without shadows or occlusion).
@@ -192,21 +193,36 @@ impl GpuOctree {
     }
 }
 
-/// `SmoRenderParams` of `render.wgsl` (64 bytes, four 16-byte rows).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-struct Params {
-    eye: [f32; 3],
-    dequant: f32,
-    light: [f32; 3],
-    light_intensity: f32,
-    width: u32,
-    height: u32,
-    mode: u32,
-    ambient: f32,
-    depth_near: f32,
-    depth_far: f32,
-    pad: [f32; 2],
+shared_struct! {
+    /// The render's parameters (std140-compatible: 16-byte rows; 64 bytes).
+    struct Params as "SmoRenderParams" {
+        /// Eye position, normalised octree coordinates.
+        eye: [f32; 3],
+        /// The octree's dequantisation factor (sdfmo.wgsl).
+        dequant: f32,
+        /// Unit direction toward the light.
+        light: [f32; 3],
+        /// Intensity of the directional light.
+        light_intensity: f32,
+        /// Image width and height in pixels.
+        width: u32,
+        height: u32,
+        /// 0 mask, 1 depth, 2 normal, 3 lambert.
+        mode: u32,
+        /// Ambient term of the lambert shading.
+        ambient: f32,
+        /// Depth mode: distances mapped to 255 and to the darkest grey.
+        depth_near: f32,
+        depth_far: f32,
+        _pad0: f32,
+        _pad1: f32,
+    }
+}
+
+/// The WGSL declaration of the uniform `SmoRenderParams` of `render.wgsl`, generated from
+/// [`Params`].
+pub(crate) fn params_wgsl() -> String {
+    Params::wgsl()
 }
 
 const _: () = assert!(std::mem::size_of::<Params>() == 64);
@@ -588,7 +604,8 @@ impl GpuRenderer {
             ambient: shading.ambient,
             depth_near: shading.depth_near,
             depth_far: shading.depth_far,
-            pad: [0.0; 2],
+            _pad0: 0.0,
+            _pad1: 0.0,
         };
         let terms = camera.ray_terms();
         self.take_uncaptured()?;
@@ -817,7 +834,7 @@ fn check_camera(c: &GpuCamera) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::mem::{offset_of, size_of};
+    use std::mem::size_of;
 
     /// (member, byte offset, struct size) of the WGSL struct `name` in the render module.
     fn wgsl_layout(name: &str) -> (Vec<(String, u32)>, u32) {
@@ -841,29 +858,17 @@ mod tests {
     }
 
     /// Issue 20: the uniform's layout was kept by hand in Rust and WGSL (only the size was
-    /// asserted). naga's layout of `SmoRenderParams` must place every member where `Params` has
-    /// its field, and `SmoPixel` must be `PIXEL_BYTES` long.
+    /// asserted); `SmoRenderParams` is now generated from `Params`. naga's layout of it must
+    /// place every member where `Params` has its field (WGSL's alignment rules are not Rust's),
+    /// and `SmoPixel` must be `PIXEL_BYTES` long.
     #[test]
     fn the_uniform_layout_matches_the_wgsl() {
         let (members, span) = wgsl_layout("SmoRenderParams");
-        let rust = [
-            ("eye", offset_of!(Params, eye)),
-            ("dequant", offset_of!(Params, dequant)),
-            ("light", offset_of!(Params, light)),
-            ("light_intensity", offset_of!(Params, light_intensity)),
-            ("width", offset_of!(Params, width)),
-            ("height", offset_of!(Params, height)),
-            ("mode", offset_of!(Params, mode)),
-            ("ambient", offset_of!(Params, ambient)),
-            ("depth_near", offset_of!(Params, depth_near)),
-            ("depth_far", offset_of!(Params, depth_far)),
-            ("_pad0", offset_of!(Params, pad)),
-            ("_pad1", offset_of!(Params, pad) + 4),
-        ];
-        let rust: Vec<(String, u32)> = rust
-            .iter()
-            .map(|&(n, o)| (n.to_owned(), o as u32))
+        let rust: Vec<(String, u32)> = Params::offsets()
+            .into_iter()
+            .map(|(n, o)| (n.to_owned(), o as u32))
             .collect();
+        assert_eq!(rust.len(), 12);
         assert_eq!(members, rust);
         assert_eq!(span as usize, size_of::<Params>());
         let (_, pixel) = wgsl_layout("SmoPixel");

@@ -4,38 +4,17 @@
 
 use std::time::{Duration, Instant};
 
-use sdfmo_format::testing::leaves_by_cell;
-use sdfmo_format::{cell_corners, OctreeMeta, PackedOctree, ValueBits, Voxel};
+mod common;
+
+use common::gpu;
+use sdfmo_format::testing::{clip_flood_voxels, leaves_by_cell, sphere_leaves};
+use sdfmo_format::{OctreeMeta, PackedOctree, ValueBits};
 use sdfmo_gpu::{
     GpuCamera, GpuError, GpuMode, GpuRenderer, Shading, DEFAULT_GPU_TIMEOUT, MAX_GPU_FILE_BYTES,
 };
 
-fn gpu() -> Option<GpuRenderer> {
-    match GpuRenderer::new() {
-        Ok(g) => Some(g),
-        Err(e) if std::env::var("SDFMO_REQUIRE_GPU").as_deref() == Ok("1") => {
-            panic!("SDFMO_REQUIRE_GPU=1 but no GPU renderer: {e}")
-        }
-        Err(e) => {
-            eprintln!("skipped: no GPU adapter ({e}); set SDFMO_REQUIRE_GPU=1 to fail instead");
-            None
-        }
-    }
-}
-
 fn sphere(depth: u8) -> PackedOctree {
-    let leaves = leaves_by_cell(depth, |coord| {
-        let c = cell_corners(depth, coord, |p| p.length() - 0.6);
-        if c.iter().any(|&v| v <= 0.0) && c.iter().any(|&v| v > 0.0) {
-            vec![Voxel {
-                corners: c,
-                surface: false,
-                clip: false,
-            }]
-        } else {
-            Vec::new()
-        }
-    });
+    let leaves = sphere_leaves(depth, 0.6);
     PackedOctree::from_leaves(OctreeMeta::unit(depth, ValueBits::Eight), leaves).unwrap()
 }
 
@@ -116,19 +95,7 @@ fn file_lengths_are_checked_before_anything_is_read() {
 /// candidate only at the last clip voxel (no hit anywhere).
 fn heavy_octree() -> PackedOctree {
     const DEPTH: u8 = 4;
-    const VOXELS: usize = 255;
-    let h = sdfmo_format::cell_size(DEPTH);
-    let clips = sdfmo_format::MAX_CLIP_VOXELS_PER_LEAF;
-    let voxels: Vec<Voxel> = (0..VOXELS)
-        .map(|k| Voxel {
-            corners: core::array::from_fn(|i| {
-                let x = (i >> 2) as f32;
-                h * if k == VOXELS - 1 { 0.51 - x } else { x - 0.49 }
-            }),
-            surface: false,
-            clip: k >= VOXELS - clips,
-        })
-        .collect();
+    let voxels = clip_flood_voxels(DEPTH, sdfmo_format::MAX_CLIP_VOXELS_PER_LEAF);
     let leaves = leaves_by_cell(DEPTH, |_| voxels.clone());
     PackedOctree::from_leaves(OctreeMeta::unit(DEPTH, ValueBits::Eight), leaves).unwrap()
 }

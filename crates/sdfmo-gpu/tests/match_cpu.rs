@@ -42,8 +42,11 @@
 //! intersect voxels (sharp edges and corners), and a tilted open sheet whose leaves at its
 //! oblique rim hold a clip-only voxel.
 
+mod common;
+
 use std::path::PathBuf;
 
+use common::gpu;
 use glam::Vec3;
 use sdfmo_build::{build, BuildSettings, Method};
 use sdfmo_format::testing::{convex_cell_voxels, cube_planes, leaves_by_cell};
@@ -69,20 +72,6 @@ const MIN_PSNR: f64 = 45.0;
 const MAX_ILL_CONDITIONED: f64 = 0.002;
 /// Lambert pixels excused on sharp edges (see the module docs), as a fraction of the hits.
 const MAX_EDGE_EXCUSED: f64 = 0.005;
-
-/// The renderer, or `None` (with a message) when there is no adapter and none is required.
-fn gpu() -> Option<GpuRenderer> {
-    match GpuRenderer::new() {
-        Ok(g) => Some(g),
-        Err(e) if std::env::var("SDFMO_REQUIRE_GPU").as_deref() == Ok("1") => {
-            panic!("SDFMO_REQUIRE_GPU=1 but no GPU renderer: {e}")
-        }
-        Err(e) => {
-            eprintln!("skipped: no GPU adapter ({e}); set SDFMO_REQUIRE_GPU=1 to fail instead");
-            None
-        }
-    }
-}
 
 /// The GPU camera of a CPU camera: its f64 frame.
 fn gpu_camera(cam: &Camera) -> GpuCamera {
@@ -460,21 +449,7 @@ fn all_zero_voxels_are_never_hit() {
     use sdfmo_format::testing::with_all_zero_voxels;
     let Some(mut gpu) = gpu() else { return };
     let depth = 5;
-    let sphere = || {
-        leaves_by_cell(depth, |coord| {
-            let c = cell_corners(depth, coord, |p| p.length() - 0.6);
-            let crosses = c.iter().any(|&v| v <= 0.0) && c.iter().any(|&v| v > 0.0);
-            if crosses {
-                vec![Voxel {
-                    corners: c,
-                    surface: false,
-                    clip: false,
-                }]
-            } else {
-                Vec::new()
-            }
-        })
-    };
+    let sphere = || sdfmo_format::testing::sphere_leaves(depth, 0.6);
     let meta = OctreeMeta::unit(depth, ValueBits::Eight);
     let plain = PackedOctree::from_leaves(meta, sphere()).unwrap();
     let views = Camera::paper_views(128, 128);

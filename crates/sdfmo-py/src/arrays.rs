@@ -4,10 +4,12 @@
 use glam::DVec3;
 use numpy::ndarray::ArrayView2;
 use numpy::prelude::*;
-use numpy::{PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArray};
+use numpy::{Element, PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArray};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
+
+use crate::run::{self, Cancel, Cancelled};
 
 /// An `(n, 3)` array of points as numpy holds it: float32 or float64, any strides (C or
 /// Fortran order, or a strided view), never copied.
@@ -166,6 +168,40 @@ pub fn new_i64<'py>(py: Python<'py>, n: usize) -> Bound<'py, PyArray1<i64>> {
 /// A new `(n, 3)` float32 array.
 pub fn new_f32x3<'py>(py: Python<'py>, n: usize) -> Bound<'py, PyArray2<f32>> {
     PyArray2::<f32>::zeros(py, [n, 3], false)
+}
+
+/// The `(n, C)` array of `rows` (a copy).
+pub fn rows<'py, T: Element, const C: usize>(
+    py: Python<'py>,
+    rows: impl IntoIterator<Item = [T; C]>,
+) -> Bound<'py, PyArray2<T>> {
+    let flat: Vec<T> = rows.into_iter().flatten().collect();
+    let n = flat.len() / C;
+    PyArray1::from_vec(py, flat)
+        .reshape([n, C])
+        .expect("n * C values")
+}
+
+/// One float32 per point of `points` (shape `(..., 3)`, any float dtype), shaped `(...)`:
+/// `fill` writes them without the GIL on `threads` workers ([`run::run`]), given the points'
+/// view and the values to fill; it returns `Err(Cancelled)` when it saw the flag and `Ok(Err)`
+/// for the error to raise (a non-finite point…).
+pub fn f32_per_point<'py>(
+    py: Python<'py>,
+    points: &Bound<'py, PyAny>,
+    threads: Option<i64>,
+    fill: impl FnOnce(PointsView<'_>, &mut [f32], &Cancel) -> Result<PyResult<()>, Cancelled> + Send,
+) -> PyResult<Bound<'py, PyAny>> {
+    let threads = run::check_threads(threads)?;
+    let arg = points_arg(points, "points", 3)?;
+    let view = arg.points.view();
+    let n = view.len();
+    let out = new_f32(py, n);
+    // Safety: the array was just created here and no Python code sees it until this function
+    // returns; `fill` is its only writer.
+    let values = unsafe { out.as_slice_mut() }.expect("fresh contiguous array");
+    run::run(py, threads, n, |cancel| fill(view, values, cancel))??;
+    shaped(out.into_any(), &arg.lead, &[])
 }
 
 /// `arr` reshaped to `lead + extra` (a view: `arr` is a fresh C-ordered array).

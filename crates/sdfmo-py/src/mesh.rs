@@ -5,7 +5,7 @@ use std::sync::OnceLock;
 
 use glam::{DVec3, Vec3};
 use numpy::prelude::*;
-use numpy::{PyArray1, PyArray2, PyUntypedArray};
+use numpy::{PyArray2, PyUntypedArray};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
@@ -414,48 +414,23 @@ impl Mesh {
     /// The vertices, float32 of shape ``(n, 3)``, model units (a copy).
     #[getter]
     fn vertices<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f32>> {
-        let flat: Vec<f32> = self
-            .data
-            .mesh
-            .positions()
-            .iter()
-            .flat_map(|p| p.to_array())
-            .collect();
-        let n = self.data.mesh.vertex_count();
-        PyArray1::from_vec(py, flat)
-            .reshape([n, 3])
-            .expect("n * 3 values")
+        arrays::rows(py, self.data.mesh.positions().iter().map(|p| p.to_array()))
     }
 
     /// The triangles, int64 of shape ``(m, 3)``: indices into ``vertices`` (a copy).
     #[getter]
     fn faces<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<i64>> {
-        let flat: Vec<i64> = self
-            .data
-            .mesh
-            .triangles()
-            .iter()
-            .flat_map(|t| t.map(i64::from))
-            .collect();
-        let m = self.data.mesh.triangle_count();
-        PyArray1::from_vec(py, flat)
-            .reshape([m, 3])
-            .expect("m * 3 values")
+        arrays::rows(
+            py,
+            self.data.mesh.triangles().iter().map(|t| t.map(i64::from)),
+        )
     }
 
     /// The axis-aligned bounding box, float32 of shape ``(2, 3)``: ``[min, max]``, model units.
     #[getter]
     fn bounds<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f32>> {
         let b = self.data.mesh.bounds();
-        let flat: Vec<f32> = b
-            .min
-            .to_array()
-            .into_iter()
-            .chain(b.max.to_array())
-            .collect();
-        PyArray1::from_vec(py, flat)
-            .reshape([2, 3])
-            .expect("6 values")
+        arrays::rows(py, [b.min.to_array(), b.max.to_array()])
     }
 
     /// Whether every edge has exactly two triangles (no boundary, no non-manifold edge).
@@ -562,15 +537,8 @@ impl Mesh {
         points: &Bound<'py, PyAny>,
         threads: Option<i64>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let threads = run::check_threads(threads)?;
-        let arg = arrays::points_arg(points, "points", 3)?;
-        let view = arg.points.view();
-        let n = view.len();
-        let out = arrays::new_f32(py, n);
-        // Safety: as in `distance_batch`.
-        let w = unsafe { out.as_slice_mut() }.expect("fresh contiguous array");
         let data = &self.data;
-        let result = run::run(py, threads, n, |cancel| {
+        arrays::f32_per_point(py, points, threads, |view, w, cancel| {
             let dist = match data.any_distance() {
                 Ok(d) => d,
                 Err(e) => return Ok(Err(e)),
@@ -579,9 +547,7 @@ impl Mesh {
                 let ws = dist.map_points(pts, |dist, p| dist.winding_number(p));
                 w[start..start + pts.len()].copy_from_slice(&ws);
             })
-        })?;
-        result?;
-        arrays::shaped(out.into_any(), &arg.lead, &[])
+        })
     }
 
     /// contains(points, *, sign="auto", threads=None)

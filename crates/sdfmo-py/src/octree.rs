@@ -3,7 +3,6 @@
 use std::path::PathBuf;
 
 use glam::Vec3;
-use numpy::prelude::*;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
 use rayon::prelude::*;
@@ -157,17 +156,11 @@ impl Octree {
         points: &Bound<'py, PyAny>,
         threads: Option<i64>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let threads = run::check_threads(threads)?;
-        let arg = arrays::points_arg(points, "points", 3)?;
-        let view = arg.points.view();
-        let n = view.len();
-        let out = arrays::new_f32(py, n);
-        // Safety: as in `Mesh.signed_distance`: a fresh array no Python code sees yet.
-        let d = unsafe { out.as_slice_mut() }.expect("fresh contiguous array");
         let meta = self.octree.meta();
         let (center, scale) = (meta.center.as_dvec3(), f64::from(meta.scale));
         let octree = &self.octree;
-        let result = run::run(py, threads, n, |cancel| {
+        arrays::f32_per_point(py, points, threads, |view, d, cancel| {
+            let n = view.len();
             let chunk = run::chunk_len();
             for start in (0..n).step_by(chunk) {
                 if cancel.is_set() {
@@ -193,9 +186,7 @@ impl Octree {
                     });
             }
             Ok(Ok(()))
-        })?;
-        result?;
-        arrays::shaped(out.into_any(), &arg.lead, &[])
+        })
     }
 
     /// render(width=1024, height=None, *, mode="lambert", view=0, eye=None, target=None, fov=None, shadows=False, ao=0, threads=None)

@@ -37,7 +37,7 @@ use sdfmo_format::{trilinear, Octree};
 use sdfmo_format::MAX_CLIP_VOXELS_PER_LEAF;
 
 use crate::distance::{voxel_sample, DistanceSample};
-use crate::ray_voxel::{min_max, roots_where, RayCubic};
+use crate::ray_voxel::{min_max, prepare_voxel, roots_where, PreparedVoxel, RayCubic};
 
 /// Slack of the clip test at a crossing, relative to the clip voxel's largest |corner| (the
 /// format's value, shared with the WGSL kernel; its documentation says why it is needed and why
@@ -84,23 +84,16 @@ pub fn intersect_voxel_where(
         return None;
     }
     // The same early-outs and normalisation as the plain kernel.
-    let (lo, hi) = min_max(corners);
-    if lo > 0.0 {
-        return None;
-    }
-    if hi < 0.0 {
+    match prepare_voxel(corners) {
+        PreparedVoxel::Miss => None,
         // Inside everywhere: a volume voxel's only candidate is the segment start.
-        return (!surface && accept(t0, false)).then_some(t0);
+        PreparedVoxel::Inside => (!surface && accept(t0, false)).then_some(t0),
+        PreparedVoxel::Scaled(scaled) => {
+            let cubic = RayCubic::new(&scaled, origin + dir * t0, dir * len);
+            let to_t = |u: f32| (t0 + u * len).min(t1);
+            roots_where(&cubic, 1.0, surface, |u, root| accept(to_t(u), root)).map(to_t)
+        }
     }
-    let m = hi.max(-lo);
-    if m.is_nan() || m < f32::MIN_POSITIVE {
-        return None;
-    }
-    let inv = 1.0 / m;
-    let scaled = corners.map(|c| c * inv);
-    let cubic = RayCubic::new(&scaled, origin + dir * t0, dir * len);
-    let to_t = |u: f32| (t0 + u * len).min(t1);
-    roots_where(&cubic, 1.0, surface, |u, root| accept(to_t(u), root)).map(to_t)
 }
 
 /// The clip voxels of one leaf (index and corners), gathered once per leaf so the clip test of

@@ -198,30 +198,11 @@ pub fn intersect_lod(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sdfmo_format::{cell_corners, LeafInput, OctreeMeta, ValueBits, Voxel};
+    use sdfmo_format::testing::sphere_leaves;
+    use sdfmo_format::{OctreeMeta, ValueBits};
 
     fn sphere(depth: u8) -> PackedOctree {
-        let n = 1u32 << depth;
-        let mut leaves = Vec::new();
-        for x in 0..n {
-            for y in 0..n {
-                for z in 0..n {
-                    let corners = cell_corners(depth, [x, y, z], |p| p.length() - 0.6);
-                    let lo = corners.iter().cloned().fold(f32::INFINITY, f32::min);
-                    let hi = corners.iter().cloned().fold(f32::NEG_INFINITY, f32::max);
-                    if lo <= 0.0 && hi >= 0.0 {
-                        leaves.push(LeafInput {
-                            coord: [x, y, z],
-                            voxels: vec![Voxel {
-                                corners,
-                                surface: false,
-                                clip: false,
-                            }],
-                        });
-                    }
-                }
-            }
-        }
+        let leaves = sphere_leaves(depth, 0.6);
         PackedOctree::from_leaves(OctreeMeta::unit(depth, ValueBits::Eight), leaves).unwrap()
     }
 

@@ -463,6 +463,7 @@ pub(crate) mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+    use sdfmo_format::testing::pinhole_dirs;
     use sdfmo_format::{
         cell_size, LeafInput, OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, Voxel,
     };
@@ -774,17 +775,8 @@ pub(crate) mod tests {
         // Primary rays of a pinhole camera on a root mid-plane (x = y = 0, as the paper views),
         // and from a generic eye.
         for eye in [Vec3::new(0.0, 0.0, 3.0), Vec3::new(1.3, -0.7, 2.6)] {
-            let fwd = (-eye).normalize();
-            let right = fwd.cross(Vec3::Y).normalize();
-            let up = right.cross(fwd);
-            for py in 0..64 {
-                for px in 0..64 {
-                    let u = (px as f32 + 0.5) / 32.0 - 1.0;
-                    let v = 1.0 - (py as f32 + 0.5) / 32.0;
-                    let dir = (fwd + 0.6 * (u * right + v * up)).normalize();
-                    rays.push(Ray { origin: eye, dir });
-                }
-            }
+            let dirs = pinhole_dirs(eye, 64, 0.6);
+            rays.extend(dirs.into_iter().map(|dir| Ray { origin: eye, dir }));
         }
         // Axis-aligned rays on and between cell planes, both directions, ±0 components.
         for i in -8..=8 {

@@ -6,27 +6,15 @@
 //! them: the same hits, distances and normals, bit for bit.
 
 use glam::Vec3;
-use sdfmo_format::testing::{leaves_by_cell, with_all_zero_voxels};
-use sdfmo_format::{cell_corners, LeafInput, OctreeMeta, PackedOctree, ValueBits, Voxel};
+use sdfmo_format::testing::{pinhole_dirs, sphere_leaves, with_all_zero_voxels};
+use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, ValueBits};
 use sdfmo_trace::{hit_normal, intersect, Ray};
 
 const DEPTH: u8 = 4;
 
 /// The sphere of radius 0.6 as an SVO (one volume voxel per leaf where it crosses zero).
 fn sphere() -> Vec<LeafInput> {
-    leaves_by_cell(DEPTH, |coord| {
-        let c = cell_corners(DEPTH, coord, |p| p.length() - 0.6);
-        let crosses = c.iter().any(|&v| v <= 0.0) && c.iter().any(|&v| v > 0.0);
-        if crosses {
-            vec![Voxel {
-                corners: c,
-                surface: false,
-                clip: false,
-            }]
-        } else {
-            Vec::new()
-        }
-    })
+    sphere_leaves(DEPTH, 0.6)
 }
 
 fn octree(leaves: Vec<LeafInput>) -> PackedOctree {
@@ -42,19 +30,11 @@ fn rays() -> Vec<Ray> {
         Vec3::new(0.4, -2.8, -2.2),
         Vec3::new(0.0, 0.0, 3.0),
     ] {
-        let fwd = (-eye).normalize();
-        let right = fwd.cross(Vec3::Y).normalize();
-        let up = right.cross(fwd);
-        for py in 0..64 {
-            for px in 0..64 {
-                let u = (px as f32 + 0.5) / 32.0 - 1.0;
-                let v = (py as f32 + 0.5) / 32.0 - 1.0;
-                out.push(Ray {
-                    origin: eye,
-                    dir: (fwd + 0.2 * (u * right + v * up)).normalize(),
-                });
-            }
-        }
+        out.extend(
+            pinhole_dirs(eye, 64, 0.2)
+                .into_iter()
+                .map(|dir| Ray { origin: eye, dir }),
+        );
     }
     for k in -8..=8 {
         // Along the cell faces x = k/8 (an all-zero voxel's face is in its zero set, too).

@@ -55,14 +55,8 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
         j["memory_budget"] = json!(budget);
         return print_json(&j);
     }
-    let mut s = format!(
-        "{} → {} ({} depth {}, {}-bit)\n",
-        input.source,
-        args.output.display(),
-        args.method.name(),
-        args.depth,
-        args.bits.count()
-    );
+    let mut s = headline(args, &input, &format!("depth {}", args.depth));
+    s.push('\n');
     let _ = writeln!(
         s,
         "  nodes {}, leaves {}, voxels {} ({} surface), {} bytes ({:.3} MB), {:.1} ms",
@@ -96,6 +90,18 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
         .collect();
     let _ = writeln!(s, "  phases: {}", phases.join(", "));
     print_text(&s)
+}
+
+/// The first line of a build's text report, without its end: `mesh → file (method levels,
+/// N-bit)`, `levels` saying which depth or depths were built.
+fn headline(args: &BuildArgs, input: &crate::commands::InputMesh, levels: &str) -> String {
+    format!(
+        "{} → {} ({} {levels}, {}-bit)",
+        input.source,
+        args.output.display(),
+        args.method.name(),
+        args.bits.count()
+    )
 }
 
 /// `sdfmo build --lod`: every level from the coarsest to the depth, one build each, in one
@@ -144,13 +150,10 @@ fn run_lod(
         });
         return print_json(&j);
     }
-    let mut s = format!(
-        "{} → {} ({} levels {coarsest}..={}, {}-bit): {} bytes ({:.3} MB), {:.1} ms\n",
-        input.source,
-        args.output.display(),
-        args.method.name(),
-        args.depth,
-        args.bits.count(),
+    let mut s = headline(args, input, &format!("levels {coarsest}..={}", args.depth));
+    let _ = writeln!(
+        s,
+        ": {} bytes ({:.3} MB), {:.1} ms",
         lod.byte_size(),
         lod.byte_size() as f64 / 1e6,
         total_ms

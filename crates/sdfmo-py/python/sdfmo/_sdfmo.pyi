@@ -1,10 +1,11 @@
 """Type stubs of the compiled module ``sdfmo._sdfmo`` (re-exported by ``sdfmo``)."""
 
 import os
-from typing import Literal, Optional, Sequence, Tuple, Union, overload
+from typing import Literal, Optional, Sequence, Tuple, TypedDict, Union, overload
 
 import numpy as np
 import numpy.typing as npt
+from typing_extensions import Unpack
 
 __version__: str
 
@@ -15,6 +16,20 @@ _Mode = Literal["lambert", "mask", "depth", "normal"]
 _F32 = npt.NDArray[np.float32]
 _I64 = npt.NDArray[np.int64]
 _U8 = npt.NDArray[np.uint8]
+
+class _RenderOptions(TypedDict, total=False):
+    """The keyword-only options of ``Mesh.render`` and ``Octree.render`` (the runtime reads them
+    from ``**options``); defaults: ``mode="lambert"``, ``view=0``, ``eye``, ``target``, ``fov``
+    and ``threads`` ``None``, ``shadows=False``, ``ao=0``."""
+
+    mode: _Mode
+    view: int
+    eye: Optional[Sequence[float]]
+    target: Optional[Sequence[float]]
+    fov: Optional[float]
+    shadows: bool
+    ao: int
+    threads: Optional[int]
 
 class FormatError(ValueError):
     """A ``.smo`` file that is truncated, corrupt, of an unknown version or inconsistent."""
@@ -120,18 +135,7 @@ class Mesh:
     ) -> "Octree":
         """Builds the sparse SDF octree."""
     def render(
-        self,
-        width: int = 1024,
-        height: Optional[int] = None,
-        *,
-        mode: _Mode = "lambert",
-        view: int = 0,
-        eye: Optional[Sequence[float]] = None,
-        target: Optional[Sequence[float]] = None,
-        fov: Optional[float] = None,
-        shadows: bool = False,
-        ao: int = 0,
-        threads: Optional[int] = None,
+        self, width: int = 1024, height: Optional[int] = None, **options: Unpack[_RenderOptions]
     ) -> _U8:
         """Ray traces the mesh (the reference image), uint8 ``(h, w, 3)``."""
 
@@ -160,18 +164,7 @@ class Octree:
     def distance(self, points: _Points, *, threads: Optional[int] = None) -> _F32:
         """Stored signed distance, model units; NaN where no cell is stored."""
     def render(
-        self,
-        width: int = 1024,
-        height: Optional[int] = None,
-        *,
-        mode: _Mode = "lambert",
-        view: int = 0,
-        eye: Optional[Sequence[float]] = None,
-        target: Optional[Sequence[float]] = None,
-        fov: Optional[float] = None,
-        shadows: bool = False,
-        ao: int = 0,
-        threads: Optional[int] = None,
+        self, width: int = 1024, height: Optional[int] = None, **options: Unpack[_RenderOptions]
     ) -> _U8:
         """Ray traces the octree, uint8 ``(h, w, 3)``."""
 

@@ -158,14 +158,7 @@ mod tests {
     use super::*;
 
     fn settings(size: u32) -> SweepSettings {
-        SweepSettings {
-            depths: vec![5, 6],
-            methods: vec!["svo".into(), "multi".into()],
-            size,
-            max_voxels: 8,
-            threads: Some(1),
-            views: 4,
-        }
+        SweepSettings::for_tests(vec![5, 6], size)
     }
 
     fn record(id: &str, index: usize) -> Record {

@@ -535,14 +535,7 @@ mod tests {
 
     #[test]
     fn depth_stats_compare_the_methods_per_model() {
-        let settings = SweepSettings {
-            depths: vec![5, 6],
-            methods: vec!["svo".into(), "multi".into()],
-            size: 64,
-            max_voxels: 8,
-            threads: Some(1),
-            views: 4,
-        };
+        let settings = SweepSettings::for_tests(vec![5, 6], 64);
         let rows = vec![
             row("a", "svo", 5, Some(20.0), 100),
             row("a", "multi", 5, Some(26.0), 120),

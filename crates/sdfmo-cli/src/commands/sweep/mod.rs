@@ -88,8 +88,6 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
     if let Some(name) = &args.isolated_model {
         return run_isolated(args, name);
     }
-    let depths: Vec<u8> = args.depths.clone().collect();
-    let methods = unique_methods(args);
     let paths: Vec<Option<&Path>> = if args.meshes.is_empty() {
         vec![None]
     } else {
@@ -101,14 +99,8 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
         .iter()
         .map(|p| load_input(*p))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    let budget = memory_budget(args.max_memory);
-    for input in &inputs {
-        for &method in &methods {
-            let deepest = build_settings(args, method, *args.depths.end());
-            build::check_memory(&input.mesh, &deepest, budget)
-                .with_context(|| format!("cannot sweep {} {}", method.name(), input.source))?;
-        }
-    }
+    let plan = Plan::checked(args, &inputs)?;
+    let (methods, depths) = (&plan.methods, &plan.depths);
     // The models' names are settled before any work, so that a row of `--extra-rows` that
     // would repeat one of this sweep's configurations is refused now.
     let mut taken: Vec<String> = Vec::new();
@@ -154,9 +146,7 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
         input.name = name;
         let sweep = Sweep {
             args,
-            methods: &methods,
-            depths: &depths,
-            budget,
+            plan: &plan,
             bar: &bar,
             report_of: Some(&report_of),
         };
@@ -205,14 +195,39 @@ fn build_settings(args: &SweepArgs, method: MethodArg, depth: u8) -> BuildSettin
 /// Makes the report of the models and rows so far (with the extra rows).
 type ReportOf<'a> = dyn Fn(&[Model], &[Row]) -> Report + 'a;
 
+/// The configurations a sweep runs and the memory budget its builds were checked against.
+struct Plan {
+    methods: Vec<MethodArg>,
+    depths: Vec<u8>,
+    budget: Option<u64>,
+}
+
+impl Plan {
+    /// The plan of `args`, with the deepest build of each method on each of `inputs` checked
+    /// against the memory budget.
+    fn checked(args: &SweepArgs, inputs: &[InputMesh]) -> anyhow::Result<Plan> {
+        let plan = Plan {
+            methods: unique_methods(args),
+            depths: args.depths.clone().collect(),
+            budget: memory_budget(args.max_memory),
+        };
+        for input in inputs {
+            for &method in &plan.methods {
+                let deepest = build_settings(args, method, *args.depths.end());
+                build::check_memory(&input.mesh, &deepest, plan.budget)
+                    .with_context(|| format!("cannot sweep {} {}", method.name(), input.source))?;
+            }
+        }
+        Ok(plan)
+    }
+}
+
 /// What every model of a sweep shares: the arguments, the report of the results so far, the
-/// configurations, the memory budget and the progress bar.
+/// plan and the progress bar.
 #[derive(Clone, Copy)]
 struct Sweep<'a> {
     args: &'a SweepArgs,
-    methods: &'a [MethodArg],
-    depths: &'a [u8],
-    budget: Option<u64>,
+    plan: &'a Plan,
     bar: &'a indicatif::ProgressBar,
     /// The report of the models and rows so far (with the extra rows), rewritten after each
     /// row; `None` in a shard's model process, which prints its rows instead.
@@ -227,21 +242,12 @@ fn run_isolated(args: &SweepArgs, name: &str) -> anyhow::Result<()> {
     };
     let mut input = load_input(Some(path))?;
     input.name = sanitize(name);
-    let methods = unique_methods(args);
-    let depths: Vec<u8> = args.depths.clone().collect();
-    let budget = memory_budget(args.max_memory);
-    for &method in &methods {
-        let deepest = build_settings(args, method, *args.depths.end());
-        build::check_memory(&input.mesh, &deepest, budget)
-            .with_context(|| format!("cannot sweep {} {}", method.name(), input.source))?;
-    }
+    let plan = Plan::checked(args, std::slice::from_ref(&input))?;
     sdf_multioctree::io::create_derived_dir(&args.output, Path::new("images"))?;
     let bar = indicatif::ProgressBar::hidden();
     let sweep = Sweep {
         args,
-        methods: &methods,
-        depths: &depths,
-        budget,
+        plan: &plan,
         bar: &bar,
         report_of: None,
     };
@@ -260,12 +266,11 @@ fn sweep_model(
 ) -> anyhow::Result<Model> {
     let Sweep {
         args,
-        methods,
-        depths,
-        budget,
+        plan,
         bar,
         report_of,
     } = *sweep;
+    let (methods, depths, budget) = (&plan.methods, &plan.depths, plan.budget);
     let name = &input.name;
     let img_dir: PathBuf =
         sdf_multioctree::io::create_derived_dir(&args.output, &Path::new("images").join(name))?;

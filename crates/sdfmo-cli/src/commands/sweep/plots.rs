@@ -27,18 +27,25 @@ const AXIS_PX: u32 = 24;
 const LEGEND_PX: u32 = 20;
 const POINT_LABEL_PX: u32 = 17;
 
-/// A colour per method, the same in every plot: the SVO blue, the multi-octree red, NGLOD green
-/// (tab10's first three), other producers' methods the next colours in turn.
-const SVO: RGBColor = RGBColor(31, 119, 180);
-const MULTI: RGBColor = RGBColor(214, 39, 40);
-const NGLOD: RGBColor = RGBColor(44, 160, 44);
-const OTHERS: [RGBColor; 5] = [
+/// The plots' colours, from matplotlib's tab10: blue, red, green, purple, orange, brown, pink,
+/// cyan.
+pub(super) const PALETTE: [RGBColor; 8] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
     RGBColor(148, 103, 189),
     RGBColor(255, 127, 14),
     RGBColor(140, 86, 75),
     RGBColor(227, 119, 194),
     RGBColor(23, 190, 207),
 ];
+
+/// A colour per method, the same in every plot: the SVO blue, the multi-octree red, NGLOD green
+/// (the palette's first three), other producers' methods the next colours in turn.
+const SVO: RGBColor = PALETTE[0];
+const MULTI: RGBColor = PALETTE[1];
+const NGLOD: RGBColor = PALETTE[2];
+const OTHERS: &[RGBColor] = PALETTE.split_at(3).1;
 
 /// The colour of `method`; `others` lists the methods without a fixed colour, in order.
 fn method_color(method: &str, others: &[&str]) -> RGBColor {

@@ -32,21 +32,33 @@ fn quantile_header() -> Vec<String> {
         .collect()
 }
 
-/// The table of one statistic over the depths: one row per depth, one column per quantile.
-fn distribution_rows(
+/// The statistics both pages tabulate over the depths: title, statistic, digits shown.
+type Statistic = (&'static str, fn(&DepthStats) -> &Distribution, usize);
+const DISTRIBUTIONS: [Statistic; 3] = [
+    ("ΔPSNR (dB)", |d| &d.psnr_gain, 2),
+    ("ΔFLIP", |d| &d.flip_change, 4),
+    ("size ratio multi / SVO", |d| &d.size_ratio, 3),
+];
+
+/// The tables of [`DISTRIBUTIONS`], each as (title, header, rows): one row per depth, one column
+/// per quantile.
+fn distribution_tables(
     stats: &[DepthStats],
-    pick: fn(&DepthStats) -> &Distribution,
-    digits: usize,
-) -> Vec<Vec<String>> {
-    stats
-        .iter()
-        .map(|d| {
-            let dist = pick(d);
-            let mut row = vec![d.depth.to_string(), dist.n.to_string()];
-            row.extend(dist.quantiles.iter().map(|q| num(*q, digits)));
-            row
-        })
-        .collect()
+) -> impl Iterator<Item = (&'static str, Vec<String>, Vec<Vec<String>>)> + '_ {
+    let mut header = vec!["depth".to_owned(), "n".to_owned()];
+    header.extend(quantile_header());
+    DISTRIBUTIONS.into_iter().map(move |(title, pick, digits)| {
+        let rows = stats
+            .iter()
+            .map(|d| {
+                let dist = pick(d);
+                let mut row = vec![d.depth.to_string(), dist.n.to_string()];
+                row.extend(dist.quantiles.iter().map(|q| num(*q, digits)));
+                row
+            })
+            .collect();
+        (title, header.clone(), rows)
+    })
 }
 
 /// The summary table: per depth, median gain, shares, median size ratio.
@@ -125,22 +137,9 @@ pub fn markdown(
     );
     let header: Vec<String> = SUMMARY_HEADER.iter().map(|h| h.to_string()).collect();
     s.push_str(&md_table(&header, &summary_rows(&stats.depths)));
-    let mut qh = vec!["depth".to_owned(), "n".to_owned()];
-    qh.extend(quantile_header());
-    for (title, pick, digits) in [
-        (
-            "ΔPSNR (dB)",
-            (|d: &DepthStats| &d.psnr_gain) as fn(&DepthStats) -> &Distribution,
-            2,
-        ),
-        ("ΔFLIP", |d: &DepthStats| &d.flip_change, 4),
-        ("size ratio multi / SVO", |d: &DepthStats| &d.size_ratio, 3),
-    ] {
+    for (title, header, rows) in distribution_tables(&stats.depths) {
         let _ = write!(s, "\n{title}:\n\n");
-        s.push_str(&md_table(
-            &qh,
-            &distribution_rows(&stats.depths, pick, digits),
-        ));
+        s.push_str(&md_table(&header, &rows));
     }
     if let Some(t) = &stats.time_per_model {
         let _ = write!(
@@ -272,22 +271,17 @@ pub fn html(p: &Page) -> String {
     s.push_str(
         "<img class=\"plot\" src=\"dataset_psnr_gain_cdf.png\" alt=\"CDF of the PSNR gain per depth\">\n",
     );
-    let mut qh = vec!["depth".to_owned(), "n".to_owned()];
-    qh.extend(quantile_header());
-    for (title, pick, digits) in [
-        (
-            "ΔPSNR (dB)",
-            (|d: &DepthStats| &d.psnr_gain) as fn(&DepthStats) -> &Distribution,
-            2,
-        ),
-        ("ΔFLIP", |d: &DepthStats| &d.flip_change, 4),
-        ("Size ratio multi / SVO", |d: &DepthStats| &d.size_ratio, 3),
-    ] {
-        let _ = writeln!(s, "<h3>{}</h3>", esc(title));
-        s.push_str(&html_table(
-            &qh,
-            &distribution_rows(&st.depths, pick, digits),
-        ));
+    for (title, header, rows) in distribution_tables(&st.depths) {
+        // A heading starts with a capital (the Markdown's titles run on in a sentence).
+        let mut chars = title.chars();
+        let heading: String = chars
+            .next()
+            .into_iter()
+            .flat_map(char::to_uppercase)
+            .chain(chars)
+            .collect();
+        let _ = writeln!(s, "<h3>{}</h3>", esc(&heading));
+        s.push_str(&html_table(&header, &rows));
     }
     s.push_str(
         "<img class=\"plot\" src=\"dataset_size_ratio_cdf.png\" alt=\"CDF of the size ratio per depth\">\n\

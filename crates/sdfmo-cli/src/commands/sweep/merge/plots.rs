@@ -4,24 +4,22 @@
 use std::path::Path;
 
 use anyhow::anyhow;
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::prelude::*;
 
 use super::DatasetStats;
+use crate::commands::sweep::plots::PALETTE;
 use crate::commands::sweep::{Model, Row, SweepSettings};
 use crate::output::write_derived_png;
 
 const WIDTH: u32 = 1100;
 const HEIGHT: u32 = 560;
 
-/// One colour per depth (or method), cycled.
-const COLORS: [RGBColor; 6] = [
-    RGBColor(31, 119, 180),
-    RGBColor(214, 39, 40),
-    RGBColor(44, 160, 44),
-    RGBColor(148, 103, 189),
-    RGBColor(255, 127, 14),
-    RGBColor(23, 190, 207),
-];
+/// One colour per depth (or method), cycled: the sweep's palette without its brown and pink.
+const COLORS: [RGBColor; 6] = {
+    let p = PALETTE;
+    [p[0], p[1], p[2], p[3], p[4], p[7]]
+};
 
 /// Writes the plots into `out`; returns their file names.
 pub fn write(
@@ -123,26 +121,15 @@ fn cdf(
     xlabel: &str,
     series: &[(String, Vec<f64>)],
 ) -> anyhow::Result<image::RgbImage> {
-    let mut buf = vec![0u8; (WIDTH * HEIGHT * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, (WIDTH, HEIGHT)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
-        let xr = padded(series.iter().flat_map(|s| s.1.iter().copied()));
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 22))
-            .margin(12)
-            .x_label_area_size(48)
-            .y_label_area_size(64)
-            .build_cartesian_2d(xr, 0.0..1.0)
-            .map_err(|e| anyhow!("{e}"))?;
-        chart
-            .configure_mesh()
-            .x_desc(xlabel)
-            .y_desc("share of models")
-            .label_style(("sans-serif", 16))
-            .axis_desc_style(("sans-serif", 18))
-            .draw()
-            .map_err(|e| anyhow!("{e}"))?;
+    let xr = padded(series.iter().flat_map(|s| s.1.iter().copied()));
+    let frame = Frame {
+        title,
+        x_desc: xlabel,
+        y_desc: "share of models",
+        y_label_area: 64,
+        legend: SeriesLabelPosition::LowerRight,
+    };
+    frame.draw(xr, 0.0..1.0, |chart| {
         for (k, (label, values)) in series.iter().enumerate() {
             let mut v = values.clone();
             v.sort_by(f64::total_cmp);
@@ -161,53 +148,33 @@ fn cdf(
                     PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(3))
                 });
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
-            .label_font(("sans-serif", 16))
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .draw()
-            .map_err(|e| anyhow!("{e}"))?;
-        root.present().map_err(|e| anyhow!("{e}"))?;
-    }
-    image::RgbImage::from_raw(WIDTH, HEIGHT, buf).ok_or_else(|| anyhow!("plot buffer size"))
+        Ok(())
+    })
 }
 
 /// A log–log scatter plot, one colour per series.
 fn scatter(title: &str, series: &[(String, Vec<(f64, f64)>)]) -> anyhow::Result<image::RgbImage> {
-    let mut buf = vec![0u8; (WIDTH * HEIGHT * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, (WIDTH, HEIGHT)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
-        let all = || series.iter().flat_map(|s| s.1.iter().copied());
-        let log_range = |v: &mut dyn Iterator<Item = f64>| {
-            let (lo, hi) = v.fold((f64::INFINITY, 0.0f64), |(lo, hi), x| {
-                (lo.min(x), hi.max(x))
-            });
-            if lo.is_finite() && hi > 0.0 {
-                lo / 1.3..hi * 1.3
-            } else {
-                1.0..10.0
-            }
-        };
-        let xr = log_range(&mut all().map(|p| p.0));
-        let yr = log_range(&mut all().map(|p| p.1));
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 22))
-            .margin(12)
-            .x_label_area_size(48)
-            .y_label_area_size(72)
-            .build_cartesian_2d(xr.log_scale(), yr.log_scale())
-            .map_err(|e| anyhow!("{e}"))?;
-        chart
-            .configure_mesh()
-            .x_desc("triangles")
-            .y_desc("time (ms)")
-            .label_style(("sans-serif", 16))
-            .axis_desc_style(("sans-serif", 18))
-            .draw()
-            .map_err(|e| anyhow!("{e}"))?;
+    let all = || series.iter().flat_map(|s| s.1.iter().copied());
+    let log_range = |v: &mut dyn Iterator<Item = f64>| {
+        let (lo, hi) = v.fold((f64::INFINITY, 0.0f64), |(lo, hi), x| {
+            (lo.min(x), hi.max(x))
+        });
+        if lo.is_finite() && hi > 0.0 {
+            lo / 1.3..hi * 1.3
+        } else {
+            1.0..10.0
+        }
+    };
+    let xr = log_range(&mut all().map(|p| p.0));
+    let yr = log_range(&mut all().map(|p| p.1));
+    let frame = Frame {
+        title,
+        x_desc: "triangles",
+        y_desc: "time (ms)",
+        y_label_area: 72,
+        legend: SeriesLabelPosition::UpperLeft,
+    };
+    frame.draw(xr.log_scale(), yr.log_scale(), |chart| {
         for (k, (label, pts)) in series.iter().enumerate() {
             let color = COLORS[k % COLORS.len()];
             chart
@@ -216,15 +183,71 @@ fn scatter(title: &str, series: &[(String, Vec<(f64, f64)>)]) -> anyhow::Result<
                 .label(label.as_str())
                 .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()));
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .label_font(("sans-serif", 16))
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .draw()
-            .map_err(|e| anyhow!("{e}"))?;
-        root.present().map_err(|e| anyhow!("{e}"))?;
+        Ok(())
+    })
+}
+
+/// What the dataset plots share around their series: the caption, the axes' descriptions, the
+/// width of the y labels and where the legend goes.
+struct Frame<'a> {
+    title: &'a str,
+    x_desc: &'a str,
+    y_desc: &'a str,
+    y_label_area: u32,
+    legend: SeriesLabelPosition,
+}
+
+impl Frame<'_> {
+    /// A `WIDTH` × `HEIGHT` image: a white chart over `xr` × `yr` with this frame, the series
+    /// `series` draws, and their legend.
+    fn draw<X, Y>(
+        self,
+        xr: X,
+        yr: Y,
+        series: impl FnOnce(
+            &mut ChartContext<
+                '_,
+                BitMapBackend<'_>,
+                Cartesian2d<X::CoordDescType, Y::CoordDescType>,
+            >,
+        ) -> anyhow::Result<()>,
+    ) -> anyhow::Result<image::RgbImage>
+    where
+        X: AsRangedCoord<Value = f64>,
+        Y: AsRangedCoord<Value = f64>,
+        X::CoordDescType: ValueFormatter<f64>,
+        Y::CoordDescType: ValueFormatter<f64>,
+    {
+        let mut buf = vec![0u8; (WIDTH * HEIGHT * 3) as usize];
+        {
+            let root = BitMapBackend::with_buffer(&mut buf, (WIDTH, HEIGHT)).into_drawing_area();
+            root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
+            let mut chart = ChartBuilder::on(&root)
+                .caption(self.title, ("sans-serif", 22))
+                .margin(12)
+                .x_label_area_size(48)
+                .y_label_area_size(self.y_label_area)
+                .build_cartesian_2d(xr, yr)
+                .map_err(|e| anyhow!("{e}"))?;
+            chart
+                .configure_mesh()
+                .x_desc(self.x_desc)
+                .y_desc(self.y_desc)
+                .label_style(("sans-serif", 16))
+                .axis_desc_style(("sans-serif", 18))
+                .draw()
+                .map_err(|e| anyhow!("{e}"))?;
+            series(&mut chart)?;
+            chart
+                .configure_series_labels()
+                .position(self.legend)
+                .label_font(("sans-serif", 16))
+                .background_style(WHITE.mix(0.9))
+                .border_style(BLACK)
+                .draw()
+                .map_err(|e| anyhow!("{e}"))?;
+            root.present().map_err(|e| anyhow!("{e}"))?;
+        }
+        image::RgbImage::from_raw(WIDTH, HEIGHT, buf).ok_or_else(|| anyhow!("plot buffer size"))
     }
-    image::RgbImage::from_raw(WIDTH, HEIGHT, buf).ok_or_else(|| anyhow!("plot buffer size"))
 }

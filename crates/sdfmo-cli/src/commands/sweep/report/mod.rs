@@ -46,14 +46,7 @@ mod tests {
     use super::*;
 
     fn settings() -> SweepSettings {
-        SweepSettings {
-            depths: vec![4, 5],
-            methods: vec!["svo".into(), "multi".into()],
-            size: 32,
-            max_voxels: 8,
-            threads: Some(1),
-            views: 4,
-        }
+        SweepSettings::for_tests(vec![4, 5], 32)
     }
 
     fn row(method: &str, depth: u8, psnr: Option<f64>, bytes: usize) -> Row {

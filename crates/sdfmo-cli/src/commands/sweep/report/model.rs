@@ -96,6 +96,22 @@ pub struct SweepSettings {
     pub views: usize,
 }
 
+#[cfg(test)]
+impl SweepSettings {
+    /// The tests' settings: `depths` at `size`², the SVO and the multi-octree of 8 voxels, one
+    /// thread, the four paper views.
+    pub(crate) fn for_tests(depths: Vec<u8>, size: u32) -> SweepSettings {
+        SweepSettings {
+            depths,
+            methods: vec!["svo".into(), "multi".into()],
+            size,
+            max_voxels: 8,
+            threads: Some(1),
+            views: 4,
+        }
+    }
+}
+
 /// Where and with what a sweep ran, recorded in results.json and on the page.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Provenance {
