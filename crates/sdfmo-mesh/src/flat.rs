@@ -96,14 +96,7 @@ pub fn retriangulate_flat_regions(
         .map(|t| DVec3::from(mesh.triangle_normal_f64(t)))
         .collect();
     let thin: Vec<bool> = (0..n)
-        .map(|t| {
-            let [a, b, c] = mesh.triangle(t).map(|p| p.as_dvec3());
-            let longest2 = (b - a)
-                .length_squared()
-                .max((c - b).length_squared())
-                .max((a - c).length_squared());
-            normals[t].length() < settings.thin_ratio * longest2
-        })
+        .map(|t| height_over_base(mesh, t) < settings.thin_ratio)
         .collect();
     if thin.iter().filter(|&&t| t).count() < settings.min_thin_triangles {
         return None;
@@ -171,6 +164,21 @@ pub fn retriangulate_flat_regions(
         new_triangles: new_count,
         added_vertices,
     })
+}
+
+/// Triangle `t`'s height over its longest edge: twice its area over the longest edge squared
+/// (0 for a degenerate triangle, √3/2 for an equilateral one).
+fn height_over_base(mesh: &TriMesh, t: usize) -> f64 {
+    let [a, b, c] = mesh.triangle(t).map(|p| p.as_dvec3());
+    let longest2 = (b - a)
+        .length_squared()
+        .max((c - b).length_squared())
+        .max((a - c).length_squared());
+    if longest2 > 0.0 {
+        DVec3::from(mesh.triangle_normal_f64(t)).length() / longest2
+    } else {
+        0.0
+    }
 }
 
 /// What the region search shares.
@@ -374,14 +382,7 @@ mod tests {
 
     fn worst_ratio(mesh: &TriMesh) -> f64 {
         (0..mesh.triangle_count())
-            .map(|t| {
-                let [a, b, c] = mesh.triangle(t).map(|p| p.as_dvec3());
-                let l2 = (b - a)
-                    .length_squared()
-                    .max((c - b).length_squared())
-                    .max((a - c).length_squared());
-                DVec3::from(mesh.triangle_normal_f64(t)).length() / l2
-            })
+            .map(|t| height_over_base(mesh, t))
             .fold(f64::INFINITY, f64::min)
     }
 
