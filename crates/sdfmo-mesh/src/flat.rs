@@ -438,6 +438,27 @@ mod tests {
     }
 
     #[test]
+    fn a_fan_that_winds_twice_is_left_alone() {
+        // Wedges around the hub through 4π: the region covers the disc twice, which no single
+        // triangulation of it can (coincident rim vertices for an even count, crossing rim edges
+        // for an odd one), so it must stay as it is.
+        for n in [2_000u32, 2_001] {
+            let mut positions = vec![Vec3::ZERO];
+            positions.extend((0..n).map(|k| {
+                let a = 2.0 * std::f32::consts::TAU * k as f32 / n as f32;
+                Vec3::new(a.cos(), a.sin(), 0.0)
+            }));
+            let tris: Vec<[u32; 3]> = (0..n).map(|k| [0, 1 + k, 1 + (k + 1) % n]).collect();
+            let parts = vec![0; tris.len()];
+            let twice = TriMesh::new(positions, tris, parts).unwrap();
+            assert!(
+                retriangulate_flat_regions(&twice, &FlatRegionSettings::default()).is_none(),
+                "{n}"
+            );
+        }
+    }
+
+    #[test]
     fn a_bent_fan_is_not_flattened() {
         // Every other rim vertex lifted: the region is not flat, so nothing changes.
         let disc = fan_disc(2_000);
