@@ -338,17 +338,18 @@ impl Context<'_> {
         );
         let excluded: HashSet<_> = result.excluded_faces.into_iter().collect();
 
+        // The refinement's vertices follow the inserted ones in the CDT's order: lift them onto
+        // the plane and append them in that order.
         let first_new = positions.len();
-        let index_of = |k: usize, p: Point2<f64>, positions: &mut Vec<Vec3>| -> u32 {
-            if k < vertices.len() {
-                return vertices[k];
+        positions.extend(cdt.vertices().skip(vertices.len()).map(|h| {
+            let p = h.position();
+            (origin + u * p.x + v * p.y).as_vec3()
+        }));
+        let index_of = |k: usize| -> u32 {
+            match vertices.get(k) {
+                Some(&old) => old,
+                None => (first_new + k - vertices.len()) as u32,
             }
-            let i = first_new + (k - vertices.len());
-            while positions.len() <= i {
-                positions.push(Vec3::NAN);
-            }
-            positions[i] = (origin + u * p.x + v * p.y).as_vec3();
-            i as u32
         };
         let mut out = Vec::new();
         let mut new_area = 0.0;
@@ -361,9 +362,7 @@ impl Context<'_> {
             let [da, db, dc] = [pa, pb, pc].map(|p| DVec2::new(p.x, p.y));
             let s = signed_area(da, db, dc);
             new_area += s.abs();
-            let ia = index_of(ka, pa, positions);
-            let ib = index_of(kb, pb, positions);
-            let ic = index_of(kc, pc, positions);
+            let [ia, ib, ic] = [ka, kb, kc].map(index_of);
             out.push(if s >= 0.0 { [ia, ib, ic] } else { [ia, ic, ib] });
         }
         let exact = (new_area - area).abs() <= 1e-9 * area.max(f64::MIN_POSITIVE);
