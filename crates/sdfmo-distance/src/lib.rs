@@ -267,9 +267,11 @@ impl MeshDistance {
             .iter()
             .map(|t| t.map(|i| mesh.positions()[i as usize]))
             .collect();
-        let built = bvh_build::build(mesh, &tris);
+        let mut ploc_input = Vec::new();
+        let built = bvh_build::build(mesh, &tris, &mut ploc_input);
         let nodes = built.nodes;
         let leaf_ids = built.primitive_indices;
+        let builder = built.builder;
         let leaf_tris: Vec<[Vec3; 3]> = leaf_ids.iter().map(|&i| tris[i as usize]).collect();
         let leaf_records: Vec<LeafRecord> = leaf_tris
             .iter()
@@ -290,7 +292,7 @@ impl MeshDistance {
             })
             .collect();
 
-        let (order, depth) = bvh_build::preorder_and_depth(&nodes);
+        let (order, depth) = (built.preorder, built.depth);
         if depth > MAX_BVH_DEPTH {
             return Err(DistanceError::BvhTooDeep {
                 depth,
@@ -328,7 +330,7 @@ impl MeshDistance {
             leaf_dipoles,
             clean_radius: OnceLock::new(),
             depth,
-            builder: built.builder,
+            builder,
         })
     }
 
