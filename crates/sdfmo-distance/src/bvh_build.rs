@@ -174,10 +174,10 @@ fn max_valence(triangles: &[[u32; 3]], vertex_count: usize) -> u32 {
 ///
 /// PLOC's input (obvhs' triangles, 48 bytes each) goes into the caller's `ploc_input`, so that
 /// it is freed with the caller's other temporaries, after the long-lived arrays are allocated.
-/// Freed here instead, before them, it left glibc a free block at the heap's top that each
-/// build's drop trimmed and the next build faulted back in: 220 `brk` calls instead of 35 over
-/// 30 abc1 builds, and criterion's build bench 1.34× (abc1) and 1.46× (bunny) slower
-/// (docs/hardening.md).
+/// Freed here instead, before them, it changed glibc's heap layout so that each build's drop
+/// trimmed the heap and the next build faulted it back in (220 `brk` calls instead of 35 over
+/// 30 abc1 builds, as many as before this builder existed). The instructions are the same
+/// either way; docs/hardening.md has the measurements and the cases this does not cover.
 pub(crate) fn build(
     mesh: &TriMesh,
     tris: &[[Vec3; 3]],
