@@ -95,8 +95,7 @@ pub const COARSE_WINDING_MARGIN: f32 = 0.3;
 /// Meshes with more chain-boundary edges (edges whose triangle orientations do not cancel) than
 /// this take every winding sign from the winding number (no face-normal shortcut). It bounds
 /// the memory of the edges' search tree (≈ 40 MB here); the time is O(n log n) in the edges.
-/// Was 1024 while each triangle scanned every edge: the peer script's double-walled cubes
-/// (1 152 edges) then paid the full winding number at every query.
+/// Was 1024 while each triangle scanned every edge (O(triangles × edges)).
 pub const MAX_CHAIN_BOUNDARY_EDGES: usize = 1 << 20;
 
 /// A clean leaf's probes must give a winding number within this of 0 in front and 1 behind.
