@@ -318,11 +318,12 @@ pub(crate) fn polish(
         if gs == 0.0 {
             return s;
         }
-        if (gs > 0.0) == lo_positive {
-            lo = s;
+        // Keep the sign change inside the bracket: `s` replaces the end whose sign it has.
+        (lo, hi) = if (gs > 0.0) == lo_positive {
+            (s, hi)
         } else {
-            hi = s;
-        }
+            (lo, s)
+        };
         let newton = s - gs / cubic.derivative(s);
         let next = if newton > lo && newton < hi {
             newton
