@@ -121,13 +121,8 @@ fn dirty_mesh_builds_and_renders_like_the_cleaned_mesh() {
 /// Only degenerate triangles besides one real one: builds (from the one real triangle), no NaN.
 #[test]
 fn one_real_triangle_among_degenerate_ones_builds_without_nan() {
-    let positions = vec![
-        Vec3::new(0.0, 0.0, 0.0),
-        Vec3::new(1.0, 0.0, 0.0),
-        Vec3::new(0.0, 1.0, 0.0),
-        Vec3::new(2.0, 0.0, 0.0),
-        Vec3::new(0.5, 0.0, 0.0),
-    ];
+    // The real triangle's corners, then two more points on the line of its edge 0–1.
+    let positions = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::X * 2.0, Vec3::X * 0.5];
     let triangles = vec![[0, 0, 0], [0, 1, 3], [0, 4, 1], [1, 1, 2], [0, 1, 2]];
     let mesh = TriMesh::new(positions, triangles, vec![0; 5]).unwrap();
     let cam = crate::common::camera(Vec3::new(0.3, 0.4, 3.0), Vec3::ZERO, 48);

@@ -98,6 +98,15 @@ fn fails_cleanly<S: AsRef<std::ffi::OsStr>>(args: &[S], needle: &str) {
     assert!(o.stdout.is_empty());
 }
 
+/// `sdfmo sweep ARGS -o OUT`, run by [`json_ok`]: its JSON line and the `results.json` it wrote.
+fn sweep_ok(args: &[&std::ffi::OsStr], out: &Path) -> (Value, Value) {
+    let sweep = std::ffi::OsStr::new("sweep");
+    let args = [&[sweep], args, &["-o".as_ref(), out.as_os_str()]].concat();
+    let j = json_ok(&args);
+    let results = std::fs::read_to_string(out.join("results.json")).unwrap();
+    (j, serde_json::from_str(&results).unwrap())
+}
+
 fn keys(v: &Value, names: &[&str]) {
     for k in names {
         assert!(v.get(k).is_some(), "missing key {k} in {v}");
@@ -356,20 +365,11 @@ fn build_render_and_compare_the_demo_part() {
 fn a_tiny_sweep_writes_every_output() {
     let dir = tmp("sweep");
     let out = dir.join("out");
-    let j = json_ok(&os![
-        "sweep",
-        "--depths",
-        "4..5",
-        "--size",
-        "32",
-        "--threads",
-        "2",
-        "-o",
-        out,
-    ]);
+    let (j, results) = sweep_ok(
+        &os!["--depths", "4..5", "--size", "32", "--threads", "2"],
+        &out,
+    );
     assert_eq!(j["rows"].as_array().unwrap().len(), 4);
-    let results: Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
     let rows = results["rows"].as_array().unwrap();
     assert_eq!(rows.len(), 4);
     for r in rows {
@@ -475,22 +475,20 @@ fn extra_rows_join_the_sweep_and_bad_files_fail_in_one_line() {
         "nothing is written before the rows are checked"
     );
     let out = dir.join("out");
-    let j = json_ok(&os![
-        "sweep",
-        "--depths",
-        "4",
-        "--size",
-        "16",
-        "--frames",
-        "2",
-        "--extra-rows",
-        good,
-        "-o",
-        out,
-    ]);
+    let (j, results) = sweep_ok(
+        &os![
+            "--depths",
+            "4",
+            "--size",
+            "16",
+            "--frames",
+            "2",
+            "--extra-rows",
+            good
+        ],
+        &out,
+    );
     assert_eq!(j["rows"].as_array().unwrap().len(), 3);
-    let results: Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
     assert_eq!(results["provenance"]["frames"], 2);
     assert_eq!(results["extra_rows"][0]["rows"], 1);
     assert_eq!(results["rows"][2]["lod"], 1);

@@ -124,12 +124,7 @@ mod tests {
     #[test]
     fn a_ray_through_a_shared_edge_hits_one_side() {
         // Two triangles sharing the diagonal of the unit square at z = 1.
-        let p = [
-            Vec3::new(0.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 1.0, 1.0),
-            Vec3::new(0.0, 1.0, 1.0),
-        ];
+        let p = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]].map(|[x, y]| Vec3::new(x, y, 1.0));
         for i in 0..=100 {
             let s = i as f32 / 100.0;
             let r = WatertightRay::new(Vec3::new(s, s, -1.0), Vec3::new(0.0, 0.0, 1.0)).unwrap();

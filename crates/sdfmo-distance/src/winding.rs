@@ -281,6 +281,21 @@ pub(crate) fn build_winding_nodes(
 mod tests {
     use super::*;
 
+    /// A BVH node over `prim_count` primitives from `first_index` (with `prim_count` 0, an inner
+    /// node whose children are nodes `first_index` and `first_index + 1`).
+    fn node(first_index: u32, prim_count: u32) -> Bvh2Node {
+        Bvh2Node {
+            prim_count,
+            first_index,
+            ..Default::default()
+        }
+    }
+
+    /// A triangle from its vertices' coordinates.
+    fn tri(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> [Vec3; 3] {
+        [a, b, c].map(Vec3::from)
+    }
+
     #[test]
     fn solid_angle_of_an_octant() {
         // The triangle (e_x, e_y, e_z) spans one octant of directions from the origin: 4π / 8.
@@ -314,12 +329,7 @@ mod tests {
             [v[2], v[3], v[4]],
             [v[3], v[0], v[4]],
         ];
-        let node = Bvh2Node {
-            prim_count: 4,
-            first_index: 0,
-            ..Default::default()
-        };
-        let w = build_winding_nodes(&[node], &tris, &[0])[0];
+        let w = build_winding_nodes(&[node(0, 4)], &tris, &[0])[0];
         let dir = Vec3::new(0.3, -0.5, 0.8).normalize();
         let mut errs = Vec::new();
         for dist in [1.0f32, 2.0, 4.0] {
@@ -339,45 +349,13 @@ mod tests {
     #[test]
     fn merged_moments_equal_the_moments_of_the_union() {
         let tris = vec![
-            [
-                Vec3::new(0.0, 0.0, 0.0),
-                Vec3::new(0.3, 0.0, 0.1),
-                Vec3::new(0.0, 0.2, 0.05),
-            ],
-            [
-                Vec3::new(0.5, 0.1, 0.0),
-                Vec3::new(0.6, 0.4, 0.2),
-                Vec3::new(0.4, 0.3, -0.1),
-            ],
-            [
-                Vec3::new(0.1, 0.5, 0.3),
-                Vec3::new(0.2, 0.7, 0.1),
-                Vec3::new(-0.1, 0.6, 0.0),
-            ],
+            tri([0.0, 0.0, 0.0], [0.3, 0.0, 0.1], [0.0, 0.2, 0.05]),
+            tri([0.5, 0.1, 0.0], [0.6, 0.4, 0.2], [0.4, 0.3, -0.1]),
+            tri([0.1, 0.5, 0.3], [0.2, 0.7, 0.1], [-0.1, 0.6, 0.0]),
         ];
-        let union = Bvh2Node {
-            prim_count: 3,
-            first_index: 0,
-            ..Default::default()
-        };
-        let whole = build_winding_nodes(&[union], &tris, &[0])[0];
-        let nodes = [
-            Bvh2Node {
-                prim_count: 0,
-                first_index: 1,
-                ..Default::default()
-            },
-            Bvh2Node {
-                prim_count: 1,
-                first_index: 0,
-                ..Default::default()
-            },
-            Bvh2Node {
-                prim_count: 2,
-                first_index: 1,
-                ..Default::default()
-            },
-        ];
+        let whole = build_winding_nodes(&[node(0, 3)], &tris, &[0])[0];
+        // The root over leaves of triangle 0 and of triangles 1 and 2.
+        let nodes = [node(1, 0), node(0, 1), node(1, 2)];
         let tree = build_winding_nodes(&nodes, &tris, &[0, 1, 2])[0];
         assert!((tree.center - whole.center).length() < 1e-6);
         assert!((tree.normal - whole.normal).length() < 1e-6);

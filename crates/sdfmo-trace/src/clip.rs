@@ -23,7 +23,7 @@
 //! # Kernel
 //!
 //! [`intersect_voxel_where`] walks one voxel's candidates front to back: the segment's cubic is
-//! split at its critical points ([`RayCubic::critical_points`]) into at most three monotone
+//! split at its critical points ([`RayCubic::critical_points`](crate::ray_voxel::RayCubic::critical_points)) into at most three monotone
 //! pieces, each of which holds at most one root, polished with the plain kernel's safeguarded
 //! Newton iteration; the first candidate the caller's predicate accepts is the voxel's hit.
 //! With a predicate that accepts everything it returns exactly what
@@ -37,7 +37,7 @@ use sdfmo_format::{trilinear, Octree};
 use sdfmo_format::MAX_CLIP_VOXELS_PER_LEAF;
 
 use crate::distance::{voxel_sample, DistanceSample};
-use crate::ray_voxel::{min_max, prepare_voxel, roots_where, PreparedVoxel, RayCubic};
+use crate::ray_voxel::{intersect_prepared, min_max, prepare_voxel};
 
 /// Slack of the clip test at a crossing, relative to the clip voxel's largest |corner| (the
 /// format's value, shared with the WGSL kernel; its documentation says why it is needed and why
@@ -76,24 +76,17 @@ pub fn intersect_voxel_where(
     t0: f32,
     t1: f32,
     surface: bool,
-    mut accept: impl FnMut(f32, bool) -> bool,
+    accept: impl FnMut(f32, bool) -> bool,
 ) -> Option<f32> {
-    let len = t1 - t0;
-    // Also rejects NaN and infinite segments.
-    if !(0.0..f32::INFINITY).contains(&len) {
-        return None;
-    }
-    // The same early-outs and normalisation as the plain kernel.
-    match prepare_voxel(corners) {
-        PreparedVoxel::Miss => None,
-        // Inside everywhere: a volume voxel's only candidate is the segment start.
-        PreparedVoxel::Inside => (!surface && accept(t0, false)).then_some(t0),
-        PreparedVoxel::Scaled(scaled) => {
-            let cubic = RayCubic::new(&scaled, origin + dir * t0, dir * len);
-            let to_t = |u: f32| (t0 + u * len).min(t1);
-            roots_where(&cubic, 1.0, surface, |u, root| accept(to_t(u), root)).map(to_t)
-        }
-    }
+    // The plain kernel's early-outs, normalisation and polish, `accept` choosing the candidate.
+    intersect_prepared(
+        &prepare_voxel(corners),
+        origin,
+        dir,
+        (t0, t1),
+        surface,
+        accept,
+    )
 }
 
 /// The clip voxels of one leaf (index and corners), gathered once per leaf so the clip test of

@@ -316,9 +316,14 @@ fn packet_leaf_voxels<B: AsRef<[u8]>>(
         while rest != 0 {
             let l = rest.trailing_zeros() as usize;
             rest &= rest - 1;
-            if let Some(s) =
-                intersect_prepared(&prepared, local_o[l], local_d[l], 0.0, best_s[l], surface)
-            {
+            if let Some(s) = intersect_prepared(
+                &prepared,
+                local_o[l],
+                local_d[l],
+                (0.0, best_s[l]),
+                surface,
+                |_, _| true,
+            ) {
                 if best[l].is_none() || s < best_s[l] {
                     best_s[l] = s;
                     best[l] = Some((voxel, surface));

@@ -165,7 +165,14 @@ pub fn intersect_voxel(
     t1: f32,
     surface: bool,
 ) -> Option<f32> {
-    intersect_prepared(&prepare_voxel(corners), origin, dir, t0, t1, surface)
+    intersect_prepared(
+        &prepare_voxel(corners),
+        origin,
+        dir,
+        (t0, t1),
+        surface,
+        |_, _| true,
+    )
 }
 
 /// What [`intersect_voxel`] learns from a voxel's corners alone, the same for every ray: a
@@ -204,15 +211,18 @@ pub(crate) fn prepare_voxel(corners: &[f32; 8]) -> PreparedVoxel {
     PreparedVoxel::Scaled(corners.map(|c| c * inv))
 }
 
-/// The per-ray part of [`intersect_voxel`] (whose result it is, bit for bit).
+/// The per-ray part of [`intersect_voxel`] on the span `(t0, t1)`, the candidates filtered by
+/// `accept` as [`intersect_voxel_where`](crate::clip::intersect_voxel_where) filters them: one
+/// body for both kernels, so with `accept` always true the result is [`intersect_voxel`]'s, bit
+/// for bit (`accept` is inlined away).
 #[inline]
 pub(crate) fn intersect_prepared(
     voxel: &PreparedVoxel,
     origin: Vec3,
     dir: Vec3,
-    t0: f32,
-    t1: f32,
+    (t0, t1): (f32, f32),
     surface: bool,
+    mut accept: impl FnMut(f32, bool) -> bool,
 ) -> Option<f32> {
     let len = t1 - t0;
     // Also rejects NaN and infinite segments.
@@ -221,12 +231,13 @@ pub(crate) fn intersect_prepared(
     }
     match voxel {
         PreparedVoxel::Miss => None,
-        // Everything inside: a volume voxel is hit where the segment starts; a surface voxel
-        // has no zero at all.
-        PreparedVoxel::Inside => (!surface).then_some(t0),
+        // Everything inside: a volume voxel's only candidate is where the segment starts; a
+        // surface voxel has no zero at all.
+        PreparedVoxel::Inside => (!surface && accept(t0, false)).then_some(t0),
         PreparedVoxel::Scaled(scaled) => {
             let cubic = RayCubic::new(scaled, origin + dir * t0, dir * len);
-            first_root(&cubic, 1.0, surface).map(|u| (t0 + u * len).min(t1))
+            let to_t = |u: f32| (t0 + u * len).min(t1);
+            roots_where(&cubic, 1.0, surface, |u, root| accept(to_t(u), root)).map(to_t)
         }
     }
 }
@@ -318,11 +329,12 @@ pub(crate) fn polish(
         if gs == 0.0 {
             return s;
         }
-        if (gs > 0.0) == lo_positive {
-            lo = s;
+        // Keep the sign change inside the bracket: `s` replaces the end whose sign it has.
+        (lo, hi) = if (gs > 0.0) == lo_positive {
+            (s, hi)
         } else {
-            hi = s;
-        }
+            (lo, s)
+        };
         let newton = s - gs / cubic.derivative(s);
         let next = if newton > lo && newton < hi {
             newton

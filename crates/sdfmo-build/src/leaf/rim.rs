@@ -35,14 +35,7 @@ struct RimPlane {
 /// `tris` (gathered triangles) at its boundary edges in `cell`; returns how many (0 where the
 /// rim is not clean, see the module docs).
 pub(crate) fn rim_clips(ctx: &LeafCtx, s: &mut Scratch, out: &mut Vec<Voxel>) -> usize {
-    let LeafCtx {
-        p,
-        mesh,
-        cell,
-        tris,
-        ..
-    } = *ctx;
-    let cell = &cell;
+    let (p, mesh, cell, tris) = (ctx.p, ctx.mesh, &ctx.cell, ctx.tris);
     let (samples, scratch) = (&s.samples, &mut s.sharp);
     let flat = p.sharp_flat * cell.h;
     let unset = RimPlane {

@@ -329,15 +329,19 @@ mod tests {
         p
     }
 
+    /// The manifest `text`, written as `name` in a fresh folder and read back (not confined).
+    fn read_written(name: &str, text: &str) -> (tempfile::TempDir, Manifest) {
+        let dir = tempfile::tempdir().unwrap();
+        let man = Manifest::read(&write(dir.path(), name, text), false).unwrap();
+        (dir, man)
+    }
+
     #[test]
     fn plain_lists_skip_blank_and_comment_lines_and_resolve_against_the_folder() {
-        let dir = tempfile::tempdir().unwrap();
-        let m = write(
-            dir.path(),
+        let (dir, man) = read_written(
             "m.txt",
             "# models\n\na/part.obj\n  b/part.obj  \n\n/abs/x.stl\na/part.obj\n",
         );
-        let man = Manifest::read(&m, false).unwrap();
         let e = &man.entries;
         assert_eq!(e.len(), 4);
         assert_eq!((e[0].line, e[0].index), (3, 0));
@@ -355,13 +359,15 @@ mod tests {
 
     #[test]
     fn csv_manifests_have_ids_a_header_and_quoted_paths() {
-        let dir = tempfile::tempdir().unwrap();
-        let m = write(
-            dir.path(),
+        let (dir, man) = read_written(
             "m.csv",
-            "id,path\nbracket,parts/b.obj\n\"odd, id\",\"with, comma.stl\"\nsame,parts/b.obj\nempty,\nthree,a,b\n",
+            "id,path\n\
+             bracket,parts/b.obj\n\
+             \"odd, id\",\"with, comma.stl\"\n\
+             same,parts/b.obj\n\
+             empty,\n\
+             three,a,b\n",
         );
-        let man = Manifest::read(&m, false).unwrap();
         let e = &man.entries;
         assert_eq!(e.len(), 5, "{e:?}");
         assert_eq!(
