@@ -215,7 +215,10 @@ pub(crate) fn prepare_voxel(corners: &[f32; 8]) -> PreparedVoxel {
 /// `accept` as [`intersect_voxel_where`](crate::clip::intersect_voxel_where) filters them: one
 /// body for both kernels, so with `accept` always true the result is [`intersect_voxel`]'s, bit
 /// for bit (`accept` is inlined away).
-#[inline]
+// Always inlined: with `#[inline]` alone the one body for both kernels cost the plain render
+// 2.9 % more instructions (callgrind, abc1 depth 8 multi, paper view 0 at 1024²: 178.7 M before
+// the merge, 183.9 M after, 171.0 M inlined).
+#[inline(always)]
 pub(crate) fn intersect_prepared(
     voxel: &PreparedVoxel,
     origin: Vec3,
@@ -257,7 +260,7 @@ pub fn first_root(cubic: &RayCubic, len: f32, surface: bool) -> Option<f32> {
 /// then every sign change. Each monotone piece between the cubic's critical points holds one
 /// root at most, polished to `1e-6 · len`. [`first_root`] accepts everything; the clip rule
 /// (`crate::clip`) goes on past rejected candidates.
-#[inline]
+#[inline(always)]
 pub(crate) fn roots_where(
     cubic: &RayCubic,
     len: f32,
