@@ -1,6 +1,7 @@
 """Queries on meshes built from numpy arrays, against closed-form answers."""
 
 import _thread
+import signal
 import threading
 import time
 
@@ -243,7 +244,17 @@ def test_calls_release_the_gil():
     assert elapsed < 0.05 or ticks > 10, (elapsed, ticks)
 
 
-def test_ctrl_c_interrupts_a_long_call():
+@pytest.fixture
+def python_handles_ctrl_c():
+    """Python's own SIGINT handler for the test: a process started with SIGINT ignored (a
+    background job of a non-interactive shell) inherits that, and `interrupt_main` then does
+    nothing at all, as Ctrl-C would not either."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+def test_ctrl_c_interrupts_a_long_call(python_handles_ctrl_c):
     m = uv_sphere()
     p = np.random.default_rng(6).uniform(-2, 2, size=(5_000_000, 3)).astype(np.float32)
     m.signed_distance(p[:10])  # the BVH, outside the timed call
@@ -260,7 +271,7 @@ def test_ctrl_c_interrupts_a_long_call():
     assert m.signed_distance(p[:3]).shape == (3,)
 
 
-def test_ctrl_c_interrupts_a_build():
+def test_ctrl_c_interrupts_a_build(python_handles_ctrl_c):
     m = uv_sphere()
     m.build(3)  # warm up (thread pool, first allocations)
     timer = threading.Timer(0.2, _thread.interrupt_main)
