@@ -35,6 +35,14 @@ struct Node {
 }
 
 impl Node {
+    /// A node whose box and contents are still to be filled.
+    const PENDING: Node = Node {
+        min: Vec3::ZERO,
+        max: Vec3::ZERO,
+        first: 0,
+        count: 0,
+    };
+
     /// Distance from `p` to the box (0 inside).
     fn distance(&self, p: Vec3) -> f32 {
         (self.min - p).max(p - self.max).max(Vec3::ZERO).length()
@@ -50,12 +58,7 @@ pub(crate) struct SegmentTree {
 impl SegmentTree {
     /// The tree of `segments` (median splits on the longest axis of their midpoints).
     pub(crate) fn new(mut segments: Vec<(Vec3, Vec3)>) -> SegmentTree {
-        let mut nodes = vec![Node {
-            min: Vec3::ZERO,
-            max: Vec3::ZERO,
-            first: 0,
-            count: 0,
-        }];
+        let mut nodes = vec![Node::PENDING];
         // (node, start, end) still to be filled.
         let mut pending = vec![(0usize, 0usize, segments.len())];
         while let Some((node, start, end)) = pending.pop() {
@@ -82,14 +85,7 @@ impl SegmentTree {
                 (x.0 + x.1)[axis].total_cmp(&(y.0 + y.1)[axis])
             });
             let first = nodes.len();
-            for _ in 0..2 {
-                nodes.push(Node {
-                    min: Vec3::ZERO,
-                    max: Vec3::ZERO,
-                    first: 0,
-                    count: 0,
-                });
-            }
+            nodes.extend([Node::PENDING, Node::PENDING]);
             nodes[node].first = first as u32;
             pending.push((first, start, start + half));
             pending.push((first + 1, start + half, end));
@@ -104,8 +100,14 @@ impl SegmentTree {
         if self.segments.is_empty() {
             return best;
         }
-        let mut stack = vec![0u32];
-        while let Some(i) = stack.pop() {
+        // Median splits keep the tree ⌈log₂(n / LEAF_SEGMENTS)⌉ + 1 ≤ 20 levels deep for the
+        // 2^20 edges allowed, and the walk holds at most one sibling per level: no allocation
+        // per query (one query per triangle).
+        let mut stack = [0u32; 64];
+        let mut len = 1;
+        while len > 0 {
+            len -= 1;
+            let i = stack[len];
             let node = &self.nodes[i as usize];
             if node.distance(p) > best * (1.0 + RELATIVE_MARGIN) + ABSOLUTE_MARGIN {
                 continue;
@@ -123,11 +125,10 @@ impl SegmentTree {
                 self.nodes[l as usize].distance(p),
                 self.nodes[r as usize].distance(p),
             );
-            if dl <= dr {
-                stack.extend([r, l]);
-            } else {
-                stack.extend([l, r]);
-            }
+            let (far, near) = if dl <= dr { (r, l) } else { (l, r) };
+            stack[len] = far;
+            stack[len + 1] = near;
+            len += 2;
         }
         best
     }
@@ -137,17 +138,10 @@ impl SegmentTree {
 mod tests {
     use super::*;
 
-    /// A reproducible stream of values in [-1, 1) (SplitMix64).
+    /// A reproducible stream of values in [-1, 1) (the project's SplitMix64).
     fn stream(seed: u64) -> impl FnMut() -> f32 {
-        let mut state = seed;
-        move || {
-            state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-            let mut z = state;
-            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-            z ^= z >> 31;
-            (z >> 40) as f32 / (1u64 << 23) as f32 - 1.0
-        }
+        let mut rng = sdfmo_io::SplitMix64::new(seed);
+        move || rng.range(-1.0, 1.0)
     }
 
     #[test]
