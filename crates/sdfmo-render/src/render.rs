@@ -158,10 +158,18 @@ struct Ctx<'a, T> {
     tiles_done: AtomicUsize,
 }
 
-/// The output of one tile: its rectangle and its pixels, row-major within the tile.
+/// One band of the image (a row of tiles): its first row and its pixels.
+struct Band<'a> {
+    y0: u32,
+    rgb: &'a mut [u8],
+    depth: Option<&'a mut [f32]>,
+    normals: Option<&'a mut [Vec3]>,
+}
+
+/// The output of one tile: its column, size and pixels, row-major within the tile (no pixels
+/// when the tile was culled: all background).
 struct Tile {
     x0: u32,
-    y0: u32,
     w: u32,
     h: u32,
     rgb: Vec<u8>,
@@ -174,21 +182,6 @@ impl<T: Traceable> Ctx<'_, T> {
     fn run(&self) -> Rendered {
         let start = Instant::now();
         let (w, h) = (self.frame.width, self.frame.height);
-        let ts = self.plan.tile_size;
-        let tiles_x = w.div_ceil(ts);
-        let tiles_y = h.div_ceil(ts);
-        let tiles: Vec<Tile> = (0..tiles_x * tiles_y)
-            .into_par_iter()
-            .map(|i| {
-                let tile = self.tile((i % tiles_x) * ts, (i / tiles_x) * ts);
-                if let Some(progress) = self.progress {
-                    let done = self.tiles_done.fetch_add(1, Ordering::Relaxed) + 1;
-                    progress(done as f32 / (tiles_x * tiles_y) as f32);
-                }
-                tile
-            })
-            .collect();
-
         let n = w as usize * h as usize;
         let mut rgb = vec![0u8; n * 3];
         let mut depth = if self.plan.keep_depth {
@@ -201,22 +194,29 @@ impl<T: Traceable> Ctx<'_, T> {
         } else {
             Vec::new()
         };
-        let mut counters = Counters::default();
-        for t in &tiles {
-            counters += t.counters;
-            for row in 0..t.h {
-                let dst = ((t.y0 + row) * w + t.x0) as usize;
-                let src = (row * t.w) as usize;
-                let len = t.w as usize;
-                rgb[dst * 3..(dst + len) * 3].copy_from_slice(&t.rgb[src * 3..(src + len) * 3]);
-                if self.plan.keep_depth {
-                    depth[dst..dst + len].copy_from_slice(&t.depth[src..src + len]);
-                }
-                if self.plan.keep_normals {
-                    normals[dst..dst + len].copy_from_slice(&t.normals[src..src + len]);
-                }
-            }
-        }
+        // The image is cut into bands of one tile row, and each band's tiles are copied into it
+        // by the worker that finishes them: the assembly (and the first touch of the image's
+        // pages) runs in parallel instead of after the tiles, on the calling thread.
+        let band_pixels = self.plan.tile_size as usize * w as usize;
+        let rgb_bands = rgb.chunks_mut(band_pixels * 3);
+        let mut depth_bands = depth.chunks_mut(band_pixels);
+        let mut normal_bands = normals.chunks_mut(band_pixels);
+        let bands: Vec<Band> = rgb_bands
+            .enumerate()
+            .map(|(i, rgb)| Band {
+                y0: i as u32 * self.plan.tile_size,
+                rgb,
+                depth: depth_bands.next(),
+                normals: normal_bands.next(),
+            })
+            .collect();
+        let counters = bands.into_par_iter().map(|band| self.band(band)).reduce(
+            Counters::default,
+            |mut a, b| {
+                a += b;
+                a
+            },
+        );
         Rendered {
             width: w,
             height: h,
@@ -228,14 +228,72 @@ impl<T: Traceable> Ctx<'_, T> {
         }
     }
 
+    /// Renders the tiles of one band (in parallel) and copies them into it; returns their
+    /// counters.
+    fn band(&self, band: Band<'_>) -> Counters {
+        let (w, ts) = (self.frame.width, self.plan.tile_size);
+        let tiles_x = w.div_ceil(ts);
+        let tiles_total = tiles_x * self.frame.height.div_ceil(ts);
+        let tiles: Vec<Tile> = (0..tiles_x)
+            .into_par_iter()
+            .map(|i| {
+                let tile = self.tile(i * ts, band.y0);
+                if let Some(progress) = self.progress {
+                    let done = self.tiles_done.fetch_add(1, Ordering::Relaxed) + 1;
+                    progress(done as f32 / tiles_total as f32);
+                }
+                tile
+            })
+            .collect();
+        let mut counters = Counters::default();
+        let Band {
+            rgb,
+            mut depth,
+            mut normals,
+            ..
+        } = band;
+        for t in &tiles {
+            counters += t.counters;
+            if t.rgb.is_empty() {
+                continue; // culled: background, which the band already holds
+            }
+            for row in 0..t.h {
+                let dst = (row * w + t.x0) as usize;
+                let src = (row * t.w) as usize;
+                let len = t.w as usize;
+                rgb[dst * 3..(dst + len) * 3].copy_from_slice(&t.rgb[src * 3..(src + len) * 3]);
+                if let Some(depth) = depth.as_deref_mut() {
+                    depth[dst..dst + len].copy_from_slice(&t.depth[src..src + len]);
+                }
+                if let Some(normals) = normals.as_deref_mut() {
+                    normals[dst..dst + len].copy_from_slice(&t.normals[src..src + len]);
+                }
+            }
+        }
+        counters
+    }
+
     fn tile(&self, x0: u32, y0: u32) -> Tile {
         let ts = self.plan.tile_size;
         let tw = ts.min(self.frame.width - x0);
         let th = ts.min(self.frame.height - y0);
         let n = (tw * th) as usize;
+        if self.tile_misses_occupied(x0, y0, tw, th) {
+            return Tile {
+                x0,
+                w: tw,
+                h: th,
+                rgb: Vec::new(),
+                depth: Vec::new(),
+                normals: Vec::new(),
+                counters: Counters {
+                    rays: n as u64,
+                    ..Counters::default()
+                },
+            };
+        }
         let mut tile = Tile {
             x0,
-            y0,
             w: tw,
             h: th,
             rgb: vec![0; n * 3],
@@ -251,10 +309,6 @@ impl<T: Traceable> Ctx<'_, T> {
             },
             counters: Counters::default(),
         };
-        if self.tile_misses_occupied(x0, y0, tw, th) {
-            tile.counters.rays += n as u64;
-            return tile; // background (already there)
-        }
         // Camera terms cached per tile: the same f64 sums as `CameraFrame::ray`, bit for bit.
         let columns: Vec<DVec3> = (x0..x0 + tw).map(|px| self.frame.column(px)).collect();
         let eye = self.frame.eye.as_vec3();
