@@ -336,6 +336,13 @@ pub struct SweepArgs {
     /// Renders of each view per configuration; the render time is their median, 1..=100.
     #[arg(long, value_name = "N", default_value_t = 5, value_parser = clap::value_parser!(u16).range(1..=100))]
     pub frames: u16,
+    /// Build each model with each method once, with levels of detail from the first depth to
+    /// the last (`build --lod`), and score every level of that one file: the rows are those of
+    /// separate builds (a level is, byte for byte, that depth's build) plus the bytes a reader
+    /// needs for each level (`bytes_read`); the report gains a "levels of one file" table and
+    /// a plot of PSNR against bytes read.
+    #[arg(long, conflicts_with = "merge")]
+    pub levels: bool,
     /// Rows from another producer (a results.json, or a JSON array of rows in its row schema;
     /// docs/cli.md), merged into the tables, plots and page; repeatable. Checked before any
     /// work: a bad file or a row repeating one of this sweep's configurations is an error.

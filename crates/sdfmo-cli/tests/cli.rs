@@ -430,6 +430,68 @@ fn a_tiny_sweep_writes_every_output() {
     assert!(leftovers.is_empty(), "{leftovers:?}");
 }
 
+/// `sweep --levels`: one file with levels per method gives the rows separate builds give (a
+/// level is that depth's build, byte for byte), each with the prefix that holds it, whose last
+/// is the size of the file `build --lod` writes; the levels table and plot are written.
+#[test]
+fn a_sweep_of_levels_scores_every_level_of_one_file() {
+    let dir = tmp("sweep-levels");
+    let common = os!["--depths", "4..6", "--size", "32", "--frames", "1"];
+    let (_, separate) = sweep_ok(&common, &dir.join("separate"));
+    let levels_args = [&common[..], &os!["--levels"]].concat();
+    let out = dir.join("levels");
+    let (_, levels) = sweep_ok(&levels_args, &out);
+    let (a, b) = (
+        separate["rows"].as_array().unwrap(),
+        levels["rows"].as_array().unwrap(),
+    );
+    assert_eq!(a.len(), 6);
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(b) {
+        for k in [
+            "method",
+            "depth",
+            "psnr",
+            "flip",
+            "bytes",
+            "voxels",
+            "psnr_views",
+        ] {
+            assert_eq!(x[k], y[k], "{k}: {x} against {y}");
+        }
+        assert!(x.get("bytes_read").is_none());
+    }
+    for method in ["svo", "multi"] {
+        let read: Vec<u64> = b
+            .iter()
+            .filter(|r| r["method"] == method)
+            .map(|r| r["bytes_read"].as_u64().unwrap())
+            .collect();
+        assert!(read.windows(2).all(|w| w[0] < w[1]), "{read:?}");
+        let file = dir.join(format!("{method}.smo"));
+        json_ok(&os![
+            "build",
+            "--depth",
+            "6",
+            "--lod",
+            "--coarsest",
+            "4",
+            "--method",
+            method,
+            "-o",
+            &file
+        ]);
+        let size = std::fs::metadata(&file).unwrap().len();
+        assert_eq!(read.last().copied(), Some(size), "{method}");
+    }
+    let table = std::fs::read_to_string(out.join("table.md")).unwrap();
+    assert!(table.contains("Levels of one file") && table.contains("file / leaf-only"));
+    assert!(out.join("plot_psnr_vs_bytes_read.png").exists());
+    assert!(!dir.join("separate/plot_psnr_vs_bytes_read.png").exists());
+    let csv = std::fs::read_to_string(out.join("results.csv")).unwrap();
+    assert!(csv.lines().next().unwrap().ends_with(",bytes_read"));
+}
+
 #[test]
 fn extra_rows_join_the_sweep_and_bad_files_fail_in_one_line() {
     let dir = tmp("extra-rows");

@@ -17,8 +17,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use rayon::prelude::*;
-use sdf_multioctree::build::{self, BuildSettings};
+use sdf_multioctree::build::{self, BuildSettings, BuildStats};
 use sdf_multioctree::distance::SignMode;
+use sdf_multioctree::format::PackedOctree;
 use sdf_multioctree::metrics;
 use sdf_multioctree::render::{Camera, OctreeScene, PaperProtocol};
 use serde_json::json;
@@ -288,72 +289,70 @@ fn sweep_model(
     }
     bar.inc(1);
 
+    let run = ModelRun {
+        args,
+        protocol: &protocol,
+        img_dir: &img_dir,
+        name,
+    };
+    let mut add_row = |row: Row| -> anyhow::Result<()> {
+        rows.push(row);
+        // Keep the files current after every row: a long sweep that is stopped keeps its
+        // results so far.
+        if let Some(report_of) = report_of {
+            report::write_tables(&args.output, &report_of(models, rows))?;
+        }
+        bar.inc(1);
+        Ok(())
+    };
     for &method in methods {
-        for &depth in depths {
-            bar.set_message(format!("{name}: {} depth {depth}: build", method.name()));
-            let build_settings = build_settings(args, method, depth);
-            let stage = format!("{name}: {} depth {depth}: build", method.name());
+        if args.levels {
+            // One file with every level; each level is scored as a build of its depth.
+            let (first, last) = (depths[0], depths[depths.len() - 1]);
+            let settings = BuildSettings {
+                coarsest_level: Some(first),
+                ..build_settings(args, method, last)
+            };
+            let stage = format!("{name}: {} levels {first}..={last}: build", method.name());
+            bar.set_message(stage.clone());
             let on_progress = |f: f32| bar.set_message(format!("{stage} {:.0}%", f * 100.0));
-            let (octree, stats) =
-                build::build_with_budget(&input.mesh, &build_settings, budget, Some(&on_progress))
-                    .with_context(|| {
-                        format!(
-                            "cannot build {} depth {depth} of {}",
-                            method.name(),
-                            input.source
-                        )
-                    })?;
-            bar.set_message(format!("{name}: {} depth {depth}: render", method.name()));
-            let score = protocol
-                .score(&OctreeScene(&octree))
-                .with_context(|| format!("cannot render {} depth {depth}", method.name()))?;
-            bar.set_message(format!("{name}: {} depth {depth}: write", method.name()));
-            // PNG encoding is single-threaded: the views and heat maps in parallel.
-            with_threads(args.threads, || {
-                score
-                    .views
-                    .par_iter()
-                    .enumerate()
-                    .try_for_each(|(k, view)| {
-                        write_derived_png(
-                            &img_dir.join(view_file(method.name(), depth, k)),
-                            &view.image,
-                        )?;
-                        write_derived_png(
-                            &img_dir.join(heatmap_file(method.name(), depth, k)),
-                            &metrics::flip_heatmap(&view.flip),
-                        )
-                    })
-            })??;
-            let psnr = score.psnr();
-            rows.push(Row {
-                model: name.clone(),
-                method: method.name().to_owned(),
-                depth,
-                psnr: psnr.is_finite().then_some(psnr),
-                flip: score.flip(),
-                bytes: stats.bytes,
-                lod: None,
-                build_ms: Some(stats.build_ms),
-                render_ms: score.render_ms(),
-                nodes: Some(stats.nodes),
-                leaves: Some(stats.leaves),
-                voxels: Some(stats.voxels),
-                surface_voxels: Some(stats.surface_voxels),
-                cap_hits: Some(stats.cap_hits),
-                psnr_views: score
-                    .views
-                    .iter()
-                    .map(|v| v.psnr.is_finite().then_some(v.psnr))
-                    .collect(),
-                flip_views: score.views.iter().map(|v| f64::from(v.flip.mean)).collect(),
-            });
-            // Keep the files current after every row: a long sweep that is stopped keeps its
-            // results so far.
-            if let Some(report_of) = report_of {
-                report::write_tables(&args.output, &report_of(models, rows))?;
+            let (lod, stats) =
+                build::build_lod(&input.mesh, &settings, budget, Some(&on_progress), &|| {
+                    false
+                })
+                .with_context(|| {
+                    format!(
+                        "cannot build {} with levels {first}..={last} of {}",
+                        method.name(),
+                        input.source
+                    )
+                })?;
+            for ((octree, stats), entry) in lod.levels().iter().zip(&stats).zip(lod.entries()) {
+                bar.set_message(format!("{name}: {} level {}", method.name(), entry.level));
+                add_row(run.score(method, octree, stats, Some(entry.end()))?)?;
             }
-            bar.inc(1);
+        } else {
+            for &depth in depths {
+                bar.set_message(format!("{name}: {} depth {depth}: build", method.name()));
+                let build_settings = build_settings(args, method, depth);
+                let stage = format!("{name}: {} depth {depth}: build", method.name());
+                let on_progress = |f: f32| bar.set_message(format!("{stage} {:.0}%", f * 100.0));
+                let (octree, stats) = build::build_with_budget(
+                    &input.mesh,
+                    &build_settings,
+                    budget,
+                    Some(&on_progress),
+                )
+                .with_context(|| {
+                    format!(
+                        "cannot build {} depth {depth} of {}",
+                        method.name(),
+                        input.source
+                    )
+                })?;
+                bar.set_message(format!("{name}: {} depth {depth}: render", method.name()));
+                add_row(run.score(method, &octree, &stats, None)?)?;
+            }
         }
     }
     Ok(Model {
@@ -362,6 +361,74 @@ fn sweep_model(
         triangles: input.mesh.triangle_count(),
         reference_render_ms: protocol.reference_ms(),
     })
+}
+
+/// One model being swept: what scoring an octree of it needs.
+struct ModelRun<'a> {
+    args: &'a SweepArgs,
+    protocol: &'a PaperProtocol,
+    img_dir: &'a Path,
+    name: &'a str,
+}
+
+impl ModelRun<'_> {
+    /// Renders `octree` (built with `method`; its depth is the row's) on the paper protocol,
+    /// writes its views and FLIP maps, and returns its row; `bytes_read` for a level of a file
+    /// with levels.
+    fn score(
+        &self,
+        method: MethodArg,
+        octree: &PackedOctree,
+        stats: &BuildStats,
+        bytes_read: Option<u64>,
+    ) -> anyhow::Result<Row> {
+        let depth = octree.depth();
+        let score = self
+            .protocol
+            .score(&OctreeScene(octree))
+            .with_context(|| format!("cannot render {} depth {depth}", method.name()))?;
+        // PNG encoding is single-threaded: the views and heat maps in parallel.
+        with_threads(self.args.threads, || {
+            score
+                .views
+                .par_iter()
+                .enumerate()
+                .try_for_each(|(k, view)| {
+                    write_derived_png(
+                        &self.img_dir.join(view_file(method.name(), depth, k)),
+                        &view.image,
+                    )?;
+                    write_derived_png(
+                        &self.img_dir.join(heatmap_file(method.name(), depth, k)),
+                        &metrics::flip_heatmap(&view.flip),
+                    )
+                })
+        })??;
+        let psnr = score.psnr();
+        Ok(Row {
+            model: self.name.to_owned(),
+            method: method.name().to_owned(),
+            depth,
+            psnr: psnr.is_finite().then_some(psnr),
+            flip: score.flip(),
+            bytes: stats.bytes,
+            lod: None,
+            bytes_read,
+            build_ms: Some(stats.build_ms),
+            render_ms: score.render_ms(),
+            nodes: Some(stats.nodes),
+            leaves: Some(stats.leaves),
+            voxels: Some(stats.voxels),
+            surface_voxels: Some(stats.surface_voxels),
+            cap_hits: Some(stats.cap_hits),
+            psnr_views: score
+                .views
+                .iter()
+                .map(|v| v.psnr.is_finite().then_some(v.psnr))
+                .collect(),
+            flip_views: score.views.iter().map(|v| f64::from(v.flip.mean)).collect(),
+        })
+    }
 }
 
 /// A model name safe in file names and HTML: letters, digits, `-`, `_`, `.`; others become `_`.

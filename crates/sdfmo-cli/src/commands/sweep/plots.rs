@@ -181,7 +181,17 @@ const PLOTS: [(&str, &str, Axis<'static>, Axis<'static>, Extract); 4] = [
     ),
 ];
 
-/// Writes every plot into `dir`; returns the file names.
+/// The plot of a sweep with `--levels`: PSNR against the bytes a reader needs for each level.
+const LEVELS_PLOT: (&str, &str, Axis<'static>, Axis<'static>, Extract) = (
+    "plot_psnr_vs_bytes_read.png",
+    "Levels of one file: PSNR vs bytes read",
+    Axis::log("bytes read (MB)"),
+    Axis::linear("PSNR (dB)"),
+    |r| Some((r.bytes_read? as f64 / 1e6, r.psnr?)),
+);
+
+/// Writes every plot into `dir` (the levels plot only when rows have `bytes_read`); returns the
+/// file names.
 pub fn write_plots(dir: &Path, rows: &[Row]) -> anyhow::Result<Vec<String>> {
     register_font()?;
     let mut models: Vec<&str> = Vec::new();
@@ -201,7 +211,8 @@ pub fn write_plots(dir: &Path, rows: &[Row]) -> anyhow::Result<Vec<String>> {
     let mut by_depth: Vec<&Row> = rows.iter().collect();
     by_depth.sort_by_key(|r| r.depth);
     let mut files = Vec::new();
-    for (file, title, x, y, extract) in &PLOTS {
+    let levels = rows.iter().any(|r| r.bytes_read.is_some());
+    for (file, title, x, y, extract) in PLOTS.iter().chain(levels.then_some(&LEVELS_PLOT)) {
         let mut series: Vec<Series> = Vec::new();
         for &r in &by_depth {
             let Some((px, py)) = extract(r) else { continue };

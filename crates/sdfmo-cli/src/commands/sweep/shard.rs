@@ -300,6 +300,9 @@ fn child_args(args: &SweepArgs, path: &Path, name: &str) -> Vec<OsString> {
     v.push(format!("--size={}", args.size).into());
     v.push(format!("--max-voxels={}", args.max_voxels).into());
     v.push(format!("--frames={}", args.frames).into());
+    if args.levels {
+        v.push("--levels".into());
+    }
     if let Some(m) = args.max_memory {
         v.push(format!("--max-memory={m}").into());
     }

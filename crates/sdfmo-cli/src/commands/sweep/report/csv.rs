@@ -5,18 +5,22 @@
 
 use super::model::Report;
 
-/// The columns every results.csv has (the header the hand-written writer wrote); `lod` follows
-/// when a row has one.
+/// The columns every results.csv has (the header the hand-written writer wrote); `lod` and
+/// `bytes_read` follow when a row has one.
 const HEADER: &str = "model,method,depth,psnr,flip,bytes,build_ms,render_ms,nodes,leaves,voxels,\
                       surface_voxels,cap_hits";
 
 /// The rows of `report` as CSV text.
 pub fn csv(report: &Report) -> anyhow::Result<String> {
     let with_lod = report.rows.iter().any(|r| r.lod.is_some());
+    let with_read = report.rows.iter().any(|r| r.bytes_read.is_some());
     let mut w = csv::WriterBuilder::new().from_writer(Vec::new());
     let mut header: Vec<&str> = HEADER.split(',').collect();
     if with_lod {
         header.push("lod");
+    }
+    if with_read {
+        header.push("bytes_read");
     }
     w.write_record(&header)?;
     let count = |v: Option<usize>| v.map_or(String::new(), |v| v.to_string());
@@ -38,6 +42,9 @@ pub fn csv(report: &Report) -> anyhow::Result<String> {
         ];
         if with_lod {
             record.push(r.lod.map_or(String::new(), |l| l.to_string()));
+        }
+        if with_read {
+            record.push(r.bytes_read.map_or(String::new(), |b| b.to_string()));
         }
         w.write_record(&record)?;
     }

@@ -9,9 +9,11 @@ use std::path::Path;
 use askama::Template;
 
 use super::crops::{crops, Crops, ImageCell};
+use super::markdown::LEVELS_NOTE;
 use super::model::{ExtraRows, Provenance, Report};
 use super::tables::{
-    fmt_psnr, label, model_heading, model_table, protocol, shallower_table, summary_table, Table,
+    fmt_psnr, label, levels_table, model_heading, model_table, protocol, shallower_table,
+    summary_table, Table,
 };
 use crate::commands::sweep::{heatmap_file, image_rel, reference_file, view_file};
 use crate::output::write_derived;
@@ -50,6 +52,8 @@ struct Section {
     heading: String,
     table: Table,
     shallower: Option<Table>,
+    /// The levels of one file (`sweep --levels`).
+    levels: Option<Table>,
     crops: Crops,
     grids: Vec<Grid>,
 }
@@ -60,6 +64,7 @@ struct Section {
 struct Page<'a> {
     demo: bool,
     speckle: &'a str,
+    levels_note: &'a str,
     views: usize,
     provenance: &'a Provenance,
     commit: &'a str,
@@ -142,6 +147,7 @@ pub fn page(out: &Path, report: &Report, files: &[String]) -> anyhow::Result<Str
             heading: model_heading(report, &name),
             table: model_table(report, &name),
             shallower: shallower_table(report, &name),
+            levels: levels_table(report, &name),
             crops: crops(out, report, &name),
             grids: (0..report.settings.views)
                 .map(|v| grid(report, &name, v))
@@ -152,6 +158,7 @@ pub fn page(out: &Path, report: &Report, files: &[String]) -> anyhow::Result<Str
     let page = Page {
         demo: report.models.iter().any(|m| m.source == "demo"),
         speckle: SPECKLE,
+        levels_note: LEVELS_NOTE,
         views: report.settings.views,
         provenance: &report.provenance,
         commit: report.provenance.git_commit.as_deref().unwrap_or("unknown"),

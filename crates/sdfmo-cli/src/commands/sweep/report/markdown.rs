@@ -4,7 +4,9 @@
 use std::fmt::Write as _;
 
 use super::model::Report;
-use super::tables::{model_heading, model_table, protocol, shallower_table, summary_table, Table};
+use super::tables::{
+    levels_table, model_heading, model_table, protocol, shallower_table, summary_table, Table,
+};
 
 /// A table as GitHub Markdown, numbers right-aligned. Cells hold no `|` or newline: they are
 /// numbers and the headings above, and model names are sanitised (letters, digits, `-_.`).
@@ -16,6 +18,12 @@ fn markdown(t: &Table) -> String {
     }
     s
 }
+
+/// What the levels table shows, for table.md and the page.
+pub const LEVELS_NOTE: &str = "Levels of one file (sweep --levels): one build writes every \
+     level, coarsest first; a reader given the first MB read of the file draws that level. \
+     file / leaf-only: the whole file against its finest level alone (the file a build of that \
+     depth without levels writes).";
 
 /// table.md's text.
 pub fn table_md(report: &Report) -> String {
@@ -42,6 +50,9 @@ pub fn table_md(report: &Report) -> String {
                 "\nMulti-octree at depth d against the SVO at depth d + 1:\n\n{}",
                 markdown(&t)
             );
+        }
+        if let Some(t) = levels_table(report, name) {
+            let _ = write!(s, "\n{LEVELS_NOTE}\n\n{}", markdown(&t));
         }
     }
     if let Some(t) = summary_table(report) {

@@ -24,6 +24,11 @@ pub struct Row {
     /// (NGLOD's LOD k, compared at `depth`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lod: Option<u8>,
+    /// Bytes a reader needs to draw this row's octree when it is a level of one file with
+    /// levels (`sweep --levels`): the file's header and every level up to this one, so the
+    /// finest level's is the whole file. Absent for a separate build (its file is `bytes`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bytes_read: Option<u64>,
     /// Mean PSNR over the views in dB; `None` (JSON `null`) when infinite (identical images).
     /// Required when read: a missing key must not read as "identical images".
     #[serde(deserialize_with = "required_nullable")]

@@ -156,6 +156,58 @@ pub fn shallower_table(report: &Report, model: &str) -> Option<Table> {
     })
 }
 
+/// The levels of one file (`sweep --levels`), per method: each level's own bytes, the bytes a
+/// reader needs to draw it (the prefix of the file up to it), PSNR, FLIP and render time; the
+/// last column is the whole file against the leaf-only file of its finest depth (that level's
+/// own bytes: a level is, byte for byte, the separate build of its depth).
+pub fn levels_table(report: &Report, model: &str) -> Option<Table> {
+    let header = [
+        "method",
+        "level",
+        "voxels",
+        "level MB",
+        "MB read",
+        "PSNR dB",
+        "FLIP",
+        "render ms",
+        "file / leaf-only",
+    ];
+    let mut out = Vec::new();
+    for method in report.methods() {
+        let mut levels: Vec<&Row> = report
+            .rows
+            .iter()
+            .filter(|r| r.model == model && r.method == method && r.bytes_read.is_some())
+            .collect();
+        levels.sort_by_key(|r| r.depth);
+        let Some(finest) = levels.last() else {
+            continue;
+        };
+        let file = finest.bytes_read.unwrap_or(0) as f64;
+        for r in &levels {
+            out.push(vec![
+                label(&method).to_owned(),
+                r.depth.to_string(),
+                opt(r.voxels, |v| v.to_string()),
+                megabytes(r),
+                opt(r.bytes_read, |b| format!("{:.3}", b as f64 / 1e6)),
+                fmt_psnr(r.psnr),
+                format!("{:.4}", r.flip),
+                format!("{:.1}", r.render_ms),
+                if std::ptr::eq(*r, *finest) {
+                    ratio(file, finest.bytes as f64)
+                } else {
+                    String::new()
+                },
+            ]);
+        }
+    }
+    (!out.is_empty()).then(|| Table {
+        header: header.iter().map(|h| (*h).to_owned()).collect(),
+        rows: out,
+    })
+}
+
 /// Across models, per depth: median and worst PSNR gain, median FLIP change, size and render
 /// time ratios of the multi-octree against the SVO (the model's [`Summary::gains`]).
 ///
