@@ -255,6 +255,11 @@ pub struct RenderOptions {
     /// several views). All images of one command are written, or none.
     #[arg(long, value_name = "OUT.exr")]
     pub exr: Option<PathBuf>,
+    /// Renders of each view, 1..=100: the times reported (`render_ms`, `gpu_ms`) are each
+    /// view's median over them, so that a timing run does not pay a process start and a cold
+    /// cache per frame (every render of a view is the same image; the last one is written).
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..=100))]
+    pub frames: u16,
     /// Print one JSON object on stdout instead of the human summary.
     #[arg(long)]
     pub json: bool,

@@ -7,6 +7,7 @@ use anyhow::Context;
 use glam::Vec3;
 use sdf_multioctree::distance::{reshape_fans, MeshDistance, SignMode};
 use sdf_multioctree::format::{PackedOctree, SmoFile};
+use sdf_multioctree::metrics;
 use sdf_multioctree::render::shading::{light_dir, DepthRange, AMBIENT, LIGHT_INTENSITY};
 use sdf_multioctree::render::{
     self, Camera, Counters, LodScene, MeshScene, Mode, OctreeScene, RenderPlan, RenderSettings,
@@ -369,8 +370,22 @@ fn render_all(
                 cams.len()
             ));
         }
-        let on_progress = |f: f32| progress::set_fraction(&bar, (k + f) / views_n);
-        let (r, gpu_ms) = render_view(cam, &on_progress)?;
+        let frames = u32::from(opts.frames.max(1));
+        let (mut frame_ms, mut frame_gpu_ms) = (Vec::new(), Vec::new());
+        let mut last = None;
+        for frame in 0..frames {
+            let on_progress = |f: f32| {
+                let f = (frame as f32 + f) / frames as f32;
+                progress::set_fraction(&bar, (k + f) / views_n)
+            };
+            let (r, gpu_ms) = render_view(cam, &on_progress)?;
+            frame_ms.push(r.render_ms);
+            frame_gpu_ms.extend(gpu_ms);
+            last = Some((r, gpu_ms));
+        }
+        let (mut r, mut gpu_ms) = last.expect("at least one frame");
+        r.render_ms = metrics::median(frame_ms).unwrap_or(r.render_ms);
+        gpu_ms = gpu_ms.and(metrics::median(frame_gpu_ms));
         batch.stage_as(png, &render::encode_png(&r, png)?, naming)?;
         if let Some(p) = exr {
             batch.stage_as(p, &render::encode_exr(&r, p)?, naming)?;
@@ -410,6 +425,7 @@ fn render_all(
             "render_ms": total_ms,
             "gpu_ms": total_gpu_ms,
             "gpu_timing": timing,
+            "frames": opts.frames,
             "counters": counters_json(&total),
         }));
     }
