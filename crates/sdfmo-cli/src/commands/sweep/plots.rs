@@ -107,8 +107,9 @@ struct Series {
     mark: Mark,
     dashed: bool,
     points: Vec<(f64, f64)>,
-    /// The depth of each point, written beside it.
-    depths: Vec<u8>,
+    /// Each point's tag, written beside it: `dN` for octree depth N, `LN` for another producer's
+    /// own level of detail N (NGLOD's LOD, tabled at a depth).
+    tags: Vec<String>,
 }
 
 /// Axis of a plot: its label and whether it is logarithmic.
@@ -227,7 +228,7 @@ pub fn write_plots(dir: &Path, rows: &[Row]) -> anyhow::Result<Vec<String>> {
             match series.iter_mut().find(|s| s.label == label) {
                 Some(s) => {
                     s.points.push((px, py));
-                    s.depths.push(r.depth);
+                    s.tags.push(point_tag(r));
                 }
                 None => {
                     let m = models.iter().position(|m| *m == r.model).unwrap_or(0);
@@ -237,7 +238,7 @@ pub fn write_plots(dir: &Path, rows: &[Row]) -> anyhow::Result<Vec<String>> {
                         mark: MARKS[m % MARKS.len()],
                         dashed: m % 2 == 1,
                         points: vec![(px, py)],
-                        depths: vec![r.depth],
+                        tags: vec![point_tag(r)],
                     });
                 }
             }
@@ -247,6 +248,14 @@ pub fn write_plots(dir: &Path, rows: &[Row]) -> anyhow::Result<Vec<String>> {
         files.push((*file).to_owned());
     }
     Ok(files)
+}
+
+/// The tag written beside a row's point: its depth, or a peer's own level of detail.
+fn point_tag(r: &Row) -> String {
+    match r.lod {
+        Some(lod) => format!("L{lod}"),
+        None => format!("d{}", r.depth),
+    }
 }
 
 /// The data range of one axis, padded (multiplicatively on a log axis).
@@ -464,8 +473,8 @@ where
             let offset = if s.color == SVO { (7, 5) } else { (7, -22) };
             let font = ("sans-serif", POINT_LABEL_PX).into_font().color(&s.color);
             chart
-                .draw_series(s.points.iter().zip(&s.depths).map(|(&p, d)| {
-                    EmptyElement::at(p) + Text::new(format!("d{d}"), offset, font.clone())
+                .draw_series(s.points.iter().zip(&s.tags).map(|(&p, tag)| {
+                    EmptyElement::at(p) + Text::new(tag.clone(), offset, font.clone())
                 }))
                 .map_err(|e| err(&e))?;
         }
@@ -489,15 +498,24 @@ where
         ly += 30;
     }
     if !series.is_empty() && !x.integer {
-        legend
-            .draw(&Text::new(
-                "dN = octree depth".to_owned(),
-                (8, ly + 8),
-                ("sans-serif", POINT_LABEL_PX)
-                    .into_font()
-                    .color(&RGBColor(90, 90, 90)),
-            ))
-            .map_err(|e| err(&e))?;
+        let mut notes = vec!["dN = octree depth"];
+        if series
+            .iter()
+            .any(|s| s.tags.iter().any(|t| t.starts_with('L')))
+        {
+            notes.push("LN = the peer's LOD N");
+        }
+        for (i, note) in notes.into_iter().enumerate() {
+            legend
+                .draw(&Text::new(
+                    note.to_owned(),
+                    (8, ly + 8 + 22 * i as i32),
+                    ("sans-serif", POINT_LABEL_PX)
+                        .into_font()
+                        .color(&RGBColor(90, 90, 90)),
+                ))
+                .map_err(|e| err(&e))?;
+        }
     }
     root.present().map_err(|e| err(&e))?;
     Ok(())
