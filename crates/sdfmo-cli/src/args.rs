@@ -278,8 +278,8 @@ pub struct RenderArgs {
     #[arg(long, value_name = "LEVEL", value_parser = clap::value_parser!(u8).range(0..=16))]
     pub lod: Option<u8>,
     /// Screen-space error of a file with levels: each ray stops at the coarsest level whose
-    /// voxels project to at most E pixels at its hit distance (CPU only; default: off, the
-    /// finest level or `--lod`).
+    /// voxels project to at most E pixels at its hit distance, with `--device cpu` or `gpu`
+    /// (the same rule; default: off, the finest level or `--lod`).
     #[arg(long, value_name = "E", conflicts_with = "lod", value_parser = parse_pixel_error)]
     pub pixel_error: Option<f32>,
     /// Camera, mode and outputs.

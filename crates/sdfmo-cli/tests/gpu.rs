@@ -162,3 +162,83 @@ fn no_adapter_is_one_line_error() {
         &[(&[], &[("WGPU_BACKEND", "gl")], "no GPU adapter found")],
     );
 }
+
+/// Issue 23: `--pixel-error` on the GPU (it used to be refused) renders a file with levels as
+/// the CPU does (the same hits, the images identical or PSNR ≥ 45 dB); a file without levels is
+/// refused as on the CPU.
+#[test]
+fn gpu_pixel_error_matches_cpu() {
+    let dir = tmp("pixel-error");
+    let smo = dir.join("demo-lod.smo").display().to_string();
+    let o = sdfmo(
+        &["build", "-d", "7", "--lod", "--method", "svo", "-o", &smo],
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let render = |device: &str| {
+        let png = dir.join(format!("{device}.png")).display().to_string();
+        let o = sdfmo(
+            &[
+                "render",
+                &smo,
+                "--pixel-error",
+                "1",
+                "--eye",
+                "0,0,5",
+                "--device",
+                device,
+                "--size",
+                "96x64",
+                "-o",
+                &png,
+                "--json",
+            ],
+            &[],
+        );
+        (o, png)
+    };
+    let (o, gpu_png) = render("gpu");
+    if !o.status.success() && stderr(&o).contains("no GPU adapter") {
+        assert_ne!(
+            std::env::var("SDFMO_REQUIRE_GPU").as_deref(),
+            Ok("1"),
+            "SDFMO_REQUIRE_GPU=1 but: {}",
+            stderr(&o)
+        );
+        eprintln!("skipped: {}", stderr(&o).trim());
+        return;
+    }
+    assert!(o.status.success(), "{}", stderr(&o));
+    let gpu: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let (o, cpu_png) = render("cpu");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let cpu: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(gpu["gpu_ms"].as_f64().is_some_and(|ms| ms > 0.0), "{gpu}");
+    assert_eq!(gpu["counters"]["hits"], cpu["counters"]["hits"]);
+    assert!(gpu["counters"]["hits"].as_u64().unwrap() > 0);
+    let o = sdfmo(&["compare", &cpu_png, &gpu_png, "--json"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let cmp: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(
+        cmp["identical"] == true || cmp["psnr"].as_f64().is_some_and(|p| p >= 45.0),
+        "{cmp}"
+    );
+    let flat = demo_octree(&dir);
+    let png = dir.join("flat.png").display().to_string();
+    fails_cleanly(
+        &sdfmo(
+            &[
+                "render",
+                &flat,
+                "--pixel-error",
+                "1",
+                "--device",
+                "gpu",
+                "-o",
+                &png,
+            ],
+            &[],
+        ),
+        "has no levels of detail",
+    );
+}

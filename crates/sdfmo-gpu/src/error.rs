@@ -48,6 +48,9 @@ pub enum GpuError {
     /// The camera or image size cannot be rendered (empty image, non-finite frame).
     #[error("invalid camera: {0}")]
     InvalidCamera(String),
+    /// The pixel error or pixel angle of a pixel-error render is not a finite number > 0.
+    #[error("invalid pixel error: {0}")]
+    InvalidPixelError(String),
     /// The octree was uploaded through another [`crate::GpuRenderer`] (another device).
     #[error("the octree was uploaded to another GPU renderer")]
     ForeignOctree,

@@ -24,8 +24,8 @@
 //!
 //! | binding | type | WGSL | contents |
 //! |---:|---|---|---|
-//! | 0 | storage, read | `smo: array<u32>` | the whole `.smo` file as saved, little-endian words (header, sections, checksum); validated on the host first |
-//! | 1 | uniform | `params: SmoRenderParams` | eye, image size, mode, shading, dequantisation factor (64 bytes) |
+//! | 0 | storage, read | `smo: array<u32>` | the whole `.smo` file as saved, little-endian words (header, sections, checksum); validated on the host first. A 1.x file, or for a pixel-error render a 2.0 file with levels (every level, [`GpuRenderer::upload_lod`]) |
+//! | 1 | uniform | `params: SmoRenderParams` | eye, image size, mode, shading, dequantisation factor, pixel error (64 bytes) |
 //! | 2 | storage, read_write | `pixels: array<SmoPixel>` | per pixel: viewer-facing normal (vec3) and t (`3e38` for the background) |
 //! | 3 | storage, read_write | `colors: array<u32>` | per pixel: `0x00BBGGRR` |
 //! | 4 | storage, read | `rays: array<vec4<f32>>` | the camera's column and row terms as double-float pairs ([`GpuCamera::ray_terms`]) |
@@ -51,6 +51,14 @@
 //! a [`GpuImage`] whose buffers are laid out as `sdfmo_render::Rendered`'s. See
 //! [`GpuRenderer`].
 //!
+//! # Levels of detail
+//!
+//! A level of a `.smo` 2.0 file is a 1.x octree: [`GpuRenderer::upload`] it and render it as
+//! any. [`GpuRenderer::upload_lod`] puts the whole 2.0 file on the GPU as saved, and
+//! [`GpuRenderer::render_pixel_error`] lets each ray stop at the coarsest level whose voxels
+//! project to at most a number of pixels at its hit distance: `smo_intersect_lod` in the WGSL,
+//! the rule of `sdfmo_trace::intersect_lod` (the same levels, traced in the same order).
+//!
 //! Depends on `sdfmo-format` and wgpu only; no CPU crate depends on this one.
 
 #![deny(missing_docs)]
@@ -61,8 +69,8 @@ mod shared_struct;
 
 pub use error::{GpuError, Result};
 pub use renderer::{
-    GpuCamera, GpuImage, GpuMode, GpuOctree, GpuRenderer, GpuTiming, Shading, DEFAULT_GPU_TIMEOUT,
-    MAX_GPU_FILE_BYTES,
+    GpuCamera, GpuImage, GpuLodOctree, GpuMode, GpuOctree, GpuRenderer, GpuTiming, PixelError,
+    Shading, DEFAULT_GPU_TIMEOUT, MAX_GPU_FILE_BYTES,
 };
 
 /// `src/sdfmo.wgsl` as written: the library without the constants it shares with the CPU

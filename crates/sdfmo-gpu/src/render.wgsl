@@ -2,7 +2,11 @@
 // shaded as sdfmo-render does: mask, depth, normal or lambert (no shadows, no occlusion).
 //
 // BINDING LAYOUT (group 0):
-//   binding 0  storage, read        smo: array<u32>          the `.smo` file (see sdfmo.wgsl)
+//   binding 0  storage, read        smo: array<u32>          the `.smo` file (see sdfmo.wgsl):
+//                                                            a 1.x file, traced as it is, or
+//                                                            with params.pixel_error > 0 a
+//                                                            2.0 file (levels of detail), each
+//                                                            ray at the level its error needs
 //   binding 1  uniform              params: SmoRenderParams  camera, mode, shading (generated
 //                                                            before this file from the host's
 //                                                            struct: renderer.rs, `Params`)
@@ -99,11 +103,21 @@ fn smo_render(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let index = gid.y * params.width + gid.x;
-    let info = smo_info(params.dequant);
     let dir = smo_primary_dir(gid.x, gid.y);
     let ray = SmoRay(params.eye, dir);
 
-    let hit = smo_intersect(info, ray, 0.0, SMO_FAR);
+    var info: SmoInfo;
+    var hit: SmoHit;
+    if params.pixel_error > 0.0 {
+        // A file with levels (2.0): each ray at the level its screen-space error needs.
+        let lod = smo_lod(params.dequant);
+        let lod_hit = smo_intersect_lod(lod, ray, 0.0, SMO_FAR, params.pixel_error, params.pixel_angle);
+        hit = lod_hit.hit;
+        info = smo_lod_level_info(lod, lod_hit.level);
+    } else {
+        info = smo_info(params.dequant);
+        hit = smo_intersect(info, ray, 0.0, SMO_FAR);
+    }
     if !hit.hit {
         pixels[index] = SmoPixel(vec3<f32>(0.0), SMO_FAR);
         colors[index] = 0u;

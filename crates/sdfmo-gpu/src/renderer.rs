@@ -5,7 +5,7 @@ use std::sync::{mpsc, Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use sdfmo_format::quant::dequant_scale;
-use sdfmo_format::{PackedOctree, PackedOctreeView};
+use sdfmo_format::{LodOctree, PackedOctree, PackedOctreeView};
 use wgpu::util::DeviceExt;
 
 use crate::shared_struct::shared_struct;
@@ -193,6 +193,50 @@ impl GpuOctree {
     }
 }
 
+/// A file with levels of detail uploaded to the GPU: the `.smo` 2.0 file's bytes as saved
+/// ([`LodOctree::to_bytes`]: the 2.0 header, its level table, every level's 1.x file), in one
+/// storage buffer, so one dispatch can trace any level ([`GpuRenderer::render_pixel_error`]).
+#[derive(Debug)]
+pub struct GpuLodOctree {
+    octree: GpuOctree,
+    coarsest: u8,
+    depth: u8,
+}
+
+impl GpuLodOctree {
+    /// Bytes on the GPU (the 2.0 file's length).
+    pub fn byte_size(&self) -> u64 {
+        self.octree.bytes
+    }
+
+    /// The storage buffer holding the 2.0 file (binding 0 of `sdfmo.wgsl`, read with `smo_lod`).
+    pub fn buffer(&self) -> &wgpu::Buffer {
+        &self.octree.buffer
+    }
+
+    /// The finest level's dequantisation factor, to pass to `smo_lod`.
+    pub fn dequant(&self) -> f32 {
+        self.octree.dequant
+    }
+
+    /// The coarsest and the finest level (`coarsest..=depth`).
+    pub fn levels(&self) -> (u8, u8) {
+        (self.coarsest, self.depth)
+    }
+}
+
+/// How [`GpuRenderer::render_pixel_error`] picks each ray's level: the coarsest whose voxel edge
+/// `2 / 2^k` projects to at most `pixels` pixels at the hit distance, with `pixel_angle` the
+/// radians one pixel subtends (`sdfmo_trace::LevelChoice::PixelError`, whose fields these are;
+/// `sdfmo_trace::pixel_angle(fov, height)` gives the CPU renderer's value).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelError {
+    /// The largest projected voxel edge allowed, in pixels (finite, > 0).
+    pub pixels: f32,
+    /// Radians per pixel (finite, > 0).
+    pub pixel_angle: f32,
+}
+
 shared_struct! {
     /// The render's parameters (std140-compatible: 16-byte rows; 64 bytes).
     struct Params as "SmoRenderParams" {
@@ -214,8 +258,12 @@ shared_struct! {
         /// Depth mode: distances mapped to 255 and to the darkest grey.
         depth_near: f32,
         depth_far: f32,
-        _pad0: f32,
-        _pad1: f32,
+        /// 0: the bound file is a 1.x octree, traced as it is. > 0: it is a 2.0 file with
+        /// levels, and each ray stops at the coarsest level whose voxel edge projects to at
+        /// most this many pixels at its hit distance (`smo_intersect_lod`).
+        pixel_error: f32,
+        /// Radians one pixel subtends (with `pixel_error` > 0).
+        pixel_angle: f32,
     }
 }
 
@@ -520,6 +568,20 @@ impl GpuRenderer {
         self.upload_validated(bytes, view.meta())
     }
 
+    /// Uploads a file with levels of detail: its `.smo` 2.0 bytes ([`LodOctree::to_bytes`],
+    /// every level, coarsest first) into one storage buffer, for
+    /// [`GpuRenderer::render_pixel_error`]. The size is checked first
+    /// ([`GpuRenderer::max_file_bytes`]).
+    pub fn upload_lod(&self, lod: &LodOctree) -> Result<GpuLodOctree> {
+        self.check_file_size(lod.byte_size())?;
+        let octree = self.upload_validated(&lod.to_bytes(), &lod.meta())?;
+        Ok(GpuLodOctree {
+            octree,
+            coarsest: lod.coarsest(),
+            depth: lod.depth(),
+        })
+    }
+
     /// [`GpuError::TooLarge`] when a `.smo` file of `len` bytes cannot be bound on this adapter
     /// or addressed by the kernel ([`GpuRenderer::max_file_bytes`]). Costs nothing: call it with
     /// a file's length before loading it.
@@ -571,6 +633,38 @@ impl GpuRenderer {
         mode: GpuMode,
         shading: &Shading,
     ) -> Result<GpuImage> {
+        self.render_file(octree, camera, mode, shading, None)
+    }
+
+    /// Renders one image of a file with levels, each ray at the coarsest level whose voxels
+    /// project to at most `error.pixels` pixels at its hit distance (the rule, the levels and
+    /// the order of the re-traces of `sdfmo_trace::intersect_lod`), and reads it back.
+    pub fn render_pixel_error(
+        &mut self,
+        lod: &GpuLodOctree,
+        camera: &GpuCamera,
+        mode: GpuMode,
+        shading: &Shading,
+        error: PixelError,
+    ) -> Result<GpuImage> {
+        let valid = |v: f32| v.is_finite() && v > 0.0;
+        if !valid(error.pixels) || !valid(error.pixel_angle) {
+            return Err(GpuError::InvalidPixelError(format!(
+                "pixels and pixel_angle must be finite and > 0: {error:?}"
+            )));
+        }
+        self.render_file(&lod.octree, camera, mode, shading, Some(error))
+    }
+
+    /// Renders the uploaded file: a 1.x octree (`error` `None`) or a 2.0 file by pixel error.
+    fn render_file(
+        &mut self,
+        octree: &GpuOctree,
+        camera: &GpuCamera,
+        mode: GpuMode,
+        shading: &Shading,
+        error: Option<PixelError>,
+    ) -> Result<GpuImage> {
         if octree.device_id != self.device_id {
             return Err(GpuError::ForeignOctree);
         }
@@ -604,8 +698,8 @@ impl GpuRenderer {
             ambient: shading.ambient,
             depth_near: shading.depth_near,
             depth_far: shading.depth_far,
-            _pad0: 0.0,
-            _pad1: 0.0,
+            pixel_error: error.map_or(0.0, |e| e.pixels),
+            pixel_angle: error.map_or(0.0, |e| e.pixel_angle),
         };
         let terms = camera.ray_terms();
         self.take_uncaptured()?;
@@ -854,6 +948,26 @@ mod tests {
                 *span,
             ),
             other => panic!("{name} is {other:?}"),
+        }
+    }
+
+    /// `smo_lod_level_info` (sdfmo.wgsl) derives level k's dequantisation factor from the
+    /// finest level's as `ldexp(dequant, D − k)`: the same f32 the host would compute, for
+    /// every depth, level and corner precision.
+    #[test]
+    fn level_dequant_is_the_finest_times_a_power_of_two() {
+        use sdfmo_format::{ValueBits, MAX_DEPTH};
+        for bits in [ValueBits::Eight, ValueBits::Sixteen] {
+            for d in 0..=MAX_DEPTH {
+                for k in 0..=d {
+                    let derived = dequant_scale(d, bits) * 2f32.powi(i32::from(d - k));
+                    assert_eq!(
+                        derived.to_bits(),
+                        dequant_scale(k, bits).to_bits(),
+                        "{d} {k}"
+                    );
+                }
+            }
         }
     }
 

@@ -10,7 +10,11 @@
 // corners are all 0 is never hit (FORMAT.md, surface section); the normal is the
 // interpolant's unit gradient facing the viewer. Include this library in your own pipeline
 // (WGSL has no #include: put `sdfmo_gpu::trace_wgsl()`, this file after its generated
-// constants, before your source) and call `smo_info`, `smo_intersect` and `smo_hit_normal`.
+// constants, before your source) and call `smo_info`, `smo_intersect` and `smo_hit_normal`;
+// for a file with levels of detail (`.smo` 2.0, bound as saved), `smo_lod` and
+// `smo_intersect_lod` (each ray at the level its screen-space error needs, as
+// sdfmo_trace::intersect_lod), then `smo_hit_normal` over `smo_lod_level_info` of the hit's
+// level.
 //
 // BINDING LAYOUT (one binding; change the group/binding numbers on the next line if your
 // pipeline needs that slot):
@@ -29,6 +33,9 @@
 //   header words 10–12  inner_node_count I, leaf_count L, voxel_count V
 //   header words 16, 20, 24, 28  byte offsets of the nodes, leaves, surface, corners sections
 //   header word 30      corners_size (the clip bitmap starts at corners_offset + corners_size)
+//   (a file with levels, 2.0: bytes 20 and 21 of its header, the finest and coarsest level,
+//   and the low word of each level's 64-bit offset in the level table at byte 64; each level
+//   is read as above at its own offset, see "Levels of detail" at the end of this file)
 //   (the low words of the header's 64-bit offsets and size: exact only for a file shorter than
 //   4 GiB. The host refuses a longer one before uploading it, sdfmo_gpu::MAX_GPU_FILE_BYTES;
 //   an engine binding the file itself must do the same.)
@@ -117,20 +124,27 @@ struct SmoCell {
 
 /// Reads the header of the bound file. `dequant` = diagonal / Q (see the top of the file).
 fn smo_info(dequant: f32) -> SmoInfo {
+    return smo_info_at(0u, dequant);
+}
+
+/// Reads the header of the 1.x octree that starts at word `base` of the bound buffer (0 for a
+/// 1.x file; a level of a 2.0 file, `smo_lod_level_info`): its section offsets, relative to
+/// its own start, become word offsets in the buffer.
+fn smo_info_at(base: u32, dequant: f32) -> SmoInfo {
     var info: SmoInfo;
-    let w5 = smo[5];
+    let w5 = smo[base + 5u];
     info.depth = w5 & 0xffu;
     info.value_bits = (w5 >> 8u) & 0xffu;
-    info.inner_count = smo[10];
-    info.leaf_count = smo[11];
-    info.voxel_count = smo[12];
-    info.nodes = smo[16] >> 2u;
-    info.leaves = smo[20] >> 2u;
-    info.surface = smo[24] >> 2u;
-    info.corners = smo[28] >> 2u;
+    info.inner_count = smo[base + 10u];
+    info.leaf_count = smo[base + 11u];
+    info.voxel_count = smo[base + 12u];
+    info.nodes = base + (smo[base + 16u] >> 2u);
+    info.leaves = base + (smo[base + 20u] >> 2u);
+    info.surface = base + (smo[base + 24u] >> 2u);
+    info.corners = base + (smo[base + 28u] >> 2u);
     info.clip = 0u;
-    if (smo[4] & 4u) != 0u {
-        info.clip = (smo[28] + smo[30]) >> 2u;
+    if (smo[base + 4u] & 4u) != 0u {
+        info.clip = base + ((smo[base + 28u] + smo[base + 30u]) >> 2u);
     }
     info.dequant = dequant;
     return info;
@@ -773,4 +787,123 @@ fn smo_hit_normal(info: SmoInfo, ray: SmoRay, hit: SmoHit) -> vec3<f32> {
         return -n;
     }
     return n;
+}
+
+// ---- Levels of detail (.smo 2.0; sdfmo-trace lod.rs) ----
+//
+// A file with levels bound as it is saved (FORMAT.md, "Levels of detail"): the 2.0 header
+// (byte 20 depth D, byte 21 coarsest c; at byte 64 + 16·i the u64 offset of level c + i),
+// then each level as a complete 1.x file of its own, at a multiple of 8 bytes. Level k is
+// traced by `smo_intersect` over `smo_lod_level_info(lod, k)`; `smo_intersect_lod` picks the
+// level per ray by screen-space error exactly as sdfmo_trace::intersect_lod does (the same
+// levels in the same order; only the f32 rounding of the traces differs, as everywhere here).
+
+/// The levels of the bound 2.0 file, and the finest level's dequantisation factor.
+struct SmoLod {
+    coarsest: u32,
+    depth: u32,
+    dequant: f32,
+}
+
+/// Reads the 2.0 header of the bound file. `dequant` = the finest level's diagonal / Q
+/// (`sdfmo_format::quant::dequant_scale(D, bits)`, from the host).
+fn smo_lod(dequant: f32) -> SmoLod {
+    let w5 = smo[5];
+    return SmoLod((w5 >> 8u) & 0xffu, w5 & 0xffu, dequant);
+}
+
+/// Level `level` (coarsest ≤ level ≤ depth) of the bound 2.0 file. Its dequantisation factor
+/// is the finest level's times 2^(D − level): exact, because `dequant_scale` is a power-of-two
+/// multiple of the cell size rounded once to f32 (the crate's tests check every depth).
+fn smo_lod_level_info(lod: SmoLod, level: u32) -> SmoInfo {
+    let base = smo[16u + 4u * (level - lod.coarsest)] >> 2u;
+    return smo_info_at(base, ldexp(lod.dequant, i32(lod.depth) - i32(level)));
+}
+
+/// Edge of a cell at `level`, 2 / 2^level (exact; sdfmo_format::cell_size).
+fn smo_cell_size(level: u32) -> f32 {
+    return ldexp(1.0, 1 - i32(level));
+}
+
+/// The coarsest level in coarsest..=finest whose voxel edge projects to at most `pixels`
+/// pixels at distance `t` (sdfmo_trace::level_for_distance, the same arithmetic).
+fn smo_level_for_distance(t: f32, pixels: f32, pixel_angle: f32, coarsest: u32, finest: u32) -> u32 {
+    let budget = pixels * t * pixel_angle;
+    for (var k = coarsest; k <= finest; k++) {
+        if smo_cell_size(k) <= budget {
+            return k;
+        }
+    }
+    return finest;
+}
+
+/// The ray's span in the unit cube [0,1]³: (t_enter, t_exit, 1) or (.., .., 0) when it misses
+/// (sdfmo_trace::unit_cube_span; ±SMO_FAR stand for ±∞).
+fn smo_unit_cube_span(origin: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+    var t_enter = -SMO_FAR;
+    var t_exit = SMO_FAR;
+    for (var k = 0u; k < 3u; k++) {
+        let o = origin[k];
+        let d = dir[k];
+        if d == 0.0 {
+            if !(o >= 0.0 && o <= 1.0) {
+                return vec3<f32>(0.0);
+            }
+        } else {
+            let inv = 1.0 / d;
+            let ta = -o * inv;
+            let tb = (1.0 - o) * inv;
+            t_enter = max(t_enter, min(ta, tb));
+            t_exit = min(t_exit, max(ta, tb));
+        }
+    }
+    return vec3<f32>(t_enter, t_exit, select(0.0, 1.0, t_enter <= t_exit));
+}
+
+/// A hit of `smo_intersect_lod`: the hit in the octree of `level`, and the level.
+struct SmoLodHit {
+    hit: SmoHit,
+    level: u32,
+}
+
+/// The first hit of `ray` in [t_min, t_max] at the coarsest level whose voxel edge projects to
+/// at most `pixels` pixels at the hit distance (`pixel_angle` radians per pixel), as
+/// sdfmo_trace::intersect_lod with LevelChoice::PixelError: with [t_in, t_out] the ray's span
+/// in the root cube, trace at the level t_out needs; where the hit needs a finer level,
+/// trace again at that level (the level only grows); where a level coarser than t_in's misses,
+/// trace once more at t_in's level.
+fn smo_intersect_lod(lod: SmoLod, ray: SmoRay, t_min: f32, t_max: f32, pixels: f32, pixel_angle: f32) -> SmoLodHit {
+    var none: SmoLodHit;
+    none.hit.hit = false;
+    none.level = lod.depth;
+    // span_levels: the root cube [-1, 1]³ is the unit cube at (p + 1) / 2, with the same t.
+    let span = smo_unit_cube_span((ray.origin + vec3<f32>(1.0)) * 0.5, ray.dir * 0.5);
+    if span.z == 0.0 {
+        return none;
+    }
+    let t_in = max(span.x, t_min);
+    let t_out = min(span.y, t_max);
+    if t_in > t_out {
+        return none;
+    }
+    let d = ray.dir;
+    let scale = sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+    let near = smo_level_for_distance(t_in * scale, pixels, pixel_angle, lod.coarsest, lod.depth);
+    var level = smo_level_for_distance(t_out * scale, pixels, pixel_angle, lod.coarsest, lod.depth);
+    loop {
+        let hit = smo_intersect(smo_lod_level_info(lod, level), ray, t_min, t_max);
+        if !hit.hit {
+            if level >= near {
+                return none;
+            }
+            level = near;
+            continue;
+        }
+        let need = smo_level_for_distance(hit.t * scale, pixels, pixel_angle, lod.coarsest, lod.depth);
+        if need <= level {
+            return SmoLodHit(hit, level);
+        }
+        level = need;
+    }
+    return none;
 }

@@ -37,6 +37,11 @@
 //! Resolution [`SIZE`]² (lavapipe runs the kernel on the CPU; a 256² paper view is 65k rays),
 //! each octree built once and rendered in both modes on all four views.
 //!
+//! Levels of detail by pixel error ([`pixel_error_matches_cpu`]) are compared the same way,
+//! each pixel's voxel size (depth tolerance, boundary distance) being that of the level the
+//! CPU's hit lies in, and the one-ulp checks going through `intersect_lod`: a ray whose level
+//! choice itself changes under a one-ulp change of direction counts as ill-conditioned.
+//!
 //! Clip voxels (format 1.1) are checked on a procedural octree built by hand
 //! ([`clip_octree`]): a rotated cube whose leaves hold the face planes that cut them as
 //! intersect voxels (sharp edges and corners), and a tilted open sheet whose leaves at its
@@ -50,12 +55,14 @@ use common::gpu;
 use glam::Vec3;
 use sdfmo_build::{build, BuildSettings, Method};
 use sdfmo_format::testing::{convex_cell_voxels, cube_planes, leaves_by_cell};
-use sdfmo_format::{cell_corners, cell_size, OctreeMeta, PackedOctree, ValueBits, Voxel};
-use sdfmo_gpu::{GpuCamera, GpuImage, GpuMode, GpuRenderer, Shading};
+use sdfmo_format::{
+    cell_corners, cell_size, LodOctree, OctreeMeta, PackedOctree, ValueBits, Voxel,
+};
+use sdfmo_gpu::{GpuCamera, GpuImage, GpuMode, GpuRenderer, PixelError, Shading};
 use sdfmo_mesh::TriMesh;
 use sdfmo_render::shading::{light_dir, DepthRange, AMBIENT, LIGHT_INTENSITY};
-use sdfmo_render::{render, Camera, Mode, OctreeScene, RenderSettings, Rendered};
-use sdfmo_trace::{intersect, Ray};
+use sdfmo_render::{render, Camera, LodScene, Mode, OctreeScene, RenderSettings, Rendered};
+use sdfmo_trace::{intersect, intersect_lod, pixel_angle, LevelChoice, Ray};
 
 /// Image side of the comparisons.
 const SIZE: u32 = 256;
@@ -115,20 +122,109 @@ fn boundary_distance(p: Vec3, depth: u8) -> f32 {
     (q - q.round()).abs().min_element()
 }
 
+/// The CPU side of a comparison: its images, and its own first hit of a ray.
+trait CpuSide {
+    /// The CPU renderer's image.
+    fn render(&self, cam: &Camera, mode: Mode) -> Rendered;
+    /// The CPU's first hit of the ray (`t_min` 0, unbounded).
+    fn first_hit(&self, o: Vec3, d: Vec3) -> Option<CpuHit>;
+    /// The depth of the finest octree (the voxel size of a pixel the CPU does not hit).
+    fn depth(&self) -> u8;
+    /// The depth of the octree the CPU's first hit of the ray lies in.
+    fn hit_depth(&self, o: Vec3, d: Vec3) -> u8 {
+        self.first_hit(o, d).map_or(self.depth(), |h| h.depth)
+    }
+}
+
+/// A first hit of a [`CpuSide`]: `t`, the voxel (its level and index) and the depth of the
+/// octree that holds it (its voxel size is the tolerance's unit).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct CpuHit {
+    t: f32,
+    voxel: (u8, u32),
+    depth: u8,
+}
+
+impl CpuSide for PackedOctree {
+    fn render(&self, cam: &Camera, mode: Mode) -> Rendered {
+        cpu(self, cam, mode)
+    }
+
+    fn first_hit(&self, o: Vec3, d: Vec3) -> Option<CpuHit> {
+        let depth = self.depth();
+        intersect(self, &Ray { origin: o, dir: d }, 0.0, f32::INFINITY).map(|h| CpuHit {
+            t: h.t,
+            voxel: (depth, h.voxel),
+            depth,
+        })
+    }
+
+    fn depth(&self) -> u8 {
+        PackedOctree::depth(self)
+    }
+
+    /// One octree: no trace needed.
+    fn hit_depth(&self, _: Vec3, _: Vec3) -> u8 {
+        PackedOctree::depth(self)
+    }
+}
+
+/// A file with levels rendered by pixel error (`LodScene`, `intersect_lod`).
+struct PixelErrorCpu<'a> {
+    lod: &'a LodOctree,
+    pixels: f32,
+}
+
+impl PixelErrorCpu<'_> {
+    fn choice(&self, cam: &Camera) -> LevelChoice {
+        LevelChoice::PixelError {
+            pixels: self.pixels,
+            pixel_angle: pixel_angle(cam.fov_y_deg, cam.height),
+        }
+    }
+}
+
+impl CpuSide for PixelErrorCpu<'_> {
+    fn render(&self, cam: &Camera, mode: Mode) -> Rendered {
+        let scene = LodScene {
+            lod: self.lod,
+            choice: self.choice(cam),
+        };
+        let settings = RenderSettings {
+            mode,
+            shadows: false,
+            ao_samples: 0,
+            threads: None,
+        };
+        render(&scene, cam, &settings).expect("CPU render")
+    }
+
+    /// Every comparison of this file renders at [`SIZE`]² with a 60° field of view.
+    fn first_hit(&self, o: Vec3, d: Vec3) -> Option<CpuHit> {
+        let cam = Camera::paper_view(0, SIZE, SIZE);
+        let ray = Ray { origin: o, dir: d };
+        intersect_lod(self.lod, &ray, 0.0, f32::INFINITY, self.choice(&cam)).map(|h| CpuHit {
+            t: h.hit.t,
+            voxel: (h.level, h.hit.voxel),
+            depth: h.level,
+        })
+    }
+
+    fn depth(&self) -> u8 {
+        self.lod.depth()
+    }
+}
+
 /// How much the CPU's own first hit (`t`, +∞ for a miss) changes when one component of the
 /// ray direction moves by one ulp: (whether hit/miss flips, the largest |Δt|).
-fn one_ulp_spread(octree: &PackedOctree, o: Vec3, d: Vec3, t: f32) -> (bool, f32) {
+fn one_ulp_spread(cpu: &dyn CpuSide, o: Vec3, d: Vec3, t: f32) -> (bool, f32) {
     let mut flips = false;
     let mut spread = 0.0f32;
     for k in 0..3 {
         for step in [-1i32, 1] {
             let mut dir = d.to_array();
             dir[k] = f32::from_bits(dir[k].to_bits().wrapping_add_signed(step));
-            let ray = Ray {
-                origin: o,
-                dir: Vec3::from_array(dir),
-            };
-            match intersect(octree, &ray, 0.0, f32::INFINITY) {
+            match cpu.first_hit(o, Vec3::from_array(dir)) {
                 Some(h) if t.is_finite() => spread = spread.max((h.t - t).abs()),
                 Some(_) => flips = true,
                 None => flips |= t.is_finite(),
@@ -138,10 +234,10 @@ fn one_ulp_spread(octree: &PackedOctree, o: Vec3, d: Vec3, t: f32) -> (bool, f32
     (flips, spread)
 }
 
-/// Whether the CPU's hit voxel changes when one component of the ray direction moves by one ulp.
-fn active_voxel_flips(octree: &PackedOctree, o: Vec3, d: Vec3) -> bool {
-    let voxel =
-        |dir: Vec3| intersect(octree, &Ray { origin: o, dir }, 0.0, f32::INFINITY).map(|h| h.voxel);
+/// Whether the CPU's hit voxel (or level) changes when one component of the ray direction
+/// moves by one ulp.
+fn active_voxel_flips(cpu: &dyn CpuSide, o: Vec3, d: Vec3) -> bool {
+    let voxel = |dir: Vec3| cpu.first_hit(o, dir).map(|h| h.voxel);
     let here = voxel(d);
     (0..3).any(|k| {
         [-1i32, 1].into_iter().any(|step| {
@@ -172,27 +268,54 @@ struct Stats {
     min_psnr: f64,
 }
 
+/// An octree's GPU image against its CPU image on the paper views ([`compare_views`]).
 fn compare(gpu: &mut GpuRenderer, octree: &PackedOctree, label: &str) -> Stats {
     let on_gpu = gpu.upload(octree).expect("upload");
-    let depth = octree.depth();
-    let voxel = cell_size(depth);
+    let mut draw = |gpu: &mut GpuRenderer, cam: &Camera, mode: GpuMode| {
+        gpu.render(&on_gpu, &gpu_camera(cam), mode, &shading(cam))
+            .expect("GPU render")
+    };
+    compare_views(
+        gpu,
+        &mut draw,
+        octree,
+        &Camera::paper_views(SIZE, SIZE),
+        label,
+    )
+}
+
+/// The GPU's images (`draw`) against the CPU's, depth and lambert, on each of `cams` (all
+/// [`SIZE`]²), with the tolerances of the module docs; the voxel size of a pixel is that of the
+/// octree (the level) the CPU's hit lies in.
+fn compare_views(
+    gpu: &mut GpuRenderer,
+    draw: &mut dyn FnMut(&mut GpuRenderer, &Camera, GpuMode) -> GpuImage,
+    cpu_side: &dyn CpuSide,
+    cams: &[Camera],
+    label: &str,
+) -> Stats {
     let mut stats = Stats {
         min_psnr: f64::INFINITY,
         ..Stats::default()
     };
     let mut failures = Vec::new();
-    for (view, cam) in Camera::paper_views(SIZE, SIZE).iter().enumerate() {
-        let gcam = gpu_camera(cam);
-        let shade = shading(cam);
-        let c: Rendered = cpu(octree, cam, Mode::Depth);
-        let g: GpuImage = gpu
-            .render(&on_gpu, &gcam, GpuMode::Depth, &shade)
-            .expect("GPU render");
+    for (view, cam) in cams.iter().enumerate() {
+        assert_eq!((cam.width, cam.height), (SIZE, SIZE));
+        let c: Rendered = cpu_side.render(cam, Mode::Depth);
+        let g: GpuImage = draw(gpu, cam, GpuMode::Depth);
         let cd = c.depth.as_ref().expect("depth mode keeps depth");
         for (i, (&tc, &tg)) in cd.iter().zip(&g.depth).enumerate() {
             let (px, py) = (i as u32 % SIZE, i as u32 / SIZE);
             let (o, d) = cam.primary_ray(px, py);
             stats.hits += u64::from(tc.is_finite());
+            // The voxel size and boundaries of the CPU hit's octree (the finest where the
+            // CPU misses: its boundaries include every coarser level's).
+            let depth = if tc.is_finite() {
+                cpu_side.hit_depth(o, d)
+            } else {
+                cpu_side.depth()
+            };
+            let voxel = cell_size(depth);
             let mask_differs = tc.is_finite() != tg.is_finite();
             let err = if mask_differs || !tc.is_finite() {
                 0.0
@@ -218,7 +341,7 @@ fn compare(gpu: &mut GpuRenderer, octree: &PackedOctree, label: &str) -> Stats {
                 stats.boundary_excused += 1;
                 continue;
             }
-            let (flips, spread) = one_ulp_spread(octree, o, d, tc);
+            let (flips, spread) = one_ulp_spread(cpu_side, o, d, tc);
             let conditioned = if mask_differs {
                 flips
             } else {
@@ -235,10 +358,8 @@ fn compare(gpu: &mut GpuRenderer, octree: &PackedOctree, label: &str) -> Stats {
             }
         }
         assert_eq!(c.rgb.len(), g.rgb.len());
-        let cl = cpu(octree, cam, Mode::Lambert);
-        let gl = gpu
-            .render(&on_gpu, &gcam, GpuMode::Lambert, &shade)
-            .expect("GPU render");
+        let cl = cpu_side.render(cam, Mode::Lambert);
+        let gl = draw(gpu, cam, GpuMode::Lambert);
         // Lambert pixels whose CPU hit changes voxel under a one-ulp change of the ray (a hit on
         // a sharp edge of intersect voxels, where either face's normal is right) are excused:
         // compared as the CPU's.
@@ -254,7 +375,7 @@ fn compare(gpu: &mut GpuRenderer, octree: &PackedOctree, label: &str) -> Stats {
             }
             let (px, py) = (i as u32 % SIZE, i as u32 / SIZE);
             let (o, d) = cam.primary_ray(px, py);
-            if active_voxel_flips(octree, o, d) {
+            if active_voxel_flips(cpu_side, o, d) {
                 stats.edge_excused += 1;
                 g_rgb[3 * i..3 * i + 3].copy_from_slice(cp);
             }
@@ -349,6 +470,80 @@ fn levels_of_one_file_match_cpu() {
                 &mut gpu,
                 level,
                 &format!("demo {m} level {} of 6..=8", level.depth()),
+            );
+        }
+    }
+}
+
+/// Levels of detail by pixel error: the GPU's `render_pixel_error` (`smo_intersect_lod`, one
+/// dispatch over the whole 2.0 file) matches the CPU's `intersect_lod` on the file of
+/// [`levels_of_one_file_match_cpu`], with the tolerances above in the voxel size of the level
+/// the CPU's hit lies in. Paper views (hits at t ≈ 2.5–3.8: levels 7 and 8 in one image) and a
+/// camera at (0, 0, 12) (level 6), at 1 and 2 pixels; the CPU's per-ray levels are counted to
+/// show that every level is used.
+#[test]
+fn pixel_error_matches_cpu() {
+    let Some(mut gpu) = gpu() else { return };
+    let demo = sdfmo_mesh::procedural::demo_part();
+    let mut cams = Camera::paper_views(SIZE, SIZE);
+    let mut far = cams[0];
+    far.eye = Vec3::new(0.0, 0.0, 12.0);
+    cams.push(far);
+    for (method, m) in methods() {
+        let settings = BuildSettings {
+            coarsest_level: Some(6),
+            ..BuildSettings::new(8, method)
+        };
+        let (lod, _) =
+            sdfmo_build::build_lod(&demo, &settings, None, None, &|| false).expect("build_lod");
+        let lod = LodOctree::from_bytes(&lod.to_bytes()).expect("read back");
+        let on_gpu = gpu.upload_lod(&lod).expect("upload_lod");
+        for pixels in [1.0, 2.0] {
+            let cpu_side = PixelErrorCpu { lod: &lod, pixels };
+            // Hits per level, the paper views and the far view apart.
+            let mut levels = [[0u64; 9]; 2];
+            for (v, cam) in cams.iter().enumerate() {
+                for py in 0..SIZE {
+                    for px in 0..SIZE {
+                        let (o, d) = cam.primary_ray(px, py);
+                        if let Some(h) = cpu_side.first_hit(o, d) {
+                            levels[usize::from(v == 4)][usize::from(h.depth)] += 1;
+                        }
+                    }
+                }
+            }
+            eprintln!(
+                "demo {m} pixel error {pixels}: hits per level 0..=8, paper views {:?}, far {:?}",
+                levels[0], levels[1]
+            );
+            // Far away every hit is at the coarsest level; the paper views mix two levels
+            // (7 and 8 at one pixel, 6 and 7 at two), so one pixel uses all three.
+            let used = |l: &[u64; 9]| l.iter().filter(|&&n| n > 0).count();
+            assert!(
+                levels[1][6] > 200 && used(&levels[1]) == 1,
+                "far: {levels:?}"
+            );
+            assert!(used(&levels[0]) == 2, "paper views: {levels:?}");
+            if pixels == 1.0 {
+                assert!(
+                    levels[0][7] > 0 && levels[0][8] > 0,
+                    "paper views: {levels:?}"
+                );
+            }
+            let error = |cam: &Camera| PixelError {
+                pixels,
+                pixel_angle: pixel_angle(cam.fov_y_deg, cam.height),
+            };
+            let mut draw = |gpu: &mut GpuRenderer, cam: &Camera, mode: GpuMode| {
+                gpu.render_pixel_error(&on_gpu, &gpu_camera(cam), mode, &shading(cam), error(cam))
+                    .expect("GPU render")
+            };
+            compare_views(
+                &mut gpu,
+                &mut draw,
+                &cpu_side,
+                &cams,
+                &format!("demo {m} 6..=8 pixel error {pixels}"),
             );
         }
     }

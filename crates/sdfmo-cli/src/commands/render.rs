@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use glam::Vec3;
 use sdf_multioctree::distance::{reshape_fans, MeshDistance, SignMode};
-use sdf_multioctree::format::{PackedOctree, SmoFile};
+use sdf_multioctree::format::{LodOctree, PackedOctree, SmoFile};
 use sdf_multioctree::metrics;
 use sdf_multioctree::render::shading::{light_dir, DepthRange, AMBIENT, LIGHT_INTENSITY};
 use sdf_multioctree::render::{
@@ -14,7 +14,7 @@ use sdf_multioctree::render::{
     Rendered, Traceable,
 };
 use sdf_multioctree::trace::{pixel_angle, LevelChoice};
-use sdfmo_gpu::{GpuCamera, GpuMode, GpuRenderer, GpuTiming, Shading};
+use sdfmo_gpu::{GpuCamera, GpuImage, GpuMode, GpuRenderer, GpuTiming, PixelError, Shading};
 use serde_json::json;
 
 use crate::args::{DeviceArg, ModeArg, RenderArgs, RenderMeshArgs, RenderOptions, ViewsArg};
@@ -57,91 +57,139 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
             render_all(&mut view, &source, "cpu", None, &args.opts, &outputs)
         }
         DeviceArg::Gpu => {
-            let mut gpu = GpuRenderer::new().context("cannot render on a GPU")?;
-            // The adapter's limit before the file is read (issue 19: a 2.18 GB file used to
-            // be read, copied and validated, 4.26 GB at the peak, before it was refused).
-            if let Ok(meta) = std::fs::metadata(&args.octree) {
-                gpu.check_file_size(meta.len())
-                    .with_context(|| format!("cannot render {source} on {}", gpu.adapter_name()))?;
-            }
+            let mut gpu = open_gpu(args)?;
             let octree = load(gpu.max_file_bytes())?;
             let on_gpu = gpu
                 .upload(&octree)
                 .with_context(|| format!("cannot upload {source} to the GPU"))?;
-            let device = gpu.adapter_name().to_owned();
-            let timing = Some(if gpu.has_timestamps() {
-                GpuTiming::Timestamps.name()
-            } else {
-                GpuTiming::WallClock.name()
-            });
+            let (device, timing) = gpu_device(&gpu);
             let plan = RenderPlan::new(&settings(&args.opts))?;
             let mode = gpu_mode(args.opts.mode);
             // A GPU frame takes milliseconds: progress moves per view only.
             let mut view = |cam: &Camera, _: &Progress<'_>| -> anyhow::Result<ViewRender> {
-                let frame = cam.frame()?;
-                let gcam = GpuCamera {
-                    eye: frame.eye.to_array(),
-                    fwd: frame.fwd.to_array(),
-                    right: frame.right.to_array(),
-                    up: frame.up.to_array(),
-                    tan_half: frame.tan_half,
-                    width: frame.width,
-                    height: frame.height,
-                };
-                // The octree's bounds are the root cube (as `OctreeScene::bounds`).
-                let range = DepthRange::new(cam.eye, Vec3::splat(-1.0), Vec3::ONE);
-                let shading = Shading {
-                    light: light_dir().to_array(),
-                    light_intensity: LIGHT_INTENSITY,
-                    ambient: AMBIENT,
-                    depth_near: range.near,
-                    depth_far: range.far,
-                };
-                let img = gpu
-                    .render(&on_gpu, &gcam, mode, &shading)
-                    .with_context(|| format!("cannot render {source} on {}", gpu.adapter_name()))?;
-                let counters = Counters {
-                    rays: u64::from(img.width) * u64::from(img.height),
-                    hits: img.hits,
-                    normal_evals: if plan.normals { img.hits } else { 0 },
-                    ..Counters::default()
-                };
-                let r = Rendered {
-                    width: img.width,
-                    height: img.height,
-                    rgb: img.rgb,
-                    depth: plan.keep_depth.then_some(img.depth),
-                    normals: plan
-                        .keep_normals
-                        .then(|| img.normals.into_iter().map(Vec3::from_array).collect()),
-                    counters,
-                    render_ms: img.wall_ms,
-                };
-                Ok((r, Some(img.gpu_ms)))
+                gpu_view(&mut gpu, cam, &plan, &source, |gpu, gcam, shading| {
+                    gpu.render(&on_gpu, gcam, mode, shading)
+                })
             };
             render_all(&mut view, &source, &device, timing, &args.opts, &outputs)
         }
     }
 }
 
-/// `sdfmo render --pixel-error E`: each ray at the coarsest level whose voxels project below
-/// E pixels at its hit distance (`sdfmo_trace::intersect_lod`), on the CPU.
-fn run_pixel_error(args: &RenderArgs, pixels: f32, outputs: &[ViewOutputs]) -> anyhow::Result<()> {
-    if args.device == DeviceArg::Gpu {
-        anyhow::bail!(
-            "--pixel-error is not available with --device gpu yet (the WGSL kernel traces one \
-             level: use --lod); use --device cpu"
-        );
+/// A GPU renderer for `sdfmo render --device gpu`, and the file's length checked against the
+/// adapter's limit before the file is read (issue 19: a 2.18 GB file used to be read, copied
+/// and validated, 4.26 GB at the peak, before it was refused).
+fn open_gpu(args: &RenderArgs) -> anyhow::Result<GpuRenderer> {
+    let gpu = GpuRenderer::new().context("cannot render on a GPU")?;
+    if let Ok(meta) = std::fs::metadata(&args.octree) {
+        gpu.check_file_size(meta.len()).with_context(|| {
+            format!(
+                "cannot render {} on {}",
+                args.octree.display(),
+                gpu.adapter_name()
+            )
+        })?;
     }
-    let file = SmoFile::load(&args.octree)
-        .with_context(|| format!("cannot load octree {}", args.octree.display()))?;
-    let SmoFile::Levels(lod) = file else {
-        anyhow::bail!(
-            "{} has no levels of detail (build it with `sdfmo build --lod`)",
-            args.octree.display()
-        );
+    Ok(gpu)
+}
+
+/// The adapter's name, and how it times its kernel.
+fn gpu_device(gpu: &GpuRenderer) -> (String, Timing) {
+    let timing = if gpu.has_timestamps() {
+        GpuTiming::Timestamps
+    } else {
+        GpuTiming::WallClock
+    };
+    (gpu.adapter_name().to_owned(), Some(timing.name()))
+}
+
+/// One view on the GPU: `draw` renders the camera's image with the CPU renderer's shading, and
+/// the image becomes what the CPU renderer returns.
+fn gpu_view(
+    gpu: &mut GpuRenderer,
+    cam: &Camera,
+    plan: &RenderPlan,
+    source: &str,
+    draw: impl FnOnce(&mut GpuRenderer, &GpuCamera, &Shading) -> sdfmo_gpu::Result<GpuImage>,
+) -> anyhow::Result<ViewRender> {
+    let frame = cam.frame()?;
+    let gcam = GpuCamera {
+        eye: frame.eye.to_array(),
+        fwd: frame.fwd.to_array(),
+        right: frame.right.to_array(),
+        up: frame.up.to_array(),
+        tan_half: frame.tan_half,
+        width: frame.width,
+        height: frame.height,
+    };
+    // The octree's bounds are the root cube (as `OctreeScene::bounds`).
+    let range = DepthRange::new(cam.eye, Vec3::splat(-1.0), Vec3::ONE);
+    let shading = Shading {
+        light: light_dir().to_array(),
+        light_intensity: LIGHT_INTENSITY,
+        ambient: AMBIENT,
+        depth_near: range.near,
+        depth_far: range.far,
+    };
+    let img = draw(gpu, &gcam, &shading)
+        .with_context(|| format!("cannot render {source} on {}", gpu.adapter_name()))?;
+    let counters = Counters {
+        rays: u64::from(img.width) * u64::from(img.height),
+        hits: img.hits,
+        normal_evals: if plan.normals { img.hits } else { 0 },
+        ..Counters::default()
+    };
+    let r = Rendered {
+        width: img.width,
+        height: img.height,
+        rgb: img.rgb,
+        depth: plan.keep_depth.then_some(img.depth),
+        normals: plan
+            .keep_normals
+            .then(|| img.normals.into_iter().map(Vec3::from_array).collect()),
+        counters,
+        render_ms: img.wall_ms,
+    };
+    Ok((r, Some(img.gpu_ms)))
+}
+
+/// `sdfmo render --pixel-error E`: each ray at the coarsest level whose voxels project below
+/// E pixels at its hit distance (`sdfmo_trace::intersect_lod` on the CPU, `smo_intersect_lod`
+/// of the WGSL kernel on a GPU: the same rule).
+fn run_pixel_error(args: &RenderArgs, pixels: f32, outputs: &[ViewOutputs]) -> anyhow::Result<()> {
+    let load = |max_bytes: u64| -> anyhow::Result<LodOctree> {
+        let file = SmoFile::load_with_limit(&args.octree, max_bytes)
+            .with_context(|| format!("cannot load octree {}", args.octree.display()))?;
+        match file {
+            SmoFile::Levels(lod) => Ok(lod),
+            SmoFile::Octree(_) => anyhow::bail!(
+                "{} has no levels of detail (build it with `sdfmo build --lod`)",
+                args.octree.display()
+            ),
+        }
     };
     let source = args.octree.display().to_string();
+    if args.device == DeviceArg::Gpu {
+        let mut gpu = open_gpu(args)?;
+        let lod = load(gpu.max_file_bytes())?;
+        let on_gpu = gpu
+            .upload_lod(&lod)
+            .with_context(|| format!("cannot upload {source} to the GPU"))?;
+        let (device, timing) = gpu_device(&gpu);
+        let plan = RenderPlan::new(&settings(&args.opts))?;
+        let mode = gpu_mode(args.opts.mode);
+        let mut view = |cam: &Camera, _: &Progress<'_>| -> anyhow::Result<ViewRender> {
+            let error = PixelError {
+                pixels,
+                pixel_angle: pixel_angle(cam.fov_y_deg, cam.height),
+            };
+            gpu_view(&mut gpu, cam, &plan, &source, |gpu, gcam, shading| {
+                gpu.render_pixel_error(&on_gpu, gcam, mode, shading, error)
+            })
+        };
+        return render_all(&mut view, &source, &device, timing, &args.opts, outputs);
+    }
+    let lod = load(sdf_multioctree::format::MAX_FILE_SIZE)?;
     let settings = settings(&args.opts);
     let mut view = |cam: &Camera, progress: &Progress<'_>| -> anyhow::Result<ViewRender> {
         let scene = LodScene {
