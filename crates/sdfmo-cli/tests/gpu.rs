@@ -43,6 +43,22 @@ fn fails_cleanly(o: &Output, needle: &str) {
 }
 
 /// A depth-6 multi-octree of the built-in demo part.
+/// Whether a GPU render failed for want of an adapter (the test is then skipped, unless
+/// `SDFMO_REQUIRE_GPU=1`, where that fails it).
+fn no_adapter(o: &Output) -> bool {
+    if o.status.success() || !stderr(o).contains("no GPU adapter") {
+        return false;
+    }
+    assert_ne!(
+        std::env::var("SDFMO_REQUIRE_GPU").as_deref(),
+        Ok("1"),
+        "SDFMO_REQUIRE_GPU=1 but: {}",
+        stderr(o)
+    );
+    eprintln!("skipped: {}", stderr(o).trim());
+    true
+}
+
 fn demo_octree(dir: &std::path::Path) -> String {
     let smo = dir.join("demo.smo").display().to_string();
     // The SVO: the multi-octree's sharp edges (intersect voxels, issue 11) may take either
@@ -69,14 +85,7 @@ fn gpu_render_matches_cpu_and_adds_device_keys() {
         (o, png)
     };
     let (o, gpu_png) = render("gpu");
-    if !o.status.success() && stderr(&o).contains("no GPU adapter") {
-        assert_ne!(
-            std::env::var("SDFMO_REQUIRE_GPU").as_deref(),
-            Ok("1"),
-            "SDFMO_REQUIRE_GPU=1 but: {}",
-            stderr(&o)
-        );
-        eprintln!("skipped: {}", stderr(&o).trim());
+    if no_adapter(&o) {
         return;
     }
     assert!(o.status.success(), "{}", stderr(&o));
@@ -198,14 +207,7 @@ fn gpu_pixel_error_matches_cpu() {
         (o, png)
     };
     let (o, gpu_png) = render("gpu");
-    if !o.status.success() && stderr(&o).contains("no GPU adapter") {
-        assert_ne!(
-            std::env::var("SDFMO_REQUIRE_GPU").as_deref(),
-            Ok("1"),
-            "SDFMO_REQUIRE_GPU=1 but: {}",
-            stderr(&o)
-        );
-        eprintln!("skipped: {}", stderr(&o).trim());
+    if no_adapter(&o) {
         return;
     }
     assert!(o.status.success(), "{}", stderr(&o));

@@ -453,18 +453,23 @@ fn load(name: &str) -> TriMesh {
 /// Levels 6…8, the depths the other models' tests cover: a depth-5 multi-octree of the demo
 /// part (a level or a build alike) has 178 lambert pixels excused at sharp edges of 30,968 hits,
 /// over this file's bound, which is a property of depth 5, not of levels (2026-12-03).
+/// The demo part with levels 6..=8 as a reader sees it (written and read back).
+fn demo_levels(demo: &TriMesh, method: Method) -> LodOctree {
+    let settings = BuildSettings {
+        coarsest_level: Some(6),
+        ..BuildSettings::new(8, method)
+    };
+    let (lod, _) =
+        sdfmo_build::build_lod(demo, &settings, None, None, &|| false).expect("build_lod");
+    LodOctree::from_bytes(&lod.to_bytes()).expect("read back")
+}
+
 #[test]
 fn levels_of_one_file_match_cpu() {
     let Some(mut gpu) = gpu() else { return };
     let demo = sdfmo_mesh::procedural::demo_part();
     for (method, m) in methods() {
-        let settings = BuildSettings {
-            coarsest_level: Some(6),
-            ..BuildSettings::new(8, method)
-        };
-        let (lod, _) =
-            sdfmo_build::build_lod(&demo, &settings, None, None, &|| false).expect("build_lod");
-        let back = sdfmo_format::LodOctree::from_bytes(&lod.to_bytes()).expect("read back");
+        let back = demo_levels(&demo, method);
         for level in back.levels() {
             compare(
                 &mut gpu,
@@ -490,13 +495,7 @@ fn pixel_error_matches_cpu() {
     far.eye = Vec3::new(0.0, 0.0, 12.0);
     cams.push(far);
     for (method, m) in methods() {
-        let settings = BuildSettings {
-            coarsest_level: Some(6),
-            ..BuildSettings::new(8, method)
-        };
-        let (lod, _) =
-            sdfmo_build::build_lod(&demo, &settings, None, None, &|| false).expect("build_lod");
-        let lod = LodOctree::from_bytes(&lod.to_bytes()).expect("read back");
+        let lod = demo_levels(&demo, method);
         let on_gpu = gpu.upload_lod(&lod).expect("upload_lod");
         for pixels in [1.0, 2.0] {
             let cpu_side = PixelErrorCpu { lod: &lod, pixels };
