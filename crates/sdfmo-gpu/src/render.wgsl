@@ -106,17 +106,35 @@ fn smo_render(@builtin(global_invocation_id) gid: vec3<u32>) {
     let dir = smo_primary_dir(gid.x, gid.y);
     let ray = SmoRay(params.eye, dir);
 
+    // One call of smo_intersect for both kinds of file, reached only by rays that enter the
+    // root cube: lavapipe zeroes an inlined copy's traversal stack (2.8 KB a pixel) for every
+    // pixel (an empty 1024² frame, abc5: 1.5 s with two copies, 0.46 s with one behind the
+    // root test, 17 ms with none).
     var info: SmoInfo;
     var hit: SmoHit;
+    hit.hit = false;
+    let lod = smo_lod(params.dequant);
+    var trace: SmoLodTrace;
     if params.pixel_error > 0.0 {
         // A file with levels (2.0): each ray at the level its screen-space error needs.
-        let lod = smo_lod(params.dequant);
-        let lod_hit = smo_intersect_lod(lod, ray, 0.0, SMO_FAR, params.pixel_error, params.pixel_angle);
-        hit = lod_hit.hit;
-        info = smo_lod_level_info(lod, lod_hit.level);
+        trace = smo_lod_trace_start(lod, ray, 0.0, SMO_FAR, params.pixel_error, params.pixel_angle);
     } else {
-        info = smo_info(params.dequant);
+        let root = smo_root_span(ray, 0.0, SMO_FAR);
+        trace.tracing = root.x <= root.y;
+    }
+    loop {
+        if !trace.tracing {
+            break;
+        }
+        if params.pixel_error > 0.0 {
+            info = smo_lod_level_info(lod, trace.level);
+        } else {
+            info = smo_info(params.dequant);
+        }
         hit = smo_intersect(info, ray, 0.0, SMO_FAR);
+        if params.pixel_error <= 0.0 || !smo_lod_trace_next(lod, &trace, hit, params.pixel_error, params.pixel_angle) {
+            break;
+        }
     }
     if !hit.hit {
         pixels[index] = SmoPixel(vec3<f32>(0.0), SMO_FAR);

@@ -627,6 +627,22 @@ fn smo_leaf_hit(info: SmoInfo, cell: SmoCell, o: vec3<f32>, d: vec3<f32>) -> Smo
     return hit;
 }
 
+/// The ray's span in the root cube [-1, 1]³ within [t_min, t_max], as `smo_intersect` clips
+/// it: (t_enter, t_exit); the ray misses where !(t_enter <= t_exit). A caller may test it
+/// before calling `smo_intersect` (render.wgsl does, to skip the traversal's set-up).
+fn smo_root_span(ray: SmoRay, t_min: f32, t_max: f32) -> vec2<f32> {
+    let o = ray.origin;
+    let d = ray.dir;
+    let inv = vec3<f32>(smo_safe_inv(d.x), smo_safe_inv(d.y), smo_safe_inv(d.z));
+    let ta = (vec3<f32>(-1.0) - o) * inv;
+    let tb = (vec3<f32>(1.0) - o) * inv;
+    let lo = min(ta, tb);
+    let hi = max(ta, tb);
+    let t_enter = max(max(max(lo.x, lo.y), lo.z), t_min);
+    let t_exit = min(min(min(hi.x, hi.y), hi.z), t_max);
+    return vec2<f32>(t_enter, t_exit);
+}
+
 /// The first hit along the ray in [t_min, t_max] (sdfmo_trace::intersect). Pass SMO_FAR for
 /// an unbounded ray.
 fn smo_intersect(info: SmoInfo, ray: SmoRay, t_min: f32, t_max: f32) -> SmoHit {
@@ -638,12 +654,9 @@ fn smo_intersect(info: SmoInfo, ray: SmoRay, t_min: f32, t_max: f32) -> SmoHit {
     let o = ray.origin;
     let d = ray.dir;
     let inv = vec3<f32>(smo_safe_inv(d.x), smo_safe_inv(d.y), smo_safe_inv(d.z));
-    let ta = (vec3<f32>(-1.0) - o) * inv;
-    let tb = (vec3<f32>(1.0) - o) * inv;
-    let lo = min(ta, tb);
-    let hi = max(ta, tb);
-    let t_enter = max(max(max(lo.x, lo.y), lo.z), t_min);
-    let t_exit = min(min(min(hi.x, hi.y), hi.z), t_max);
+    let root = smo_root_span(ray, t_min, t_max);
+    let t_enter = root.x;
+    let t_exit = root.y;
     if !(t_enter <= t_exit) {
         return none;
     }
@@ -866,44 +879,84 @@ struct SmoLodHit {
     level: u32,
 }
 
+/// A pixel-error trace between two of its traversals (`smo_intersect_lod` one step at a time):
+/// the level to trace next, and the level the near end of the ray's span needs.
+struct SmoLodTrace {
+    /// False: the ray misses the root cube, there is nothing to trace.
+    tracing: bool,
+    level: u32,
+    near: u32,
+    /// |dir|: hit parameters times this are distances.
+    scale: f32,
+}
+
+/// The first step of `smo_intersect_lod`: the levels of the ray's span [t_in, t_out] in the root
+/// cube (within [t_min, t_max]); the first trace is at the level t_out needs.
+fn smo_lod_trace_start(lod: SmoLod, ray: SmoRay, t_min: f32, t_max: f32, pixels: f32, pixel_angle: f32) -> SmoLodTrace {
+    var trace: SmoLodTrace;
+    trace.tracing = false;
+    trace.level = lod.depth;
+    trace.near = lod.depth;
+    // span_levels: the root cube [-1, 1]³ is the unit cube at (p + 1) / 2, with the same t.
+    let span = smo_unit_cube_span((ray.origin + vec3<f32>(1.0)) * 0.5, ray.dir * 0.5);
+    if span.z == 0.0 {
+        return trace;
+    }
+    let t_in = max(span.x, t_min);
+    let t_out = min(span.y, t_max);
+    if t_in > t_out {
+        return trace;
+    }
+    let d = ray.dir;
+    trace.scale = sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+    trace.near = smo_level_for_distance(t_in * trace.scale, pixels, pixel_angle, lod.coarsest, lod.depth);
+    trace.level = smo_level_for_distance(t_out * trace.scale, pixels, pixel_angle, lod.coarsest, lod.depth);
+    trace.tracing = true;
+    return trace;
+}
+
+/// The step after a traversal at `trace.level` returned `hit`: true with the next level to
+/// trace in `trace.level`, or false when `hit` (a hit, or a miss) is the answer. A hit that
+/// needs a finer level is traced again at that level (the level only grows); a miss at a level
+/// coarser than the near end's is traced once more at the near end's.
+fn smo_lod_trace_next(lod: SmoLod, trace: ptr<function, SmoLodTrace>, hit: SmoHit, pixels: f32, pixel_angle: f32) -> bool {
+    if !hit.hit {
+        if (*trace).level >= (*trace).near {
+            return false;
+        }
+        (*trace).level = (*trace).near;
+        return true;
+    }
+    let need = smo_level_for_distance(hit.t * (*trace).scale, pixels, pixel_angle, lod.coarsest, lod.depth);
+    if need <= (*trace).level {
+        return false;
+    }
+    (*trace).level = need;
+    return true;
+}
+
 /// The first hit of `ray` in [t_min, t_max] at the coarsest level whose voxel edge projects to
 /// at most `pixels` pixels at the hit distance (`pixel_angle` radians per pixel), as
 /// sdfmo_trace::intersect_lod with LevelChoice::PixelError: with [t_in, t_out] the ray's span
 /// in the root cube, trace at the level t_out needs; where the hit needs a finer level,
 /// trace again at that level (the level only grows); where a level coarser than t_in's misses,
-/// trace once more at t_in's level.
+/// trace once more at t_in's level (`smo_lod_trace_start`, `smo_lod_trace_next`).
 fn smo_intersect_lod(lod: SmoLod, ray: SmoRay, t_min: f32, t_max: f32, pixels: f32, pixel_angle: f32) -> SmoLodHit {
     var none: SmoLodHit;
     none.hit.hit = false;
     none.level = lod.depth;
-    // span_levels: the root cube [-1, 1]³ is the unit cube at (p + 1) / 2, with the same t.
-    let span = smo_unit_cube_span((ray.origin + vec3<f32>(1.0)) * 0.5, ray.dir * 0.5);
-    if span.z == 0.0 {
+    var trace = smo_lod_trace_start(lod, ray, t_min, t_max, pixels, pixel_angle);
+    if !trace.tracing {
         return none;
     }
-    let t_in = max(span.x, t_min);
-    let t_out = min(span.y, t_max);
-    if t_in > t_out {
-        return none;
-    }
-    let d = ray.dir;
-    let scale = sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
-    let near = smo_level_for_distance(t_in * scale, pixels, pixel_angle, lod.coarsest, lod.depth);
-    var level = smo_level_for_distance(t_out * scale, pixels, pixel_angle, lod.coarsest, lod.depth);
     loop {
-        let hit = smo_intersect(smo_lod_level_info(lod, level), ray, t_min, t_max);
-        if !hit.hit {
-            if level >= near {
-                return none;
+        let hit = smo_intersect(smo_lod_level_info(lod, trace.level), ray, t_min, t_max);
+        if !smo_lod_trace_next(lod, &trace, hit, pixels, pixel_angle) {
+            if hit.hit {
+                return SmoLodHit(hit, trace.level);
             }
-            level = near;
-            continue;
+            return none;
         }
-        let need = smo_level_for_distance(hit.t * scale, pixels, pixel_angle, lod.coarsest, lod.depth);
-        if need <= level {
-            return SmoLodHit(hit, level);
-        }
-        level = need;
     }
     return none;
 }
