@@ -13,6 +13,9 @@
 #   NGLOD_RERUN_SWEEP=1  rerun `sdfmo sweep` even when OUT/sweep/results.json covers the models
 #   NGLOD_RETRAIN=1  retrain models that already have OUT/models/STEM/model.pt
 #   NGLOD_NO_DOCS=1  do not rewrite docs/results/nglod.md
+#   NGLOD_GAP_EPOCHS  train the curve model a second time for this many epochs of the same
+#                    schedule (default 120; 0: not), recording its curve: how far the schedule is
+#                    from converged, for the "gap to the full schedule" section
 # Needs: python3 (>= 3.9) with venv, cargo (the sdfmo CLI and the sdfmo wheel are built here).
 set -euo pipefail
 
@@ -97,8 +100,10 @@ fi
 
 # --- NGLOD per model -------------------------------------------------------------------------
 CURVE="${NGLOD_CURVE:-}"
+declare -A MESH_OF
 for m in "${MODELS[@]}"; do
     stem="$(basename "${m%.*}" | tr -c 'A-Za-z0-9_.\n-' '_')"
+    MESH_OF["$stem"]="$m"
     [ -n "$CURVE" ] || CURVE="$stem"
     dir="$OUT/models/$stem"
     mkdir -p "$dir"
@@ -142,6 +147,21 @@ for m in "${MODELS[@]}"; do
     [ -f "$dir/sdfcheck.json" ] && [ "$dir/sdfcheck.json" -nt "$dir/model.pt" ] || nice -n "$NICE" "$PY" "$HERE/nglod.py" sdfcheck "$m" "$dir/model.pt" --schedule "$SCHED" --out "$dir/sdfcheck.json" \
         --threads "$THREADS"
 done
+
+# --- the gap to the full schedule: the curve model trained longer, its curve only ---------
+GAP_EPOCHS="${NGLOD_GAP_EPOCHS:-120}"
+if [ "$GAP_EPOCHS" -gt 0 ] && [ -n "${MESH_OF[$CURVE]:-}" ]; then
+    gdir="$OUT/models/$CURVE"
+    GAP_SCHED="$("$PY" -c "import json,sys; s=json.loads(sys.argv[1]); s['epochs']=int(sys.argv[2]); s['name']+='-x'+str(round(int(sys.argv[2])/max(1,json.loads(sys.argv[1])['epochs']))); print(json.dumps(s))" "$SCHED" "$GAP_EPOCHS")"
+    if [ ! -f "$gdir/gap.train.json" ] || ! "$PY" -c "import json,sys; sys.exit(0 if json.load(open('$gdir/gap.train.json'))['schedule']==json.loads(sys.argv[1]) else 1)" "$GAP_SCHED"; then
+        [ -f "$gdir/ref256.png" ] || nice -n "$NICE" "$SDFMO" render-mesh "${MESH_OF[$CURVE]}" -o "$gdir/ref256.png" --size 256 --threads "$THREADS" > /dev/null
+        log "$CURVE: the gap run, $GAP_EPOCHS epochs of the same schedule (curve only)"
+        nice -n "$NICE" "$PY" "$HERE/nglod.py" train "${MESH_OF[$CURVE]}" --out "$gdir/gap" \
+            --schedule "$GAP_SCHED" --threads "$THREADS" --curve-ref "$gdir/ref256.png" \
+            --curve-every "$(( GAP_EPOCHS / 12 > 0 ? GAP_EPOCHS / 12 : 1 ))"
+        rm -f "$gdir/gap.pt"
+    fi
+fi
 
 # --- results.json (sweep row schema), the combined sweep, docs ------------------------------
 log "writing $OUT/results.json and the report"
