@@ -82,11 +82,28 @@ fn span_levels(
     Some((at(t_in), at(t_out)))
 }
 
+/// The levels the nearest and the farthest point of the root cube `[-1, 1]³` from `origin` need
+/// by [`LevelChoice::PixelError`], `(near, far)`: every ray from `origin` needs levels between
+/// them inside the cube ([`span_levels`] lies within), so where they are equal every ray from
+/// `origin` needs that one level. The distances are widened (relative 1e-5, absolute 1e-5 ×
+/// the larger) so that a ray's rounded span cannot step outside them.
+fn cube_levels(lod: &LodOctree, origin: Vec3, pixels: f32, pixel_angle: f32) -> (u8, u8) {
+    let nearest = origin.clamp(Vec3::NEG_ONE, Vec3::ONE);
+    let farthest = Vec3::select(origin.cmpge(Vec3::ZERO), Vec3::NEG_ONE, Vec3::ONE);
+    let d_max = (origin - farthest).length();
+    let slack = 1e-5 * (1.0 + d_max);
+    let d_min = (origin - nearest).length() * (1.0 - 1e-5) - slack;
+    let d_max = d_max * (1.0 + 1e-5) + slack;
+    let at = |d: f32| level_for_distance(d, pixels, pixel_angle, lod.coarsest(), lod.depth());
+    (at(d_min.max(0.0)), at(d_max))
+}
+
 /// [`intersect_lod`] for a packet of rays (lanes not traced: `None`; each traced lane exactly
 /// what [`intersect_lod`]`(lod, ray, 0.0, t_max, choice)` returns). A fixed level, and a
 /// pixel-error choice under which every traced lane's span needs one and the same level (a
 /// far object: its whole depth range needs one level), walk that level's octree once for the
-/// packet ([`intersect_packet`]); otherwise lane by lane.
+/// packet ([`intersect_packet`]); otherwise lane by lane. Where the whole root cube needs one
+/// level from the packet's origin (a far camera), the lanes are not looked at.
 pub fn intersect_lod_packet(
     lod: &LodOctree,
     rays: &RayPacket,
@@ -111,6 +128,11 @@ pub fn intersect_lod_packet(
                 origin: rays.origin,
                 dir: rays.dirs[l],
             };
+            // A far packet: every point of the root cube needs one level, so every lane does.
+            let (near, far) = cube_levels(lod, rays.origin, pixels, pixel_angle);
+            if near == far {
+                return packet_at(near);
+            }
             let mut common: Option<u8> = None;
             let mut uniform = true;
             for l in lanes() {
@@ -300,6 +322,45 @@ mod tests {
                 assert_eq!(h.level, 6);
             }
         }
+    }
+
+    /// Where the whole cube needs one level from an origin, every ray from there that enters
+    /// the cube needs exactly it (the packet shortcut's premise), at distances placed on and
+    /// around the levels' boundaries.
+    #[test]
+    fn a_cube_needing_one_level_means_every_ray_does() {
+        let lod = LodOctree::from_levels((2..=6).map(sphere).collect()).unwrap();
+        let (pixels, pa) = (1.0, pixel_angle(60.0, 128));
+        let mut x = 0x2545_f491u32;
+        let mut rnd = move || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x as f32 / u32::MAX as f32 * 2.0 - 1.0
+        };
+        let mut shortcuts = 0;
+        for i in 0..400i32 {
+            // Distances where the level changes: edge 2^(1-k) = pixels · d · pa.
+            let k: i32 = 2 + i % 5;
+            let d = 2f32.powi(1 - k) / (pixels * pa) * (1.0 + 0.02 * rnd());
+            let origin = Vec3::new(rnd(), rnd(), rnd()).normalize() * d;
+            let (near, far) = cube_levels(&lod, origin, pixels, pa);
+            if near != far {
+                continue;
+            }
+            shortcuts += 1;
+            for _ in 0..64 {
+                let target = Vec3::new(rnd(), rnd(), rnd()) * 1.2;
+                let ray = Ray {
+                    origin,
+                    dir: (target - origin) * (0.3 + rnd().abs()),
+                };
+                if let Some(levels) = span_levels(&lod, &ray, 0.0, f32::INFINITY, pixels, pa) {
+                    assert_eq!(levels, (near, near), "origin {origin}, target {target}");
+                }
+            }
+        }
+        assert!(shortcuts > 50, "{shortcuts} origins with one level");
     }
 
     /// The packet form gives every lane what the ray-by-ray form gives, near (mixed levels,
