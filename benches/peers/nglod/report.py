@@ -510,7 +510,7 @@ def main() -> None:
           f"{gm['train_s']:.0f} s wall, {gm.get('train_cpu_s', float('nan')):.0f} s CPU.")
         w("")
         short_last = [e for e in ep if "psnr_view0" in e][-1]
-        w("| LOD | short run, end | long run, same epoch | long run, end | gain of the longer run |")
+        w(f"| LOD | short run, end (epoch {len(ep)}) | long run, epoch {at_short[-1]['epoch'] if at_short else '-'} | long run, end | gain of the longer run |")
         w("|---:|---:|---:|---:|---:|")
         for k in LODS:
             same = at_short[-1]["psnr_view0"][str(k)] if at_short else float("nan")
@@ -524,9 +524,9 @@ def main() -> None:
             w(f"The paper's schedule sees {paper_n:,} samples ({paper_n / long_n:.0f}× the long run, "
               f"{paper_n / short_n:.0f}× the short one) in {pc['steps_per_epoch'] * pc['schedule']['epochs']:,} "
               f"steps of batch {pc['schedule']['batch']}. Its PSNR is **not measured** here (about "
-              f"{pc['total_cpu_s'] / 3600:.0f} h of CPU per model; no GPU was at hand). The table says how far the "
-              "short schedule is from converged over one more decade of samples; beyond that the curve is not "
-              "measured, and the NGLOD rows above are lower bounds on what NGLOD's recipe reaches.")
+              f"{pc['total_cpu_s'] / 3600:.1f} h of CPU per model; no GPU was at hand). The table says how far the "
+              f"short schedule is from converged over {long_n / short_n:.0f}× its samples; beyond that the curve is "
+              "not measured, and the NGLOD rows above are lower bounds on what NGLOD's recipe reaches.")
         w("")
 
     # SDF check
