@@ -9,7 +9,7 @@
 //! coarsest level whose voxels project below a number of pixels at the hit distance.
 
 use glam::Vec3;
-use sdfmo_format::{LodOctree, PackedOctree};
+use sdfmo_format::{cell_size, LodOctree, PackedOctree};
 
 use crate::packet::{intersect_packet, RayPacket, PACKET_SIZE};
 use crate::ray_voxel::unit_cube_span;
@@ -43,20 +43,9 @@ pub fn pixel_angle(fov_degrees: f32, height: u32) -> f32 {
 /// `pixels` pixels at distance `t` (`finest` when none does; `coarsest` at `t = ∞`).
 pub fn level_for_distance(t: f32, pixels: f32, pixel_angle: f32, coarsest: u8, finest: u8) -> u8 {
     let budget = pixels * t * pixel_angle;
-    // The edges are powers of two, `2^(1 − k)`, so `2^(1 − k) ≤ budget` holds exactly from
-    // `k = 1 − e` on, `e` the binary exponent of `budget` (`2^e ≤ budget < 2^(e+1)`): read from
-    // the bits, not searched level by level (that search was ≈ 10 % of a far view's
-    // instructions, callgrind, abc5 depth 10 at radius 12).
-    if budget.is_nan() || budget < f32::MIN_POSITIVE {
-        // Zero, subnormal, negative or NaN: no level's edge fits (subnormal: none up to level
-        // 127, beyond every file).
-        return finest;
-    }
-    if budget == f32::INFINITY {
-        return coarsest;
-    }
-    let exponent = ((budget.to_bits() >> 23) & 0xff) as i32 - 127;
-    (1 - exponent).clamp(i32::from(coarsest), i32::from(finest)) as u8
+    (coarsest..=finest)
+        .find(|&k| cell_size(k) <= budget)
+        .unwrap_or(finest)
 }
 
 /// The levels a hit of `ray` in `[t_min, t_max]` can need by [`LevelChoice::PixelError`]:
@@ -231,7 +220,6 @@ pub fn intersect_lod(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sdfmo_format::cell_size;
     use sdfmo_format::testing::sphere_leaves;
     use sdfmo_format::{OctreeMeta, ValueBits};
 
@@ -253,37 +241,6 @@ mod tests {
         assert_eq!(level_for_distance(1e6, 1.0, pa, 4, 9), 4);
         for bad in [0.0, -1.0, f32::NAN, 1e-40] {
             assert_eq!(level_for_distance(bad, 1.0, 1.0, 2, 9), 9, "{bad}");
-        }
-    }
-
-    /// The exponent read from the bits is the level the definition's search finds, at and
-    /// around every power of two a level's edge can be, and at random budgets.
-    #[test]
-    fn level_for_distance_equals_the_search() {
-        let search = |budget: f32, coarsest: u8, finest: u8| {
-            (coarsest..=finest)
-                .find(|&k| cell_size(k) <= budget)
-                .unwrap_or(finest)
-        };
-        let mut budgets: Vec<f32> = (-30..=30)
-            .map(|e| 2f32.powi(e))
-            .flat_map(|b| [b, b.next_up(), b.next_down(), b * 1.5])
-            .collect();
-        let mut x = 0x9e37_79b9u32;
-        budgets.extend((0..2000).map(|_| {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            f32::from_bits(0x3000_0000 + x % 0x1800_0000) // about 5e-10 .. 3e4
-        }));
-        for &b in &budgets {
-            for (coarsest, finest) in [(1u8, 12u8), (2, 6), (6, 10), (10, 10), (1, 30)] {
-                assert_eq!(
-                    level_for_distance(b, 1.0, 1.0, coarsest, finest),
-                    search(b, coarsest, finest),
-                    "budget {b:e}, levels {coarsest}..={finest}"
-                );
-            }
         }
     }
 
