@@ -385,7 +385,8 @@ def cmd_train(a) -> None:
             nb += 1
         e2 = time.perf_counter()
         rec = {"epoch": ep + 1, "loss_per_lod": (tot / nb).tolist(), "loss": float(tot.sum() / nb),
-               "sample_s": e1 - e0, "step_s": e2 - e1, "cpu_s": time.process_time() - c0, "steps": nb}
+               "sample_s": e1 - e0, "step_s": e2 - e1, "cpu_s": time.process_time() - c0, "steps": nb,
+               "loadavg_1min": os.getloadavg()[0]}  # how shared the cores were (wall times depend on it)
         if curve_ref is not None and ((ep + 1) % a.curve_every == 0 or ep + 1 == sched["epochs"]):
             rec["psnr_view0"] = {}
             for k in range(2, NUM_LODS + 1):

@@ -9,13 +9,18 @@
 #   NGLOD_NICE       nice level of every heavy step (default 19: the machine is shared)
 #   NGLOD_OUT        output folder (default benches/peers/nglod/out, gitignored)
 #   NGLOD_CURVE      model stem whose training curve (PSNR per epoch) is recorded (default: the first)
-#   NGLOD_CURVE_EVERY  epochs between curve points (default 2)
+#   NGLOD_CURVE_EVERY  epochs between curve points (default 2; 10 for the paper schedule)
 #   NGLOD_RERUN_SWEEP=1  rerun `sdfmo sweep` even when OUT/sweep/results.json covers the models
 #   NGLOD_RETRAIN=1  retrain models that already have OUT/models/STEM/model.pt
 #   NGLOD_NO_DOCS=1  do not rewrite docs/results/nglod.md
 #   NGLOD_GAP_EPOCHS  train the curve model a second time for this many epochs of the same
 #                    schedule (default 120; 0: not), recording its curve: how far the schedule is
-#                    from converged, for the "gap to the full schedule" section
+#                    from converged, for the "gap to the full schedule" section (default 0 for
+#                    the paper schedule: it is the full schedule)
+#   NGLOD_DOC        name of the page written under docs/results (default nglod for the short
+#                    schedule, nglod-paper for the paper's, nglod-custom otherwise)
+#   NGLOD_COMPARE_WITH  results.json of an earlier run whose NGLOD rows the page compares with
+#                    (default docs/results/nglod/results.json when NGLOD_DOC is not nglod)
 # Needs: python3 (>= 3.9) with venv, cargo (the sdfmo CLI and the sdfmo wheel are built here).
 set -euo pipefail
 
@@ -37,7 +42,6 @@ THREADS="${NGLOD_THREADS:-2}"
 NICE="${NGLOD_NICE:-19}"
 OUT="${NGLOD_OUT:-$HERE/out}"
 SCHED_NAME="${NGLOD_SCHEDULE:-short}"
-CURVE_EVERY="${NGLOD_CURVE_EVERY:-2}"
 # The schedules. "paper": NGLOD's published training recipe as we read it (250 epochs, batch
 # 512, Adam lr 1e-3, 500k fresh samples per epoch: 100k uniform, 200k near, 200k on the
 # surface). "short": what fits this session on a shared 2-core machine (docs/results/nglod.md).
@@ -48,6 +52,17 @@ case "$SCHED_NAME" in
     \{*) SCHED="$SCHED_NAME" ;;
     *) echo "run.sh: NGLOD_SCHEDULE must be short, paper or a JSON object, got '$SCHED_NAME'" >&2; exit 2 ;;
 esac
+case "$SCHED_NAME" in
+    short) DOC_DEFAULT=nglod; CURVE_EVERY_DEFAULT=2; GAP_DEFAULT=120 ;;
+    paper) DOC_DEFAULT=nglod-paper; CURVE_EVERY_DEFAULT=10; GAP_DEFAULT=0 ;;
+    *) DOC_DEFAULT=nglod-custom; CURVE_EVERY_DEFAULT=2; GAP_DEFAULT=0 ;;
+esac
+CURVE_EVERY="${NGLOD_CURVE_EVERY:-$CURVE_EVERY_DEFAULT}"
+DOC="${NGLOD_DOC:-$DOC_DEFAULT}"
+COMPARE_WITH="${NGLOD_COMPARE_WITH:-}"
+if [ -z "$COMPARE_WITH" ] && [ "$DOC" != nglod ] && [ -f "$ROOT/docs/results/nglod/results.json" ]; then
+    COMPARE_WITH="$ROOT/docs/results/nglod/results.json"
+fi
 
 mkdir -p "$OUT"
 log() { echo "[nglod $(date -u +%H:%M:%S)] $*" >&2; }
@@ -149,7 +164,7 @@ for m in "${MODELS[@]}"; do
 done
 
 # --- the gap to the full schedule: the curve model trained longer, its curve only ---------
-GAP_EPOCHS="${NGLOD_GAP_EPOCHS:-120}"
+GAP_EPOCHS="${NGLOD_GAP_EPOCHS:-$GAP_DEFAULT}"
 if [ "$GAP_EPOCHS" -gt 0 ] && [ -n "${MESH_OF[$CURVE]:-}" ]; then
     gdir="$OUT/models/$CURVE"
     GAP_SCHED="$("$PY" -c "import json,sys; s=json.loads(sys.argv[1]); s['epochs']=int(sys.argv[2]); s['name']+='-x'+str(round(int(sys.argv[2])/max(1,json.loads(sys.argv[1])['epochs']))); print(json.dumps(s))" "$SCHED" "$GAP_EPOCHS")"
@@ -165,7 +180,8 @@ fi
 
 # --- results.json (sweep row schema), the combined sweep, docs ------------------------------
 log "writing $OUT/results.json and the report"
-report_args=(--out "$OUT" --sweep "$SWEEP" --curve "$CURVE")
+report_args=(--out "$OUT" --sweep "$SWEEP" --curve "$CURVE" --doc "$DOC")
+[ -z "$COMPARE_WITH" ] || report_args+=(--compare-with "$COMPARE_WITH")
 [ -n "${NGLOD_NO_DOCS:-}" ] || report_args+=(--docs "$ROOT/docs/results")
 if "$SDFMO" sweep --help | grep -q -- '--extra-rows'; then
     rm -rf "$OUT/combined.tmp"
