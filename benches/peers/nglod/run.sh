@@ -12,7 +12,7 @@
 #   NGLOD_CURVE_EVERY  epochs between curve points (default 2; 10 for the paper schedule)
 #   NGLOD_RERUN_SWEEP=1  rerun `sdfmo sweep` even when OUT/sweep/results.json covers the models
 #   NGLOD_RETRAIN=1  retrain models that already have OUT/models/STEM/model.pt
-#   NGLOD_NO_DOCS=1  do not rewrite docs/results/nglod.md
+#   NGLOD_NO_DOCS=1  do not rewrite the page under docs/results (NGLOD_DOC below)
 #   NGLOD_GAP_EPOCHS  train the curve model a second time for this many epochs of the same
 #                    schedule (default 120; 0: not), recording its curve: how far the schedule is
 #                    from converged, for the "gap to the full schedule" section (default 0 for
