@@ -1,0 +1,626 @@
+"""Collects what run.sh measured into OUT/results.json (rows in the sweep's schema) and
+docs/results/openvdb.md with its figures under docs/results/openvdb/.
+
+Every number on the page comes from the files under OUT (vdbpeer's build and render JSON,
+`sdfmo compare` outputs, the interleaved timings, the combined `sdfmo sweep --extra-rows` run);
+nothing is typed in. The prose around the numbers is here.
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import json
+import math
+import os
+import shutil
+import statistics
+import sys
+import tempfile
+import time
+
+VARIANTS = ["float", "fp16", "fp8", "fp4", "fpn"]
+BANDS = [1, 2, 3]
+NANO_ROW_BAND = 1  # the band of the `nanovdb-*` rows (the smallest grids; every band is on the page)
+VNAME = {"float": "float", "fp16": "Fp16", "fp8": "Fp8", "fp4": "Fp4", "fpn": "FpN"}
+
+
+def atomic_write(path: str, data: bytes | str) -> None:
+    if isinstance(data, str):
+        data = data.encode()
+    d = os.path.dirname(os.path.abspath(path))
+    os.makedirs(d, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=d, prefix=".tmp-")
+    with os.fdopen(fd, "wb") as f:
+        f.write(data)
+    os.replace(tmp, path)
+
+
+def load(path: str):
+    with open(path) as f:
+        return json.load(f)
+
+
+def stem_of(path: str) -> str:
+    s = os.path.splitext(os.path.basename(path))[0]
+    return "".join(c if c.isalnum() or c in "_.-" else "_" for c in s)
+
+
+def mean(xs):
+    return statistics.fmean(xs)
+
+
+def psnr_mean(cmps):
+    ps = [c["psnr"] for c in cmps]
+    return None if any(p is None for p in ps) else mean(ps)
+
+
+def collect(out: str, stems: list[str]) -> dict:
+    """(stem, depth, band) -> done.json content, for the finished cells."""
+    cells = {}
+    for st in stems:
+        for p in glob.glob(os.path.join(out, "vdb", st, "d*", "band*.done.json")):
+            depth = int(os.path.basename(os.path.dirname(p))[1:])
+            band = int(os.path.basename(p)[4:].split(".")[0])
+            cells[(st, depth, band)] = load(p)
+    return cells
+
+
+def variant_stats(cell: dict, var: str) -> dict:
+    v = cell["variants"][var]
+    b = cell["build"]
+    views = v["render"]["views"]
+    return {
+        "psnr": psnr_mean(v["compare"]), "flip": mean(c["flip"] for c in v["compare"]),
+        "psnr_views": [c["psnr"] for c in v["compare"]], "flip_views": [c["flip"] for c in v["compare"]],
+        "render_ms": mean(x["render_ms"] for x in views), "render_cpu_ms": mean(x["render_cpu_ms"] for x in views),
+        "file_bytes": b["nanovdb"][var]["file_bytes"], "mem_bytes": b["nanovdb"][var]["mem_bytes"],
+        "convert_ms": b["nanovdb"][var]["convert_ms"], "sha": [c["test_sha256"] for c in v["compare"]],
+    }
+
+
+def rows_of(cells: dict) -> list[dict]:
+    rows = []
+    for (st, depth, band), c in sorted(cells.items()):
+        b = c["build"]
+        fl = variant_stats(c, "float")
+        rows.append({"model": st, "method": f"openvdb-band{band}", "depth": depth, "psnr": fl["psnr"],
+                     "flip": fl["flip"], "bytes": b["vdb_bytes"], "build_ms": b["build_ms"],
+                     "render_ms": fl["render_ms"], "psnr_views": fl["psnr_views"], "flip_views": fl["flip_views"]})
+        if band == NANO_ROW_BAND:
+            for var in VARIANTS:
+                s = variant_stats(c, var)
+                rows.append({"model": st, "method": f"nanovdb-{var}", "depth": depth, "psnr": s["psnr"],
+                             "flip": s["flip"], "bytes": s["file_bytes"], "build_ms": b["build_ms"] + s["convert_ms"],
+                             "render_ms": s["render_ms"], "psnr_views": s["psnr_views"], "flip_views": s["flip_views"]})
+    order = [f"openvdb-band{b}" for b in BANDS] + [f"nanovdb-{v}" for v in VARIANTS]
+    return sorted(rows, key=lambda r: (order.index(r["method"]), r["model"], r["depth"]))
+
+
+def f2(x, nd=2):
+    return "∞" if x is None else f"{x:.{nd}f}"
+
+
+def mb(b):
+    return f"{b / 1e6:.2f}"
+
+
+def at_equal_psnr(curve: list[tuple[float, float]], p: float):
+    """curve: [(psnr, bytes)] by increasing depth. The bytes (log-linear interpolation in PSNR)
+    where the curve first reaches PSNR p; None when it never does."""
+    pts = [(q, b) for q, b in curve if q is not None]
+    for (q0, b0), (q1, b1) in zip(pts, pts[1:]):
+        if q0 <= p <= q1 and q1 > q0:
+            w = (p - q0) / (q1 - q0)
+            return math.exp(math.log(b0) + w * (math.log(b1) - math.log(b0)))
+    if pts and pts[0][0] >= p:
+        return None  # already above at the coarsest depth: no bracket (reported as such)
+    return None
+
+
+def plot_model(stem, ours, theirs, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7.2, 4.4))
+    for name, pts, style in ours + theirs:
+        pts = [(b, p) for b, p, _ in pts if p is not None]
+        if not pts:
+            continue
+        ax.semilogx([b / 1e6 for b, _ in pts], [p for _, p in pts], style, marker="o", ms=3, label=name)
+    ax.set_xlabel("MB (file)")
+    ax.set_ylabel("PSNR (dB), mean of 4 views, 1024²")
+    ax.set_title(f"{stem}: PSNR against size, depths 6–10")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
+    fig.tight_layout()
+    tmp = path + ".tmp.png"
+    fig.savefig(tmp, dpi=90)
+    os.replace(tmp, path)
+
+
+def montage(images: list[str], path: str, crop=None) -> None:
+    import numpy as np
+    from PIL import Image
+    ims = []
+    for p in images:
+        im = np.array(Image.open(p).convert("RGB"))
+        if crop:
+            y0, y1, x0, x1 = crop
+            im = im[y0:y1, x0:x1]
+        ims.append(im)
+    gap = np.full((ims[0].shape[0], 4, 3), 255, np.uint8)
+    row = [ims[0]]
+    for s in ims[1:]:
+        row += [gap, s]
+    tmp = path + ".tmp.png"
+    Image.fromarray(np.concatenate(row, axis=1)).save(tmp)
+    os.replace(tmp, path)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("models", nargs="+")
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--docs")
+    ap.add_argument("--combined")
+    ap.add_argument("--rows-only", action="store_true")
+    a = ap.parse_args()
+    stems = [stem_of(m) for m in a.models]
+    cells = collect(a.out, stems)
+    if not cells:
+        sys.exit("report.py: no finished cell under " + a.out)
+    rows = rows_of(cells)
+    details = {f"{st}/d{d}/band{b}": {
+        "build": {k: c["build"][k] for k in ("build_ms", "build_cpu_ms", "active_voxels", "leaf_nodes", "vdb_bytes",
+                                              "vdb_mem_bytes", "fpn_tolerance", "voxel_size", "threads", "loadavg_1min",
+                                              "normalization", "triangles", "openvdb_version")},
+        "variants": {v: {k: x for k, x in variant_stats(c, v).items() if k != "sha"} for v in c["variants"]},
+        "identical_to_float": {v: variant_stats(c, v)["sha"] == variant_stats(c, "float")["sha"] for v in c["variants"]},
+        "render_threads": c["variants"]["float"]["render"]["threads"],
+        "intersector": c["variants"]["float"]["render"]["intersector"],
+    } for (st, d, b), c in sorted(cells.items())}
+    res = {"rows": rows, "openvdb": details,
+           "provenance": {"date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+                          "producer": "benches/peers/openvdb/run.sh"}}
+    atomic_write(os.path.join(a.out, "results.json"), json.dumps(res, indent=1))
+    if a.rows_only or not a.docs:
+        return
+    write_page(a, stems, cells, res)
+
+
+def write_page(a, stems, cells, res) -> None:
+    docs = a.docs
+    figdir = os.path.join(docs, "openvdb")
+    os.makedirs(figdir, exist_ok=True)
+    comb = load(os.path.join(a.combined, "results.json"))
+    ours = {(r["model"], r["method"], r["depth"]): r for r in comb["rows"] if r["method"] in ("svo", "multi")}
+    depths = sorted({d for (_, d, _) in cells})
+    stems = [s for s in stems if any(k[0] == s for k in cells)]
+    get = lambda st, d, b, v: variant_stats(cells[(st, d, b)], v) if (st, d, b) in cells else None
+
+    # timings
+    tims = {}
+    for p in glob.glob(os.path.join(a.out, "timing", "*.json")):
+        t = load(p)
+        tims[(t["model"], t["depth"])] = t
+    loads = [s["loadavg_1min"] for t in tims.values() for xs in t["samples"].values() for s in xs]
+    loads += [c["build"]["loadavg_1min"] for c in cells.values()]
+
+    L = []
+    w = L.append
+    w("# OpenVDB and NanoVDB on our protocol (issue 33)")
+    w("")
+    w("*Generated by `benches/peers/openvdb/run.sh " + " ".join(os.path.relpath(m) for m in a.models) + "` on "
+      + res["provenance"]["date"] + "; do not edit by hand (the prose is in `benches/peers/openvdb/report.py`; "
+      "the data in [`openvdb/results.json`](openvdb/results.json) and the combined sweep's "
+      "[`openvdb/sweep_results.json`](openvdb/sweep_results.json)).*")
+    w("")
+    w(f"**Read this first.** Measured on the project's shared 2-core machine while other engineers compiled Rust "
+      f"(1-minute load average {min(loads):.1f}–{max(loads):.1f}, median {statistics.median(loads):.1f}, at the "
+      "steps below; ours and theirs ran at `nice 10`). Wall times are inflated and noisy; CPU times (user + sys) "
+      "are given beside them, and the time claims use the interleaved runs of *Timing*, where ours and theirs "
+      "alternate in the same minutes. Sizes, PSNR and FLIP are deterministic.")
+    w("")
+    sw = comb["provenance"]
+    w("## What was run")
+    w("")
+    anyb = next(iter(cells.values()))["build"]
+    w(f"- **OpenVDB {anyb['openvdb_version']}** (Debian 12's `libopenvdb-dev`, `libnanovdb-dev`), driven by a small C++ "
+      "program, [`benches/peers/openvdb/vdbpeer.cpp`](../../benches/peers/openvdb/vdbpeer.cpp), built by `setup.sh` "
+      "with `g++ -O2` (no `-march`, like our release build).")
+    w("- **Frame.** The mesh is loaded (STL, OBJ), bit-identical vertices welded, zero-area triangles dropped, and "
+      "normalised as `sdfmo-build` does (`Normalization::for_bounds`, margin 0.05, in f32: bounding-box centre to the "
+      "origin, longest extent to 1.9). `openvdb::tools::meshToLevelSet` gets a linear transform of voxel size "
+      "2/2^d, so its lattice points are exactly our octree's corner lattice at depth d, and narrow-band half-width "
+      "1, 2 or 3 voxels (`bandB`). Build time is the `meshToLevelSet` call alone, TBB limited to "
+      f"{anyb['threads']} threads (`tbb::global_control`), beside our `build_ms` at the same thread count.")
+    w(f"- **Sizes.** `.vdb`: `openvdb::io::File::write`, default settings (Blosc/zip compression of the active values "
+      "as the library chooses; full-precision floats). NanoVDB: `nanovdb::OpenToNanoVDB<float, T>` for T = float, "
+      "Fp16, Fp8, Fp4, FpN, written with `nanovdb::io::writeGrid` (no codec); *file* bytes are the `.nvdb` file, "
+      "*memory* bytes the grid buffer (`GridHandle::size`), 200 bytes less. FpN's tolerance is NanoVDB's own "
+      f"default for level sets: absolute 0.1 voxel ({anyb['fpn_tolerance']:.3g} at depth {anyb['voxel_size'] and round(math.log2(2 / anyb['voxel_size']))}).")
+    w("- **Rendering.** The paper protocol of `crates/sdfmo-render` reimplemented in C++ (camera frame in f64, ray "
+      "directions rounded to f32 once, 4 views, 1024², lambert `round(clamp(0.25 + 2/3·max(0, n·l), 0, 1)·255)`, "
+      "l = normalize(1,1,1), normals flipped to face the viewer, black background). Intersection: NanoVDB's "
+      "`nanovdb::firstActive` (its HDDA over the tree: empty space skipped node by node) finds the narrow band; "
+      "from one voxel before it the ray walks the trilinear cells of the lattice and solves the interpolant along "
+      "the ray exactly in each cell with corners of both signs (a cubic, split at its critical points, bisected), "
+      "as our kernel does per voxel; the normal is the trilinear gradient. Why not `nanovdb::ZeroCrossing` as it "
+      "is: see *Intersector* below. Multithreaded over rows (`std::thread`, "
+      f"{next(iter(cells.values()))['variants']['float']['render']['threads']} threads), one frame per view "
+      "(render ms on the tables: mean over the views; the time claims use *Timing*).")
+    w(f"- **Scoring.** Each PNG is scored by `sdfmo compare` against the mesh reference of `sdfmo render-mesh` "
+      f"(the sweep's renderer; the references here are byte-identical to the combined sweep's, checked below). "
+      f"Our rows are the combined `sdfmo sweep --extra-rows` run ({sw['date']}, commit `{sw['git_commit'][:10]}`, "
+      f"{sw['threads']} threads, {sw.get('frames', '?')} frames per view).")
+    w(f"- **Rows** written for `sdfmo sweep --extra-rows`: `openvdb-band1..3` (the `.vdb` file's bytes, images of its "
+      f"float grid: the conversion to NanoVDB float is lossless), `nanovdb-float`, `-fp16`, `-fp8`, `-fp4`, `-fpn` at "
+      f"band {NANO_ROW_BAND} (the smallest grids; the other bands are in the tables and the JSON).")
+    w("")
+
+    # reference check and reuse of committed data
+    same_refs, n_refs = 0, 0
+    from hashlib import sha256
+    for st in stems:
+        for k in range(4):
+            p1 = os.path.join(a.out, "refs", st, f"reference_{k}.png")
+            p2 = os.path.join(a.combined, "images", st, f"reference_{k}.png")
+            if os.path.exists(p1) and os.path.exists(p2):
+                n_refs += 1
+                same_refs += open(p1, "rb").read() == open(p2, "rb").read()
+    committed = os.path.join(docs, "sweep", "results.json")
+    reuse_txt = ""
+    if os.path.exists(committed):
+        cr = {(r["model"], r["method"], r["depth"]): r for r in load(committed)["rows"]}
+        common = [k for k in ours if k in cr]
+        same = [k for k in common if ours[k]["psnr"] == cr[k]["psnr"] and ours[k]["bytes"] == cr[k]["bytes"]]
+        reuse_txt = (f" Against the committed sweep ([sweep.md](sweep.md), commit "
+                     f"`{load(committed)['provenance']['git_commit'][:10]}`), {len(same)} of {len(common)} of our rows "
+                     "repeat PSNR and bytes to the last digit"
+                     + ("" if len(same) == len(common) else
+                        " (the others: " + ", ".join(f"{m} {me} d{d}" for m, me, d in common if (m, me, d) not in same) + ")")
+                     + "; the sweep was rerun anyway because `--extra-rows` merges into a fresh run and the render "
+                     "times had to come from this session's load.")
+    w(f"References: {same_refs} of {n_refs} mesh reference images here are byte-identical to the combined sweep's." + reuse_txt)
+    w("")
+
+    # sanity check
+    w("## Sanity check: is the peer used well?")
+    w("")
+    w("Their float level set at the finest depth beside our two octrees at the same depth (same lattice; our SVO "
+      "stores the same corner distances as one trilinear voxel per leaf, quantised to 8 bits).")
+    w("")
+    dtop = max(depths)
+    w(f"| model | depth | OpenVDB band 3 (float) PSNR | FLIP | our SVO PSNR | our multi PSNR | FLIP | ours − theirs (multi) |")
+    w("|---|---:|---:|---:|---:|---:|---:|---:|")
+    within = []
+    for st in stems:
+        t = get(st, dtop, 3, "float")
+        u, s = ours.get((st, "multi", dtop)), ours.get((st, "svo", dtop))
+        if not t or not u:
+            continue
+        dp = u["psnr"] - t["psnr"]
+        if abs(dp) <= 1.0:
+            within.append(st)
+        w(f"| {st} | {dtop} | {f2(t['psnr'])} | {t['flip']:.4f} | {f2(s['psnr']) if s else '–'} | {f2(u['psnr'])} | "
+          f"{u['flip']:.4f} | {dp:+.2f} |")
+    w("")
+    w(f"Within 1 dB of ours at depth {dtop}: **{len(within)} of {len([s for s in stems if get(s, dtop, 3, 'float')])} "
+      f"models** ({', '.join(within) if within else 'none'}). Where it is further, the gap is what the "
+      "multi-octree adds over a single trilinear field (the same gap separates our own SVO from the multi-octree: "
+      "sharp edges as plane voxels, components split per leaf), not a misuse: the SVO column, which samples the "
+      "same distances, scores like OpenVDB's float grid.")
+    w("")
+
+    # intersector
+    ij = os.path.join(a.out, "intersectors.json")
+    if os.path.exists(ij):
+        it = load(ij)
+        w("## Intersector: NanoVDB's `ZeroCrossing` as it is")
+        w("")
+        w(f"{it['model']} at depth {it['depth']}, band {it['band']}, float grid, 4 views: "
+          + "; ".join(f"**{k}** {f2(v['psnr'])} dB (FLIP {v['flip']:.4f}, {v['render_ms']:.0f} ms/frame)" for k, v in it["modes"].items())
+          + ". `zerocrossing-raw` is NanoVDB's `ZeroCrossing` used as its `ex_raytrace_level_set` example does: the hit "
+          "is the time the ray enters the first voxel whose value has the other sign, the normal the central "
+          "difference of voxel values there (voxel-sized facets). `zerocrossing-refined` takes that voxel and "
+          "refines the hit on the trilinear interpolant (as OpenVDB's `LevelSetRayIntersector` does), but "
+          "`ZeroCrossing` tests only the lower corner of each voxel the ray enters, so at grazing incidence it "
+          "fires early or late by several voxels and misses thin slivers of the interpolant at silhouettes. "
+          "`exact` (used everywhere else) is described above: the peer at its best, the same surface definition "
+          "as our kernel's.")
+        w("")
+
+    # bands and identical images
+    w("## Which band the renders need; which variants render the same pixels")
+    w("")
+    same23 = [(st, d) for (st, d, b) in cells if b == 2 and (st, d, 3) in cells
+              and variant_stats(cells[(st, d, 2)], "float")["sha"] == variant_stats(cells[(st, d, 3)], "float")["sha"]]
+    n23 = len([1 for (st, d, b) in cells if b == 2 and (st, d, 3) in cells])
+    d13 = [(variant_stats(cells[(st, d, 1)], "float")["psnr"] - variant_stats(cells[(st, d, 3)], "float")["psnr"])
+           for (st, d, b) in cells if b == 1 and (st, d, 3) in cells
+           and variant_stats(cells[(st, d, 1)], "float")["psnr"] is not None]
+    w(f"- **Band 2 is all the renders need**: the float grid of band 2 renders images byte-identical to band 3's in "
+      f"{len(same23)} of {n23} (model, depth) pairs (a trilinear cell that the surface crosses has all corners within "
+      f"√3 voxels of it). Band 1 clamps some of those corners to the background (±1 voxel): "
+      f"{min(d13):+.2f} to {max(d13):+.2f} dB against band 3 (median {statistics.median(d13):+.2f})." if d13 else "")
+    ident = {v: [0, 0] for v in VARIANTS if v != "float"}
+    for c in cells.values():
+        for v in ident:
+            if v in c["variants"]:
+                ident[v][1] += 1
+                ident[v][0] += variant_stats(c, v)["sha"] == variant_stats(c, "float")["sha"]
+    w("- **NanoVDB float and Fp16 are not the same images**: images (sets of 4 views) identical to the float "
+      "grid's: " + ", ".join(f"{VNAME[v]} {x[0]} of {x[1]}" for v, x in ident.items())
+      + ". Fp16 quantises each 8³ leaf's values (active and inactive, min to max) to 16 bits: "
+      "invisible on most surfaces, but where a plate thinner than a voxel leaves values of ±10⁻⁶ voxel at the "
+      "lattice (abc8's thin disc), rounding flips their sign and the plate gets holes. Every variant was "
+      "rendered and scored.")
+    w("")
+
+    # per model tables
+    w("## Per model: PSNR (dB) / MB by depth")
+    w("")
+    w("Columns: our SVO and multi-octree (`.smo`), the `.vdb` file per band, NanoVDB per variant at band 1 and "
+      "band 3 (file MB; in memory 200 bytes less). PSNR is the mean over the 4 views at 1024².")
+    w("")
+    cols = [("SVO", None), ("multi", None)] + [(f".vdb b{b}", ("vdb", b)) for b in BANDS] \
+        + [(f"{VNAME[v]} b1", (v, 1)) for v in VARIANTS] + [(f"{VNAME[v]} b3", (v, 3)) for v in VARIANTS]
+    for st in stems:
+        w(f"### {st}")
+        w("")
+        w("| depth | " + " | ".join(c for c, _ in cols) + " |")
+        w("|---:|" + "---:|" * len(cols))
+        for d in depths:
+            cs = []
+            for name, key in cols:
+                if key is None:
+                    r = ours.get((st, name.lower() if name == "SVO" else "multi", d))
+                    cs.append(f"{f2(r['psnr'])} / {mb(r['bytes'])}" if r else "–")
+                elif key[0] == "vdb":
+                    c = cells.get((st, d, key[1]))
+                    cs.append(f"{f2(variant_stats(c, 'float')['psnr'])} / {mb(c['build']['vdb_bytes'])}" if c else "–")
+                else:
+                    s = get(st, d, key[1], key[0])
+                    cs.append(f"{f2(s['psnr'])} / {mb(s['file_bytes'])}" if s else "–")
+            w(f"| {d} | " + " | ".join(cs) + " |")
+        w("")
+        w("| depth | multi FLIP | .vdb b3 FLIP | Fp8 b1 FLIP | Fp4 b1 FLIP | multi build ms | meshToLevelSet ms b1 / b3 (CPU) | multi render ms | float b3 render ms (CPU) | Fp4 b1 render ms (CPU) |")
+        w("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+        for d in depths:
+            u = ours.get((st, "multi", d))
+            c1, c3 = cells.get((st, d, 1)), cells.get((st, d, 3))
+            t3 = get(st, d, 3, "float")
+            t8, t4 = get(st, d, 1, "fp8"), get(st, d, 1, "fp4")
+            w(f"| {d} | {u['flip']:.4f} | " if u else f"| {d} | – | ")
+            L[-1] += (f"{t3['flip']:.4f} | " if t3 else "– | ") + (f"{t8['flip']:.4f} | " if t8 else "– | ") \
+                + (f"{t4['flip']:.4f} | " if t4 else "– | ") + (f"{u['build_ms']:.0f} | " if u else "– | ")
+            L[-1] += (f"{c1['build']['build_ms']:.0f} / {c3['build']['build_ms']:.0f} ({c1['build']['build_cpu_ms']:.0f} / "
+                      f"{c3['build']['build_cpu_ms']:.0f}) | " if c1 and c3 else "– | ")
+            L[-1] += (f"{u['render_ms']:.0f} | " if u else "– | ") \
+                + (f"{t3['render_ms']:.0f} ({t3['render_cpu_ms']:.0f}) | " if t3 else "– | ") \
+                + (f"{t4['render_ms']:.0f} ({t4['render_cpu_ms']:.0f}) |" if t4 else "– |")
+        w("")
+        curves_ours = [(n, [(ours[(st, m, d)]["bytes"], ours[(st, m, d)]["psnr"], d) for d in depths if (st, m, d) in ours], s)
+                       for n, m, s in (("SVO", "svo", "b-"), ("multi-octree", "multi", "r-"))]
+        curves_theirs = [(f".vdb band {b}", [(cells[(st, d, b)]["build"]["vdb_bytes"], variant_stats(cells[(st, d, b)], "float")["psnr"], d)
+                                            for d in depths if (st, d, b) in cells], ls)
+                         for b, ls in ((1, "k:"), (3, "k--"))]
+        curves_theirs += [(f"NanoVDB {VNAME[v]} b{b}", [(get(st, d, b, v)["file_bytes"], get(st, d, b, v)["psnr"], d)
+                                                        for d in depths if get(st, d, b, v)], ls)
+                          for v, b, ls in (("float", 1, "g-"), ("fp8", 1, "c-"), ("fp4", 1, "m-"), ("fpn", 1, "y-"), ("fp4", 3, "m--"))]
+        png = f"psnr_vs_mb_{st}.png"
+        plot_model(st, curves_ours, curves_theirs, os.path.join(figdir, png))
+        w(f"![{st}: PSNR against MB](openvdb/{png})")
+        w("")
+
+    # claim 1: bytes at equal PSNR
+    w("## Claim 1: bytes at equal PSNR")
+    w("")
+    w("For each of our multi-octree points (depth d, PSNR p) the peer's bytes at the same PSNR, interpolated "
+      "log-linearly in PSNR between its depths (6–10); ratio = our bytes ÷ theirs (below 1: we are smaller). "
+      "*Best NanoVDB*: the smallest of the 15 grids (5 variants × 3 bands) at that PSNR; *.vdb*: the smallest of "
+      "the 3 bands. \"not reached\": the peer's depth-10 grid stays below p.")
+    w("")
+    w("| model | our depth | our PSNR | our MB | best NanoVDB at that PSNR | ratio | best .vdb | ratio |")
+    w("|---|---:|---:|---:|---|---:|---|---:|")
+    ratios_nano, ratios_vdb, not_reached = {}, {}, []
+    for st in stems:
+        for d in depths:
+            u = ours.get((st, "multi", d))
+            if not u or u["psnr"] is None:
+                continue
+            best_n, best_v = None, None
+            for b in BANDS:
+                cv = [(variant_stats(cells[(st, dd, b)], "float")["psnr"], cells[(st, dd, b)]["build"]["vdb_bytes"])
+                      for dd in depths if (st, dd, b) in cells]
+                x = at_equal_psnr(cv, u["psnr"])
+                if x and (not best_v or x < best_v[0]):
+                    best_v = (x, f"band {b}")
+                for v in VARIANTS:
+                    cv = [(get(st, dd, b, v)["psnr"], get(st, dd, b, v)["file_bytes"]) for dd in depths if get(st, dd, b, v)]
+                    x = at_equal_psnr(cv, u["psnr"])
+                    if x and (not best_n or x < best_n[0]):
+                        best_n = (x, f"{VNAME[v]} b{b}")
+            if best_n:
+                ratios_nano.setdefault(d, []).append((st, u["bytes"] / best_n[0]))
+            if best_v:
+                ratios_vdb.setdefault(d, []).append((st, u["bytes"] / best_v[0]))
+            if not best_n and not best_v:
+                not_reached.append(f"{st} d{d} ({f2(u['psnr'])} dB)")
+            w(f"| {st} | {d} | {f2(u['psnr'])} | {mb(u['bytes'])} | "
+              + (f"{best_n[1]}: {mb(best_n[0])} MB | {u['bytes'] / best_n[0]:.2f} | " if best_n else "not reached | – | ")
+              + (f"{best_v[1]}: {mb(best_v[0])} MB | {u['bytes'] / best_v[0]:.2f} |" if best_v else "not reached | – |"))
+    w("")
+    claims = {}
+    for d in sorted(ratios_nano):
+        rn = ratios_nano.get(d, [])
+        rv = ratios_vdb.get(d, [])
+        claims[d] = (rn, rv)
+    w("Summary (median over the models where the peer reaches our PSNR; each model's ratio in brackets):")
+    w("")
+    for d, (rn, rv) in claims.items():
+        w(f"- our depth {d}: ours ÷ best NanoVDB **{statistics.median(r for _, r in rn):.2f}×** "
+          f"({', '.join(f'{s} {r:.2f}' for s, r in rn)})"
+          + (f"; ours ÷ best .vdb **{statistics.median(r for _, r in rv):.2f}×** ({', '.join(f'{s} {r:.2f}' for s, r in rv)})" if rv else ""))
+    if not_reached:
+        w(f"- The peer does not reach our PSNR at any depth ≤ {max(depths)} for: {', '.join(not_reached)} "
+          "(no ratio: its finest grid is below our quality; see the tables for its size there).")
+    w("")
+
+    # claims 2 and 3: timing
+    res_time = {}
+    if tims:
+        w("## Claims 2 and 3: render and build time, interleaved")
+        w("")
+        t0 = next(iter(tims.values()))
+        w(f"Per model and depth, {t0['rounds']} rounds; in each, our build (`sdfmo build --method multi`) and "
+          f"`meshToLevelSet` (band 3 and band 1), then view 0 rendered {t0['frames']} times by `sdfmo render` "
+          "(multi-octree) and by vdbpeer (NanoVDB float band 3, Fp8 band 1, Fp4 band 1), the order rotated every "
+          f"round; all at {t0['threads']} threads, `nice 10`. Render: wall ms per frame (median over frames, then over "
+          "rounds) and **CPU ms per frame** (user + sys of the process ÷ frames, load included: the per-core "
+          "cost). Build: wall ms of the build call itself (ours `build_ms`, theirs `meshToLevelSet`), and CPU "
+          "ms (ours: the whole process, loading and saving included; theirs: the call).")
+        w("")
+        w("| model | depth | load | ours render ms (CPU) | float b3 ms (CPU) | Fp8 b1 ms (CPU) | Fp4 b1 ms (CPU) | ours ÷ float b3, CPU | ours build ms (CPU) | meshToLevelSet b3 ms (CPU) | b1 ms | ours ÷ b3 build, wall |")
+        w("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+        rr, rb, rb1, rr4 = [], [], [], []
+        for (st, d), t in sorted(tims.items()):
+            S = t["samples"]
+            med = lambda k, f: statistics.median(x[f] for x in S[k])
+            la = statistics.median(x["loadavg_1min"] for xs in S.values() for x in xs)
+            o_ms, o_cpu = med("ours_render", "render_ms"), med("ours_render", "cpu_ms_per_frame")
+            f_ms, f_cpu = med("vdb_render_band3_float", "render_ms"), med("vdb_render_band3_float", "cpu_ms_per_frame")
+            e_ms, e_cpu = med("vdb_render_band1_fp8", "render_ms"), med("vdb_render_band1_fp8", "cpu_ms_per_frame")
+            q_ms, q_cpu = med("vdb_render_band1_fp4", "render_ms"), med("vdb_render_band1_fp4", "cpu_ms_per_frame")
+            ob, ob_cpu = med("ours_build", "build_ms"), med("ours_build", "process_cpu_ms")
+            vb, vb_cpu = med("vdb_build_band3", "build_ms"), med("vdb_build_band3", "build_cpu_ms")
+            vb1 = med("vdb_build_band1", "build_ms")
+            rr.append((st, d, o_cpu / f_cpu)); rr4.append((st, d, o_cpu / q_cpu))
+            rb.append((st, d, ob / vb)); rb1.append((st, d, ob / vb1))
+            w(f"| {st} | {d} | {la:.1f} | {o_ms:.0f} ({o_cpu:.0f}) | {f_ms:.0f} ({f_cpu:.0f}) | {e_ms:.0f} ({e_cpu:.0f}) | "
+              f"{q_ms:.0f} ({q_cpu:.0f}) | {o_cpu / f_cpu:.2f} | {ob:.0f} ({ob_cpu:.0f}) | {vb:.0f} ({vb_cpu:.0f}) | "
+              f"{vb1:.0f} | {ob / vb:.2f} |")
+        w("")
+        res_time = {"render": rr, "render_fp4": rr4, "build": rb, "build_b1": rb1}
+        w(f"- **Render time per core, ours ÷ theirs** (CPU ms per frame, view 0): against NanoVDB float band 3 "
+          f"median **{statistics.median(x for *_, x in rr):.2f}×** ({min(x for *_, x in rr):.2f}–{max(x for *_, x in rr):.2f}); "
+          f"against Fp4 band 1 median {statistics.median(x for *_, x in rr4):.2f}×. Below 1: we are faster.")
+        w(f"- **Build time, ours ÷ theirs** (wall, same threads): against `meshToLevelSet` band 3 median "
+          f"**{statistics.median(x for *_, x in rb):.2f}×** ({min(x for *_, x in rb):.2f}–{max(x for *_, x in rb):.2f}); "
+          f"band 1 median {statistics.median(x for *_, x in rb1):.2f}×. Above 1: they build faster. Their NanoVDB "
+          "conversions add " + ", ".join(f"{v} {statistics.median(c['build'] and variant_stats(c, v)['convert_ms'] for k, c in cells.items() if k[1] == max(depths)):.0f} ms"
+                                          for v in ("float", "fp4", "fpn")) + f" (median at depth {max(depths)}).")
+        w("")
+    res["claims"] = {"bytes_at_equal_psnr": {str(d): {"nanovdb": rn, "vdb": rv} for d, (rn, rv) in claims.items()},
+                     "time": res_time}
+
+    # hard cases
+    hard_sweep = os.path.join(a.out, "hard", "sweep", "results.json")
+    if os.path.exists(hard_sweep):
+        hs = load(hard_sweep)
+        hrows = {(r["model"], r["method"], r["depth"]): r for r in hs["rows"]}
+        hstems = [m["model"] for m in hs["models"]]
+        hcells = collect(a.out, hstems)
+        w("## Hard cases: thin fins, thin gaps, an open sheet")
+        w("")
+        w(f"`sdfmo generate-parts -n {len(hstems)} --seed 1`: seeded CAD-like parts (a plate with holes and slots, "
+          "bosses, fins 0.003–0.02 thick, i.e. 0.8–5 voxels at depth 9 and under one voxel at depth 8 for the "
+          "thinnest, blocks stacked over thin gaps, a bent open sheet; each feature its own part). Same protocol; "
+          "the references are that sweep's.")
+        w("")
+        w("| part | depth | SVO | multi | OpenVDB float b3 | float b1 | Fp8 b1 | Fp4 b1 | multi − float b3 |")
+        w("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+        for st in hstems:
+            for d in sorted({k[1] for k in hcells if k[0] == st}):
+                s, u = hrows.get((st, "svo", d)), hrows.get((st, "multi", d))
+                g = lambda b, v: variant_stats(hcells[(st, d, b)], v) if (st, d, b) in hcells and v in hcells[(st, d, b)]["variants"] else None
+                t3, t1, t8, t4 = g(3, "float"), g(1, "float"), g(1, "fp8"), g(1, "fp4")
+                w(f"| {st} | {d} | {f2(s['psnr']) if s else '–'} | {f2(u['psnr']) if u else '–'} | "
+                  f"{f2(t3['psnr']) if t3 else '–'} | {f2(t1['psnr']) if t1 else '–'} | {f2(t8['psnr']) if t8 else '–'} | "
+                  f"{f2(t4['psnr']) if t4 else '–'} | "
+                  + (f"{u['psnr'] - t3['psnr']:+.2f} |" if u and t3 and u["psnr"] is not None and t3["psnr"] is not None else "– |"))
+        w("")
+        best = None
+        for (st, d, b), c in hcells.items():
+            u = hrows.get((st, "multi", d))
+            if b != 3 or not u or not u.get("psnr_views"):
+                continue
+            t = variant_stats(c, "float")
+            for k in range(4):
+                if u["psnr_views"][k] is not None and t["psnr_views"][k] is not None:
+                    g = u["psnr_views"][k] - t["psnr_views"][k]
+                    if best is None or g > best[0]:
+                        best = (g, st, d, k)
+        if best:
+            import numpy as np
+            from PIL import Image
+            g, st, d, k = best
+            imgs = [os.path.join(a.out, "hard", "sweep", "images", st, f"reference_{k}.png"),
+                    os.path.join(a.out, "hard", "sweep", "images", st, f"svo_d{d}_{k}.png"),
+                    os.path.join(a.out, "hard", "sweep", "images", st, f"multi_d{d}_{k}.png"),
+                    os.path.join(a.out, "vdb", st, f"d{d}", f"band3_float_{k}.png")]
+            if all(os.path.exists(p) for p in imgs):
+                ref = np.array(Image.open(imgs[0]).convert("L"))
+                ys, xs = np.nonzero(ref)
+                crop = (max(0, ys.min() - 8), min(ref.shape[0], ys.max() + 9), max(0, xs.min() - 8), min(ref.shape[1], xs.max() + 9))
+                montage(imgs, os.path.join(figdir, "hard_montage.png"), crop)
+                cap = (f"{st}, depth {d}, view {k} (the largest per-view gap, multi − OpenVDB float band 3 = {g:+.2f} dB), "
+                       "cropped to the part, full resolution; left to right: mesh reference, our SVO, our multi-octree, "
+                       "OpenVDB float band 3 (NanoVDB render)")
+                w(f"![{cap}](openvdb/hard_montage.png)")
+                w("")
+                w(cap + ".")
+                w("")
+        w(HARD_PROSE)
+        w("")
+
+    # combined sweep
+    w("## Combined sweep (`sdfmo sweep --extra-rows`)")
+    w("")
+    for png in ("plot_psnr_vs_size.png", "plot_psnr_vs_render_time.png"):
+        src = os.path.join(a.combined, png)
+        if os.path.exists(src):
+            shutil.copyfile(src, os.path.join(figdir, png + ".tmp"))
+            os.replace(os.path.join(figdir, png + ".tmp"), os.path.join(figdir, png))
+            w(f"![{png}](openvdb/{png})")
+            w("")
+    shutil.copyfile(os.path.join(a.combined, "results.json"), os.path.join(figdir, "sweep_results.json.tmp"))
+    os.replace(os.path.join(figdir, "sweep_results.json.tmp"), os.path.join(figdir, "sweep_results.json"))
+    w("The combined table (ours measured in this run, the peer's rows merged) is "
+      "[`openvdb/sweep_table.md`](openvdb/sweep_table.md).")
+    shutil.copyfile(os.path.join(a.combined, "table.md"), os.path.join(figdir, "sweep_table.md"))
+    w("")
+
+    # missing
+    want = [(st, d, b) for st in stems for d in range(6, 11) for b in BANDS]
+    miss = [k for k in want if k not in cells]
+    w("## What is missing")
+    w("")
+    if miss:
+        w("Cells (model, depth, band) not run: " + ", ".join(f"{st} d{d} b{b}" for st, d, b in miss) + ".")
+    else:
+        w("Nothing of the matrix: all five models, depths 6–10, bands 1–3, the 5 NanoVDB variants of each, 4 views.")
+    w(MISSING_PROSE)
+    w("")
+    atomic_write(os.path.join(figdir, "results.json"), json.dumps(res, indent=1))
+    atomic_write(os.path.join(a.out, "results.json"), json.dumps(res, indent=1))
+    atomic_write(os.path.join(docs, "openvdb.md"), "\n".join(L) + "\n")
+
+
+HARD_PROSE = ("What each keeps: `meshToLevelSet` signs its distances by flood-filling the voxels outside the "
+              "surface, so a closed part thicker than a voxel is kept at every band, but a fin or sheet thinner "
+              "than a voxel has no lattice point inside it: its values are small and positive on both sides, and "
+              "the trilinear field never crosses zero (the feature vanishes or gets holes), and an open sheet "
+              "encloses nothing, so it is all \"outside\" and vanishes the same way. Two parts closer than a "
+              "voxel share lattice points whose single value is the distance to the nearer one: the gap closes. "
+              "The multi-octree keeps these with per-component voxels and surface (unsigned) voxels; the SVO, "
+              "one signed trilinear voxel per leaf like OpenVDB's grid, loses them too.")
+MISSING_PROSE = ("Not measured here: NanoVDB on a GPU (no GPU on this machine; the CPU numbers are NanoVDB's "
+                 "host code path, which is the same HDDA and accessor code the CUDA kernels run), `.nvdb` files "
+                 "with NanoVDB's optional Blosc/zip codec (not compiled into Debian's headers-only package), and "
+                 "OpenVDB's own `vdb_render`.")
+
+
+if __name__ == "__main__":
+    main()
