@@ -13,17 +13,18 @@
 //       fp8,fp4,fpn}.nvdb (nanovdb::io::writeGrid, no codec), and prints one JSON object:
 //       timings (wall and CPU), active voxels, bytes of each file and each in-memory grid.
 //   vdbpeer render GRID.nvdb --out PREFIX [--views 0,1,2,3] [--size N] [--threads N]
-//       [--frames K] [--raw]
+//       [--frames K] [--zc | --raw]
 //       The paper protocol (crates/sdfmo-render: camera.rs, shading.rs): eye 3(sin θ,0,cos θ),
 //       θ = 2πk/4, target origin, +Y up, fov 60°, pixel centres, frame in f64 and each ray
 //       direction rounded to f32 once; lambert: round(clamp(0.25 + 2/3·max(0, n·l), 0, 1)·255),
 //       l = normalize(1,1,1), normals flipped to face the viewer, black background, 8-bit grey
-//       RGB. Hits: NanoVDB's own nanovdb::ZeroCrossing (HDDA over the tree, then the first sign
-//       change of the voxel values along the ray), then (default) the hit refined on the
-//       trilinear interpolant (nanovdb::SampleFromVoxels order 1) near that voxel, as OpenVDB's
-//       LevelSetRayIntersector does, and the normal is the trilinear gradient there; with --raw
-//       the hit is ZeroCrossing's time and the normal the central difference of voxel values at
-//       its voxel (NanoVDB's ex_raytrace_level_set). Writes PREFIX_K.png and prints JSON.
+//       RGB. Hits (default, "exact"): NanoVDB's HDDA (nanovdb::firstActive) skips empty space to
+//       the narrow band, then the ray walks the trilinear cells and solves the interpolant along
+//       it exactly per cell (see trace_exact); the normal is the trilinear gradient. --zc:
+//       nanovdb::ZeroCrossing, the hit refined on the trilinear interpolant near its voxel.
+//       --raw: nanovdb::ZeroCrossing's time and the central difference of voxel values at its
+//       voxel (NanoVDB's ex_raytrace_level_set). Writes PREFIX_K.png and prints JSON (per view:
+//       median wall ms and CPU ms over K frames).
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/MeshToVolume.h>
 #include <tbb/global_control.h>
