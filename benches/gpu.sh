@@ -9,6 +9,8 @@
 # (image side), PROFILE (cargo profile of the sdfmo binary: release by default; `debug` builds
 # octrees more slowly but renders on the GPU in the same time), DATA (the shared meshes,
 # ../shared/data), OUT (where octrees and images go; a temporary directory by default),
+# SDFMO (a prebuilt sdfmo binary: no cargo build, for a machine without Rust), CPU (0: skip the
+# CPU renderer's column),
 # WGPU_ADAPTER_NAME / WGPU_BACKEND (pick the adapter, as wgpu's examples do).
 #
 # Runs unchanged on Mesa's software Vulkan (lavapipe) and on a real GPU (Vulkan, Metal, DX12).
@@ -28,7 +30,10 @@ DATA=${DATA:-../shared/data}
 OUT=${OUT:-$(mktemp -d)}
 mkdir -p "$OUT"
 
-if [ "$PROFILE" = release ]; then
+CPU=${CPU:-1}
+if [ -n "${SDFMO:-}" ]; then
+    BIN=$SDFMO
+elif [ "$PROFILE" = release ]; then
     cargo build --release -p sdfmo-cli >&2
     BIN=target/release/sdfmo
 else
@@ -59,8 +64,13 @@ for model in $MODELS; do
                 $BIN render "$smo" --device gpu --views paper --size "$SIZE" --mode lambert \
                     -o "$OUT/gpu.png" --json 2>/dev/null > "$OUT/gpu.json"
             done
-            $BIN render "$smo" --device cpu --views paper --size "$SIZE" --mode lambert \
-                -o "$OUT/cpu.png" --json > "$OUT/cpu.json"
+            cp "$OUT/gpu.json" "$OUT/$model-$method-d$depth.gpu.json"
+            if [ "$CPU" = 1 ]; then
+                $BIN render "$smo" --device cpu --views paper --size "$SIZE" --mode lambert \
+                    -o "$OUT/cpu.png" --json > "$OUT/cpu.json"
+            else
+                echo '{"render_ms": NaN, "views": [0]}' > "$OUT/cpu.json"
+            fi
             python3 - "$OUT" "$model" "$method" "$depth" "$SIZE" <<'PY'
 import json, os, statistics, sys
 out, model, method, depth, size = sys.argv[1:]

@@ -124,6 +124,12 @@ class NGLOD(torch.nn.Module):
         off = torch.tensor([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)])
         self.register_buffer("offsets", off, persistent=False)
 
+    def to_device(self, device: str) -> "NGLOD":
+        """Moves the parameters and the corner tables (plain tensors, not buffers) to `device`."""
+        self.to(device)
+        self.luts = [t.to(device) for t in self.luts]
+        return self
+
     def level_feature(self, p: torch.Tensor, k: int) -> torch.Tensor:
         res = lod_res(k)
         x = (p + 1.0) * (0.5 * res)
@@ -253,7 +259,7 @@ def trace(model: NGLOD, k: int, o: torch.Tensor, d: torch.Tensor, skip: torch.Te
     tn = t0.max(-1).values.clamp(min=0.0)
     tf = t1.min(-1).values
     t = tn + 1e-6
-    hit = torch.zeros(n, dtype=torch.bool)
+    hit = torch.zeros(n, dtype=torch.bool, device=o.device)
     idx = torch.nonzero(tn < tf).squeeze(-1)
     for _ in range(max_steps):
         if idx.numel() == 0:
@@ -297,14 +303,17 @@ def normals(model: NGLOD, k: int, p: torch.Tensor) -> torch.Tensor:
             sd = model.sdf(q, k)
             (g,) = torch.autograd.grad(sd.sum(), q)
         out.append(g)
-    g = torch.cat(out) if out else torch.zeros((0, 3))
+    g = torch.cat(out) if out else torch.zeros((0, 3), device=p.device)
     return g / g.norm(dim=-1, keepdim=True).clamp(min=1e-12)
 
 
 def render(model: NGLOD, k: int, view: int, size: int, skip: torch.Tensor, chunk: int = 1 << 20) -> np.ndarray:
-    o, d = paper_camera(view, size)
+    dev = model.offsets.device
+    o, d = (x.to(dev) for x in paper_camera(view, size))
     cone = 0.25 * 2.0 * math.tan(math.radians(30.0)) / size
-    img = torch.zeros(o.shape[0], dtype=torch.uint8)
+    img = torch.zeros(o.shape[0], dtype=torch.uint8, device=dev)
+    light = LIGHT.to(dev)
+    skip = skip.to(dev)
     for s in range(0, o.shape[0], chunk):
         oc, dc = o[s:s + chunk], d[s:s + chunk]
         hit, t = trace(model, k, oc, dc, skip, cone)
@@ -315,9 +324,9 @@ def render(model: NGLOD, k: int, view: int, size: int, skip: torch.Tensor, chunk
         nrm = normals(model, k, p)
         flip = (nrm * dc[hi]).sum(-1) > 0
         nrm[flip] = -nrm[flip]
-        val = 0.25 + (2.0 / 3.0) * (nrm @ LIGHT).clamp(min=0.0)
+        val = 0.25 + (2.0 / 3.0) * (nrm @ light).clamp(min=0.0)
         img[s + hi] = torch.round(val.clamp(0.0, 1.0) * 255.0).to(torch.uint8)
-    g = img.reshape(size, size).numpy()
+    g = img.reshape(size, size).cpu().numpy()
     return np.repeat(g[:, :, None], 3, axis=2).copy()
 
 
@@ -404,20 +413,33 @@ def cmd_train(a) -> None:
     atomic_write(a.out + ".train.json", json.dumps(log, indent=1).encode())
 
 
-def load_model(path: str) -> NGLOD:
-    ck = torch.load(path, weights_only=False)
+def load_model(path: str, device: str = "cpu") -> NGLOD:
+    ck = torch.load(path, weights_only=False, map_location="cpu")
     model = NGLOD(ck["levels"])
     model.load_state_dict(ck["state"])
     model.eval()
-    return model
+    return model.to_device(device)
+
+
+def sync(device: str) -> None:
+    """Waits for the device's queued work, so that a wall-clock time covers it."""
+    if device.startswith("cuda"):
+        torch.cuda.synchronize()
+
+
+def device_name(device: str) -> str:
+    """What the frames ran on, for the JSON: the GPU's name, or "cpu"."""
+    return torch.cuda.get_device_name() if device.startswith("cuda") else "cpu"
 
 
 def cmd_render(a) -> None:
     """Renders LODs × views; times each frame (interleaved: views outer, LODs inner)."""
     torch.set_num_threads(a.threads)
-    model = load_model(a.model)
+    model = load_model(a.model, a.device)
     lods = [int(x) for x in a.lods.split(",")]
-    skips = {k: skip_grid(model.cells[k - 1].numpy(), lod_res(k)) for k in lods}
+    skips = {k: skip_grid(model.cells[k - 1].numpy(), lod_res(k)).to(a.device) for k in lods}
+    if a.device != "cpu":  # one untimed frame: kernel compilation and allocator warm-up
+        render(model, lods[0], 0, 64, skips[lods[0]])
     times = {k: [] for k in lods}
     cpu = {k: [] for k in lods}
     os.makedirs(a.out_dir, exist_ok=True)
@@ -426,11 +448,13 @@ def cmd_render(a) -> None:
             t = time.perf_counter()
             c = time.process_time()
             img = render(model, k, v, a.size, skips[k])
+            sync(a.device)
             times[k].append((time.perf_counter() - t) * 1000.0)
             cpu[k].append((time.process_time() - c) * 1000.0)
             save_png_atomic(os.path.join(a.out_dir, f"nglod_lod{k}_{v}.png"), img)
             print(f"  LOD {k} view {v}: {times[k][-1]:.0f} ms", flush=True)
-    res = {"threads": a.threads, "size": a.size, "render_ms_views": {str(k): times[k] for k in lods},
+    res = {"threads": a.threads, "size": a.size, "device": device_name(a.device),
+           "render_ms_views": {str(k): times[k] for k in lods},
            "render_cpu_ms_views": {str(k): cpu[k] for k in lods},
            "sizes": {str(k): model.size_bytes(k) for k in lods}}
     atomic_write(os.path.join(a.out_dir, "render.json"), json.dumps(res, indent=1).encode())
@@ -441,16 +465,16 @@ def cmd_sdfcheck(a) -> None:
     torch.set_num_threads(a.threads)
     sched = json.loads(a.schedule)
     mesh = load_normalised(a.mesh)
-    model = load_model(a.model)
+    model = load_model(a.model, a.device)
     s = dict(sched)
     s.update(n_uniform=a.n // 5, n_near=2 * a.n // 5, n_surface=2 * a.n // 5)
     p, d = samples(mesh, s, 999_999_937, a.threads)
     kinds = np.array([0] * s["n_uniform"] + [1] * s["n_near"] + [2] * s["n_surface"])
     out = {"n": int(len(d)), "per_lod": {}}
     with torch.no_grad():
-        pt = torch.from_numpy(p)
+        pt = torch.from_numpy(p).to(a.device)
         preds = [torch.cat([model(pt[i:i + 65536], list(range(1, NUM_LODS + 1)))[j]
-                            for i in range(0, len(d), 65536)]) for j in range(NUM_LODS)]
+                            for i in range(0, len(d), 65536)]).cpu() for j in range(NUM_LODS)]
     for k in range(1, NUM_LODS + 1):
         err = np.abs(preds[k - 1].numpy() - d)
         row = {"mean": float(err.mean()), "max": float(err.max())}
@@ -537,12 +561,14 @@ def main() -> None:
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--curve-ref", help="reference PNG of view 0: render LODs 2-5 at its size for the curve")
     t.add_argument("--curve-every", type=int, default=1)
-    r = sub.add_parser("render", parents=[threads])
+    device = argparse.ArgumentParser(add_help=False)
+    device.add_argument("--device", default="cpu", help="torch device (cpu, cuda)")
+    r = sub.add_parser("render", parents=[threads, device])
     r.add_argument("model")
     r.add_argument("--out-dir", required=True)
     r.add_argument("--lods", default="2,3,4,5")
     r.add_argument("--size", type=int, default=1024)
-    c = sub.add_parser("sdfcheck", parents=[threads])
+    c = sub.add_parser("sdfcheck", parents=[threads, device])
     c.add_argument("mesh")
     c.add_argument("model")
     c.add_argument("--schedule", required=True)
