@@ -6,6 +6,7 @@ is written atomically under OUT and reused on a rerun (a finished step is skippe
     peer.py timing  --out OUT --sdfmo BIN --vdbpeer BIN MODEL...
     peer.py hard    --out OUT --sdfmo BIN --vdbpeer BIN
     peer.py intersectors --out OUT --sdfmo BIN --vdbpeer BIN MODEL
+    peer.py unsigned --out OUT --sdfmo BIN --vdbpeer BIN [OPEN_MODEL...]
 """
 
 from __future__ import annotations
@@ -109,48 +110,52 @@ def loadavg() -> float:
     return os.getloadavg()[0]
 
 
-def cell(a, cmp: Compare, mesh: str, st: str, depth: int, band: int, refdir: str, variants: list[str]) -> None:
-    """Build one (model, depth, band), convert, render every variant, compare; cached."""
+def cell(a, cmp: Compare, mesh: str, st: str, depth: int, band: int, refdir: str, variants: list[str],
+         unsigned_iso: float | None = None) -> None:
+    """Build one (model, depth, band), convert, render every variant, compare; cached. With
+    unsigned_iso: OpenVDB's unsigned distance field minus that many voxels (files uband*)."""
     d = os.path.join(a.out, "vdb", st, f"d{depth}")
     os.makedirs(d, exist_ok=True)
-    bj = os.path.join(d, f"band{band}.build.json")
-    done = os.path.join(d, f"band{band}.done.json")
+    pre = "band" if unsigned_iso is None else "uband"
+    extra = [] if unsigned_iso is None else ["--unsigned", str(unsigned_iso)]
+    bj = os.path.join(d, f"{pre}{band}.build.json")
+    done = os.path.join(d, f"{pre}{band}.done.json")
     if os.path.exists(done) and set(load(done)["variants"]) >= set(variants):
         return
     if not os.path.exists(bj):
         la = loadavg()
         r = run_timed([a.vdbpeer, "build", mesh, "--depth", str(depth), "--band", str(band), "--out", d,
-                       "--threads", str(a.threads)], a.nice)
+                       "--threads", str(a.threads)] + extra, a.nice)
         b = json.loads(r["stdout"])
         b.update(process_wall_s=r["wall_s"], process_cpu_s=r["cpu_s"], loadavg_1min=la)
         atomic_write(bj, json.dumps(b))
-        log(f"{st} d{depth} band {band}: built in {b['build_ms']:.0f} ms ({b['build_cpu_ms']:.0f} ms CPU), "
+        log(f"{st} d{depth} {pre} {band}: built in {b['build_ms']:.0f} ms ({b['build_cpu_ms']:.0f} ms CPU), "
             f".vdb {b['vdb_bytes'] / 1e6:.2f} MB, fp4 {b['nanovdb']['fp4']['file_bytes'] / 1e6:.2f} MB")
     res = {"variants": {}}
     for var in variants:
-        rj = os.path.join(d, f"band{band}_{var}.render.json")
-        grid = os.path.join(d, f"band{band}_{var}.nvdb")
+        rj = os.path.join(d, f"{pre}{band}_{var}.render.json")
+        grid = os.path.join(d, f"{pre}{band}_{var}.nvdb")
         if not os.path.exists(rj):
             if not os.path.exists(grid):  # grids were removed after an earlier render: rebuild
                 os.remove(bj)
-                return cell(a, cmp, mesh, st, depth, band, refdir, variants)
+                return cell(a, cmp, mesh, st, depth, band, refdir, variants, unsigned_iso)
             la = loadavg()
-            r = run_timed([a.vdbpeer, "render", grid, "--out", os.path.join(d, f"band{band}_{var}"),
+            r = run_timed([a.vdbpeer, "render", grid, "--out", os.path.join(d, f"{pre}{band}_{var}"),
                            "--size", str(a.size), "--threads", str(a.threads), "--frames", str(a.frames)], a.nice)
             rr = json.loads(r["stdout"])
             rr.update(process_wall_s=r["wall_s"], process_cpu_s=r["cpu_s"], loadavg_1min=la)
             atomic_write(rj, json.dumps(rr))
         rr = load(rj)
-        cmps = [cmp(os.path.join(refdir, f"reference_{k}.png"), os.path.join(d, f"band{band}_{var}_{k}.png"))
+        cmps = [cmp(os.path.join(refdir, f"reference_{k}.png"), os.path.join(d, f"{pre}{band}_{var}_{k}.png"))
                 for k in range(4)]
         res["variants"][var] = {"render": rr, "compare": cmps}
     res["build"] = load(bj)
     atomic_write(done, json.dumps(res))
     ps = {v: sum(c["psnr"] if c["psnr"] is not None else 99 for c in res["variants"][v]["compare"]) / 4 for v in variants}
-    log(f"{st} d{depth} band {band}: PSNR " + ", ".join(f"{v} {p:.2f}" for v, p in ps.items()))
+    log(f"{st} d{depth} {pre} {band}: PSNR " + ", ".join(f"{v} {p:.2f}" for v, p in ps.items()))
     if not a.keep_grids:
         for f in os.listdir(d):
-            if f.startswith(f"band{band}") and (f.endswith(".nvdb") or f.endswith(".vdb")):
+            if f.startswith(f"{pre}{band}") and (f.endswith(".nvdb") or f.endswith(".vdb")):
                 os.remove(os.path.join(d, f))
 
 
@@ -275,6 +280,26 @@ def hard(a) -> None:
                 cell(a, cmp, m, st, depth, band, refdir, ["float", "fp8", "fp4"])
 
 
+def unsigned(a) -> None:
+    """OpenVDB's tool for open meshes, meshToUnsignedDistanceField, its shell at 0.5 voxel as the
+    surface (band 2): the open models given (the teapot) at the finest two depths, and the
+    generated parts at their finest depth."""
+    refs = references(a, a.models) if a.models else {}
+    cmp = Compare(a.sdfmo, os.path.join(a.out, "compare_cache.json"), a.nice)
+    depths = sorted(int(x) for x in a.depths.split(","))[-2:]
+    for m in a.models:
+        for depth in depths:
+            cell(a, cmp, m, stem_of(m), depth, 2, refs[stem_of(m)], ["float", "fp8", "fp4"], unsigned_iso=0.5)
+    parts = os.path.join(a.out, "hard", "parts")
+    if os.path.isdir(parts):
+        hd = max(int(x) for x in a.hard_depths.split(","))
+        for f in sorted(os.listdir(parts)):
+            if f.endswith(".obj"):
+                st = stem_of(f)
+                cell(a, cmp, os.path.join(parts, f), st, hd, 2, os.path.join(a.out, "hard", "sweep", "images", st),
+                     ["float", "fp8", "fp4"], unsigned_iso=0.5)
+
+
 def intersectors(a) -> None:
     """The first model at the finest depth, band 3, float: NanoVDB's ZeroCrossing as it is
     (--raw), ZeroCrossing refined on the interpolant (--zc), and the exact cell walk (default)."""
@@ -308,7 +333,7 @@ def intersectors(a) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("cmd", choices=["matrix", "timing", "hard", "intersectors"])
+    ap.add_argument("cmd", choices=["matrix", "timing", "hard", "intersectors", "unsigned"])
     ap.add_argument("models", nargs="*")
     ap.add_argument("--out", required=True)
     ap.add_argument("--sdfmo", required=True)
@@ -327,7 +352,7 @@ def main() -> None:
     ap.add_argument("--hard-depths", default="8,9")
     a = ap.parse_args()
     a.models = [os.path.abspath(m) for m in a.models]
-    {"matrix": matrix, "timing": timing, "hard": hard, "intersectors": intersectors}[a.cmd](a)
+    {"matrix": matrix, "timing": timing, "hard": hard, "intersectors": intersectors, "unsigned": unsigned}[a.cmd](a)
 
 
 if __name__ == "__main__":

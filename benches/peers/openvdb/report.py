@@ -326,7 +326,7 @@ def write_page(a, stems, cells, res) -> None:
       "handle survives, hence its ~19 dB. Our builder signs open meshes with the generalised winding number "
       "and keeps them (SVO) or draws them as surface voxels (multi). OpenVDB's answer for open meshes is "
       "`meshToUnsignedDistanceField`, a different field (no inside; its zero set has no thickness, so a renderer "
-      "needs an iso offset that thickens every surface); not measured here.")
+      "needs an iso offset that thickens every surface): measured below, *Open meshes*.")
     w("- **Thin parts.** Where a plate is thinner than a voxel, no lattice point lies inside it; its values are "
       "about ±0 on both faces, and the sign of each is whatever rounding gives (abc8's thin disc: holes that move "
       "with the depth and with the quantisation, see the Fp16 note below).")
@@ -346,6 +346,39 @@ def write_page(a, stems, cells, res) -> None:
             w("")
             w(f"Teapot, view 0, depth {dtop}, cropped: mesh reference, our multi-octree, OpenVDB's level set (band 3, float).")
     w("")
+
+    # open meshes: the unsigned field
+    uc = {}
+    for p in glob.glob(os.path.join(a.out, "vdb", "*", "d*", "uband*.done.json")):
+        st = os.path.basename(os.path.dirname(os.path.dirname(p)))
+        d = int(os.path.basename(os.path.dirname(p))[1:])
+        uc[(st, d)] = load(p)
+    if uc:
+        hsr = os.path.join(a.out, "hard", "sweep", "results.json")
+        hrow = {(r["model"], r["method"], r["depth"]): r for r in load(hsr)["rows"]} if os.path.exists(hsr) else {}
+        allrows = dict(hrow)
+        allrows.update(ours)
+        hc = collect(a.out, sorted({st for st, _ in uc}))
+        w("## Open meshes: OpenVDB's unsigned distance field")
+        w("")
+        w("`meshToUnsignedDistanceField` (band 2 + 0.5 voxels) minus 0.5 voxel, so the zero set is a shell half a "
+          "voxel each side of every surface, rendered like the level sets; the teapot and the generated parts (open "
+          "sheets). Beside: the signed level set (float, band 2) and our octrees at the same depth.")
+        w("")
+        w("| model | depth | unsigned − 0.5 voxel: float | Fp8 | Fp4 | MB (float / Fp4) | level set float b2 | our SVO | our multi |")
+        w("|---|---:|---:|---:|---:|---|---:|---:|---:|")
+        for (st, d), c in sorted(uc.items()):
+            vs = {v: variant_stats(c, v) for v in c["variants"]}
+            ls = variant_stats(hc[(st, d, 2)], "float") if (st, d, 2) in hc else None
+            sv, mu = allrows.get((st, "svo", d)), allrows.get((st, "multi", d))
+            w(f"| {st} | {d} | {f2(vs['float']['psnr'])} | {f2(vs['fp8']['psnr'])} | {f2(vs['fp4']['psnr'])} | "
+              f"{mb(vs['float']['file_bytes'])} / {mb(vs['fp4']['file_bytes'])} | {f2(ls['psnr']) if ls else '–'} | "
+              f"{f2(sv['psnr']) if sv else '–'} | {f2(mu['psnr']) if mu else '–'} |")
+        w("")
+        w("The shell brings the open surfaces back, at the price of a half-voxel offset on every surface, closed "
+          "ones included (the thickness is visible at silhouettes and rims); the multi-octree draws open sheets "
+          "as surface voxels with no offset.")
+        w("")
 
     # intersector
     ij = os.path.join(a.out, "intersectors.json")

@@ -12,7 +12,8 @@
 #      Fp8 / Fp4 / FpN, the 4 paper views of each at 1024² (vdbpeer render), sdfmo compare.
 #   4. peer.py timing: ours and theirs interleaved (build, view-0 render), VDB_ROUNDS rounds.
 #   4b. peer.py intersectors: NanoVDB's ZeroCrossing as it is, refined, and the exact walk.
-#   5. peer.py hard: generated CAD-like parts (thin fins, thin gaps, an open sheet) through both.
+#   5. peer.py hard: generated CAD-like parts (thin fins, thin gaps, an open sheet) through both;
+#      peer.py unsigned: OpenVDB's unsigned distance field (shell at 0.5 voxel) on open meshes.
 #   6. report.py --rows-only, then `sdfmo sweep MODELS --extra-rows` (our rows, measured now, and
 #      theirs in one table and plots), then report.py: OUT/results.json, docs/results/openvdb.md.
 #
@@ -20,6 +21,7 @@
 #   VDB_THREADS (2)  VDB_NICE (10)  VDB_OUT (benches/peers/openvdb/out, gitignored)
 #   VDB_DEPTHS (9,10,6,7,8)  VDB_BANDS (1,2,3)  VDB_FRAMES (1: frames per view in the matrix)
 #   VDB_TIMING_DEPTHS (9,10)  VDB_ROUNDS (3)  VDB_TIMING_FRAMES (3)
+#   VDB_UNSIGNED (teapot: model stems also run through meshToUnsignedDistanceField)
 #   VDB_SKIP_TIMING=1  VDB_SKIP_HARD=1  VDB_NO_DOCS=1 (do not rewrite docs/results/openvdb.md)
 #   VDB_RERUN_SWEEP=1 (rerun the combined sweep although OUT/combined covers the models)
 set -euo pipefail
@@ -61,6 +63,16 @@ if [ -z "${VDB_SKIP_HARD:-}" ]; then
     log "hard cases"
     "$PY" "$HERE/peer.py" hard "${common[@]}"
 fi
+# OpenVDB's tool for open meshes (meshToUnsignedDistanceField, shell at 0.5 voxel) on the models
+# named in VDB_UNSIGNED (stems; default teapot: its body, lid and spout are open sheets) and the
+# generated parts
+UNSIGNED=()
+for m in "${MODELS[@]}"; do
+    st="$(basename "${m%.*}")"
+    case ",${VDB_UNSIGNED:-teapot}," in *",$st,"*) UNSIGNED+=("$m") ;; esac
+done
+log "unsigned distance field for open meshes: ${UNSIGNED[*]##*/} and the generated parts"
+"$PY" "$HERE/peer.py" unsigned "${UNSIGNED[@]}" "${common[@]}" --depths "$DEPTHS"
 
 # the combined sweep: ours measured now with theirs merged (--extra-rows)
 dmin="$(echo "$DEPTHS" | tr ',' '\n' | sort -n | head -1)"

@@ -12,6 +12,8 @@
 //       (openvdb::io::File, default compression) and the NanoVDB grids DIR/band{B}_{float,fp16,
 //       fp8,fp4,fpn}.nvdb (nanovdb::io::writeGrid, no codec), and prints one JSON object:
 //       timings (wall and CPU), active voxels, bytes of each file and each in-memory grid.
+//       --unsigned ISO: meshToUnsignedDistanceField minus ISO voxels instead (OpenVDB's tool for
+//       open meshes: the zero set is a shell ISO voxels each side of every surface); files uband{B}*.
 //   vdbpeer render GRID.nvdb --out PREFIX [--views 0,1,2,3] [--size N] [--threads N]
 //       [--frames K] [--zc | --raw]
 //       The paper protocol (crates/sdfmo-render: camera.rs, shading.rs): eye 3(sin θ,0,cos θ),
@@ -253,6 +255,7 @@ std::pair<uint64_t, double> convert(const openvdb::FloatGrid& grid, const std::s
 int cmd_build(int argc, char** argv) {
     std::string mesh_path, out;
     int depth = -1, band = 3, threads = 2;
+    double iso = -1.0;  // --unsigned ISO: meshToUnsignedDistanceField minus ISO voxels (open meshes)
     for (int i = 2; i < argc; ++i) {
         std::string a = argv[i];
         auto next = [&]() -> std::string { if (i + 1 >= argc) die("missing value after " + a); return argv[++i]; };
@@ -260,6 +263,7 @@ int cmd_build(int argc, char** argv) {
         else if (a == "--band") band = std::stoi(next());
         else if (a == "--out") out = next();
         else if (a == "--threads") threads = std::stoi(next());
+        else if (a == "--unsigned") iso = std::stod(next());
         else if (mesh_path.empty()) mesh_path = a;
         else die("unexpected argument " + a);
     }
@@ -274,11 +278,22 @@ int cmd_build(int argc, char** argv) {
     auto xform = openvdb::math::Transform::createLinearTransform(h);
 
     Clock bc;
-    openvdb::FloatGrid::Ptr grid = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*xform, m.pos, m.tri, float(band));
+    openvdb::FloatGrid::Ptr grid;
+    if (iso < 0.0) {
+        grid = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*xform, m.pos, m.tri, float(band));
+    } else {
+        // OpenVDB's tool for meshes that enclose nothing: the unsigned distance, then the shell
+        // |d| = ISO voxels as the zero set (every surface thickened by ISO voxels on each side).
+        grid = openvdb::tools::meshToUnsignedDistanceField<openvdb::FloatGrid>(*xform, m.pos, m.tri, {}, float(band + iso));
+        const float off = float(iso * h);
+        for (auto it = grid->beginValueOn(); it; ++it) it.setValue(*it - off);
+        grid->tree().root().setBackground(grid->background() - off, true);
+        grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    }
     double build_ms = bc.wall_ms(), build_cpu_ms = bc.cpu_ms();
     grid->setName("sdf");
 
-    std::string stem = out + "/band" + std::to_string(band);
+    std::string stem = out + (iso < 0.0 ? "/band" : "/uband") + std::to_string(band);
     std::string vdb = stem + ".vdb";
     Clock wc;
     {
@@ -303,7 +318,7 @@ int cmd_build(int argc, char** argv) {
     std::ostringstream js;
     js.precision(10);
     js << "{\"mesh\":\"" << mesh_path << "\",\"depth\":" << depth << ",\"band\":" << band << ",\"voxel_size\":" << h
-       << ",\"threads\":" << threads << ",\"vertices\":" << m.pos.size() << ",\"triangles\":" << m.tri.size()
+       << ",\"threads\":" << threads << ",\"unsigned_iso\":" << iso << ",\"vertices\":" << m.pos.size() << ",\"triangles\":" << m.tri.size()
        << ",\"normalization\":{\"center\":[" << n.cx << "," << n.cy << "," << n.cz << "],\"scale\":" << n.scale << "}"
        << ",\"load_ms\":" << load_ms << ",\"build_ms\":" << build_ms << ",\"build_cpu_ms\":" << build_cpu_ms
        << ",\"write_vdb_ms\":" << write_ms << ",\"active_voxels\":" << grid->activeVoxelCount()
