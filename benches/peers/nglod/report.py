@@ -301,6 +301,10 @@ def main() -> None:
       + res["provenance"]["date"] + "; do not edit by hand (the prose around the numbers is in "
       "`benches/peers/nglod/report.py`).*")
     w("")
+    if a.doc != "nglod":  # a run page; the reference comparison is page.py's
+        w("*A run page. The reference comparison, NGLOD at its paper's schedule on all five models with seed "
+          "spread, is [nglod.md](nglod.md); the claims below hold for this run's schedule only.*")
+        w("")
     is_paper = sched.get("name") == "paper"
     loads = [e["loadavg_1min"] for m in models.values() for e in m["train"]["epochs"] if "loadavg_1min" in e]
     if loads:

@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
-# NGLOD peer (issue 22): venv, training, rendering, evaluation, results.json, docs/results/nglod.md.
+# NGLOD peer (issue 22) on the CPU: venv, training, rendering, evaluation, results.json, a run page
+# (docs/results/nglod-short.md or nglod-paper.md). The reference page docs/results/nglod.md is
+# page.py's, from the GPU runs of gpu_batch.sh (README.md).
 #
 #   benches/peers/nglod/run.sh MODEL...        e.g. ../shared/data/abc8.stl ../shared/data/teapot.obj
 #
@@ -20,7 +22,7 @@
 #   NGLOD_DOC        name of the page written under docs/results (default nglod for the short
 #                    schedule, nglod-paper for the paper's, nglod-custom otherwise)
 #   NGLOD_COMPARE_WITH  results.json of an earlier run whose NGLOD rows the page compares with
-#                    (default docs/results/nglod/results.json when NGLOD_DOC is not nglod)
+#                    (default docs/results/nglod-short/results.json when NGLOD_DOC is not nglod-short)
 # Needs: python3 (>= 3.9) with venv, cargo (the sdfmo CLI and the sdfmo wheel are built here).
 set -euo pipefail
 
@@ -44,7 +46,7 @@ OUT="${NGLOD_OUT:-$HERE/out}"
 SCHED_NAME="${NGLOD_SCHEDULE:-short}"
 # The schedules. "paper": NGLOD's published training recipe as we read it (250 epochs, batch
 # 512, Adam lr 1e-3, 500k fresh samples per epoch: 100k uniform, 200k near, 200k on the
-# surface). "short": what fits this session on a shared 2-core machine (docs/results/nglod.md).
+# surface). "short": what fits this session on a shared 2-core machine (docs/results/nglod-short.md).
 PAPER_SCHED='{"name":"paper","epochs":250,"batch":512,"lr":0.001,"resample_every":1,"n_uniform":100000,"n_near":200000,"n_surface":200000,"near_sigma":0.01,"padding":0.1}'
 case "$SCHED_NAME" in
     paper) SCHED="$PAPER_SCHED" ;;
@@ -53,15 +55,15 @@ case "$SCHED_NAME" in
     *) echo "run.sh: NGLOD_SCHEDULE must be short, paper or a JSON object, got '$SCHED_NAME'" >&2; exit 2 ;;
 esac
 case "$SCHED_NAME" in
-    short) DOC_DEFAULT=nglod; CURVE_EVERY_DEFAULT=2; GAP_DEFAULT=120 ;;
+    short) DOC_DEFAULT=nglod-short; CURVE_EVERY_DEFAULT=2; GAP_DEFAULT=120 ;;
     paper) DOC_DEFAULT=nglod-paper; CURVE_EVERY_DEFAULT=10; GAP_DEFAULT=0 ;;
     *) DOC_DEFAULT=nglod-custom; CURVE_EVERY_DEFAULT=2; GAP_DEFAULT=0 ;;
 esac
 CURVE_EVERY="${NGLOD_CURVE_EVERY:-$CURVE_EVERY_DEFAULT}"
 DOC="${NGLOD_DOC:-$DOC_DEFAULT}"
 COMPARE_WITH="${NGLOD_COMPARE_WITH:-}"
-if [ -z "$COMPARE_WITH" ] && [ "$DOC" != nglod ] && [ -f "$ROOT/docs/results/nglod/results.json" ]; then
-    COMPARE_WITH="$ROOT/docs/results/nglod/results.json"
+if [ -z "$COMPARE_WITH" ] && [ "$DOC" != nglod-short ] && [ -f "$ROOT/docs/results/nglod-short/results.json" ]; then
+    COMPARE_WITH="$ROOT/docs/results/nglod-short/results.json"
 fi
 
 mkdir -p "$OUT"
