@@ -23,11 +23,14 @@ impl AppendLog {
     /// append, is cut off the file, so the next record starts on a line of its own.
     ///
     /// A symbolic link at `path` is refused rather than followed (it could lead appends to a
-    /// file the user never named), and so is anything but a regular file.
+    /// file the user never named), and so is anything but a regular file. So is a file with
+    /// more than one name (a hard link, which `O_NOFOLLOW` does not stop): the log is truncated
+    /// and appended to in place, which would change the file at its other names.
     ///
     /// # Errors
     /// [`IoError::NotRegularFile`] (a link, a directory, a device, a FIFO),
-    /// [`IoError::TooLarge`] when the log holds more than `limit` bytes, [`IoError::Os`].
+    /// [`IoError::HardLinked`], [`IoError::TooLarge`] when the log holds more than `limit`
+    /// bytes, [`IoError::Os`].
     pub fn open(path: &Path, limit: u64) -> Result<(AppendLog, Vec<u8>)> {
         match std::fs::symlink_metadata(path) {
             Ok(meta) if !meta.is_file() => {
@@ -58,6 +61,16 @@ impl AppendLog {
                 kind: FileKind::of(&meta),
                 action: "appended to",
             });
+        }
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::MetadataExt;
+            if meta.nlink() > 1 {
+                return Err(IoError::HardLinked {
+                    path: path.to_path_buf(),
+                    links: meta.nlink(),
+                });
+            }
         }
         if meta.len() > limit {
             return Err(IoError::TooLarge {
@@ -163,6 +176,13 @@ mod tests {
             Err(IoError::NotRegularFile { .. })
         ));
         assert!(AppendLog::open(dir.path(), 1 << 20).is_err());
+        // A hard link: appending (or cutting a torn line) would change `elsewhere` too.
+        std::fs::remove_file(&link).unwrap();
+        std::fs::hard_link(&target, &link).unwrap();
+        assert!(matches!(
+            AppendLog::open(&link, 1 << 20),
+            Err(IoError::HardLinked { links: 2, .. })
+        ));
         assert!(AppendLog::open(Path::new("/dev/null"), 1 << 20).is_err());
         assert_eq!(std::fs::read(&target).unwrap(), b"x\n");
     }

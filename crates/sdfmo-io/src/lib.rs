@@ -17,7 +17,9 @@
 //! - **Logs are appended one whole record at a time** ([`AppendLog`]): one write and a sync
 //!   per record, a torn last line dropped on reopening.
 //! - **Relative resources stay in their folder** ([`resolve_in_folder`]): absolute paths, `..`
-//!   components and symbolic links that lead outside the folder are refused.
+//!   components and symbolic links that lead outside the folder are refused. Files inside a
+//!   folder someone else wrote (a shard's output) are read with [`read_beneath`], which follows
+//!   no link below the folder at all.
 //!
 //! ```
 //! let dir = tempfile::tempdir()?;
@@ -31,6 +33,7 @@
 #![deny(missing_docs)]
 
 mod append;
+mod beneath;
 mod confine;
 mod random;
 mod read;
@@ -40,6 +43,7 @@ use std::fmt;
 use std::path::PathBuf;
 
 pub use append::AppendLog;
+pub use beneath::read_beneath;
 pub use confine::resolve_in_folder;
 pub use random::SplitMix64;
 pub use read::{open_regular, read_regular, read_regular_to_string};
@@ -175,6 +179,22 @@ pub enum IoError {
         /// Why it leaves: absolute, `..`, or a symbolic link.
         reason: &'static str,
     },
+    /// A symbolic link where a file inside a folder is read ([`read_beneath`]) or a log
+    /// appended to ([`AppendLog`]): links there are refused, never followed.
+    #[error("{} is a symbolic link; links inside this folder are not followed", path.display())]
+    SymbolicLink {
+        /// The link.
+        path: PathBuf,
+    },
+    /// A file with other names (hard links) that would be modified in place: changing it
+    /// would change the file at its other names too.
+    #[error("{} has {links} hard links; a file modified in place must have one name", path.display())]
+    HardLinked {
+        /// The file.
+        path: PathBuf,
+        /// Its link count.
+        links: u64,
+    },
 }
 
 impl IoError {
@@ -185,6 +205,8 @@ impl IoError {
             | IoError::NotRegularFile { path, .. }
             | IoError::TooLarge { path, .. }
             | IoError::DanglingLink { path }
+            | IoError::SymbolicLink { path }
+            | IoError::HardLinked { path, .. }
             | IoError::NotAFilePath { path, .. }
             | IoError::MissingFolder { path, .. } => path,
             IoError::OutsideFolder { folder, .. } => folder,
