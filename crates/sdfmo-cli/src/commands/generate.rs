@@ -21,11 +21,20 @@ pub fn part_file(index: u64) -> String {
 /// Writes the parts, then the manifest (last, so a manifest only lists parts that exist).
 pub fn run(args: &GeneratePartsArgs) -> anyhow::Result<()> {
     let out = &args.output;
+    // The last index must exist: `--first 18446744073709551615 -n 2` wrapped to an empty range
+    // and claimed two parts written.
+    let Some(last) = args.first.checked_add(args.count) else {
+        anyhow::bail!(
+            "--first {} -n {}: the part indices would pass {} (the largest index)",
+            args.first,
+            args.count,
+            u64::MAX
+        );
+    };
     sdf_multioctree::io::create_derived_dir(out, Path::new(""))?;
     let bar = progress::steps(args.count, "parts");
     let mut manifest = String::from("id,path\n");
     let mut triangles = 0usize;
-    let last = args.first.saturating_add(args.count);
     for i in args.first..last {
         let part = cad::cad_part(cad::part_seed(args.seed, i));
         triangles += part.mesh.triangle_count();

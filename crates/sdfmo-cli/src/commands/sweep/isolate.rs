@@ -33,6 +33,71 @@ pub struct ChildRun {
     pub peak_rss_bytes: Option<u64>,
 }
 
+/// Address space a child may reserve beyond twice its build budget: thread stacks, allocator
+/// arenas, the binary (the kernel's cap is `2 · budget + ADDRESS_SPACE_SLACK`).
+pub const ADDRESS_SPACE_SLACK: u64 = 1 << 30;
+
+/// The address-space cap (`RLIMIT_AS`) of a model's process for a build budget of `budget`
+/// bytes: twice the budget plus [`ADDRESS_SPACE_SLACK`], but never more than the machine has
+/// ([`machine_memory`]: with more, the kernel's OOM killer acts before the cap) nor more than
+/// the limit this process runs under itself (a non-root user may not raise `RLIMIT_AS` above
+/// its hard limit: every model's process failed to start, "Operation not permitted"). `None`:
+/// no cap known to apply.
+pub fn address_space_cap(budget: Option<u64>) -> Option<u64> {
+    clamp_cap(budget, machine_memory(), inherited_address_space())
+}
+
+/// [`address_space_cap`] from its inputs: the wanted cap, clamped to `machine` and `inherited`.
+fn clamp_cap(budget: Option<u64>, machine: Option<u64>, inherited: Option<u64>) -> Option<u64> {
+    let wanted = budget.map(|b| b.saturating_mul(2).saturating_add(ADDRESS_SPACE_SLACK));
+    [wanted, machine, inherited].into_iter().flatten().min()
+}
+
+/// The memory this machine (or container) has: the physical memory, or the cgroup's memory
+/// limit when lower (a Kubernetes pod's `resources.limits.memory`; version 2's `memory.max`,
+/// or version 1's `memory.limit_in_bytes`, as mounted in the process's own namespace).
+pub fn machine_memory() -> Option<u64> {
+    let cgroup = [
+        "/sys/fs/cgroup/memory.max",
+        "/sys/fs/cgroup/memory/memory.limit_in_bytes",
+    ]
+    .iter()
+    .filter_map(|p| std::fs::read_to_string(p).ok())
+    .filter_map(|t| t.trim().parse::<u64>().ok())
+    // "max" (no limit) does not parse; version 1 says "no limit" with a number near 2^63.
+    .filter(|&b| b < 1 << 62)
+    .min();
+    [sdf_multioctree::build::physical_memory(), cgroup]
+        .into_iter()
+        .flatten()
+        .min()
+}
+
+/// The address-space limit this process runs under (the soft limit, which is at most the hard
+/// one), or `None` when unlimited.
+pub fn inherited_address_space() -> Option<u64> {
+    #[cfg(unix)]
+    {
+        let mut lim = libc::rlimit {
+            rlim_cur: 0,
+            rlim_max: 0,
+        };
+        // SAFETY: getrlimit writes the one valid, exclusive struct passed.
+        if unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut lim) } != 0 {
+            return None;
+        }
+        // `rlim_t` is u64 on Linux, not on every Unix.
+        #[allow(clippy::unnecessary_cast)]
+        let (soft, hard) = (
+            (lim.rlim_cur != libc::RLIM_INFINITY).then_some(lim.rlim_cur as u64),
+            (lim.rlim_max != libc::RLIM_INFINITY).then_some(lim.rlim_max as u64),
+        );
+        [soft, hard].into_iter().flatten().min()
+    }
+    #[cfg(not(unix))]
+    None
+}
+
 /// Limits of one child.
 #[derive(Clone, Copy, Debug)]
 pub struct Limits {
@@ -198,5 +263,29 @@ fn wait(pid: u32) -> Wait {
         Wait::Signaled(libc::WTERMSIG(status), peak)
     } else {
         Wait::Unknown
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_cap_never_exceeds_the_machine_or_the_inherited_limit() {
+        const G: u64 = 1 << 30;
+        // Issue 32: the default budget (half of 16 GiB) gave 17 GiB, above the machine's 16.
+        assert_eq!(clamp_cap(Some(8 * G), Some(16 * G), None), Some(16 * G));
+        // And under a hard limit of 4 GiB every model's process failed to start.
+        assert_eq!(
+            clamp_cap(Some(8 * G), Some(16 * G), Some(4 * G)),
+            Some(4 * G)
+        );
+        assert_eq!(clamp_cap(Some(G), Some(16 * G), None), Some(3 * G));
+        assert_eq!(clamp_cap(None, None, None), None);
+        assert_eq!(clamp_cap(Some(u64::MAX), None, None), Some(u64::MAX));
+        let cap = address_space_cap(Some(u64::MAX / 4));
+        if let (Some(cap), Some(m)) = (cap, machine_memory()) {
+            assert!(cap <= m);
+        }
     }
 }

@@ -9,10 +9,16 @@
 //! [`MAX_MANIFEST_BYTES`] and [`MAX_ENTRIES`] entries: split a bigger dataset into several
 //! manifests (ABC's chunks of 10,000 models take about 0.5 MB each).
 //!
-//! **Problems of one line** (an empty path, a duplicate id or path, a path outside the folder
-//! under `--confine`) do not stop the sweep: the entry is kept with its problem and the shard
-//! that owns it records it as a failure, so every line of the manifest ends up in the report
-//! exactly once. A file that is missing or malformed fails when its model runs, likewise.
+//! **Problems of one line** (an empty path, a path listed twice under two ids, a path outside
+//! the folder under `--confine`) do not stop the sweep: the entry is kept with its problem and
+//! the shard that owns it records it as a failure, so every line of the manifest ends up in the
+//! report exactly once. A file that is missing or malformed fails when its model runs,
+//! likewise. An id given twice is an error of the whole manifest, naming it: ledgers and the
+//! merge know a model by its id, and a second line of the same id could only shadow the first.
+//!
+//! **Fingerprints.** Each entry has a [`Entry::fingerprint`] of its position, id, name and path
+//! as written. A ledger record counts for an entry only when both match (not the id alone): a
+//! record of an edited, reordered or shortened manifest is stale and the model runs again.
 //!
 //! **Names.** Each entry gets a model name for the rows and the image folders: the CSV id, or
 //! the file stem, made safe for file names ([`super::sanitize`]) and unique over the *whole*
@@ -45,6 +51,8 @@ pub struct Entry {
     pub name: String,
     /// The file to load, or why the line cannot name one.
     pub path: Result<PathBuf, String>,
+    /// [`entry_fingerprint`] of the entry: what a ledger record must carry to count for it.
+    pub fingerprint: String,
 }
 
 /// A parsed manifest.
@@ -54,13 +62,31 @@ pub struct Manifest {
     pub entries: Vec<Entry>,
 }
 
-/// Which shard of the manifest this process runs: `index` of `count`, 0-based.
+/// Which shard of the manifest this process runs: `index` of `count`, 0-based. Read back (from
+/// a `shard.json`) it is checked as [`Shard::new`] checks it: a count of 0 or an index out of
+/// range is an error of the file, never a division by zero.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(try_from = "UncheckedShard")]
 pub struct Shard {
     /// This shard, `0..count`.
     pub index: usize,
     /// Number of shards.
     pub count: usize,
+}
+
+/// A [`Shard`] as read, before [`Shard::new`] checks it.
+#[derive(serde::Deserialize)]
+struct UncheckedShard {
+    index: usize,
+    count: usize,
+}
+
+impl TryFrom<UncheckedShard> for Shard {
+    type Error = String;
+
+    fn try_from(s: UncheckedShard) -> Result<Shard, String> {
+        Shard::new(s.index, s.count).map_err(|e| e.to_string())
+    }
 }
 
 impl std::fmt::Display for Shard {
@@ -76,6 +102,16 @@ impl Shard {
     /// Whether entry `index` belongs to this shard.
     pub fn owns(&self, index: usize) -> bool {
         index % self.count == self.index
+    }
+
+    /// How many of the entries `0..entries` belong to this shard.
+    pub fn owned(&self, entries: usize) -> usize {
+        entries.saturating_sub(self.index).div_ceil(self.count)
+    }
+
+    /// Position of entry `index` among this shard's entries (`index` must be one of them).
+    pub fn slot(&self, index: usize) -> usize {
+        index / self.count
     }
 
     /// `--shard K/N` if given; else `SLURM_ARRAY_TASK_ID − SLURM_ARRAY_TASK_MIN` of
@@ -189,6 +225,18 @@ impl Manifest {
         }
         let mut entries = Vec::with_capacity(raw.len());
         let mut seen_id: HashMap<String, usize> = HashMap::new();
+        for raw in &raw {
+            let id = raw.id.as_deref().unwrap_or(&raw.path);
+            if let Some(first) = seen_id.insert(id.to_owned(), raw.line) {
+                bail!(
+                    "{}: line {}: the id {:?} is given twice (first on line {first}); ids must be \
+                     unique, the ledgers know a model by its id",
+                    file.display(),
+                    raw.line,
+                    id.chars().take(120).collect::<String>()
+                );
+            }
+        }
         let mut seen_path: HashMap<PathBuf, usize> = HashMap::new();
         let mut names: HashSet<String> = HashSet::new();
         for (index, raw) in raw.into_iter().enumerate() {
@@ -203,9 +251,7 @@ impl Manifest {
                 Some(p) => Err(p),
                 None => resolve(folder, &path, confine),
             };
-            if let Some(first) = seen_id.get(&id) {
-                resolved = Err(format!("duplicate id {id:?} (first on line {first})"));
-            } else if let Ok(p) = &resolved {
+            if let Ok(p) = &resolved {
                 if let Some(first) = seen_path.get(p) {
                     resolved = Err(format!(
                         "{} is listed twice (first on line {first})",
@@ -213,7 +259,6 @@ impl Manifest {
                     ));
                 }
             }
-            seen_id.entry(id.clone()).or_insert(line);
             if let Ok(p) = &resolved {
                 seen_path.entry(p.clone()).or_insert(line);
             }
@@ -223,15 +268,60 @@ impl Manifest {
                 super::sanitize(&sdf_multioctree::mesh::mesh_name(Path::new(&path)))
             };
             let name = unique(&base, &mut names);
+            let fingerprint = entry_fingerprint(index, &id, &name, &path);
             entries.push(Entry {
                 index,
                 line,
                 id,
                 name,
                 path: resolved,
+                fingerprint,
             });
         }
         Ok(Manifest { entries })
+    }
+}
+
+/// The fingerprint of a manifest entry: FNV-1a (64 bits, 16 hex digits) of its position, id,
+/// model name and path as written, each length-prefixed. A ledger record counts for the entry
+/// only when it carries the same; any edit of the line, or a move of it to another position,
+/// makes the old record stale. A fingerprint to tell entries apart, not a defence against
+/// forgery (the merge checks what a record says on its own).
+pub fn entry_fingerprint(index: usize, id: &str, name: &str, path: &str) -> String {
+    let mut h = Fnv::default();
+    h.write(&(index as u64).to_le_bytes());
+    for part in [id, name, path] {
+        h.write(&(part.len() as u64).to_le_bytes());
+        h.write(part.as_bytes());
+    }
+    format!("{:016x}", h.0)
+}
+
+/// The fingerprint of a whole manifest: FNV-1a of its entries' fingerprints in order, so shards
+/// of one manifest agree on it and shards of an edited one do not.
+pub fn manifest_fingerprint<'a>(entries: impl IntoIterator<Item = &'a str>) -> String {
+    let mut h = Fnv::default();
+    for e in entries {
+        h.write(e.as_bytes());
+        h.write(b"\n");
+    }
+    format!("{:016x}", h.0)
+}
+
+/// 64-bit FNV-1a.
+struct Fnv(u64);
+
+impl Default for Fnv {
+    fn default() -> Fnv {
+        Fnv(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv {
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0 ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+        }
     }
 }
 
@@ -340,7 +430,7 @@ mod tests {
     fn plain_lists_skip_blank_and_comment_lines_and_resolve_against_the_folder() {
         let (dir, man) = read_written(
             "m.txt",
-            "# models\n\na/part.obj\n  b/part.obj  \n\n/abs/x.stl\na/part.obj\n",
+            "# models\n\na/part.obj\n  b/part.obj  \n\n/abs/x.stl\nc/part.obj\n",
         );
         let e = &man.entries;
         assert_eq!(e.len(), 4);
@@ -351,9 +441,42 @@ mod tests {
         // Names are unique over the manifest, ids are the paths as written.
         let names: Vec<&str> = e.iter().map(|e| e.name.as_str()).collect();
         assert_eq!(names, ["part", "part_2", "x", "part_3"]);
-        assert_eq!(
-            e[3].path,
-            Err("duplicate id \"a/part.obj\" (first on line 3)".into())
+    }
+
+    #[test]
+    fn a_duplicate_id_is_an_error_naming_it() {
+        // Issue 32: the second line of an id was kept as a failure of that id, which the ledger
+        // (one record per id) then dropped: the model vanished from the report.
+        let dir = tempfile::tempdir().unwrap();
+        for (name, text, line) in [
+            ("m.txt", "a/part.obj\nb.obj\na/part.obj\n", 3),
+            ("m.csv", "id,path\nx,a.obj\ny,b.obj\nx,c.obj\n", 4),
+        ] {
+            let e = Manifest::read(&write(dir.path(), name, text), false).unwrap_err();
+            let e = format!("{e:#}");
+            assert!(e.contains(&format!("line {line}: the id")), "{e}");
+            assert!(e.contains("given twice"), "{e}");
+        }
+    }
+
+    #[test]
+    fn fingerprints_change_with_any_part_of_the_entry() {
+        let f = entry_fingerprint(3, "id", "name", "a/b.obj");
+        assert_eq!(f.len(), 16);
+        assert_eq!(f, entry_fingerprint(3, "id", "name", "a/b.obj"));
+        for g in [
+            entry_fingerprint(4, "id", "name", "a/b.obj"),
+            entry_fingerprint(3, "id2", "name", "a/b.obj"),
+            entry_fingerprint(3, "id", "name_2", "a/b.obj"),
+            entry_fingerprint(3, "id", "name", "a/c.obj"),
+            // Length prefixes: moving a character between fields changes it.
+            entry_fingerprint(3, "idn", "ame", "a/b.obj"),
+        ] {
+            assert_ne!(f, g);
+        }
+        assert_ne!(
+            manifest_fingerprint(["a", "b"]),
+            manifest_fingerprint(["b", "a"])
         );
     }
 
@@ -445,6 +568,14 @@ mod tests {
             }
         }
         assert_eq!(parse_shard("3/8").unwrap(), Shard { index: 3, count: 8 });
+        assert_eq!(Shard { index: 1, count: 4 }.owned(9), 2);
+        assert_eq!(Shard { index: 0, count: 4 }.owned(9), 3);
+        assert_eq!(Shard { index: 5, count: 8 }.owned(3), 0);
+        // Issue 32: a shard.json saying count 0 panicked the merge (index % 0, exit 70).
+        for bad in [r#"{"index":0,"count":0}"#, r#"{"index":3,"count":2}"#] {
+            let e = serde_json::from_str::<Shard>(bad).unwrap_err().to_string();
+            assert!(e.contains("need 0 <= K < N"), "{e}");
+        }
         for bad in ["8/8", "1/0", "x/2", "2", "-1/3"] {
             assert!(parse_shard(bad).is_err(), "{bad}");
         }

@@ -1,9 +1,23 @@
 //! `sdfmo sweep --merge DIR... -o OUT`: the output folders of a manifest sweep's shards (or of
 //! one unsharded manifest sweep) into one dataset report.
 //!
-//! Every folder must come from the same manifest and settings (`shard.json`'s settings hash)
-//! and together they must hold every shard exactly once. From the ledgers (records of those
-//! settings only) `OUT` gets:
+//! Every folder must come from the same manifest and settings (`shard.json`'s settings hash and
+//! manifest fingerprint) and together they must hold every shard exactly once. A record counts
+//! for a manifest entry only when its position, id and entry fingerprint are the entry's as its
+//! shard last saw it (stale records of an edited or reordered manifest are skipped); every
+//! entry without such a record is unfinished, and the merge says which.
+//!
+//! **A shard folder is untrusted input**: it was written by a job and copied across machines
+//! and shared volumes. Nothing in it is followed or believed unchecked: `shard.json`, the ledger
+//! and the images are read without following any symbolic link below the folder
+//! ([`sdf_multioctree::io::read_beneath`]) and with a size limit checked before reading; model
+//! and method names must be names the sweep itself writes ([`super::is_safe_name`], methods the
+//! sweep's own), so every path the merge writes stays inside `OUT`; numbers are range-checked
+//! (shard counts, depths, PSNR, FLIP, times: [`super::report::extra::row_problem`], the checks
+//! extra rows get); and `OUT` may not be one of the shard folders or inside one. A bad value is
+//! an error naming the file, the record and the value.
+//!
+//! From the ledgers `OUT` gets:
 //! - `results.json`: the single run's schema (`settings`, `provenance`, `models`, `rows`) plus
 //!   `failures` and `dataset` (the statistics below) and `shards`;
 //! - `results.csv` (the rows), `failures.csv`, `dataset.md`, `index.html` and the plots
@@ -19,13 +33,15 @@ use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
+use clap::ValueEnum;
 use serde::Serialize;
 
 use super::ledger::{self, Record};
-use super::manifest::Shard;
-use super::shard::{Failure, ShardInfo, SHARD_FILE};
+use super::manifest::{self, Shard};
+use super::report::extra::{row_problem, MAX_DEPTH};
+use super::shard::{Failure, ShardInfo, MAX_SHARD_FILE_BYTES, SHARD_FILE};
 use super::{heatmap_file, image_rel, reference_file, view_file, Model, Row, SweepSettings};
-use crate::args::SweepArgs;
+use crate::args::{MethodArg, SweepArgs};
 use crate::output::{print_json, print_text, write_derived};
 
 mod page;
@@ -33,6 +49,53 @@ mod plots;
 
 /// Models shown with their images in the "worst models" table.
 const WORST: usize = 6;
+
+/// Largest image copied from a shard folder (a 8192² PNG of noise is about 200 MB).
+const MAX_IMAGE_BYTES: u64 = 256 << 20;
+
+/// Why shard folders cannot be merged into `OUT`. Each names the file and what is wrong.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum MergeError {
+    /// `OUT` is one of the shard folders, or inside one: the merge would overwrite its input.
+    #[error(
+        "-o {} is inside the shard folder {}: merge into a folder of its own",
+        out.display(),
+        shard.display()
+    )]
+    OutputInsideInput {
+        /// The output folder as given.
+        out: PathBuf,
+        /// The shard folder it is in.
+        shard: PathBuf,
+    },
+    /// `OUT` cannot be placed: `..` after a folder that does not exist yet.
+    #[error("-o {}: cannot tell where it lands (`..` after a folder that does not exist)", out.display())]
+    OutputUnresolved {
+        /// The output folder as given.
+        out: PathBuf,
+    },
+    /// `shard.json` says what no sweep writes.
+    #[error("{}: {reason}", path.display())]
+    BadShardFile {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A current ledger record says what no sweep writes.
+    #[error("{}: the record of {id:?} (manifest entry {index}): {reason}", path.display())]
+    BadRecord {
+        /// The ledger.
+        path: PathBuf,
+        /// The record's manifest position.
+        index: usize,
+        /// Its id (shortened to 120 characters).
+        id: String,
+        /// What is wrong.
+        reason: String,
+    },
+}
 
 /// Quantiles reported: the minimum, the deciles 10 and 90, the quartiles, the median, the
 /// maximum.
@@ -240,24 +303,159 @@ struct ShardDir {
     records: Vec<Record>,
 }
 
+/// What is wrong with a `shard.json`'s own values, or `None`: the settings are ones a sweep
+/// can run (depths within 1..=16 in increasing order, the sweep's methods each once, the sizes
+/// its flags allow), and the counts agree with the shard.
+fn info_problem(info: &ShardInfo) -> Option<String> {
+    let s = &info.settings;
+    let methods: Vec<&str> = MethodArg::value_variants()
+        .iter()
+        .map(|m| m.name())
+        .collect();
+    let problem = if info.manifest_entries == 0 || info.manifest_entries > manifest::MAX_ENTRIES {
+        format!(
+            "manifest_entries {} is not within 1..={}",
+            info.manifest_entries,
+            manifest::MAX_ENTRIES
+        )
+    } else if s.depths.is_empty()
+        || s.depths.iter().any(|d| !(1..=MAX_DEPTH).contains(d))
+        || s.depths.windows(2).any(|w| w[0] >= w[1])
+    {
+        format!(
+            "settings.depths {:?} are not increasing depths within 1..={MAX_DEPTH}",
+            s.depths
+        )
+    } else if s.methods.is_empty()
+        || s.methods.iter().any(|m| !methods.contains(&m.as_str()))
+        || (1..s.methods.len()).any(|i| s.methods[..i].contains(&s.methods[i]))
+    {
+        format!(
+            "settings.methods {:?} are not some of {methods:?}, each once",
+            s.methods
+                .iter()
+                .map(|m| m.chars().take(40).collect::<String>())
+                .collect::<Vec<_>>()
+        )
+    } else if !(8..=8192).contains(&s.size) || s.max_voxels == 0 || !(1..=64).contains(&s.views) {
+        format!(
+            "settings size {}, max_voxels {} or views {} are out of range",
+            s.size, s.max_voxels, s.views
+        )
+    } else if s.threads.is_some_and(|t| !(1..=1024).contains(&t)) {
+        format!("settings.threads {:?} is not within 1..=1024", s.threads)
+    } else if info.entries.len() != info.shard.owned(info.manifest_entries)
+        || info.models != info.entries.len()
+    {
+        if info.entries.is_empty() && info.manifest_hash.is_empty() {
+            "written by an older sdfmo, without entry fingerprints: rerun the shard with this \
+             version (it resumes nothing, its ledger records are of the old layout)"
+                .to_owned()
+        } else {
+            format!(
+                "shard {} of {} entries owns {} of them, but the file lists {} fingerprints and \
+                 {} models",
+                info.shard,
+                info.manifest_entries,
+                info.shard.owned(info.manifest_entries),
+                info.entries.len(),
+                info.models
+            )
+        }
+    } else if !info.wall_ms.is_finite() || info.wall_ms < 0.0 {
+        format!("wall_ms {} must be finite and ≥ 0", info.wall_ms)
+    } else {
+        return None;
+    };
+    Some(problem)
+}
+
+/// What is wrong with a current ledger record, or `None`: its name is one the sweep writes, its
+/// rows are of its model, of the settings' methods and depths, each once, and pass the row
+/// checks every reader of rows applies; its times are finite.
+fn record_problem(r: &Record, settings: &SweepSettings) -> Option<String> {
+    if !super::is_safe_name(&r.name) {
+        return Some(format!(
+            "model name {:?} must be letters, digits, '-', '_' or '.' (not first)",
+            r.name.chars().take(120).collect::<String>()
+        ));
+    }
+    if !r.wall_ms.is_finite() || r.wall_ms < 0.0 {
+        return Some(format!("wall_ms {} must be finite and ≥ 0", r.wall_ms));
+    }
+    if let Some(m) = &r.model {
+        if m.model != r.name {
+            return Some(format!("its model is named {:?}", m.model));
+        }
+        if !m.reference_render_ms.is_finite() || m.reference_render_ms < 0.0 {
+            return Some(format!(
+                "reference_render_ms {} must be finite and ≥ 0",
+                m.reference_render_ms
+            ));
+        }
+    }
+    for (i, row) in r.rows.iter().enumerate() {
+        let problem = if row.model != r.name {
+            Some(format!("its model is {:?}", row.model))
+        } else if !settings.methods.contains(&row.method) {
+            Some(format!(
+                "method {:?} is not one of the settings'",
+                row.method
+            ))
+        } else if !settings.depths.contains(&row.depth) {
+            Some(format!("depth {} is not one of the settings'", row.depth))
+        } else if r.rows[..i]
+            .iter()
+            .any(|o| o.method == row.method && o.depth == row.depth)
+        {
+            Some("it repeats an earlier row's method and depth".to_owned())
+        } else {
+            row_problem(row)
+        };
+        if let Some(p) = problem {
+            return Some(format!("row {i}: {p}"));
+        }
+    }
+    None
+}
+
 /// Reads the shards' folders and checks they make one whole run.
 fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<Vec<ShardDir>> {
     let mut out: Vec<ShardDir> = Vec::new();
     for dir in dirs {
         let path = dir.join(SHARD_FILE);
-        let bytes = sdf_multioctree::io::read_regular(&path, 64 << 20).with_context(|| {
-            format!(
-                "{} is not the output folder of a manifest sweep",
-                dir.display()
-            )
-        })?;
+        let bytes =
+            sdf_multioctree::io::read_beneath(dir, Path::new(SHARD_FILE), MAX_SHARD_FILE_BYTES)
+                .with_context(|| {
+                    format!(
+                        "{} is not the output folder of a manifest sweep",
+                        dir.display()
+                    )
+                })?;
         let info: ShardInfo = serde_json::from_slice(&bytes)
             .with_context(|| format!("{} is not a shard description", path.display()))?;
-        let (records, _) = ledger::read(dir, &info.settings_hash)?;
-        let records = records
-            .into_iter()
-            .filter(|r| info.shard.owns(r.index))
-            .collect();
+        if let Some(reason) = info_problem(&info) {
+            return Err(MergeError::BadShardFile { path, reason }.into());
+        }
+        let shard = info.shard;
+        let current = |r: &Record| {
+            shard.owns(r.index)
+                && r.index < info.manifest_entries
+                && info.entries.get(shard.slot(r.index)) == Some(&r.entry)
+        };
+        let (records, _) =
+            ledger::read(dir, &info.settings_hash, &current, ledger::MAX_LEDGER_BYTES)?;
+        for r in &records {
+            if let Some(reason) = record_problem(r, &info.settings) {
+                return Err(MergeError::BadRecord {
+                    path: ledger::ledger_path(dir),
+                    index: r.index,
+                    id: r.id.chars().take(120).collect(),
+                    reason,
+                }
+                .into());
+            }
+        }
         out.push(ShardDir {
             dir: dir.clone(),
             info,
@@ -266,7 +464,7 @@ fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<Vec<ShardDir>> {
     }
     let first = &out[0].info;
     for s in &out[1..] {
-        if s.info.settings_hash != first.settings_hash {
+        if s.info.settings_hash != first.settings_hash || s.info.settings != first.settings {
             bail!(
                 "{} ran with other settings than {} (settings {} against {}): merge shards of one run",
                 s.dir.display(),
@@ -286,6 +484,16 @@ fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<Vec<ShardDir>> {
                 out[0].dir.display(),
                 first.shard,
                 first.manifest_entries
+            );
+        }
+        if s.info.manifest_hash != first.manifest_hash {
+            bail!(
+                "{} and {} ran on different versions of the manifest (fingerprints {} and {}): \
+                 rerun the older shard with the current manifest",
+                s.dir.display(),
+                out[0].dir.display(),
+                s.info.manifest_hash,
+                first.manifest_hash
             );
         }
     }
@@ -311,13 +519,76 @@ fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<Vec<ShardDir>> {
             missing.join(", ")
         );
     }
+    // The shards' fingerprints, interleaved back into manifest order, must be the manifest the
+    // shards name: shards of two versions of a manifest of the same length do not mix.
+    let by_index: HashMap<usize, &ShardInfo> =
+        out.iter().map(|s| (s.info.shard.index, &s.info)).collect();
+    let fingerprints = (0..first.manifest_entries).map(|i| {
+        let info = by_index[&(i % count)];
+        info.entries[info.shard.slot(i)].as_str()
+    });
+    let whole = manifest::manifest_fingerprint(fingerprints);
+    if whole != first.manifest_hash {
+        bail!(
+            "the shards' entry fingerprints make the manifest {whole}, not the {} their shard.json \
+             files name: merge shards of one run",
+            first.manifest_hash
+        );
+    }
     Ok(out)
+}
+
+/// `path` made absolute with every existing part's links resolved (what it will be once
+/// created), for comparing folders.
+fn resolved(path: &Path) -> Result<PathBuf, MergeError> {
+    let unresolved = || MergeError::OutputUnresolved {
+        out: path.to_path_buf(),
+    };
+    let mut rest: Vec<&std::ffi::OsStr> = Vec::new();
+    let mut at = path;
+    loop {
+        let probe = if at.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            at
+        };
+        if let Ok(real) = probe.canonicalize() {
+            let mut p = real;
+            p.extend(rest.iter().rev());
+            return Ok(p);
+        }
+        match at.components().next_back() {
+            Some(std::path::Component::Normal(name)) => rest.push(name),
+            Some(std::path::Component::CurDir) => {}
+            _ => return Err(unresolved()),
+        }
+        at = at.parent().ok_or_else(unresolved)?;
+    }
+}
+
+/// Refuses an `out` that is one of `dirs` or inside one.
+fn check_output_apart(out: &Path, dirs: &[PathBuf]) -> anyhow::Result<()> {
+    let target = resolved(out)?;
+    for d in dirs {
+        let d_real = d
+            .canonicalize()
+            .with_context(|| format!("cannot resolve {}", d.display()))?;
+        if target.starts_with(&d_real) {
+            return Err(MergeError::OutputInsideInput {
+                out: out.to_path_buf(),
+                shard: d.clone(),
+            }
+            .into());
+        }
+    }
+    Ok(())
 }
 
 /// Runs the merge.
 pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
     let shards = read_shards(&args.merge)?;
     let out = &args.output;
+    check_output_apart(out, &args.merge)?;
     sdf_multioctree::io::create_derived_dir(out, Path::new("images"))?;
     let info = &shards[0].info;
     let mut settings = info.settings.clone();
@@ -327,10 +598,29 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
         .flat_map(|s| s.records.iter().map(move |r| (s, r)))
         .collect();
     all.sort_by_key(|(_, r)| r.index);
+    // Stale records were skipped: what is left holds each entry, id and name at most once, or
+    // the folders were tampered with.
     let mut ids = HashSet::new();
-    for (_, r) in &all {
-        if !ids.insert(r.id.as_str()) {
-            bail!("model {:?} is in two shards' ledgers", r.id);
+    let mut names = HashSet::new();
+    let mut entries = HashSet::new();
+    for (s, r) in &all {
+        let twice = if !ids.insert(r.id.as_str()) {
+            Some("its id is in another current record")
+        } else if !names.insert(r.name.as_str()) {
+            Some("its model name is in another current record")
+        } else if !entries.insert(r.index) {
+            Some("its manifest entry has another current record")
+        } else {
+            None
+        };
+        if let Some(reason) = twice {
+            return Err(MergeError::BadRecord {
+                path: ledger::ledger_path(&s.dir),
+                index: r.index,
+                id: r.id.chars().take(120).collect(),
+                reason: reason.to_owned(),
+            }
+            .into());
         }
     }
     let mut models: Vec<Model> = Vec::new();
@@ -345,7 +635,8 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
             (_, f) => failures.extend(f),
         }
     }
-    let unfinished = info.manifest_entries - all.len();
+    // Every index is below manifest_entries and counted once (above): no underflow.
+    let unfinished = info.manifest_entries - entries.len();
     let records: Vec<&Record> = all.iter().map(|(_, r)| *r).collect();
     let stats = DatasetStats {
         manifest_models: info.manifest_entries,
@@ -383,8 +674,11 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
         }
         for f in wanted {
             let rel = image_rel(m, &f);
-            if let Ok(bytes) = sdf_multioctree::io::read_regular(&src.join(&rel), 256 << 20) {
-                write_derived(&out.join(&rel), &bytes)?;
+            // No link below the shard folder is followed; a missing image is left out.
+            match sdf_multioctree::io::read_beneath(src, Path::new(&rel), MAX_IMAGE_BYTES) {
+                Ok(bytes) => write_derived(&out.join(&rel), &bytes)?,
+                Err(e) if e.os_kind() == Some(std::io::ErrorKind::NotFound) => {}
+                Err(e) => return Err(e.into()),
             }
         }
     }
@@ -469,9 +763,22 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
         ))?;
     }
     if unfinished > 0 {
+        let first: Vec<String> = (0..info.manifest_entries)
+            .filter(|i| !entries.contains(i))
+            .take(5)
+            .map(|i| i.to_string())
+            .collect();
         bail!(
-            "{unfinished} of {} models are in no ledger: a shard did not finish (rerun it, then merge again)",
-            stats.manifest_models
+            "{unfinished} of {} models have no current ledger record (manifest entries {}{}): a \
+             shard did not finish, or ran before the manifest was edited (rerun it, then merge \
+             again)",
+            stats.manifest_models,
+            first.join(", "),
+            if unfinished > first.len() {
+                ", …"
+            } else {
+                ""
+            }
         );
     }
     Ok(())
@@ -568,6 +875,7 @@ mod tests {
             settings: String::new(),
             index: 0,
             id: String::new(),
+            entry: String::new(),
             name: String::new(),
             source: String::new(),
             model: Some(Model {

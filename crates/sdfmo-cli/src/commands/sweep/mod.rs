@@ -451,6 +451,14 @@ pub fn sanitize(name: &str) -> String {
     }
 }
 
+/// Whether `name` is a name the sweep itself writes into file names and pages (a model or a
+/// method): one that [`sanitize`] leaves as it is, so non-empty, no leading `.`, only letters,
+/// digits, `-`, `_` and `.` (no separator, no `..`, nothing absolute). Every name read back
+/// from outside (a ledger, `shard.json`, extra rows) must pass it before it names a file.
+pub fn is_safe_name(name: &str) -> bool {
+    sanitize(name) == name
+}
+
 /// `name`, or `name_2`, `name_3`, … when a model of that name is already there.
 fn unique_name(name: &str, names: &[String]) -> String {
     let taken = |n: &str| names.iter().any(|m| m == n);
@@ -472,6 +480,10 @@ mod tests {
         assert_eq!(sanitize("abc 1<x>"), "abc_1_x_");
         assert_eq!(sanitize("..hidden"), "hidden");
         assert_eq!(sanitize(""), "mesh");
+        for bad in ["", "..", "../x", "/etc", "a/b", ".hidden", "a\\b", "é"] {
+            assert!(!is_safe_name(bad), "{bad:?}");
+        }
+        assert!(is_safe_name("part_000001") && is_safe_name("-dash") && is_safe_name("a..b"));
         let m = |n: &str| n.to_owned();
         assert_eq!(unique_name("a", &[m("b")]), "a");
         assert_eq!(unique_name("a", &[m("a"), m("a_2")]), "a_3");

@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use super::isolate::{self, Limits};
 use super::ledger::{self, Ledger, Record};
-use super::manifest::{Entry, Manifest, Shard};
+use super::manifest::{self, Entry, Manifest, Shard};
 use super::{report, Model, Row, SweepSettings};
 use crate::args::SweepArgs;
 use crate::output::{print_json, print_text, write_derived};
@@ -22,6 +22,10 @@ use crate::progress;
 
 /// File name of a shard's description inside its output folder.
 pub const SHARD_FILE: &str = "shard.json";
+
+/// Largest `shard.json` read back (it lists one fingerprint, 19 bytes, per model of the shard:
+/// a whole manifest of [`manifest::MAX_ENTRIES`] in one shard takes about 19 MB).
+pub const MAX_SHARD_FILE_BYTES: u64 = 64 << 20;
 
 /// Exit code of a shard (or merge) that finished but recorded failed models.
 pub const EXIT_MODELS_FAILED: u8 = 3;
@@ -56,6 +60,14 @@ pub struct ShardInfo {
     pub manifest: String,
     /// Entries in the whole manifest.
     pub manifest_entries: usize,
+    /// [`manifest::manifest_fingerprint`] of the whole manifest (empty in folders written
+    /// before fingerprints).
+    #[serde(default)]
+    pub manifest_hash: String,
+    /// The fingerprints of this shard's entries in manifest order (`entries[k]` is entry
+    /// `shard.index + k · shard.count`): what a merge checks each ledger record against.
+    #[serde(default)]
+    pub entries: Vec<String>,
     /// Which shard.
     pub shard: Shard,
     /// [`ledger::settings_hash`] of the settings.
@@ -121,10 +133,11 @@ pub fn run(args: &SweepArgs, manifest_path: &Path, settings: &SweepSettings) -> 
     let hash = ledger::settings_hash(settings);
     // One folder per shard: a ledger of another shard (or manifest) is never appended to.
     let info_path = out.join(SHARD_FILE);
-    if info_path.exists() {
-        let old: ShardInfo =
-            serde_json::from_slice(&sdf_multioctree::io::read_regular(&info_path, 16 << 20)?)
-                .with_context(|| format!("{} is not a shard description", info_path.display()))?;
+    if std::fs::symlink_metadata(&info_path).is_ok() {
+        let bytes =
+            sdf_multioctree::io::read_beneath(out, Path::new(SHARD_FILE), MAX_SHARD_FILE_BYTES)?;
+        let old: ShardInfo = serde_json::from_slice(&bytes)
+            .with_context(|| format!("{} is not a shard description", info_path.display()))?;
         if old.shard != shard || old.manifest_entries != manifest.entries.len() {
             bail!(
                 "{} holds shard {} of a manifest of {} models; this is shard {shard} of {} models: \
@@ -136,7 +149,14 @@ pub fn run(args: &SweepArgs, manifest_path: &Path, settings: &SweepSettings) -> 
             );
         }
     }
-    let mut ledger = Ledger::open(out, &hash)?;
+    // A record counts only for the entry it ran: same position, id and fingerprint.
+    let current = |r: &Record| {
+        manifest
+            .entries
+            .get(r.index)
+            .is_some_and(|e| e.id == r.id && e.fingerprint == r.entry)
+    };
+    let mut ledger = Ledger::open(out, &hash, &current)?;
     let mine: Vec<&Entry> = manifest
         .entries
         .iter()
@@ -153,15 +173,13 @@ pub fn run(args: &SweepArgs, manifest_path: &Path, settings: &SweepSettings) -> 
     let skipped = mine.len() - todo.len();
     let limits = Limits {
         timeout: args.model_timeout.map(Duration::from_secs_f64),
-        // The kernel's cap: twice the build budget and 1 GiB for the address space a process
-        // reserves beyond what it touches (thread stacks, allocator arenas, the binary).
-        address_space: super::memory_budget(args.max_memory)
-            .map(|b| b.saturating_mul(2).saturating_add(1 << 30)),
+        address_space: isolate::address_space_cap(super::memory_budget(args.max_memory)),
     };
     let bar = progress::steps(todo.len() as u64, "starting");
     if ledger.ignored > 0 {
         bar.println(format!(
-            "shard {shard}: {} ledger records of other settings ignored (starting over)",
+            "shard {shard}: {} ledger records ignored (other settings, edited or moved manifest \
+             lines, or replaced by a later record)",
             ledger.ignored
         ));
     }
@@ -206,6 +224,10 @@ pub fn run(args: &SweepArgs, manifest_path: &Path, settings: &SweepSettings) -> 
     let info = ShardInfo {
         manifest: manifest_path.display().to_string(),
         manifest_entries: manifest.entries.len(),
+        manifest_hash: manifest::manifest_fingerprint(
+            manifest.entries.iter().map(|e| e.fingerprint.as_str()),
+        ),
+        entries: mine.iter().map(|e| e.fingerprint.clone()).collect(),
         shard,
         settings_hash: hash,
         settings: settings.clone(),
@@ -258,6 +280,7 @@ fn run_entry(args: &SweepArgs, e: &Entry, limits: Limits) -> anyhow::Result<Reco
         settings: String::new(),
         index: e.index,
         id: e.id.clone(),
+        entry: e.fingerprint.clone(),
         name: e.name.clone(),
         source: String::new(),
         model: None,
@@ -291,9 +314,13 @@ fn run_entry(args: &SweepArgs, e: &Entry, limits: Limits) -> anyhow::Result<Reco
 }
 
 /// The arguments of the process that sweeps one model: the same settings, this model only.
+/// Every option is one `--flag=value` word and the mesh comes last after `--`, so a model name
+/// or a path starting with `-` is never read as an option.
 fn child_args(args: &SweepArgs, path: &Path, name: &str) -> Vec<OsString> {
-    let mut v: Vec<OsString> = vec!["sweep".into(), path.into(), "--isolated-model".into()];
-    v.push(name.into());
+    let mut v: Vec<OsString> = vec!["sweep".into()];
+    let mut model = OsString::from("--isolated-model=");
+    model.push(name);
+    v.push(model);
     v.push(format!("--depths={}..{}", args.depths.start(), args.depths.end()).into());
     let methods: Vec<&str> = args.methods.iter().map(|m| m.name()).collect();
     v.push(format!("--methods={}", methods.join(",")).into());
@@ -309,7 +336,10 @@ fn child_args(args: &SweepArgs, path: &Path, name: &str) -> Vec<OsString> {
     if let Some(t) = args.threads {
         v.push(format!("--threads={t}").into());
     }
-    v.push("-o".into());
-    v.push(args.output.clone().into_os_string());
+    let mut output = OsString::from("--output=");
+    output.push(&args.output);
+    v.push(output);
+    v.push("--".into());
+    v.push(path.into());
     v
 }

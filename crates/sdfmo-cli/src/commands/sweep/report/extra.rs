@@ -13,7 +13,7 @@ use super::model::{ExtraRows, Row};
 pub const MAX_EXTRA_ROWS_FILE: u64 = 64 << 20;
 
 /// Deepest depth a row may state: the sweep's own limit (`--depths` within 1..=16).
-const MAX_DEPTH: u8 = 16;
+pub const MAX_DEPTH: u8 = 16;
 
 /// Why a file of extra rows was refused.
 #[derive(Debug, thiserror::Error)]
@@ -149,63 +149,96 @@ fn parse(path: &Path, text: &str) -> Result<Vec<Row>, ExtraRowsError> {
     rows.map_err(schema)
 }
 
-/// The checks serde's types cannot make: names safe in file names and tables, a depth the
-/// tables can hold, finite and meaningful numbers.
+/// The checks serde's types cannot make, on a row read from a file: names safe in file names and
+/// tables, a depth the tables can hold, finite and meaningful numbers.
 fn check(path: &Path, index: usize, row: &Row) -> Result<(), ExtraRowsError> {
-    let invalid = |reason: String| ExtraRowsError::Invalid {
-        path: path.to_path_buf(),
-        index,
-        model: row.model.clone(),
-        method: row.method.clone(),
-        depth: row.depth,
-        reason,
-    };
-    let safe = |s: &str| {
-        !s.is_empty()
-            && !s.starts_with('.')
-            && s.chars()
-                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'))
-    };
-    if !safe(&row.model) {
-        return Err(invalid(format!(
+    match row_problem(row) {
+        None => Ok(()),
+        Some(reason) => Err(ExtraRowsError::Invalid {
+            path: path.to_path_buf(),
+            index,
+            model: row.model.clone(),
+            method: row.method.clone(),
+            depth: row.depth,
+            reason,
+        }),
+    }
+}
+
+/// Highest PSNR a row may state (dB). The sweep's images are 8-bit RGB of at most 8192² pixels
+/// (`--size`), so the smallest non-zero mean squared error is one level in one channel of one
+/// pixel, 1 / (3 · 8192²), and the highest finite PSNR 10 · log10(255² · 3 · 8192²) ≈ 131.2
+/// dB; identical images are `null`. 200 dB leaves room for a producer with larger images.
+pub const MAX_PSNR_DB: f64 = 200.0;
+
+/// What is wrong with a row from outside this process (a file of extra rows, a shard's
+/// ledger), or `None`: the one set of checks every reader of rows applies. Names must be what
+/// the sweep's own writer makes ([`super::super::is_safe_name`]); the depth within
+/// 1..=[`MAX_DEPTH`]; PSNR finite, ≥ 0 and at most [`MAX_PSNR_DB`]; FLIP within 0..=1; times
+/// finite and ≥ 0; bytes positive.
+pub fn row_problem(row: &Row) -> Option<String> {
+    check_row(row).err()
+}
+
+fn check_row(row: &Row) -> Result<(), String> {
+    if !super::super::is_safe_name(&row.model) {
+        return Err(format!(
             "model name {:?} must be letters, digits, '-', '_' or '.' (not first)",
             row.model
-        )));
+        ));
     }
-    if !safe(&row.method) {
-        return Err(invalid(format!(
+    if !super::super::is_safe_name(&row.method) {
+        return Err(format!(
             "method name {:?} must be letters, digits, '-', '_' or '.' (not first)",
             row.method
-        )));
+        ));
     }
     if !(1..=MAX_DEPTH).contains(&row.depth) {
-        return Err(invalid(format!("depth must be within 1..={MAX_DEPTH}")));
+        return Err(format!("depth must be within 1..={MAX_DEPTH}"));
     }
+    // 1e300 in full is 301 digits: large values in exponent form.
+    let num = |v: f64| {
+        if v.abs() < 1e9 {
+            v.to_string()
+        } else {
+            format!("{v:e}")
+        }
+    };
     let finite_nonneg = |name: &str, v: f64| {
         if v.is_finite() && v >= 0.0 {
             Ok(())
         } else {
-            Err(invalid(format!("{name} {v} must be finite and ≥ 0")))
+            Err(format!("{name} {} must be finite and ≥ 0", num(v)))
         }
     };
+    let psnr = |name: &str, v: f64| {
+        finite_nonneg(name, v)?;
+        if v > MAX_PSNR_DB {
+            return Err(format!(
+                "{name} {} dB is above {MAX_PSNR_DB} dB, more than 8-bit images can give",
+                num(v)
+            ));
+        }
+        Ok(())
+    };
     if let Some(p) = row.psnr {
-        finite_nonneg("psnr", p)?;
+        psnr("psnr", p)?;
     }
     if !(0.0..=1.0).contains(&row.flip) {
-        return Err(invalid(format!("flip {} must be within 0..=1", row.flip)));
+        return Err(format!("flip {} must be within 0..=1", row.flip));
     }
     if row.bytes == 0 {
-        return Err(invalid("bytes must be positive".into()));
+        return Err("bytes must be positive".into());
     }
     finite_nonneg("render_ms", row.render_ms)?;
     if let Some(ms) = row.build_ms {
         finite_nonneg("build_ms", ms)?;
     }
     for p in row.psnr_views.iter().flatten() {
-        finite_nonneg("a view's psnr", *p)?;
+        psnr("a view's psnr", *p)?;
     }
     if let Some(f) = row.flip_views.iter().find(|f| !(0.0..=1.0).contains(*f)) {
-        return Err(invalid(format!("a view's flip {f} must be within 0..=1")));
+        return Err(format!("a view's flip {f} must be within 0..=1"));
     }
     Ok(())
 }
@@ -276,6 +309,7 @@ mod tests {
             ("\"flip\": 0.08", "\"flip\": 1.5"),
             ("\"bytes\": 140000", "\"bytes\": 0"),
             ("\"render_ms\": 719.0", "\"render_ms\": -1"),
+            ("\"psnr\": 27.28", "\"psnr\": 1e300"),
             ("\"abc1\"", "\"../abc1\""),
             ("\"nglod\"", "\"ng lod\""),
         ] {
