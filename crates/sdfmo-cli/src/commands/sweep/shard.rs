@@ -23,8 +23,8 @@ use crate::progress;
 /// File name of a shard's description inside its output folder.
 pub const SHARD_FILE: &str = "shard.json";
 
-/// Largest `shard.json` read back (it lists one fingerprint, 19 bytes, per model of the shard:
-/// a whole manifest of [`manifest::MAX_ENTRIES`] in one shard takes about 19 MB).
+/// Largest `shard.json` read back (it lists one fingerprint, a line of 24 bytes, per model of
+/// the shard: a whole manifest of [`manifest::MAX_ENTRIES`] in one shard takes about 24 MB).
 pub const MAX_SHARD_FILE_BYTES: u64 = 64 << 20;
 
 /// Exit code of a shard (or merge) that finished but recorded failed models.
