@@ -6,6 +6,7 @@ is written atomically under OUT and reused on a rerun (a finished step is skippe
     peer.py timing  --out OUT --sdfmo BIN --vdbpeer BIN MODEL...
     peer.py hard    --out OUT --sdfmo BIN --vdbpeer BIN
     peer.py intersectors --out OUT --sdfmo BIN --vdbpeer BIN MODEL
+    peer.py shifted --out OUT --sdfmo BIN --vdbpeer BIN MODEL...
     peer.py unsigned --out OUT --sdfmo BIN --vdbpeer BIN [OPEN_MODEL...]
 """
 
@@ -280,6 +281,47 @@ def hard(a) -> None:
                 cell(a, cmp, m, st, depth, band, refdir, ["float", "fp8", "fp4"])
 
 
+def shifted(a) -> None:
+    """The same level sets with the index origin at world (-1,-1,-1) (`vdbpeer build --shift`):
+    the same lattice, so the same values, but the root cube falls in one of NanoVDB's upper
+    internal nodes instead of the eight that meet at index (0,0,0). Sizes of every cell of the
+    matrix; at the verification depth (band 1) the float and Fp4 grids are rendered and scored
+    too, to check that the images match the unshifted ones."""
+    refs = references(a, a.models)
+    cmp = Compare(a.sdfmo, os.path.join(a.out, "compare_cache.json"), a.nice)
+    for depth in [int(x) for x in a.depths.split(",")]:
+        for m in a.models:
+            st = stem_of(m)
+            d = os.path.join(a.out, "vdb", st, f"d{depth}")
+            for band in [int(x) for x in a.bands.split(",")]:
+                bj = os.path.join(d, f"sband{band}.build.json")
+                verify = depth == a.verify_depth and band == 1
+                vj = os.path.join(d, f"sband{band}.verify.json")
+                if os.path.exists(bj) and (not verify or os.path.exists(vj)):
+                    continue
+                os.makedirs(d, exist_ok=True)
+                la = loadavg()
+                r = run_timed([a.vdbpeer, "build", m, "--depth", str(depth), "--band", str(band), "--out", d,
+                               "--threads", str(a.threads), "--shift"], a.nice)
+                b = json.loads(r["stdout"])
+                b.update(process_wall_s=r["wall_s"], process_cpu_s=r["cpu_s"], loadavg_1min=la)
+                if verify:
+                    res = {}
+                    for var in ("float", "fp4"):
+                        rr = json.loads(run_timed([a.vdbpeer, "render", os.path.join(d, f"sband{band}_{var}.nvdb"), "--out",
+                                                   os.path.join(d, f"sband{band}_{var}"), "--size", str(a.size),
+                                                   "--threads", str(a.threads)], a.nice)["stdout"])
+                        res[var] = {"render": rr, "compare": [cmp(os.path.join(refs[st], f"reference_{k}.png"),
+                                                                  os.path.join(d, f"sband{band}_{var}_{k}.png")) for k in range(4)]}
+                    atomic_write(vj, json.dumps(res))
+                atomic_write(bj, json.dumps(b))
+                log(f"{st} d{depth} band {band} shifted: .vdb {b['vdb_bytes'] / 1e6:.2f} MB, NanoVDB float "
+                    f"{b['nanovdb']['float']['file_bytes'] / 1e6:.2f}, fp4 {b['nanovdb']['fp4']['file_bytes'] / 1e6:.2f} MB")
+                for f in os.listdir(d):
+                    if f.startswith(f"sband{band}") and (f.endswith(".nvdb") or f.endswith(".vdb")):
+                        os.remove(os.path.join(d, f))
+
+
 def unsigned(a) -> None:
     """OpenVDB's tool for open meshes, meshToUnsignedDistanceField, its shell at 0.5 voxel as the
     surface (band 2): the open models given (the teapot) at the finest two depths, and the
@@ -333,7 +375,8 @@ def intersectors(a) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("cmd", choices=["matrix", "timing", "hard", "intersectors", "unsigned"])
+    ap.add_argument("cmd", choices=["matrix", "timing", "hard", "intersectors", "unsigned", "shifted"])
+    ap.add_argument("--verify-depth", type=int, default=9)
     ap.add_argument("models", nargs="*")
     ap.add_argument("--out", required=True)
     ap.add_argument("--sdfmo", required=True)
@@ -352,7 +395,7 @@ def main() -> None:
     ap.add_argument("--hard-depths", default="8,9")
     a = ap.parse_args()
     a.models = [os.path.abspath(m) for m in a.models]
-    {"matrix": matrix, "timing": timing, "hard": hard, "intersectors": intersectors, "unsigned": unsigned}[a.cmd](a)
+    {"matrix": matrix, "timing": timing, "hard": hard, "intersectors": intersectors, "unsigned": unsigned, "shifted": shifted}[a.cmd](a)
 
 
 if __name__ == "__main__":

@@ -63,8 +63,18 @@ def collect(out: str, stems: list[str]) -> dict:
         for p in glob.glob(os.path.join(out, "vdb", st, "d*", "band*.done.json")):
             depth = int(os.path.basename(os.path.dirname(p))[1:])
             band = int(os.path.basename(p)[4:].split(".")[0])
-            cells[(st, depth, band)] = load(p)
+            c = load(p)
+            sp = os.path.join(os.path.dirname(p), f"sband{band}.build.json")
+            c["sbuild"] = load(sp) if os.path.exists(sp) else None
+            vp = os.path.join(os.path.dirname(p), f"sband{band}.verify.json")
+            c["sverify"] = load(vp) if os.path.exists(vp) else None
+            cells[(st, depth, band)] = c
     return cells
+
+
+def sized(c: dict) -> dict:
+    """The build whose sizes count: the shifted one (the root cube in one upper node) when run."""
+    return c.get("sbuild") or c["build"]
 
 
 def variant_stats(cell: dict, var: str) -> dict:
@@ -75,7 +85,8 @@ def variant_stats(cell: dict, var: str) -> dict:
         "psnr": psnr_mean(v["compare"]), "flip": mean(c["flip"] for c in v["compare"]),
         "psnr_views": [c["psnr"] for c in v["compare"]], "flip_views": [c["flip"] for c in v["compare"]],
         "render_ms": mean(x["render_ms"] for x in views), "render_cpu_ms": mean(x["render_cpu_ms"] for x in views),
-        "file_bytes": b["nanovdb"][var]["file_bytes"], "mem_bytes": b["nanovdb"][var]["mem_bytes"],
+        "file_bytes": sized(cell)["nanovdb"][var]["file_bytes"], "mem_bytes": sized(cell)["nanovdb"][var]["mem_bytes"],
+        "file_bytes_origin": b["nanovdb"][var]["file_bytes"],
         "convert_ms": b["nanovdb"][var]["convert_ms"], "sha": [c["test_sha256"] for c in v["compare"]],
     }
 
@@ -86,7 +97,7 @@ def rows_of(cells: dict) -> list[dict]:
         b = c["build"]
         fl = variant_stats(c, "float")
         rows.append({"model": st, "method": f"openvdb-band{band}", "depth": depth, "psnr": fl["psnr"],
-                     "flip": fl["flip"], "bytes": b["vdb_bytes"], "build_ms": b["build_ms"],
+                     "flip": fl["flip"], "bytes": sized(c)["vdb_bytes"], "build_ms": b["build_ms"],
                      "render_ms": fl["render_ms"], "psnr_views": fl["psnr_views"], "flip_views": fl["flip_views"]})
         if band == NANO_ROW_BAND:
             for var in VARIANTS:
@@ -177,6 +188,8 @@ def main() -> None:
                                               "vdb_mem_bytes", "fpn_tolerance", "voxel_size", "threads", "loadavg_1min",
                                               "normalization", "triangles", "openvdb_version")},
         "variants": {v: {k: x for k, x in variant_stats(c, v).items() if k != "sha"} for v in c["variants"]},
+        "shifted_build": {k: c["sbuild"][k] for k in ("vdb_bytes", "nanovdb", "build_ms", "active_voxels")} if c.get("sbuild") else None,
+        "shifted_verify": {v: [x["psnr"] for x in r["compare"]] for v, r in c["sverify"].items()} if c.get("sverify") else None,
         "identical_to_float": {v: variant_stats(c, v)["sha"] == variant_stats(c, "float")["sha"] for v in c["variants"]},
         "render_threads": c["variants"]["float"]["render"]["threads"],
         "intersector": c["variants"]["float"]["render"]["intersector"],
@@ -441,11 +454,45 @@ def write_page(a, stems, cells, res) -> None:
       "rendered and scored.")
     w("")
 
+    # index origin
+    nshift = sum(1 for c in cells.values() if c.get("sbuild"))
+    w("## Where the grid sits: NanoVDB's upper nodes")
+    w("")
+    w("NanoVDB's upper internal nodes cover 4096³ voxels each and store a 32³ table of 8-byte entries (about "
+      "0.27 MB each, whatever they hold); OpenVDB's node boundaries sit at index 0. With the index origin at the "
+      "world origin, as a first attempt gives, the root cube [-1, 1]³ of our frame straddles the 8 upper nodes "
+      "that meet there: about 2.1 MB of node tables in every NanoVDB grid, at any depth. Building with the index "
+      "origin at world (−1, −1, −1) (`vdbpeer build --shift`: the same lattice, the same values) puts the cube in "
+      f"one. **Sizes on this page are of the shifted grids** ({nshift} of {len(cells)} cells built so; the others "
+      "show the origin-centred sizes) — the peer at its best; the renders are of the origin-centred grids.")
+    w("")
+    w("| model | depth | NanoVDB float b1, MB: origin-centred → shifted | Fp4 b1 | FpN b1 | .vdb b1 |")
+    w("|---|---:|---|---|---|---|")
+    for st in stems:
+        for d in depths:
+            c = cells.get((st, d, 1))
+            if not c or not c.get("sbuild"):
+                continue
+            o, sh = c["build"], c["sbuild"]
+            w(f"| {st} | {d} | " + " | ".join(
+                f"{mb(o['nanovdb'][v]['file_bytes'])} → {mb(sh['nanovdb'][v]['file_bytes'])}" for v in ("float", "fp4", "fpn"))
+              + f" | {mb(o['vdb_bytes'])} → {mb(sh['vdb_bytes'])} |")
+    w("")
+    ver = [(st, d, v, x - y) for (st, d, b), c in cells.items() if c.get("sverify") for v in c["sverify"]
+           for x, y in zip([q["psnr"] for q in c["sverify"][v]["compare"]], variant_stats(c, v)["psnr_views"])
+           if x is not None and y is not None]
+    if ver:
+        w(f"Check: the shifted grids rendered at depth {ver[0][1]} (band 1, float and Fp4, 4 views, "
+          f"{len({(a_, b_) for a_, b_, *_ in ver})} models) score within {max(abs(x) for *_, x in ver):.3f} dB of the "
+          "origin-centred ones per view (index coordinates differ, so float rounding along the ray does).")
+        w("")
+
     # per model tables
     w("## Per model: PSNR (dB) / MB by depth")
     w("")
     w("Columns: our SVO and multi-octree (`.smo`), the `.vdb` file per band, NanoVDB per variant at band 1 and "
-      "band 3 (file MB; in memory 200 bytes less). PSNR is the mean over the 4 views at 1024².")
+      "band 3 (file MB of the shifted grids, see above; in memory 200 bytes less). PSNR is the mean over the 4 "
+      "views at 1024².")
     w("")
     cols = [("SVO", None), ("multi", None)] + [(f".vdb b{b}", ("vdb", b)) for b in BANDS] \
         + [(f"{VNAME[v]} b1", (v, 1)) for v in VARIANTS] + [(f"{VNAME[v]} b3", (v, 3)) for v in VARIANTS]
@@ -462,7 +509,7 @@ def write_page(a, stems, cells, res) -> None:
                     cs.append(f"{f2(r['psnr'])} / {mb(r['bytes'])}" if r else "–")
                 elif key[0] == "vdb":
                     c = cells.get((st, d, key[1]))
-                    cs.append(f"{f2(variant_stats(c, 'float')['psnr'])} / {mb(c['build']['vdb_bytes'])}" if c else "–")
+                    cs.append(f"{f2(variant_stats(c, 'float')['psnr'])} / {mb(sized(c)['vdb_bytes'])}" if c else "–")
                 else:
                     s = get(st, d, key[1], key[0])
                     cs.append(f"{f2(s['psnr'])} / {mb(s['file_bytes'])}" if s else "–")
@@ -486,7 +533,7 @@ def write_page(a, stems, cells, res) -> None:
         w("")
         curves_ours = [(n, [(ours[(st, m, d)]["bytes"], ours[(st, m, d)]["psnr"], d) for d in depths if (st, m, d) in ours], s)
                        for n, m, s in (("SVO", "svo", "b-"), ("multi-octree", "multi", "r-"))]
-        curves_theirs = [(f".vdb band {b}", [(cells[(st, d, b)]["build"]["vdb_bytes"], variant_stats(cells[(st, d, b)], "float")["psnr"], d)
+        curves_theirs = [(f".vdb band {b}", [(sized(cells[(st, d, b)])["vdb_bytes"], variant_stats(cells[(st, d, b)], "float")["psnr"], d)
                                             for d in depths if (st, d, b) in cells], ls)
                          for b, ls in ((1, "k:"), (3, "k--"))]
         curves_theirs += [(f"NanoVDB {VNAME[v]} b{b}", [(get(st, d, b, v)["file_bytes"], get(st, d, b, v)["psnr"], d)
@@ -528,7 +575,7 @@ def write_page(a, stems, cells, res) -> None:
                 if not c:
                     continue
                 cands = [("nano", f"{VNAME[v]} b{b}", variant_stats(c, v)["psnr"], variant_stats(c, v)["file_bytes"]) for v in VARIANTS]
-                cands.append(("vdb", f"band {b}", variant_stats(c, "float")["psnr"], c["build"]["vdb_bytes"]))
+                cands.append(("vdb", f"band {b}", variant_stats(c, "float")["psnr"], sized(c)["vdb_bytes"]))
                 for kind, name, q, B in cands:
                     if q is None:
                         continue
@@ -564,7 +611,7 @@ def write_page(a, stems, cells, res) -> None:
                 continue
             best_n, best_v = None, None
             for b in BANDS:
-                cv = [(variant_stats(cells[(st, dd, b)], "float")["psnr"], cells[(st, dd, b)]["build"]["vdb_bytes"])
+                cv = [(variant_stats(cells[(st, dd, b)], "float")["psnr"], sized(cells[(st, dd, b)])["vdb_bytes"])
                       for dd in depths if (st, dd, b) in cells]
                 x = at_equal_psnr(cv, u["psnr"])
                 if x and (not best_v or x < best_v[0]):

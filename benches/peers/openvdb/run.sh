@@ -10,6 +10,8 @@
 #      (VDB_DEPTHS, in that order: all models at the first depth before the next), model and
 #      narrow-band half-width (VDB_BANDS): meshToLevelSet, the .vdb and NanoVDB float / Fp16 /
 #      Fp8 / Fp4 / FpN, the 4 paper views of each at 1024² (vdbpeer render), sdfmo compare.
+#   3b. peer.py shifted: the same grids with the index origin at world (-1,-1,-1), sizes only
+#      (renders checked at depth 9): NanoVDB's upper nodes are 4096³ voxels and meet at index 0.
 #   4. peer.py timing: ours and theirs interleaved (build, view-0 render), VDB_ROUNDS rounds.
 #   4b. peer.py intersectors: NanoVDB's ZeroCrossing as it is, refined, and the exact walk.
 #   5. peer.py hard: generated CAD-like parts (thin fins, thin gaps, an open sheet) through both;
@@ -52,6 +54,8 @@ common=(--out "$OUT" --sdfmo "$SDFMO" --vdbpeer "$VDBPEER" --threads "$THREADS" 
 log "matrix: depths $DEPTHS, bands ${VDB_BANDS:-1,2,3}"
 "$PY" "$HERE/peer.py" matrix "${MODELS[@]}" "${common[@]}" --depths "$DEPTHS" --bands "${VDB_BANDS:-1,2,3}" \
     --frames "${VDB_FRAMES:-1}"
+log "shifted index origin: sizes of every cell (the root cube in one upper node)"
+"$PY" "$HERE/peer.py" shifted "${MODELS[@]}" "${common[@]}" --depths "$DEPTHS" --bands "${VDB_BANDS:-1,2,3}"
 log "intersectors: ZeroCrossing as it is, refined, exact (${MODELS[0]##*/}, finest depth)"
 "$PY" "$HERE/peer.py" intersectors "${MODELS[0]}" "${common[@]}" --depths "$DEPTHS"
 if [ -z "${VDB_SKIP_TIMING:-}" ]; then

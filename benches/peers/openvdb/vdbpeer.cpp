@@ -14,6 +14,8 @@
 //       timings (wall and CPU), active voxels, bytes of each file and each in-memory grid.
 //       --unsigned ISO: meshToUnsignedDistanceField minus ISO voxels instead (OpenVDB's tool for
 //       open meshes: the zero set is a shell ISO voxels each side of every surface); files uband{B}*.
+//       --shift: index (0,0,0) at world (-1,-1,-1) (same lattice; the cube in one upper internal
+//       node, not the 8 around the index origin); files sband{B}*.
 //   vdbpeer render GRID.nvdb --out PREFIX [--views 0,1,2,3] [--size N] [--threads N]
 //       [--frames K] [--zc | --raw]
 //       The paper protocol (crates/sdfmo-render: camera.rs, shading.rs): eye 3(sin θ,0,cos θ),
@@ -256,6 +258,7 @@ int cmd_build(int argc, char** argv) {
     std::string mesh_path, out;
     int depth = -1, band = 3, threads = 2;
     double iso = -1.0;  // --unsigned ISO: meshToUnsignedDistanceField minus ISO voxels (open meshes)
+    bool shift = false;  // --shift: index (0,0,0) at world (-1,-1,-1) instead of the origin
     for (int i = 2; i < argc; ++i) {
         std::string a = argv[i];
         auto next = [&]() -> std::string { if (i + 1 >= argc) die("missing value after " + a); return argv[++i]; };
@@ -264,6 +267,7 @@ int cmd_build(int argc, char** argv) {
         else if (a == "--out") out = next();
         else if (a == "--threads") threads = std::stoi(next());
         else if (a == "--unsigned") iso = std::stod(next());
+        else if (a == "--shift") shift = true;
         else if (mesh_path.empty()) mesh_path = a;
         else die("unexpected argument " + a);
     }
@@ -276,6 +280,9 @@ int cmd_build(int argc, char** argv) {
     double load_ms = load_clock.wall_ms();
     const double h = 2.0 / double(1u << depth);
     auto xform = openvdb::math::Transform::createLinearTransform(h);
+    // --shift: the same lattice (world -1 + i·h), indices 0..2^D: the root cube in one upper
+    // internal node (4096³ voxels) instead of the 8 that meet at index (0,0,0).
+    if (shift) xform->postTranslate(openvdb::Vec3d(-1.0, -1.0, -1.0));
 
     Clock bc;
     openvdb::FloatGrid::Ptr grid;
@@ -293,7 +300,7 @@ int cmd_build(int argc, char** argv) {
     double build_ms = bc.wall_ms(), build_cpu_ms = bc.cpu_ms();
     grid->setName("sdf");
 
-    std::string stem = out + (iso < 0.0 ? "/band" : "/uband") + std::to_string(band);
+    std::string stem = out + (iso < 0.0 ? (shift ? "/sband" : "/band") : (shift ? "/suband" : "/uband")) + std::to_string(band);
     std::string vdb = stem + ".vdb";
     Clock wc;
     {
@@ -318,7 +325,7 @@ int cmd_build(int argc, char** argv) {
     std::ostringstream js;
     js.precision(10);
     js << "{\"mesh\":\"" << mesh_path << "\",\"depth\":" << depth << ",\"band\":" << band << ",\"voxel_size\":" << h
-       << ",\"threads\":" << threads << ",\"unsigned_iso\":" << iso << ",\"vertices\":" << m.pos.size() << ",\"triangles\":" << m.tri.size()
+       << ",\"threads\":" << threads << ",\"unsigned_iso\":" << iso << ",\"shift\":" << (shift ? "true" : "false") << ",\"vertices\":" << m.pos.size() << ",\"triangles\":" << m.tri.size()
        << ",\"normalization\":{\"center\":[" << n.cx << "," << n.cy << "," << n.cz << "],\"scale\":" << n.scale << "}"
        << ",\"load_ms\":" << load_ms << ",\"build_ms\":" << build_ms << ",\"build_cpu_ms\":" << build_cpu_ms
        << ",\"write_vdb_ms\":" << write_ms << ",\"active_voxels\":" << grid->activeVoxelCount()
@@ -394,7 +401,7 @@ struct Tracer {
     template <typename AccT, typename SamplerT>
     uint8_t trace(AccT& acc, SamplerT& smp, const float o[3], const float d[3], uint64_t& fallbacks) const {
         using Vec3f = nanovdb::Vec3f;
-        Vec3f io(o[0] * inv_h, o[1] * inv_h, o[2] * inv_h), id(d[0], d[1], d[2]);
+        Vec3f io = grid->worldToIndexF(Vec3f(o[0], o[1], o[2])), id(d[0], d[1], d[2]);
         nanovdb::Ray<float> ray(io, id);
         nanovdb::Coord ijk;
         float v, t;
@@ -459,7 +466,7 @@ struct Tracer {
     template <typename AccT>
     uint8_t trace_exact(AccT& acc, const float o[3], const float d[3]) const {
         using Vec3f = nanovdb::Vec3f;
-        Vec3f io(o[0] * inv_h, o[1] * inv_h, o[2] * inv_h), id(d[0], d[1], d[2]);
+        Vec3f io = grid->worldToIndexF(Vec3f(o[0], o[1], o[2])), id(d[0], d[1], d[2]);
         nanovdb::Ray<float> ray(io, id);
         float tmin = nanovdb::Delta<float>::value();
         for (int pass = 0; pass < 64; ++pass) {
