@@ -237,6 +237,7 @@ def write_page(a, stems, cells, res) -> None:
       "alternate in the same minutes. Sizes, PSNR and FLIP are deterministic.")
     w("")
     sw = comb["provenance"]
+    summary_at = len(L)  # the three claims are inserted here once computed
     w("## What was run")
     w("")
     anyb = next(iter(cells.values()))["build"]
@@ -378,19 +379,21 @@ def write_page(a, stems, cells, res) -> None:
           "voxel each side of every surface, rendered like the level sets; the teapot and the generated parts (open "
           "sheets). Beside: the signed level set (float, band 2) and our octrees at the same depth.")
         w("")
-        w("| model | depth | unsigned − 0.5 voxel: float | Fp8 | Fp4 | MB (float / Fp4) | level set float b2 | our SVO | our multi |")
+        w("| model | depth | unsigned − 0.5 voxel: float | Fp8 | Fp4 | MB (float / Fp4) | signed level set, float | our SVO | our multi |")
         w("|---|---:|---:|---:|---:|---|---:|---:|---:|")
         for (st, d), c in sorted(uc.items()):
             vs = {v: variant_stats(c, v) for v in c["variants"]}
-            ls = variant_stats(hc[(st, d, 2)], "float") if (st, d, 2) in hc else None
+            lb = next((b for b in (2, 3, 1) if (st, d, b) in hc), None)
+            ls = variant_stats(hc[(st, d, lb)], "float") if lb else None
             sv, mu = allrows.get((st, "svo", d)), allrows.get((st, "multi", d))
             w(f"| {st} | {d} | {f2(vs['float']['psnr'])} | {f2(vs['fp8']['psnr'])} | {f2(vs['fp4']['psnr'])} | "
               f"{mb(vs['float']['file_bytes'])} / {mb(vs['fp4']['file_bytes'])} | {f2(ls['psnr']) if ls else '–'} | "
               f"{f2(sv['psnr']) if sv else '–'} | {f2(mu['psnr']) if mu else '–'} |")
         w("")
         w("The shell brings the open surfaces back, at the price of a half-voxel offset on every surface, closed "
-          "ones included (the thickness is visible at silhouettes and rims); the multi-octree draws open sheets "
-          "as surface voxels with no offset.")
+          "ones included, and of shading ripples: |d| has a crease on the surface, which the trilinear interpolant "
+          "and its gradient smear over the voxels around the shell. The multi-octree draws open sheets as surface "
+          "voxels with no offset.")
         w("")
 
     # intersector
@@ -664,7 +667,7 @@ def write_page(a, stems, cells, res) -> None:
         w("")
         w("| model | depth | load | ours render ms (CPU) | float b3 ms (CPU) | Fp8 b1 ms (CPU) | Fp4 b1 ms (CPU) | ours ÷ float b3, CPU | ours build ms (CPU) | meshToLevelSet b3 ms (CPU) | b1 ms | ours ÷ b3 build, wall |")
         w("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
-        rr, rb, rb1, rr4 = [], [], [], []
+        rr, rb, rb1, rr4, rbc = [], [], [], [], []
         for (st, d), t in sorted(tims.items()):
             S = t["samples"]
             med = lambda k, f: statistics.median(x[f] for x in S[k])
@@ -677,12 +680,12 @@ def write_page(a, stems, cells, res) -> None:
             vb, vb_cpu = med("vdb_build_band3", "build_ms"), med("vdb_build_band3", "build_cpu_ms")
             vb1 = med("vdb_build_band1", "build_ms")
             rr.append((st, d, o_cpu / f_cpu)); rr4.append((st, d, o_cpu / q_cpu))
-            rb.append((st, d, ob / vb)); rb1.append((st, d, ob / vb1))
+            rb.append((st, d, ob / vb)); rb1.append((st, d, ob / vb1)); rbc.append((st, d, ob_cpu / vb_cpu))
             w(f"| {st} | {d} | {la:.1f} | {o_ms:.0f} ({o_cpu:.0f}) | {f_ms:.0f} ({f_cpu:.0f}) | {e_ms:.0f} ({e_cpu:.0f}) | "
               f"{q_ms:.0f} ({q_cpu:.0f}) | {o_cpu / f_cpu:.2f} | {ob:.0f} ({ob_cpu:.0f}) | {vb:.0f} ({vb_cpu:.0f}) | "
               f"{vb1:.0f} | {ob / vb:.2f} |")
         w("")
-        res_time = {"render": rr, "render_fp4": rr4, "build": rb, "build_b1": rb1}
+        res_time = {"render": rr, "render_fp4": rr4, "build": rb, "build_b1": rb1, "build_cpu": rbc}
         w(f"- **Render time per core, ours ÷ theirs** (CPU ms per frame, view 0): against NanoVDB float band 3 "
           f"median **{statistics.median(x for *_, x in rr):.2f}×** ({min(x for *_, x in rr):.2f}–{max(x for *_, x in rr):.2f}); "
           f"against Fp4 band 1 median {statistics.median(x for *_, x in rr4):.2f}×. Below 1: we are faster.")
@@ -692,6 +695,34 @@ def write_page(a, stems, cells, res) -> None:
           "conversions add " + ", ".join(f"{v} {statistics.median(c['build'] and variant_stats(c, v)['convert_ms'] for k, c in cells.items() if k[1] == max(depths)):.0f} ms"
                                           for v in ("float", "fp4", "fpn")) + f" (median at depth {max(depths)}).")
         w("")
+    S = ["## The three claims (wins and losses)", ""]
+    for d, kinds in sorted(claims.items()):
+        if d not in (9, 10):
+            continue
+        for kind, label in (("nano", "the best NanoVDB grid"), ("vdb", "the best `.vdb`")):
+            xs = kinds.get(kind, [])
+            exact = [(st, r) for st, r, bound in xs if not bound]
+            if not exact:
+                continue
+            losses = [f"{st} {r:.2f}" for st, r in exact if r > 1]
+            S.append(f"- **Bytes at equal PSNR**, at the peer's depth-{d} quality, ours ÷ {label}: median "
+                     f"**{statistics.median(r for _, r in exact):.2f}×** ({min(r for _, r in exact):.2f}–{max(r for _, r in exact):.2f} over "
+                     f"{len(exact)} models" + (f"; bounded: " + ", ".join(f"{st} ≤ {r:.2f}" for st, r, b in xs if b) if any(b for *_, b in xs) else "")
+                     + ")" + (f"; **a loss** where above 1: {', '.join(losses)}" if losses else "") + ".")
+    if unreached:
+        S.append(f"- At our own depth-9/10 quality the peer has no grid at all up to depth 10 in {len(unreached)} of "
+                 f"{len([1 for st in stems for d in depths if d >= 9 and (st, 'multi', d) in ours])} cases.")
+    if res_time:
+        rr_, rb_ = res_time["render"], res_time["build"]
+        S.append(f"- **Render time per core** (CPU ms per 1024² frame, view 0, interleaved), ours ÷ NanoVDB float: "
+                 f"median **{statistics.median(x for *_, x in rr_):.2f}×** ({min(x for *_, x in rr_):.2f}–{max(x for *_, x in rr_):.2f}; "
+                 f"below 1 = we are faster), against Fp4 {statistics.median(x for *_, x in res_time['render_fp4']):.2f}×.")
+        S.append(f"- **Build time** (wall, 2 threads, interleaved), ours ÷ `meshToLevelSet` band 3: median "
+                 f"**{statistics.median(x for *_, x in rb_):.2f}×** ({min(x for *_, x in rb_):.2f}–{max(x for *_, x in rb_):.2f}); "
+                 f"band 1: {statistics.median(x for *_, x in res_time['build_b1']):.2f}× (above 1 = they build faster); CPU: "
+                 f"median {statistics.median(x for *_, x in res_time['build_cpu']):.2f}×.")
+    S.append("")
+    L[summary_at:summary_at] = S
     res["claims"] = {"bytes_at_equal_psnr_at_their_points": {str(d): k for d, k in claims.items()},
                      "their_grids_below_our_psnr": unreached, "time": res_time}
 
