@@ -82,7 +82,19 @@ log "unsigned distance field for open meshes: ${UNSIGNED[*]##*/} and the generat
 dmin="$(echo "$DEPTHS" | tr ',' '\n' | sort -n | head -1)"
 dmax="$(echo "$DEPTHS" | tr ',' '\n' | sort -n | tail -1)"
 "$PY" "$HERE/report.py" --out "$OUT" --rows-only "${MODELS[@]}"
-if [ ! -f "$OUT/combined/results.json" ] || [ -n "${VDB_RERUN_SWEEP:-}" ] || [ "$OUT/results.json" -nt "$OUT/combined/results.json" ]; then
+# rerun the combined sweep when its merged rows are not this run's rows (or VDB_RERUN_SWEEP=1)
+same_rows() {
+    "$PY" - "$OUT/results.json" "$OUT/combined/results.json" <<'PYEOF'
+import json, sys
+rows = json.load(open(sys.argv[1]))["rows"]
+comb = json.load(open(sys.argv[2]))
+key = lambda r: (r["model"], r["method"], r["depth"], r["psnr"], r["bytes"])
+mine = sorted(key(r) for r in rows)
+merged = sorted(key(r) for r in comb["rows"] if r["method"] not in ("svo", "multi"))
+sys.exit(0 if mine == merged else 1)
+PYEOF
+}
+if [ ! -f "$OUT/combined/results.json" ] || [ -n "${VDB_RERUN_SWEEP:-}" ] || ! same_rows; then
     log "sdfmo sweep --extra-rows (depths $dmin..$dmax, 1024², $THREADS threads)"
     rm -rf "$OUT/combined.tmp"
     nice -n "$NICE" "$SDFMO" sweep "${MODELS[@]}" --depths "$dmin..$dmax" --size 1024 --threads "$THREADS" \
