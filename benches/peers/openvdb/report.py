@@ -34,6 +34,7 @@ def atomic_write(path: str, data: bytes | str) -> None:
     fd, tmp = tempfile.mkstemp(dir=d, prefix=".tmp-")
     with os.fdopen(fd, "wb") as f:
         f.write(data)
+    os.chmod(tmp, 0o644)
     os.replace(tmp, path)
 
 
@@ -254,7 +255,7 @@ def write_page(a, stems, cells, res) -> None:
       "as the library chooses; full-precision floats). NanoVDB: `nanovdb::OpenToNanoVDB<float, T>` for T = float, "
       "Fp16, Fp8, Fp4, FpN, written with `nanovdb::io::writeGrid` (no codec); *file* bytes are the `.nvdb` file, "
       "*memory* bytes the grid buffer (`GridHandle::size`), 200 bytes less. FpN's tolerance is NanoVDB's own "
-      f"default for level sets: absolute 0.1 voxel ({anyb['fpn_tolerance']:.3g} at depth {anyb['voxel_size'] and round(math.log2(2 / anyb['voxel_size']))}).")
+      "default for level sets: absolute 0.1 voxel (0.1 · 2/2^d; 0.00039 at depth 9).")
     w("- **Rendering.** The paper protocol of `crates/sdfmo-render` reimplemented in C++ (camera frame in f64, ray "
       "directions rounded to f32 once, 4 views, 1024², lambert `round(clamp(0.25 + 2/3·max(0, n·l), 0, 1)·255)`, "
       "l = normalize(1,1,1), normals flipped to face the viewer, black background). Intersection: NanoVDB's "
@@ -377,7 +378,8 @@ def write_page(a, stems, cells, res) -> None:
         w("")
         w("`meshToUnsignedDistanceField` (band 2 + 0.5 voxels) minus 0.5 voxel, so the zero set is a shell half a "
           "voxel each side of every surface, rendered like the level sets; the teapot and the generated parts (open "
-          "sheets). Beside: the signed level set (float, band 2) and our octrees at the same depth.")
+          "sheets). Beside: the signed level set (float; band 2 where run, else band 3) and our octrees at the same depth. "
+          "Sizes here are of origin-centred grids.")
         w("")
         w("| model | depth | unsigned − 0.5 voxel: float | Fp8 | Fp4 | MB (float / Fp4) | signed level set, float | our SVO | our multi |")
         w("|---|---:|---:|---:|---:|---|---:|---:|---:|")
@@ -387,7 +389,8 @@ def write_page(a, stems, cells, res) -> None:
             ls = variant_stats(hc[(st, d, lb)], "float") if lb else None
             sv, mu = allrows.get((st, "svo", d)), allrows.get((st, "multi", d))
             w(f"| {st} | {d} | {f2(vs['float']['psnr'])} | {f2(vs['fp8']['psnr'])} | {f2(vs['fp4']['psnr'])} | "
-              f"{mb(vs['float']['file_bytes'])} / {mb(vs['fp4']['file_bytes'])} | {f2(ls['psnr']) if ls else '–'} | "
+              f"{mb(vs['float']['file_bytes'])} / {mb(vs['fp4']['file_bytes'])} | "
+              + (f"{f2(ls['psnr'])} (band {lb})" if ls else "–") + " | "
               f"{f2(sv['psnr']) if sv else '–'} | {f2(mu['psnr']) if mu else '–'} |")
         w("")
         w("The shell brings the open surfaces back, at the price of a half-voxel offset on every surface, closed "
@@ -487,7 +490,10 @@ def write_page(a, stems, cells, res) -> None:
     if ver:
         w(f"Check: the shifted grids rendered at depth {ver[0][1]} (band 1, float and Fp4, 4 views, "
           f"{len({(a_, b_) for a_, b_, *_ in ver})} models) score within {max(abs(x) for *_, x in ver):.3f} dB of the "
-          "origin-centred ones per view (index coordinates differ, so float rounding along the ray does).")
+          "origin-centred ones per view (index coordinates differ, so float rounding along the ray does)"
+          + ("; views off by more than 0.01 dB: " + ", ".join(f"{st} {VNAME[v]} {x:+.3f} dB" for st, d, v, x in ver if abs(x) > 0.01)
+             + " (surfaces thinner than a voxel, whose lattice values sit at ±0: the sign rounding gives decides "
+             "whether a ray sees them)" if any(abs(x) > 0.01 for *_, x in ver) else "") + ".")
         w("")
 
     # per model tables
@@ -832,10 +838,11 @@ HARD_PROSE = ("What each keeps. The bent open sheet encloses nothing, so `meshTo
               "one are where a single trilinear field, OpenVDB's or our SVO's, melts or loses the feature, and the "
               "multi-octree keeps it with one voxel per component in a leaf; where no open sheet is involved OpenVDB's "
               "grid and our SVO score alike (the numbers above), so the gap to the multi-octree there is that.")
-MISSING_PROSE = ("Not measured here: NanoVDB on a GPU (no GPU on this machine; the CPU numbers are NanoVDB's "
-                 "host code path, which is the same HDDA and accessor code the CUDA kernels run), `.nvdb` files "
-                 "with NanoVDB's optional Blosc/zip codec (not compiled into Debian's headers-only package), and "
-                 "OpenVDB's own `vdb_render`.")
+MISSING_PROSE = ("Not measured here: NanoVDB on a GPU (everything ran on the CPU; `firstActive` and the read "
+                 "accessor are the same `__hostdev__` code the CUDA kernels run, the cell walk is ours), `.nvdb` "
+                 "files with NanoVDB's optional zip/Blosc file codec (`NANOVDB_USE_ZIP` / `NANOVDB_USE_BLOSC` at "
+                 "compile time; not enabled here), OpenVDB's own `vdb_render`, and the render time in the matrix "
+                 "tables is one frame per view on the loaded machine (the time claims use the interleaved runs).")
 
 
 if __name__ == "__main__":
