@@ -484,7 +484,11 @@ impl PackedOctree {
     /// The bytes read become the octree's buffer (no second copy) when they are already in the
     /// canonical encoding, as every file this crate writes is.
     pub fn load_with_limit(path: &Path, max_bytes: u64) -> Result<PackedOctree> {
-        let bytes = sdfmo_io::read_regular(path, max_bytes)?;
+        // Header first: a file whose header declares another size is refused before its body
+        // is read (the 1.x checks only: a 2.0 file is `UnsupportedVersion`, as from bytes).
+        let bytes = sdfmo_io::read_regular_checked(path, max_bytes, HEADER_SIZE, |head, len| {
+            crate::validate::check_header_size(head, len).map(|_| len)
+        })?;
         Ok(PackedOctree::new(bytes)?.into_canonical())
     }
 }

@@ -13,7 +13,7 @@ use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
 use crate::file::MAGIC;
 use crate::octree::bytes_at;
-use crate::validate::check_magic;
+use crate::validate::{check_header_size, check_magic};
 use crate::{
     OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, FORMAT_VERSION_MAJOR, MAX_DEPTH,
     MAX_FILE_SIZE,
@@ -491,13 +491,75 @@ impl LodOctree {
 
     /// Reads and validates a whole version-2.0 file of at most [`MAX_FILE_SIZE`] bytes.
     pub fn load(path: &Path) -> Result<LodOctree> {
-        LodOctree::from_bytes(&sdfmo_io::read_regular(path, MAX_FILE_SIZE)?)
+        LodOctree::from_bytes(&read_smo(path, MAX_FILE_SIZE, SmoRead::Whole)?)
     }
 
     /// Writes [`LodOctree::to_bytes`] atomically ([`sdfmo_io::write_atomic`]).
     pub fn save(&self, path: &Path) -> Result<()> {
         Ok(sdfmo_io::write_atomic(path, self.to_bytes())?)
     }
+}
+
+/// Bytes [`read_smo`] reads before anything else: every header of either kind (a 1.x header is
+/// [`HEADER_SIZE`](crate::HEADER_SIZE) bytes, a 2.0 header at most
+/// `lod_header_size(MAX_DEPTH + 1)`) fits.
+pub const SMO_HEAD_BYTES: usize = 4096;
+
+const _: () = assert!(lod_header_size(MAX_DEPTH as usize + 1) <= SMO_HEAD_BYTES);
+const _: () = assert!(crate::HEADER_SIZE <= SMO_HEAD_BYTES);
+
+/// What [`read_smo`] accepts of a file's length against the size its header declares.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SmoRead {
+    /// Exactly the declared size (loading a file).
+    Whole,
+    /// At most the declared size for a 2.0 file (a download in progress, read by
+    /// [`LodOctree::from_prefix`]); exactly for a 1.x file, which has no usable prefix.
+    Prefix,
+}
+
+/// Checks the header at the start of a `.smo` file of `len` bytes against that length, before
+/// its body is read: magic, major version, header size (and for a 2.0 header its CRC-32 and
+/// level table), and the declared file size against `len` as `read` accepts it. `head` holds
+/// the file's first [`SMO_HEAD_BYTES`] bytes (or the whole file when it is shorter). The
+/// errors are those [`SmoFile::from_bytes`] gives for the whole file.
+pub fn check_smo_head(head: &[u8], len: u64, read: SmoRead) -> Result<()> {
+    if !SmoFile::has_levels(head) {
+        check_header_size(head, len)?;
+        return Ok(());
+    }
+    let header = read_header(head)?;
+    if len < header.file_size && read == SmoRead::Whole {
+        return Err(FormatError::Truncated {
+            len: usize::try_from(len).unwrap_or(usize::MAX),
+            needed: header.file_size,
+        });
+    }
+    if len > header.file_size {
+        return corrupt(
+            "file_size",
+            format!(
+                "{} (the data has {len} bytes: trailing bytes)",
+                header.file_size
+            ),
+        );
+    }
+    Ok(())
+}
+
+/// Reads a `.smo` file of at most `max_bytes` bytes, header first: its first
+/// [`SMO_HEAD_BYTES`] bytes are checked by [`check_smo_head`] against the file's length before
+/// the rest is read ([`sdfmo_io::read_regular_checked`]), so a file whose header declares
+/// another size than it has is refused after one small read, whatever its length. The bytes
+/// are not validated further (the caller's `from_bytes` does that).
+///
+/// # Errors
+/// The file's I/O errors ([`FormatError::Io`]: not a regular file, over `max_bytes`, out of
+/// memory) and [`check_smo_head`]'s.
+pub fn read_smo(path: &Path, max_bytes: u64, read: SmoRead) -> Result<Vec<u8>> {
+    sdfmo_io::read_regular_checked(path, max_bytes, SMO_HEAD_BYTES, |head, len| {
+        check_smo_head(head, len, read).map(|()| len)
+    })
 }
 
 /// A `.smo` file of either kind: one octree (version 1.x) or levels of detail (2.0).
@@ -527,7 +589,7 @@ impl SmoFile {
 
     /// [`SmoFile::load`] with an explicit size limit in bytes, checked before reading.
     pub fn load_with_limit(path: &Path, max_bytes: u64) -> Result<SmoFile> {
-        SmoFile::from_bytes(&sdfmo_io::read_regular(path, max_bytes)?)
+        SmoFile::from_bytes(&read_smo(path, max_bytes, SmoRead::Whole)?)
     }
 
     /// Whether `bytes` start like a version-2.0 file (magic and major version 2).

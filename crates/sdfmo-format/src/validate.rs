@@ -57,17 +57,21 @@ pub(crate) fn check_magic(bytes: &[u8], header_len: usize) -> Result<()> {
     Ok(())
 }
 
-/// The checks of [`Octree::new`], in order; on success the octree's description.
-fn validate(bytes: &[u8]) -> Result<(OctreeMeta, Counts, Sections)> {
-    let len = bytes.len();
-    check_magic(bytes, HEADER_SIZE)?;
-    if len < HEADER_SIZE {
+/// The checks of a 1.x header that need only its first [`HEADER_SIZE`] bytes and the length
+/// of the whole file, `len` (which `head` may be a prefix of): magic, major version, header
+/// size, the declared file size against `len`. Shared by [`validate`] and the readers of
+/// files, which run it before reading the body ([`crate::read_smo`]).
+pub(crate) fn check_header_size(head: &[u8], len: u64) -> Result<Header> {
+    // The length as `Truncated` reports it (saturated on 32-bit targets).
+    let len_usize = usize::try_from(len).unwrap_or(usize::MAX);
+    check_magic(head, HEADER_SIZE)?;
+    if len < HEADER_SIZE as u64 || head.len() < HEADER_SIZE {
         return Err(FormatError::Truncated {
-            len,
+            len: len_usize.min(head.len()),
             needed: HEADER_SIZE as u64,
         });
     }
-    let h = Header::read(bytes);
+    let h = Header::read(head);
     let (major, minor) = (h.version_major, h.version_minor);
     if major != FORMAT_VERSION_MAJOR {
         return Err(FormatError::UnsupportedVersion {
@@ -84,21 +88,30 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, Counts, Sections)> {
         );
     }
     let file_size = h.file_size;
-    if file_size > len as u64 {
+    if file_size > len {
         return Err(FormatError::Truncated {
-            len,
+            len: len_usize,
             needed: file_size,
         });
     }
-    if file_size < len as u64 {
+    if file_size < len {
         return corrupt("file_size", format!("{file_size}, but {len} bytes follow"));
     }
-    if len < HEADER_SIZE + CHECKSUM_SIZE {
+    if len < (HEADER_SIZE + CHECKSUM_SIZE) as u64 {
         return corrupt(
             "file_size",
             format!("{len} is smaller than header + checksum"),
         );
     }
+    Ok(h)
+}
+
+/// The checks of [`Octree::new`], in order; on success the octree's description.
+fn validate(bytes: &[u8]) -> Result<(OctreeMeta, Counts, Sections)> {
+    let len = bytes.len();
+    let h = check_header_size(bytes, len as u64)?;
+    let (header_size, file_size) = (u64::from(h.header_size), h.file_size);
+    let (major, minor) = (h.version_major, h.version_minor);
     let crc_at = len - CHECKSUM_SIZE;
     let stored = u32_at(bytes, crc_at);
     let computed = crc32(&bytes[..crc_at]);

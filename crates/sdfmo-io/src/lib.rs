@@ -14,6 +14,9 @@
 //! - **Reads take regular files only, with a size limit known before reading**
 //!   ([`read_regular`]): devices and FIFOs are refused at once (no endless `/dev/zero`, no
 //!   blocking FIFO), and a file larger than the caller's limit is refused before allocating.
+//!   A format whose header declares its size reads the header first and checks it against the
+//!   file's length before reading the body ([`read_regular_checked`]); buffers are allocated
+//!   fallibly ([`IoError::OutOfMemory`]).
 //! - **Logs are appended one whole record at a time** ([`AppendLog`]): one write and a sync
 //!   per record, a torn last line dropped on reopening.
 //! - **Relative resources stay in their folder** ([`resolve_in_folder`]): absolute paths, `..`
@@ -46,7 +49,7 @@ pub use append::AppendLog;
 pub use beneath::read_beneath;
 pub use confine::resolve_in_folder;
 pub use random::SplitMix64;
-pub use read::{open_regular, read_regular, read_regular_to_string};
+pub use read::{open_regular, read_regular, read_regular_checked, read_regular_to_string};
 pub use write::{
     check_destination, check_destination_as, create_derived_dir, remove_pending_temporaries,
     write_atomic, write_atomic_as, Naming, OutputBatch,
@@ -155,6 +158,15 @@ pub enum IoError {
         /// The most bytes the caller accepts.
         limit: u64,
     },
+    /// The memory to read the file into could not be allocated (a file larger than the
+    /// process may map, e.g. under an address-space limit): refused, never an abort.
+    #[error("cannot allocate {bytes} bytes to read {}", path.display())]
+    OutOfMemory {
+        /// The file.
+        path: PathBuf,
+        /// The bytes asked for.
+        bytes: u64,
+    },
     /// An output path that is a symbolic link whose target does not exist.
     #[error("{} is a symbolic link to a file that does not exist", path.display())]
     DanglingLink {
@@ -204,6 +216,7 @@ impl IoError {
             IoError::Os { path, .. }
             | IoError::NotRegularFile { path, .. }
             | IoError::TooLarge { path, .. }
+            | IoError::OutOfMemory { path, .. }
             | IoError::DanglingLink { path }
             | IoError::SymbolicLink { path }
             | IoError::HardLinked { path, .. }

@@ -52,28 +52,82 @@ fn refuse_special(path: &Path, meta: &std::fs::Metadata) -> Result<()> {
 /// Reads the whole regular file at `path` if it holds at most `limit` bytes.
 ///
 /// The size is checked before any buffer is allocated, and the read stops after `limit + 1`
-/// bytes, so a file that grows while it is read cannot exhaust memory either.
+/// bytes, so a file that grows while it is read cannot exhaust memory either. The buffer is
+/// allocated fallibly: a file larger than the memory the process may map is
+/// [`IoError::OutOfMemory`], not an abort.
 ///
 /// # Errors
-/// As [`open_regular`], plus [`IoError::TooLarge`].
+/// As [`open_regular`], plus [`IoError::TooLarge`] and [`IoError::OutOfMemory`].
 pub fn read_regular(path: &Path, limit: u64) -> Result<Vec<u8>> {
-    let (file, len) = open_regular(path)?;
+    read_regular_checked(path, limit, 0, |_, len| Ok(len))
+}
+
+/// [`read_regular`] for a format whose header declares its size: the first `head_len` bytes
+/// (the whole file when it is shorter) are read and handed to `check` with the file's length
+/// in bytes, and the rest is read only when `check` accepts them. `check` returns how many
+/// bytes of the file to read in all: its length, or less for a format that ignores what
+/// follows its declared size (never less than the head already read). A header that lies about
+/// the size is refused after reading `head_len` bytes, whatever the file's length (a sparse
+/// file of gigabytes behind a header of a few hundred kilobytes costs one small read).
+///
+/// # Errors
+/// As [`read_regular`] (converted into `E`), and whatever `check` returns.
+pub fn read_regular_checked<E: From<IoError>>(
+    path: &Path,
+    limit: u64,
+    head_len: usize,
+    check: impl FnOnce(&[u8], u64) -> std::result::Result<u64, E>,
+) -> std::result::Result<Vec<u8>, E> {
+    let (mut file, len) = open_regular(path)?;
     let too_large = |size| IoError::TooLarge {
         path: path.to_path_buf(),
         size,
         limit,
     };
     if len > limit {
-        return Err(too_large(len));
+        return Err(too_large(len).into());
     }
-    let mut bytes = Vec::with_capacity(len as usize);
-    file.take(limit.saturating_add(1))
+    let head_len = (head_len as u64).min(len);
+    let mut bytes = Vec::new();
+    reserve(&mut bytes, head_len, path)?;
+    (&mut file)
+        .take(head_len)
         .read_to_end(&mut bytes)
         .map_err(os("read", path))?;
+    let wanted = check(&bytes, len)?.clamp(bytes.len() as u64, len);
+    let more = wanted - bytes.len() as u64;
+    reserve(&mut bytes, more, path)?;
+    // Up to `limit + 1` bytes when the whole file is wanted (a file growing past the limit is
+    // refused), else the bytes wanted.
+    let rest = if wanted < len {
+        wanted
+    } else {
+        limit.saturating_add(1)
+    } - bytes.len() as u64;
+    file.take(rest)
+        .read_to_end(&mut bytes)
+        .map_err(|e| match e.kind() {
+            std::io::ErrorKind::OutOfMemory => IoError::OutOfMemory {
+                path: path.to_path_buf(),
+                bytes: len,
+            },
+            _ => os("read", path)(e),
+        })?;
     if bytes.len() as u64 > limit {
-        return Err(too_large(bytes.len() as u64));
+        return Err(too_large(bytes.len() as u64).into());
     }
     Ok(bytes)
+}
+
+/// Reserves room for `more` bytes in `bytes`, or [`IoError::OutOfMemory`].
+fn reserve(bytes: &mut Vec<u8>, more: u64, path: &Path) -> Result<()> {
+    let total = more.saturating_add(bytes.len() as u64);
+    let out_of_memory = || IoError::OutOfMemory {
+        path: path.to_path_buf(),
+        bytes: total,
+    };
+    let more = usize::try_from(more).map_err(|_| out_of_memory())?;
+    bytes.try_reserve_exact(more).map_err(|_| out_of_memory())
 }
 
 /// [`read_regular`] for UTF-8 text.

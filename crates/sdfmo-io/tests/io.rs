@@ -244,3 +244,47 @@ fn errors_say_each_thing_once() {
         "{top} / {cause}"
     );
 }
+
+#[test]
+fn a_checked_read_shows_the_header_before_reading_the_body() {
+    let (dir, p) = dir_with_file("f.bin", b"HEAD and the body");
+    let mut seen = None;
+    let bytes = sdfmo_io::read_regular_checked::<IoError>(&p, 100, 4, |head, len| {
+        seen = Some((head.to_vec(), len));
+        Ok(len)
+    })
+    .unwrap();
+    assert_eq!(bytes, b"HEAD and the body");
+    assert_eq!(seen, Some((b"HEAD".to_vec(), 17)));
+    // A head longer than the file is the whole file.
+    let bytes = sdfmo_io::read_regular_checked::<IoError>(&p, 100, 4096, |head, len| {
+        assert_eq!((head.len(), len), (17, 17));
+        Ok(len)
+    })
+    .unwrap();
+    assert_eq!(bytes.len(), 17);
+    // A format that ignores what follows its declared size reads only that much.
+    let bytes = sdfmo_io::read_regular_checked::<IoError>(&p, 100, 4, |_, _| Ok(8)).unwrap();
+    assert_eq!(bytes, b"HEAD and");
+    // A refusal stops the read: a sparse 3 GiB file costs one small read.
+    let big = dir.path().join("sparse.bin");
+    std::fs::File::create(&big)
+        .unwrap()
+        .set_len(3 << 30)
+        .unwrap();
+    let t = std::time::Instant::now();
+    let e = sdfmo_io::read_regular_checked(&big, u64::MAX, 128, |head, len| {
+        assert_eq!((head.len(), len), (128, 3 << 30));
+        Err(IoError::TooLarge {
+            path: big.clone(),
+            size: len,
+            limit: 1,
+        })
+    })
+    .unwrap_err();
+    assert!(
+        matches!(e, IoError::TooLarge { size, .. } if size == 3 << 30),
+        "{e}"
+    );
+    assert!(t.elapsed().as_secs_f64() < 1.0, "{:?}", t.elapsed());
+}

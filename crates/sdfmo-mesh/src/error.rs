@@ -64,6 +64,17 @@ pub enum MeshError {
         /// The limit in force.
         limit: u64,
     },
+    /// Memory for the mesh's arrays could not be allocated (a file whose counts need more than
+    /// the process may map, e.g. under an address-space limit): refused, never an abort.
+    #[error("{file}: out of memory: cannot allocate {bytes} bytes for {what}")]
+    OutOfMemory {
+        /// The file.
+        file: String,
+        /// What was being allocated.
+        what: String,
+        /// The bytes asked for.
+        bytes: u64,
+    },
     /// A coordinate is NaN or infinite.
     #[error("{file}: {element} has a non-finite coordinate ({value})")]
     NonFinite {
@@ -133,6 +144,7 @@ impl MeshError {
             | MeshError::Truncated { file, .. }
             | MeshError::HeaderMismatch { file, .. }
             | MeshError::TooLarge { file, .. }
+            | MeshError::OutOfMemory { file, .. }
             | MeshError::NonFinite { file, .. }
             | MeshError::IndexOutOfRange { file, .. }
             | MeshError::NoTriangles { file, .. }

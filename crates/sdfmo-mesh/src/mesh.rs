@@ -370,7 +370,34 @@ pub(crate) fn validate(file: &str, positions: &[Vec3], triangles: &[[u32; 3]]) -
             reason: "the triangle list is empty".into(),
         });
     }
-    Ok(())
+    check_extent(file, positions, triangles)
+}
+
+/// Refuses a mesh that cannot be normalised: the extent of its triangles' bounding box
+/// overflows f32 (vertices near ±3.4e38 on both sides), or is so small that the scale to the
+/// normalised frame overflows. Both used to give a normalisation of scale 1 and wrong
+/// distances without an error.
+pub(crate) fn check_extent(file: &str, positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<()> {
+    let b = Aabb::from_points(triangles.iter().flatten().map(|&v| positions[v as usize]));
+    let extent = b.max - b.min;
+    let longest = extent.max_element();
+    let reason = if !extent.is_finite() {
+        format!(
+            "the bounding box {:?}..{:?} is wider than f32 can represent (extent {:?}): the \
+             mesh cannot be normalised",
+            b.min.to_array(),
+            b.max.to_array(),
+            extent.to_array()
+        )
+    } else if longest > 0.0 && !(2.0 / longest).is_finite() {
+        format!("the bounding box's extent {longest:e} is too small to normalise in f32")
+    } else {
+        return Ok(());
+    };
+    Err(MeshError::InvalidMesh {
+        file: file.into(),
+        reason,
+    })
 }
 
 #[cfg(test)]
@@ -384,6 +411,34 @@ mod tests {
             vec![0],
         )
         .unwrap()
+    }
+
+    #[test]
+    fn a_mesh_wider_than_f32_is_refused() {
+        // Issue 32: vertices near ±3e38 made the extent overflow; the normalisation fell back
+        // to scale 1 and every distance was wrong, without an error.
+        let p = vec![
+            Vec3::new(-3e38, 0.0, 0.0),
+            Vec3::new(3e38, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ];
+        let e = TriMesh::new(p, vec![[0, 1, 2]], vec![0]).unwrap_err();
+        assert!(matches!(e, MeshError::InvalidMesh { .. }), "{e}");
+        assert!(e.to_string().contains("wider than f32"), "{e}");
+        // Far from the origin but narrow enough is fine.
+        let p = vec![
+            Vec3::new(1e38, 0.0, 0.0),
+            Vec3::new(3e38, 0.0, 0.0),
+            Vec3::new(2e38, 1e38, 0.0),
+        ];
+        TriMesh::new(p, vec![[0, 1, 2]], vec![0]).unwrap();
+        let tiny = vec![
+            Vec3::ZERO,
+            Vec3::new(1e-44, 0.0, 0.0),
+            Vec3::new(0.0, 1e-44, 0.0),
+        ];
+        let e = TriMesh::new(tiny, vec![[0, 1, 2]], vec![0]).unwrap_err();
+        assert!(e.to_string().contains("too small"), "{e}");
     }
 
     #[test]

@@ -6,7 +6,8 @@ use std::path::Path;
 
 use anyhow::Context;
 use sdf_multioctree::format::{
-    FormatError, LevelEntry, LodOctree, PackedOctree, SmoFile, MAGIC, MAX_FILE_SIZE,
+    read_smo, FormatError, LevelEntry, LodOctree, PackedOctree, SmoFile, SmoRead, MAGIC,
+    MAX_FILE_SIZE,
 };
 use serde_json::json;
 
@@ -125,8 +126,13 @@ fn level_json(e: &LevelEntry, octree: Option<&PackedOctree>) -> serde_json::Valu
 /// file with levels may be a prefix: its complete levels are listed as loaded, the others with
 /// their declared bytes only.
 fn run_smo(path: &Path, as_json: bool) -> anyhow::Result<()> {
-    let bytes = sdf_multioctree::io::read_regular(path, MAX_FILE_SIZE)?;
     let cannot = || format!("cannot read octree {}", path.display());
+    // Header first: a header declaring another size than the file has is refused before the
+    // body is read (a prefix of a file with levels is accepted).
+    let bytes = read_smo(path, MAX_FILE_SIZE, SmoRead::Prefix).map_err(|e| match e {
+        FormatError::Io(io) => anyhow::Error::new(io),
+        e => anyhow::Error::new(e).context(cannot()),
+    })?;
     let (version, file_size, levels): (&str, u64, Vec<(LevelEntry, Option<PackedOctree>)>) =
         if SmoFile::has_levels(&bytes) {
             let p = LodOctree::from_prefix(&bytes).with_context(cannot)?;

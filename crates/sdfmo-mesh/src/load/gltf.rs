@@ -49,6 +49,24 @@ fn le_u32(b: &[u8], at: usize) -> u32 {
 }
 
 /// Splits a GLB container into its JSON chunk and optional BIN chunk.
+/// How many bytes of a GLB file of `len` bytes starting with `head` (at least `min` of them,
+/// or the whole file) to read: its declared length (what follows is ignored), checked against
+/// the file's length first; the whole file when the header is not a GLB 2 header (the
+/// parser reports it).
+pub(super) fn glb_read_len(head: &[u8], len: u64, file: &str, min: usize) -> Result<u64> {
+    if head.len() < 12 || &head[..4] != b"glTF" || le_u32(head, 4) != 2 {
+        return Ok(len);
+    }
+    let length = u64::from(le_u32(head, 8));
+    if length > len {
+        return Err(MeshError::Truncated {
+            file: file.into(),
+            reason: format!("the GLB header announces {length} bytes, the file has {len}"),
+        });
+    }
+    Ok(length.max(min as u64).min(len))
+}
+
 fn split_glb<'b>(bytes: &'b [u8], ctx: &Ctx) -> Result<(&'b [u8], Option<&'b [u8]>)> {
     let file = ctx.file;
     if bytes.len() < 12 {

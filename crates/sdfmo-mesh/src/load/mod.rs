@@ -10,7 +10,7 @@ use glam::Vec3;
 
 use crate::clean::{clean, CleanReport};
 use crate::error::{MeshError, Result};
-use crate::mesh::TriMesh;
+use crate::mesh::{check_extent, TriMesh};
 
 /// The mesh file formats understood by [`load_mesh`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -143,13 +143,42 @@ pub fn load_mesh(path: &Path) -> Result<LoadedMesh> {
 /// # Errors
 /// As [`load_mesh`].
 pub fn load_mesh_with_limits(path: &Path, limits: &LoadLimits) -> Result<LoadedMesh> {
-    let bytes = sdfmo_io::read_regular(path, limits.max_file_bytes)?;
     let name = path.display().to_string();
     let hint = path
         .extension()
         .and_then(|e| e.to_str())
         .and_then(MeshFormat::from_extension);
+    let bytes =
+        sdfmo_io::read_regular_checked(path, limits.max_file_bytes, HEAD_BYTES, |head, len| {
+            check_head(head, len, &name, hint)
+        })?;
     load_impl(&bytes, &name, hint, path.parent(), limits)
+}
+
+/// Bytes of a mesh file read before the rest, for [`check_head`]: enough to detect the format
+/// as [`detect_format`] does on the whole file, when it is STL or GLB.
+const HEAD_BYTES: usize = stl::SNIFF_BYTES;
+
+/// The checks the first bytes of a mesh file (`head`: [`HEAD_BYTES`], or the whole file) and
+/// its length `len` allow before the rest is read: a binary STL's triangle count and a GLB's
+/// declared length against the file's length. Returns how many bytes to read: the whole file,
+/// or a GLB's declared length (what follows it is ignored, as [`load_mesh_from_bytes`] ignores
+/// it). The errors are those the whole file would give.
+fn check_head(head: &[u8], len: u64, name: &str, hint: Option<MeshFormat>) -> Result<u64> {
+    match detect_format_sized(head, len, hint) {
+        Some(MeshFormat::Stl) => stl::check_head(head, len, name).map(|()| len),
+        Some(MeshFormat::Glb) => gltf::glb_read_len(head, len, name, HEAD_BYTES),
+        _ => Ok(len),
+    }
+}
+
+/// [`MeshError::OutOfMemory`]: `bytes` bytes for `what` of `file` could not be allocated.
+pub(crate) fn out_of_memory(file: &str, what: &str, bytes: usize) -> MeshError {
+    MeshError::OutOfMemory {
+        file: file.into(),
+        what: what.into(),
+        bytes: bytes as u64,
+    }
 }
 
 /// Loads a mesh from bytes in memory (used by the fuzz targets). `name` is used in errors;
@@ -188,11 +217,13 @@ enum Sniff {
     Nothing,
 }
 
-fn sniff(bytes: &[u8]) -> Sniff {
+/// What the first bytes of a file of `len` bytes say (`bytes` may be the whole file or its
+/// first [`HEAD_BYTES`]).
+fn sniff(bytes: &[u8], len: u64) -> Sniff {
     if bytes.starts_with(b"glTF") {
         return Sniff::Strong(MeshFormat::Glb);
     }
-    if stl::is_binary_length(bytes) {
+    if stl::is_binary_length(bytes, len) {
         return Sniff::Strong(MeshFormat::Stl);
     }
     let text = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
@@ -215,7 +246,12 @@ fn sniff(bytes: &[u8]) -> Sniff {
 
 /// Picks the format: strong content evidence wins, then the hint, then weak evidence.
 pub fn detect_format(bytes: &[u8], hint: Option<MeshFormat>) -> Option<MeshFormat> {
-    match (sniff(bytes), hint) {
+    detect_format_sized(bytes, bytes.len() as u64, hint)
+}
+
+/// [`detect_format`] of a file of `len` bytes from its first bytes.
+fn detect_format_sized(bytes: &[u8], len: u64, hint: Option<MeshFormat>) -> Option<MeshFormat> {
+    match (sniff(bytes, len), hint) {
         (Sniff::Strong(f), _) => Some(f),
         (_, Some(h)) => Some(h),
         (Sniff::Weak(f), None) => Some(f),
@@ -251,6 +287,7 @@ fn load_impl(
     )?;
     let raw = raw.with_triangles(name, "the file holds no triangle")?;
     let (mesh, report) = clean(name, &raw.positions, &raw.triangles, &raw.parts)?;
+    check_extent(name, mesh.positions(), mesh.triangles())?;
     Ok(LoadedMesh {
         mesh,
         report,

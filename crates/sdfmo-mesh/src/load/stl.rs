@@ -9,56 +9,60 @@ use crate::error::{MeshError, Result};
 const HEADER: usize = 80;
 const RECORD: u64 = 50;
 
-/// Whether the length of `bytes` is exactly what a binary STL header announces.
-pub(super) fn is_binary_length(bytes: &[u8]) -> bool {
-    bytes.len() >= HEADER + 4
-        && HEADER as u64 + 4 + RECORD * count(bytes) as u64 == bytes.len() as u64
+/// Bytes at the start of a file that decide between ASCII and binary STL (a NUL byte among
+/// them means binary).
+pub(super) const SNIFF_BYTES: usize = 4096;
+
+/// Whether a file of `len` bytes starting with `head` (its first bytes, at least 84 when the
+/// file has them) has exactly the length its binary STL header announces.
+pub(super) fn is_binary_length(head: &[u8], len: u64) -> bool {
+    head.len() >= HEADER + 4 && HEADER as u64 + 4 + RECORD * u64::from(count(head)) == len
 }
 
 fn count(bytes: &[u8]) -> u32 {
     u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]])
 }
 
-pub(super) fn read(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawMesh> {
-    let text = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+/// Whether a file of `len` bytes starting with `head` (its first [`SNIFF_BYTES`] bytes, or the
+/// whole file) is read as ASCII STL: it starts with `solid`, its length is not a binary
+/// header's, and it has no NUL byte. Binary exporters often start the 80-byte header with
+/// "solid" too; text never holds a NUL byte while binary headers and float records almost
+/// always do, so such a file with a wrong triangle count is reported as the broken binary STL
+/// it is.
+fn is_ascii(head: &[u8], len: u64) -> bool {
+    let text = head.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(head);
     let trimmed = text.trim_ascii_start();
     let solid = trimmed.len() >= 5 && trimmed[..5].eq_ignore_ascii_case(b"solid");
-    // Binary exporters often start the 80-byte header with "solid" too; text never holds a
-    // NUL byte while binary headers and float records almost always do, so such a file with a
-    // wrong triangle count is reported as the broken binary STL it is.
-    let binary_content = bytes.iter().take(4096).any(|&b| b == 0);
-    if solid && !is_binary_length(bytes) && !binary_content {
-        let last_line = trimmed.split(|&b| b == b'\n').count();
-        read_ascii(trimmed, file, limits).map_err(|e| match e {
-            // A bad last line without a final newline: the file was cut short.
-            MeshError::Parse {
-                line: Some(l),
-                reason,
-                ..
-            } if l == last_line && !trimmed.ends_with(b"\n") => MeshError::Truncated {
-                file: file.into(),
-                reason: format!("the ASCII STL ends in the middle of line {l} ({reason})"),
-            },
-            e => e,
-        })
-    } else {
-        read_binary(bytes, file, limits)
-    }
+    let binary_content = head.iter().take(SNIFF_BYTES).any(|&b| b == 0);
+    solid && !is_binary_length(head, len) && !binary_content
 }
 
-fn read_binary(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawMesh> {
-    if bytes.len() < HEADER + 4 {
+/// The checks of an STL file that its first bytes (`head`: [`SNIFF_BYTES`] or the whole file)
+/// and its length allow, before the rest is read: a binary STL's triangle count against the
+/// length. The errors are those [`read`] gives for the whole file.
+pub(super) fn check_head(head: &[u8], len: u64, file: &str) -> Result<()> {
+    let text = head.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(head);
+    if text.trim_ascii_start().is_empty() && (head.len() as u64) < len {
+        return Ok(()); // only blanks so far: `read` decides on the whole file
+    }
+    if is_ascii(head, len) {
+        return Ok(());
+    }
+    binary_count(head, len, file).map(drop)
+}
+
+/// The triangle count of a binary STL of `len` bytes starting with `head`, checked against
+/// the length: [`MeshError::Truncated`] or [`MeshError::HeaderMismatch`] when they disagree,
+/// [`MeshError::NoTriangles`] for a count of 0.
+fn binary_count(head: &[u8], len: u64, file: &str) -> Result<u32> {
+    if len < (HEADER + 4) as u64 || head.len() < HEADER + 4 {
         return Err(MeshError::Truncated {
             file: file.into(),
-            reason: format!(
-                "a binary STL needs an 84-byte header, the file has {} bytes",
-                bytes.len()
-            ),
+            reason: format!("a binary STL needs an 84-byte header, the file has {len} bytes"),
         });
     }
-    let n = count(bytes);
-    let expected = HEADER as u64 + 4 + RECORD * n as u64;
-    let len = bytes.len() as u64;
+    let n = count(head);
+    let expected = HEADER as u64 + 4 + RECORD * u64::from(n);
     if expected != len {
         let body = len - HEADER as u64 - 4;
         let reason = format!(
@@ -83,12 +87,47 @@ fn read_binary(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawMesh>
             "the binary STL header announces 0 triangles",
         ));
     }
-    let n = n as usize;
+    Ok(n)
+}
+
+pub(super) fn read(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawMesh> {
+    if is_ascii(bytes, bytes.len() as u64) {
+        let text = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+        let trimmed = text.trim_ascii_start();
+        let last_line = trimmed.split(|&b| b == b'\n').count();
+        read_ascii(trimmed, file, limits).map_err(|e| match e {
+            // A bad last line without a final newline: the file was cut short.
+            MeshError::Parse {
+                line: Some(l),
+                reason,
+                ..
+            } if l == last_line && !trimmed.ends_with(b"\n") => MeshError::Truncated {
+                file: file.into(),
+                reason: format!("the ASCII STL ends in the middle of line {l} ({reason})"),
+            },
+            e => e,
+        })
+    } else {
+        read_binary(bytes, file, limits)
+    }
+}
+
+fn read_binary(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawMesh> {
+    let n = binary_count(bytes, bytes.len() as u64, file)? as usize;
     let mut raw = RawMesh::default();
     raw.check_room(file, n, limits)?;
-    // Sized by the header only after checking it against the bytes present.
-    raw.positions.reserve_exact(3 * n);
-    raw.triangles.reserve_exact(n);
+    // Sized by the header only after checking it against the bytes present; fallibly (a
+    // process under an address-space limit gets an error, not an abort).
+    let out_of_memory = |what: &str, bytes: usize| super::out_of_memory(file, what, bytes);
+    raw.positions
+        .try_reserve_exact(3 * n)
+        .map_err(|_| out_of_memory("vertices", 3 * n * std::mem::size_of::<Vec3>()))?;
+    raw.triangles
+        .try_reserve_exact(n)
+        .map_err(|_| out_of_memory("triangles", n * 12))?;
+    raw.parts
+        .try_reserve_exact(n)
+        .map_err(|_| out_of_memory("part ids", n * 4))?;
     for (t, rec) in bytes[HEADER + 4..]
         .chunks_exact(RECORD as usize)
         .enumerate()
@@ -107,7 +146,7 @@ fn read_binary(bytes: &[u8], file: &str, limits: &LoadLimits) -> Result<RawMesh>
         let b = 3 * t as u32;
         raw.triangles.push([b, b + 1, b + 2]);
     }
-    raw.parts = vec![0; n];
+    raw.parts.resize(n, 0);
     raw.part_names = vec![String::from_utf8_lossy(&bytes[..HEADER])
         .trim_matches(|c: char| c == '\0' || c.is_whitespace())
         .to_string()];
@@ -250,7 +289,7 @@ mod tests {
     fn binary_round_trip_welds_to_the_original() {
         let m = box_mesh(Vec3::new(-1.0, -2.0, 0.5), Vec3::new(3.0, 0.25, 0.75));
         let bytes = to_stl_binary(&m);
-        assert!(is_binary_length(&bytes));
+        assert!(is_binary_length(&bytes, bytes.len() as u64));
         let l = load_mesh_from_bytes(&bytes, "box.stl", None).unwrap();
         assert_eq!(l.format, MeshFormat::Stl);
         assert_eq!(l.mesh.triangle_count(), 12);
