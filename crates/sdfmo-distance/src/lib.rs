@@ -86,6 +86,12 @@ use winding::{solid_angle, TriangleDipole, WindingNode};
 /// binned SAH, whose depth is at most [`SAH_DEPTH_BOUND`] + ⌈log₂ n⌉.
 pub const MAX_BVH_DEPTH: usize = 128;
 
+/// Largest coordinate of a query point in the normalised frame that the queries answer: they
+/// work with squared distances in f32, which overflow (to an infinite distance and a NaN
+/// winding number) beyond about 1.8e19. The CLI's `distance` and the Python package refuse
+/// points farther out.
+pub const MAX_QUERY_COORDINATE: f32 = 1e18;
+
 /// β of the coarse first pass of the winding-number sign (see [`SignMode::Winding`]).
 pub const COARSE_WINDING_BETA: f32 = 1.25;
 

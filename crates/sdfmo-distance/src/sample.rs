@@ -135,7 +135,25 @@ pub fn sdf_training_points(
     params: &TrainingSamples,
     seed: u64,
 ) -> Vec<Vec3> {
+    let mut out = vec![Vec3::ZERO; n];
+    sdf_training_points_into(mesh, &mut out, params, seed);
+    out
+}
+
+/// [`sdf_training_points`] into `out`: its `out.len()` points, the same values. For callers
+/// that allocate the buffer themselves (fallibly: the Python package turns a failed allocation
+/// into `MemoryError`).
+///
+/// # Panics
+/// As [`sdf_training_points`].
+pub fn sdf_training_points_into(
+    mesh: &TriMesh,
+    out: &mut [Vec3],
+    params: &TrainingSamples,
+    seed: u64,
+) {
     use rayon::prelude::*;
+    let n = out.len();
     assert!((0.0..=1.0).contains(&params.near_fraction));
     assert!(params.sigmas.iter().all(|s| s.is_finite() && *s >= 0.0));
     assert!(params.padding.is_finite() && params.padding >= 0.0);
@@ -158,7 +176,6 @@ pub fn sdf_training_points(
     let pad = f64::from(params.padding) * (hi - lo).max_element();
     let (box_lo, box_hi) = (lo - pad, hi + pad);
     let sigma = params.sigmas.map(|s| f64::from(s) * diagonal);
-    let mut out = vec![Vec3::ZERO; n];
     out.par_chunks_mut(TRAINING_BLOCK)
         .enumerate()
         .for_each(|(block, chunk)| {
@@ -192,7 +209,6 @@ pub fn sdf_training_points(
                 *slot = p.as_vec3();
             }
         });
-    out
 }
 
 #[cfg(test)]

@@ -7,6 +7,7 @@ use numpy::prelude::*;
 use numpy::{Element, PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArray};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use pyo3::type_object::PyTypeCheck;
 use pyo3::types::PyTuple;
 
 use crate::run::{self, Cancel, Cancelled};
@@ -112,6 +113,7 @@ pub fn points_arg<'py>(
             )))
         }
     };
+    let arr = native_order(arr)?;
     let shape = arr.shape().to_vec();
     if shape.is_empty() || shape[shape.len() - 1] != width {
         return Err(PyValueError::new_err(format!(
@@ -155,19 +157,46 @@ pub fn non_finite_error(name: &str, i: usize, p: DVec3) -> PyErr {
     ))
 }
 
-/// A new float32 array of `n` values (zeroed), and the slice to fill without the GIL.
-pub fn new_f32<'py>(py: Python<'py>, n: usize) -> Bound<'py, PyArray1<f32>> {
-    PyArray1::<f32>::zeros(py, n, false)
+/// `numpy.zeros(shape, dtype)`, C-ordered. numpy's own allocation: a failure is numpy's
+/// `MemoryError` ("Unable to allocate … for an array with shape …"), where rust-numpy's
+/// constructors panic (a `PanicException` before issue 32).
+fn zeros<'py, A: PyTypeCheck>(
+    py: Python<'py>,
+    shape: &[usize],
+    dtype: &str,
+) -> PyResult<Bound<'py, A>> {
+    let np = py.import("numpy")?;
+    let arr = np.call_method1("zeros", (PyTuple::new(py, shape)?, dtype))?;
+    Ok(arr.cast_into::<A>()?)
+}
+
+/// A new float32 array of `n` values (zeroed), to fill without the GIL.
+pub fn new_f32<'py>(py: Python<'py>, n: usize) -> PyResult<Bound<'py, PyArray1<f32>>> {
+    zeros(py, &[n], "float32")
 }
 
 /// A new int64 array of `n` values.
-pub fn new_i64<'py>(py: Python<'py>, n: usize) -> Bound<'py, PyArray1<i64>> {
-    PyArray1::<i64>::zeros(py, n, false)
+pub fn new_i64<'py>(py: Python<'py>, n: usize) -> PyResult<Bound<'py, PyArray1<i64>>> {
+    zeros(py, &[n], "int64")
 }
 
 /// A new `(n, 3)` float32 array.
-pub fn new_f32x3<'py>(py: Python<'py>, n: usize) -> Bound<'py, PyArray2<f32>> {
-    PyArray2::<f32>::zeros(py, [n, 3], false)
+pub fn new_f32x3<'py>(py: Python<'py>, n: usize) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    zeros(py, &[n, 3], "float32")
+}
+
+/// `arr` in the machine's byte order: a big-endian array on a little-endian machine (or the
+/// reverse) is converted (a copy), as rust-numpy reads native arrays only (before issue 32 it
+/// was a `TypeError` about the array's type).
+pub fn native_order<'py>(arr: Bound<'py, PyUntypedArray>) -> PyResult<Bound<'py, PyUntypedArray>> {
+    let dtype = arr.getattr("dtype")?;
+    if dtype.getattr("isnative")?.extract::<bool>()? {
+        return Ok(arr);
+    }
+    let native = dtype.call_method1("newbyteorder", ("=",))?;
+    Ok(arr
+        .call_method1("astype", (native,))?
+        .cast_into::<PyUntypedArray>()?)
 }
 
 /// The `(n, C)` array of `rows` (a copy).
@@ -196,7 +225,7 @@ pub fn f32_per_point<'py>(
     let arg = points_arg(points, "points", 3)?;
     let view = arg.points.view();
     let n = view.len();
-    let out = new_f32(py, n);
+    let out = new_f32(py, n)?;
     // Safety: the array was just created here and no Python code sees it until this function
     // returns; `fill` is its only writer.
     let values = unsafe { out.as_slice_mut() }.expect("fresh contiguous array");

@@ -6,7 +6,7 @@
 //! | `FileNotFoundError`, `PermissionError`, `IsADirectoryError`, `OSError` | files that cannot be read or written (the operating system's error, with `errno` and `filename`; a device, FIFO or a file over the size limit is a plain `OSError`) |
 //! | `sdfmo.MeshError` (a `ValueError`) | a mesh file that is not a readable OBJ / glTF / STL: truncated, malformed, unknown format, no triangles |
 //! | `sdfmo.FormatError` (a `ValueError`) | a `.smo` file that is truncated, corrupt (checksum), of an unknown version, or hostile |
-//! | `MemoryError` | a build whose predicted memory exceeds the budget |
+//! | `MemoryError` | a build whose predicted memory exceeds the budget; any allocation sized by the input that fails (`sample_sdf`'s points, a mesh's or a file's arrays, e.g. under an address-space limit): allocated fallibly, never an abort |
 //! | `KeyboardInterrupt` | Ctrl-C during a long call |
 //! | `RuntimeError` | what should never happen (a thread pool that cannot start; an internal panic) |
 
@@ -71,10 +71,19 @@ pub fn io_error(e: &IoError) -> PyErr {
     io_error_with(e, chain(e))
 }
 
+/// `MemoryError` for `what` (its message names the bytes asked for).
+pub fn memory_error(what: impl std::fmt::Display) -> PyErr {
+    PyMemoryError::new_err(what.to_string())
+}
+
 /// [`io_error`] with another message (the caller's context added to the layer's).
 fn io_error_with(e: &IoError, message: String) -> PyErr {
     let filename = e.path().display().to_string();
     match e {
+        IoError::OutOfMemory { .. } => memory_error(message),
+        IoError::Os { source, .. } if source.kind() == ErrorKind::OutOfMemory => {
+            memory_error(message)
+        }
         IoError::Os { source, .. } => match source.kind() {
             ErrorKind::NotFound => PyFileNotFoundError::new_err((
                 source.raw_os_error().unwrap_or(2),
@@ -104,6 +113,7 @@ fn io_error_with(e: &IoError, message: String) -> PyErr {
 pub fn mesh_error(e: &LayerMeshError) -> PyErr {
     match e {
         LayerMeshError::Io(io) => io_error(io),
+        LayerMeshError::OutOfMemory { .. } => memory_error(chain(e)),
         LayerMeshError::ExternalBuffer { source, .. }
             if !matches!(source, IoError::OutsideFolder { .. }) =>
         {
@@ -115,7 +125,10 @@ pub fn mesh_error(e: &LayerMeshError) -> PyErr {
 
 /// An error of the in-memory constructors (`Mesh(vertices, faces)`): a `ValueError`.
 pub fn array_mesh_error(e: &LayerMeshError) -> PyErr {
-    PyValueError::new_err(chain(e))
+    match e {
+        LayerMeshError::OutOfMemory { .. } => memory_error(chain(e)),
+        _ => PyValueError::new_err(chain(e)),
+    }
 }
 
 /// A format error: I/O as `OSError`s, everything about the bytes as [`FormatError`].
@@ -145,6 +158,7 @@ pub fn distance_error(e: &DistanceError) -> PyErr {
 pub fn render_error(e: &RenderError) -> PyErr {
     match e {
         RenderError::ThreadPool { .. } => PyRuntimeError::new_err(chain(e)),
+        RenderError::Io(io) => io_error(io),
         _ => PyValueError::new_err(chain(e)),
     }
 }

@@ -21,12 +21,12 @@ mod render;
 pub mod run;
 
 use numpy::prelude::*;
-use numpy::PyArray2;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
-use sdf_multioctree::distance::sample::{sdf_training_points, TrainingSamples};
+use sdf_multioctree::distance::sample::{sdf_training_points_into, TrainingSamples};
 use sdf_multioctree::metrics;
+use sdf_multioctree::Vec3;
 
 use crate::mesh::Mesh;
 use crate::octree::Octree;
@@ -111,33 +111,56 @@ fn sample_sdf<'py>(
             "near_fraction must be in [0, 1], got {near_fraction}"
         )));
     }
+    // Checked as the float32 the sampler uses: 1e39 is a finite float64 but an infinite
+    // float32, which hit the sampler's assertion (a PanicException before issue 32).
     for (name, v) in [
         ("sigmas[0]", sigmas.0),
         ("sigmas[1]", sigmas.1),
         ("padding", padding),
     ] {
-        if !(v.is_finite() && v >= 0.0) {
+        if !((v as f32).is_finite() && v >= 0.0) {
             return Err(PyValueError::new_err(format!(
-                "{name} must be finite and >= 0, got {v}"
+                "{name} must be >= 0 and finite in float32 (at most {:e}), got {v}",
+                f32::MAX
             )));
         }
     }
+    let data = &mesh.get().data;
+    check_sample_reach(data, sigmas.0.max(sigmas.1), padding)?;
     let params = TrainingSamples {
         near_fraction: near_fraction as f32,
         sigmas: [sigmas.0 as f32, sigmas.1 as f32],
         padding: padding as f32,
     };
-    let out_p = PyArray2::<f32>::zeros(py, [n, 3], false);
-    let out_d = arrays::new_f32(py, n);
+    // Refused before allocating anything when the arrays cannot fit in this machine's memory
+    // (`sample_sdf(m, 10**12)` raised a PanicException before issue 32); then every array is
+    // allocated fallibly, so a smaller limit (an address-space limit) is a MemoryError too.
+    let need = n.saturating_mul(SAMPLE_BYTES);
+    if let Some(total) = sdf_multioctree::build::physical_memory() {
+        if need as u64 > total {
+            return Err(errors::memory_error(format!(
+                "sample_sdf of n={n} points needs {need} bytes ({SAMPLE_BYTES} per point), more \
+                 than this machine's {total} bytes of memory"
+            )));
+        }
+    }
+    let out_p = arrays::new_f32x3(py, n)?;
+    let out_d = arrays::new_f32(py, n)?;
+    let mut pts: Vec<Vec3> = Vec::new();
+    pts.try_reserve_exact(n).map_err(|_| {
+        errors::memory_error(format!(
+            "cannot allocate the {n} sample points ({need} bytes in all)"
+        ))
+    })?;
+    pts.resize(n, Vec3::ZERO);
     // Safety: fresh arrays that no Python code sees until this function returns.
     let ps = unsafe { out_p.as_slice_mut() }.expect("fresh contiguous array");
     let ds = unsafe { out_d.as_slice_mut() }.expect("fresh contiguous array");
-    let data = &mesh.get().data;
     let result = run::run(py, threads, n.max(run::INLINE_ITEMS), |cancel| {
         // The distance structure and the sign's one-time data are built while the points are
         // drawn: neither needs the other, and on the bunny they are ≈ 0.1 and 0.2 CPU-s of a
         // first call's 1.9 (docs/results/python.md).
-        let (dist, pts) = rayon::join(
+        let (dist, ()) = rayon::join(
             || {
                 let d = data.distance(mode)?;
                 if n >= 256 {
@@ -145,7 +168,7 @@ fn sample_sdf<'py>(
                 }
                 Ok(d)
             },
-            || sdf_training_points(&data.mesh, n, &params, seed),
+            || sdf_training_points_into(&data.mesh, &mut pts, &params, seed),
         );
         let dist = match dist {
             Ok(d) => d,
@@ -169,6 +192,35 @@ fn sample_sdf<'py>(
     })?;
     result?;
     PyTuple::new(py, [out_p.into_any(), out_d.into_any()])
+}
+
+/// Bytes `sample_sdf` allocates per point: the float32 points and distances it returns (16)
+/// and the points as the sampler writes them (12).
+const SAMPLE_BYTES: usize = 28;
+
+/// Refuses `sigmas` (the larger, `sigma`) and `padding` that would put sample points where
+/// the distance queries overflow (farther than
+/// [`MAX_QUERY_COORDINATE`](sdf_multioctree::distance::MAX_QUERY_COORDINATE) in the
+/// normalised frame): the Gaussian noise reaches at most 8.6 standard deviations (Box-Muller
+/// from 53-bit uniforms, sqrt(-2 ln 2^-53)), each a fraction `sigma` of the bounding box's
+/// diagonal; the uniform points reach `padding` times the longest extent past the box.
+fn check_sample_reach(data: &mesh::MeshData, sigma: f64, padding: f64) -> PyResult<()> {
+    let b = data.mesh.bounds();
+    let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+    let half = 0.5 * (hi - lo).max_element();
+    let noise = 9.0 * sigma * (hi - lo).length();
+    let pad = padding * (hi - lo).max_element();
+    // From the box's centre, in the normalised frame.
+    let reach = (half + noise.max(pad)) * f64::from(data.norm.scale);
+    let limit = f64::from(sdf_multioctree::distance::MAX_QUERY_COORDINATE);
+    if reach > limit {
+        return Err(PyValueError::new_err(format!(
+            "sigmas={sigma:e} or padding={padding:e} would put sample points {reach:e} from the \
+             mesh in its normalised frame (more than {limit:e}), where distances overflow \
+             float32"
+        )));
+    }
+    Ok(())
 }
 
 /// load_png(path) -> numpy.ndarray

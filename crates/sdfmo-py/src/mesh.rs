@@ -11,7 +11,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use rayon::prelude::*;
 use sdf_multioctree::build::{self, BuildSettings, Method};
-use sdf_multioctree::distance::{MeshDistance, SignMode};
+use sdf_multioctree::distance::{MeshDistance, SignMode, MAX_QUERY_COORDINATE};
 use sdf_multioctree::format::ValueBits;
 use sdf_multioctree::mesh::{self, Normalization, Topology, TriMesh};
 use sdf_multioctree::render::MeshScene;
@@ -144,9 +144,21 @@ impl MeshData {
     }
 }
 
+/// The `ValueError` of point `name[i]` = `p`, too far from the mesh for the queries.
+fn too_far_error(data: &MeshData, name: &str, i: usize, p: DVec3) -> PyErr {
+    let limit = f64::from(MAX_QUERY_COORDINATE) / f64::from(data.norm.scale);
+    PyValueError::new_err(format!(
+        "{name}[{i}] = ({}, {}, {}) is too far from the mesh: farther than {limit:e} model units \
+         from its centre ({MAX_QUERY_COORDINATE:e} in the normalised frame), where distances \
+         overflow float32",
+        p.x, p.y, p.z
+    ))
+}
+
 /// Runs `f` over the points of `view` chunk by chunk: each chunk converted to the normalised
-/// frame of `data` (a non-finite point is a `ValueError` naming its index), then handed to `f`
-/// with the index of its first point. Stops between chunks when `cancel` is set.
+/// frame of `data` (a non-finite point, or one farther than
+/// [`MAX_QUERY_COORDINATE`] in the normalised frame, is a `ValueError` naming its index), then
+/// handed to `f` with the index of its first point. Stops between chunks when `cancel` is set.
 pub fn for_chunks(
     data: &MeshData,
     view: PointsView<'_>,
@@ -169,7 +181,11 @@ pub fn for_chunks(
             if !p.is_finite() {
                 return Ok(Err(arrays::non_finite_error(name, i, p)));
             }
-            pts.push(data.to_normalized(p));
+            let q = data.to_normalized(p);
+            if q.abs().max_element() > MAX_QUERY_COORDINATE {
+                return Ok(Err(too_far_error(data, name, i, p)));
+            }
+            pts.push(q);
         }
         f(start, &pts);
         start = end;
@@ -201,6 +217,10 @@ impl Mesh {
     }
 }
 
+/// Address space [`Mesh::load`] makes sure of, per byte of the file, before loading: the
+/// file's bytes, the arrays the reader fills and those of welding and cleaning.
+const LOAD_HEADROOM: u64 = 4;
+
 /// Reads the `faces` argument: integers of shape `(m, 3)`, each in `[0, vertex_count)`.
 fn faces_arg(obj: &Bound<'_, PyAny>, vertex_count: usize) -> PyResult<Vec<[u32; 3]>> {
     let py = obj.py();
@@ -230,18 +250,40 @@ fn faces_arg(obj: &Bound<'_, PyAny>, vertex_count: usize) -> PyResult<Vec<[u32; 
             "faces is empty: a mesh needs at least one triangle",
         ));
     }
+    let mut out = Vec::new();
+    out.try_reserve_exact(shape[0])
+        .map_err(|_| errors::memory_error(format!("cannot allocate {} triangles", shape[0])))?;
+    let out_of_range = |t: usize, k: usize, v: &dyn std::fmt::Display| {
+        PyValueError::new_err(format!(
+            "faces[{t}, {k}] = {v} is out of range: there are {vertex_count} vertices \
+             (indices 0..{vertex_count}, negative indices are refused)"
+        ))
+    };
+    // Unsigned indices are read as uint64 and signed ones as int64 (native byte order either
+    // way): before issue 32 every dtype went through int64, and a uint64 index of 2^64 - 1 was
+    // reported as -1.
+    if kind == b'u' {
+        let as_u64 = arr.call_method1("astype", (np.getattr("uint64")?,))?;
+        let a = as_u64.cast::<PyArray2<u64>>()?.readonly();
+        for (t, row) in a.as_array().rows().into_iter().enumerate() {
+            let mut tri = [0u32; 3];
+            for (k, &v) in row.iter().enumerate() {
+                if v >= vertex_count as u64 {
+                    return Err(out_of_range(t, k, &v));
+                }
+                tri[k] = v as u32;
+            }
+            out.push(tri);
+        }
+        return Ok(out);
+    }
     let as_i64 = arr.call_method1("astype", (np.getattr("int64")?,))?;
     let a = as_i64.cast::<PyArray2<i64>>()?.readonly();
-    let a = a.as_array();
-    let mut out = Vec::with_capacity(shape[0]);
-    for (t, row) in a.rows().into_iter().enumerate() {
+    for (t, row) in a.as_array().rows().into_iter().enumerate() {
         let mut tri = [0u32; 3];
         for (k, &v) in row.iter().enumerate() {
             if v < 0 || v as u64 >= vertex_count as u64 {
-                return Err(PyValueError::new_err(format!(
-                    "faces[{t}, {k}] = {v} is out of range: there are {vertex_count} vertices \
-                     (indices 0..{vertex_count}, negative indices are refused)"
-                )));
+                return Err(out_of_range(t, k, &v));
             }
             tri[k] = v as u32;
         }
@@ -259,7 +301,9 @@ fn vertices_arg(obj: &Bound<'_, PyAny>) -> PyResult<Vec<Vec3>> {
         )));
     }
     let view = points.view();
-    let mut out = Vec::with_capacity(view.len());
+    let mut out = Vec::new();
+    out.try_reserve_exact(view.len())
+        .map_err(|_| errors::memory_error(format!("cannot allocate {} vertices", view.len())))?;
     for i in 0..view.len() {
         let p = view.get(i);
         let q = p.as_vec3();
@@ -290,9 +334,11 @@ impl Mesh {
         let arg = arrays::points_arg(points, "points", 3)?;
         let view = arg.points.view();
         let n = view.len();
-        let out_d = arrays::new_f32(py, n);
-        let out_c = return_closest.then(|| arrays::new_f32x3(py, n));
-        let out_f = return_face.then(|| arrays::new_i64(py, n));
+        let out_d = arrays::new_f32(py, n)?;
+        let out_c = return_closest
+            .then(|| arrays::new_f32x3(py, n))
+            .transpose()?;
+        let out_f = return_face.then(|| arrays::new_i64(py, n)).transpose()?;
         // Safety: the arrays were just created here and no Python code sees them until this
         // function returns; the GIL-free work below is their only writer.
         let d = unsafe { out_d.as_slice_mut() }.expect("fresh contiguous array");
@@ -405,6 +451,14 @@ impl Mesh {
     /// not a valid mesh.
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Mesh> {
+        if let Ok(meta) = std::fs::metadata(&path) {
+            if meta.is_file() {
+                run::ensure_headroom(
+                    meta.len().saturating_mul(LOAD_HEADROOM),
+                    &format!("loading {}", path.display()),
+                )?;
+            }
+        }
         let loaded = py
             .detach(|| mesh::load_mesh(&path))
             .map_err(|e| errors::mesh_error(&e))?;
@@ -491,8 +545,8 @@ impl Mesh {
     /// generalised winding number otherwise), ``"pseudonormal"`` (angle-weighted
     /// pseudo-normal of the closest feature; exact for closed manifolds) or ``"winding"``
     /// (winding number > 1/2 is inside; robust on open, non-manifold and self-intersecting
-    /// meshes). ``threads``: worker threads (``None``: all cores); the values are the same for
-    /// any count. Releases the GIL; Ctrl-C raises ``KeyboardInterrupt``. A NaN or infinite
+    /// meshes). ``threads``: worker threads (``None``: all cores; more than the cores available
+    /// is clamped to them); the values are the same for any count. Releases the GIL; Ctrl-C raises ``KeyboardInterrupt``. A NaN or infinite
     /// point is a ``ValueError`` naming its index.
     #[pyo3(signature = (points, *, sign = "auto", return_closest = false, return_face = false, threads = None))]
     fn signed_distance<'py>(
@@ -610,8 +664,8 @@ impl Mesh {
                 )));
             }
         }
-        let out_t = arrays::new_f32(py, n);
-        let out_f = arrays::new_i64(py, n);
+        let out_t = arrays::new_f32(py, n)?;
+        let out_f = arrays::new_i64(py, n)?;
         // Safety: as in `distance_batch`.
         let ts = unsafe { out_t.as_slice_mut() }.expect("fresh contiguous array");
         let fs = unsafe { out_f.as_slice_mut() }.expect("fresh contiguous array");
@@ -761,10 +815,14 @@ impl Mesh {
         let options = RenderOptions::from_kwargs("render", options)?;
         let args = RenderArgs::parse(width, height, options)?;
         let data = &self.data;
-        args.render(py, |settings, camera| {
+        args.render(py, |settings, camera, cancel| {
             let dist = data.distance(SignMode::Auto)?;
-            sdf_multioctree::render::render(&MeshScene(dist), camera, settings)
-                .map_err(|e| errors::render_error(&e))
+            Ok(sdf_multioctree::render::render_cancellable(
+                &MeshScene(dist),
+                camera,
+                settings,
+                cancel,
+            ))
         })
     }
 }

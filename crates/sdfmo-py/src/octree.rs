@@ -201,7 +201,8 @@ impl Octree {
     /// (degrees) replacing its parts. ``mode``: ``"lambert"`` (the paper's shading),
     /// ``"mask"``, ``"depth"`` or ``"normal"``; ``shadows`` and ``ao`` (ambient-occlusion
     /// rays per pixel, 0..=1024) apply to lambert only. The image is the same for any
-    /// ``threads``. Releases the GIL.
+    /// ``threads``. Releases the GIL; Ctrl-C raises ``KeyboardInterrupt`` (checked before each
+    /// tile of 32 x 32 pixels).
     #[pyo3(signature = (width = 1024, height = None, **options), text_signature = "($self, width=1024, height=None, *, mode='lambert', view=0, eye=None, target=None, fov=None, shadows=False, ao=0, threads=None)")]
     fn render<'py>(
         &self,
@@ -213,9 +214,13 @@ impl Octree {
         let options = RenderOptions::from_kwargs("render", options)?;
         let args = RenderArgs::parse(width, height, options)?;
         let octree = &self.octree;
-        args.render(py, |settings, camera| {
-            sdf_multioctree::render::render(&OctreeScene(octree), camera, settings)
-                .map_err(|e| errors::render_error(&e))
+        args.render(py, |settings, camera, cancel| {
+            Ok(sdf_multioctree::render::render_cancellable(
+                &OctreeScene(octree),
+                camera,
+                settings,
+                cancel,
+            ))
         })
     }
 }

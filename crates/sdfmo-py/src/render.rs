@@ -5,7 +5,9 @@ use glam::Vec3;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use sdf_multioctree::render::{Camera, Mode, RenderSettings, Rendered, MAX_AO_SAMPLES};
+use sdf_multioctree::render::{
+    Camera, Mode, RenderError, RenderSettings, Rendered, MAX_AO_SAMPLES,
+};
 
 use crate::arrays;
 use crate::kwargs::Kwargs;
@@ -137,16 +139,28 @@ impl RenderArgs {
         })
     }
 
-    /// Renders with `f` (given the settings and the camera) without the GIL and returns the
-    /// image as uint8 `(h, w, 3)`.
+    /// Renders with `f` (given the settings, the camera and the cancellation test to pass to
+    /// `sdfmo_render::render_cancellable`) without the GIL and returns the image as uint8
+    /// `(h, w, 3)`. Ctrl-C stops the render within about a tile's time
+    /// (`KeyboardInterrupt`).
     pub fn render<'py>(
         &self,
         py: Python<'py>,
-        f: impl FnOnce(&RenderSettings, &Camera) -> PyResult<Rendered> + Send,
+        f: impl FnOnce(
+                &RenderSettings,
+                &Camera,
+                &(dyn Fn() -> bool + Sync),
+            ) -> PyResult<Result<Rendered, RenderError>>
+            + Send,
     ) -> PyResult<Bound<'py, PyAny>> {
         let pixels = (self.camera.width as usize) * (self.camera.height as usize);
-        let r = run::run(py, self.threads, pixels, |_| {
-            Ok(f(&self.settings, &self.camera))
+        let r = run::run(py, self.threads, pixels, |cancel| {
+            match f(&self.settings, &self.camera, &|| cancel.is_set()) {
+                Ok(Err(RenderError::Cancelled)) => Err(run::Cancelled),
+                Ok(Err(e)) => Ok(Err(crate::errors::render_error(&e))),
+                Ok(Ok(r)) => Ok(Ok(r)),
+                Err(e) => Ok(Err(e)),
+            }
         })??;
         Ok(arrays::image_array(py, r.rgb, r.width, r.height)?.into_any())
     }

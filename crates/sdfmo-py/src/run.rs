@@ -8,7 +8,6 @@
 //! handler's exception is raised. Work that cannot check the flag (a render, a phase of a
 //! build) finishes first; the exception is raised when it returns.
 
-use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Condvar, Mutex, OnceLock};
 use std::time::Duration;
@@ -16,6 +15,8 @@ use std::time::Duration;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use rayon::ThreadPool;
+
+use crate::errors;
 
 /// How often a waiting call checks for signals.
 pub const POLL: Duration = Duration::from_millis(50);
@@ -39,15 +40,22 @@ impl Cancel {
 #[derive(Debug)]
 pub struct Cancelled;
 
-/// The pools of `threads=n` calls, one per n, made once (a pool costs a few milliseconds).
+/// Pools kept for reuse ([`pool`]): a loop alternating two thread counts reuses both.
+const CACHED_POOLS: usize = 2;
+
+/// The pool of `threads=n` calls. A pool costs a few milliseconds to start, so the last
+/// [`CACHED_POOLS`] are kept for the next calls; an older one is dropped (its threads end when
+/// no call runs in it any more). Before issue 32 every distinct count got a pool kept forever:
+/// calls with threads=1…40 left 822 threads alive.
 fn pool(threads: usize) -> PyResult<Arc<ThreadPool>> {
-    static POOLS: OnceLock<Mutex<HashMap<usize, Arc<ThreadPool>>>> = OnceLock::new();
-    let mut pools = POOLS
-        .get_or_init(Default::default)
-        .lock()
-        .unwrap_or_else(|e| e.into_inner());
-    if let Some(p) = pools.get(&threads) {
-        return Ok(p.clone());
+    static POOLS: Mutex<Vec<(usize, Arc<ThreadPool>)>> = Mutex::new(Vec::new());
+    let mut pools = POOLS.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(i) = pools.iter().position(|(n, _)| *n == threads) {
+        // Most recently used last.
+        let entry = pools.remove(i);
+        let p = entry.1.clone();
+        pools.push(entry);
+        return Ok(p);
     }
     let p = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -57,17 +65,31 @@ fn pool(threads: usize) -> PyResult<Arc<ThreadPool>> {
             PyRuntimeError::new_err(format!("cannot start {threads} worker threads: {e}"))
         })?;
     let p = Arc::new(p);
-    pools.insert(threads, p.clone());
+    if pools.len() == CACHED_POOLS {
+        pools.remove(0);
+    }
+    pools.push((threads, p.clone()));
     Ok(p)
 }
 
-/// Checks a `threads` argument: `None` (all cores) or at least 1.
+/// The cores this process may run on (`std::thread::available_parallelism`: CPU affinity and
+/// cgroup quotas included), at least 1; read once.
+pub fn available_cores() -> usize {
+    static CORES: OnceLock<usize> = OnceLock::new();
+    *CORES.get_or_init(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
+
+/// Checks a `threads` argument: `None` (all cores) or at least 1, clamped to
+/// [`available_cores`]: the results are the same for any count, so more threads than cores
+/// only cost (`threads=10**6` spent a minute starting threads before issue 32).
 pub fn check_threads(threads: Option<i64>) -> PyResult<Option<usize>> {
     match threads {
         None => Ok(None),
-        Some(n) if n >= 1 => usize::try_from(n)
-            .map(Some)
-            .map_err(|_| PyValueError::new_err(format!("threads={n} is too large"))),
+        Some(n) if n >= 1 => Ok(Some(
+            usize::try_from(n)
+                .map_or(usize::MAX, |n| n)
+                .min(available_cores()),
+        )),
         Some(n) => Err(PyValueError::new_err(format!(
             "threads must be None (all cores) or at least 1, got {n}"
         ))),
@@ -120,18 +142,33 @@ pub fn run<T: Send>(
     let result = std::thread::scope(|s| {
         let cancel = &cancel;
         let done = &done;
-        let handle = s.spawn(move || {
-            // Set the flag even when the work panics.
-            struct Finish<'a>(&'a (Mutex<bool>, Condvar));
-            impl Drop for Finish<'_> {
-                fn drop(&mut self) {
-                    *self.0 .0.lock().unwrap_or_else(|e| e.into_inner()) = true;
-                    self.0 .1.notify_all();
+        // Spawned fallibly: under an address-space limit the helper's stack may not fit (a
+        // panic of `spawn` before issue 32).
+        let spawned = std::thread::Builder::new()
+            .name("sdfmo-call".into())
+            .spawn_scoped(s, move || {
+                // Set the flag even when the work panics.
+                struct Finish<'a>(&'a (Mutex<bool>, Condvar));
+                impl Drop for Finish<'_> {
+                    fn drop(&mut self) {
+                        *self.0 .0.lock().unwrap_or_else(|e| e.into_inner()) = true;
+                        self.0 .1.notify_all();
+                    }
                 }
+                let _finish = Finish(done);
+                in_threads(threads, || work(cancel))
+            });
+        let handle = match spawned {
+            Ok(h) => h,
+            Err(e) if e.kind() == std::io::ErrorKind::OutOfMemory => {
+                return Err(errors::memory_error(format!("cannot start a thread: {e}")))
             }
-            let _finish = Finish(done);
-            in_threads(threads, || work(cancel))
-        });
+            Err(e) => {
+                return Err(PyRuntimeError::new_err(format!(
+                    "cannot start a thread: {e}"
+                )))
+            }
+        };
         let mut interrupted = None;
         while !py.detach(|| wait(Some(POLL))) {
             if let Err(e) = py.check_signals() {
@@ -143,8 +180,8 @@ pub fn run<T: Send>(
             }
         }
         let joined = py.detach(|| handle.join());
-        (joined, interrupted)
-    });
+        Ok((joined, interrupted))
+    })?;
     match result {
         (_, Some(e)) => Err(e),
         (Ok(Ok(Ok(v))), None) => Ok(v),
@@ -163,6 +200,22 @@ pub fn run<T: Send>(
             )))
         }
     }
+}
+
+/// Makes sure `bytes` of address space can be allocated now (reserved and released at once,
+/// never touched: it costs a mapping, not memory), else `MemoryError` naming `what`. Work
+/// whose allocations cannot all be made fallible (a mesh's welding, a library's arrays) asks
+/// first for an estimate of its peak, so that under an address-space limit it fails here with
+/// an exception instead of aborting the interpreter halfway.
+pub fn ensure_headroom(bytes: u64, what: &str) -> PyResult<()> {
+    let fail = || {
+        errors::memory_error(format!(
+            "{what} needs about {bytes} bytes of memory, which cannot be allocated"
+        ))
+    };
+    let n = usize::try_from(bytes).map_err(|_| fail())?;
+    let mut probe: Vec<u8> = Vec::new();
+    probe.try_reserve_exact(n).map_err(|_| fail())
 }
 
 /// Points per chunk of a batch query: large enough to keep every worker busy and sort the

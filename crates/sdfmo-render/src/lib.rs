@@ -43,7 +43,9 @@ pub use output::{encode_exr, encode_png, save_exr, save_png};
 pub use plan::{Counters, Mode, RenderPlan, RenderSettings, MAX_AO_SAMPLES};
 #[cfg(feature = "mesh-reference")]
 pub use protocol::{PaperProtocol, ProtocolError, Score, ViewScore};
-pub use render::{in_pool, render, render_with_plan, render_with_progress, Rendered};
+pub use render::{
+    in_pool, render, render_cancellable, render_with_plan, render_with_progress, Rendered,
+};
 pub use scene::{SphereHit, Spheres, Traceable};
 /// The packet of primary rays [`Traceable::first_hits`] takes.
 pub use sdfmo_trace::RayPacket;
@@ -97,6 +99,9 @@ pub enum RenderError {
         #[source]
         source: exr::error::Error,
     },
+    /// The render was cancelled by its caller ([`render_cancellable`]).
+    #[error("the render was cancelled")]
+    Cancelled,
     /// A file could not be written: a refused destination (directory, device, FIFO), a
     /// missing folder, a full disk (see [`sdfmo_io::IoError`]).
     #[error(transparent)]

@@ -1,6 +1,6 @@
 //! The tiled renderer: plans, renders tiles in parallel, sums their counters.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Instant;
 
 use glam::{DVec3, Vec3};
@@ -79,7 +79,32 @@ pub fn render_with_progress<T: Traceable>(
     settings: &RenderSettings,
     progress: &(dyn Fn(f32) + Sync),
 ) -> Result<Rendered, RenderError> {
-    render_plan(scene, camera, &RenderPlan::new(settings)?, Some(progress))
+    render_plan(
+        scene,
+        camera,
+        &RenderPlan::new(settings)?,
+        Some(progress),
+        None,
+    )
+}
+
+/// [`render`] that stops early with [`RenderError::Cancelled`] when `cancel` returns true.
+/// `cancel` is asked from the worker threads before each tile, so a render stops within about
+/// one tile's time per worker (the Python package's Ctrl-C); an image that is not cancelled is
+/// that of [`render`].
+pub fn render_cancellable<T: Traceable>(
+    scene: &T,
+    camera: &Camera,
+    settings: &RenderSettings,
+    cancel: &(dyn Fn() -> bool + Sync),
+) -> Result<Rendered, RenderError> {
+    render_plan(
+        scene,
+        camera,
+        &RenderPlan::new(settings)?,
+        None,
+        Some(cancel),
+    )
 }
 
 /// Renders with an explicit plan. Tiles of `plan.tile_size` pixels are rendered in parallel
@@ -90,15 +115,17 @@ pub fn render_with_plan<T: Traceable>(
     camera: &Camera,
     plan: &RenderPlan,
 ) -> Result<Rendered, RenderError> {
-    render_plan(scene, camera, plan, None)
+    render_plan(scene, camera, plan, None, None)
 }
 
-/// [`render_with_plan`] with an optional progress callback (see [`render_with_progress`]).
+/// [`render_with_plan`] with an optional progress callback (see [`render_with_progress`]) and
+/// cancellation test (see [`render_cancellable`]).
 fn render_plan<T: Traceable>(
     scene: &T,
     camera: &Camera,
     plan: &RenderPlan,
     progress: Option<&(dyn Fn(f32) + Sync)>,
+    cancel: Option<&(dyn Fn() -> bool + Sync)>,
 ) -> Result<Rendered, RenderError> {
     plan.validate()?;
     let frame = camera.frame()?;
@@ -118,8 +145,14 @@ fn render_plan<T: Traceable>(
         }),
         progress,
         tiles_done: AtomicUsize::new(0),
+        cancel,
+        cancelled: AtomicBool::new(false),
     };
-    in_pool(plan.threads, || ctx.run())
+    let rendered = in_pool(plan.threads, || ctx.run())?;
+    if ctx.cancelled.load(Ordering::Relaxed) {
+        return Err(RenderError::Cancelled);
+    }
+    Ok(rendered)
 }
 
 /// Runs `f` on a local pool of `threads` workers, or on the current pool for `None` (what
@@ -156,6 +189,10 @@ struct Ctx<'a, T> {
     progress: Option<&'a (dyn Fn(f32) + Sync)>,
     /// Tiles done so far (for `progress`).
     tiles_done: AtomicUsize,
+    /// Asked before each tile: stop rendering when it returns true.
+    cancel: Option<&'a (dyn Fn() -> bool + Sync)>,
+    /// Whether `cancel` said to stop (the remaining tiles are skipped).
+    cancelled: AtomicBool,
 }
 
 /// One band of the image (a row of tiles): its first row and its pixels.
@@ -176,6 +213,21 @@ struct Tile {
     depth: Vec<f32>,
     normals: Vec<Vec3>,
     counters: Counters,
+}
+
+impl Tile {
+    /// A tile of no pixels (skipped after a cancellation; its band keeps the background).
+    fn empty(x0: u32, w: u32, h: u32) -> Tile {
+        Tile {
+            x0,
+            w,
+            h,
+            rgb: Vec::new(),
+            depth: Vec::new(),
+            normals: Vec::new(),
+            counters: Counters::default(),
+        }
+    }
 }
 
 impl<T: Traceable> Ctx<'_, T> {
@@ -237,6 +289,9 @@ impl<T: Traceable> Ctx<'_, T> {
         let tiles: Vec<Tile> = (0..tiles_x)
             .into_par_iter()
             .map(|i| {
+                if self.is_cancelled() {
+                    return Tile::empty(i * ts, 0, 0);
+                }
                 let tile = self.tile(i * ts, band.y0);
                 if let Some(progress) = self.progress {
                     let done = self.tiles_done.fetch_add(1, Ordering::Relaxed) + 1;
@@ -271,6 +326,21 @@ impl<T: Traceable> Ctx<'_, T> {
             }
         }
         counters
+    }
+
+    /// Whether the render was cancelled (asking `cancel` until it says so once).
+    fn is_cancelled(&self) -> bool {
+        let Some(cancel) = self.cancel else {
+            return false;
+        };
+        if self.cancelled.load(Ordering::Relaxed) {
+            return true;
+        }
+        let stop = cancel();
+        if stop {
+            self.cancelled.store(true, Ordering::Relaxed);
+        }
+        stop
     }
 
     fn tile(&self, x0: u32, y0: u32) -> Tile {
@@ -583,6 +653,8 @@ mod tests {
                 occupied: Some(*occupied),
                 progress: None,
                 tiles_done: AtomicUsize::new(0),
+                cancel: None,
+                cancelled: AtomicBool::new(false),
             };
             for y0 in (0..frame.height).step_by(5) {
                 for x0 in (0..frame.width).step_by(5) {

@@ -338,3 +338,30 @@ fn exr_holds_f32_depth_and_normals() {
         }
     }
 }
+
+#[test]
+fn a_cancelled_render_stops_and_says_so() {
+    // Issue 32: the Python package's `render` ignored Ctrl-C until the whole image was done;
+    // `render_cancellable` asks before each tile.
+    use sdfmo_render::plan::DEFAULT_TILE_SIZE;
+    use sdfmo_render::render_cancellable;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let scene = Spheres::one(Vec3::ZERO, 0.5);
+    let camera = Camera::paper_view(0, 256, 256);
+    let settings = RenderSettings::new(Mode::Lambert);
+    let whole = render(&scene, &camera, &settings).unwrap();
+    let never = render_cancellable(&scene, &camera, &settings, &|| false).unwrap();
+    assert_eq!(never.rgb, whole.rgb);
+    assert_eq!(never.counters, whole.counters);
+    let asked = AtomicUsize::new(0);
+    let after_three = || asked.fetch_add(1, Ordering::Relaxed) >= 3;
+    let e = render_cancellable(&scene, &camera, &settings, &after_three).unwrap_err();
+    assert!(matches!(e, RenderError::Cancelled), "{e}");
+    // Once it said stop, the other tiles are skipped without asking again.
+    let tiles = 256usize.div_ceil(DEFAULT_TILE_SIZE as usize).pow(2);
+    assert!(
+        asked.load(Ordering::Relaxed) < tiles,
+        "{}",
+        asked.load(Ordering::Relaxed)
+    );
+}

@@ -18,7 +18,7 @@ const MAX_POINTS_FILE: u64 = 1 << 30;
 
 /// Largest coordinate accepted: the queries work with squared distances in f32, which overflow
 /// (to a `null` distance) beyond about 1.8e19.
-const MAX_COORDINATE: f32 = 1e18;
+const MAX_COORDINATE: f32 = sdf_multioctree::distance::MAX_QUERY_COORDINATE;
 
 /// Most characters of a malformed line or field quoted in an error.
 const MAX_QUOTED: usize = 60;
