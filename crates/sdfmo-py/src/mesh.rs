@@ -787,6 +787,12 @@ impl Mesh {
         };
         let budget = max_memory.or_else(build::default_memory_budget);
         let mesh = &self.data.mesh;
+        // The build's predicted peak must also be allocatable now (an address-space limit below
+        // the budget): a MemoryError here, not an abort halfway through the build.
+        let estimate = build::estimate_memory(mesh, &settings).bytes;
+        if budget.is_none_or(|b| estimate <= b) {
+            run::ensure_headroom(estimate, &format!("a depth-{depth} build"))?;
+        }
         let built = run::run(py, threads, usize::MAX, |cancel| {
             let stop = || cancel.is_set();
             match build::build_cancellable(mesh, &settings, budget, None, &stop) {

@@ -50,6 +50,10 @@ impl RenderOptions {
     }
 }
 
+/// Bytes a render may hold per pixel at its peak: RGB (3), depth (4) or normals (12) when the
+/// mode keeps them, and as much again for the tiles being rendered.
+const RENDER_BYTES_PER_PIXEL: u64 = 2 * (3 + 12);
+
 /// Largest image edge (the command-line tool's `--size` limit).
 const MAX_IMAGE_EDGE: i64 = 16384;
 
@@ -154,6 +158,12 @@ impl RenderArgs {
             + Send,
     ) -> PyResult<Bound<'py, PyAny>> {
         let pixels = (self.camera.width as usize) * (self.camera.height as usize);
+        // The image, its depth or normals when the mode keeps them, and the tiles in flight:
+        // allocatable now, or a MemoryError instead of an abort in the renderer.
+        run::ensure_headroom(
+            pixels as u64 * RENDER_BYTES_PER_PIXEL,
+            &format!("a {}x{} render", self.camera.width, self.camera.height),
+        )?;
         let r = run::run(py, self.threads, pixels, |cancel| {
             match f(&self.settings, &self.camera, &|| cancel.is_set()) {
                 Ok(Err(RenderError::Cancelled)) => Err(run::Cancelled),

@@ -147,6 +147,23 @@ def test_mesh_file_under_an_address_space_limit_raises_memory_error(tmp_path):
     )
 
 
+@needs_linux
+def test_render_and_build_under_an_address_space_limit_raise_memory_error():
+    # A 16384^2 image needs 805 MB of RGB alone; a depth-12 build of the tetrahedron some
+    # hundreds of MB. Both allocate inside the library (infallibly): the package asks for the
+    # address space first.
+    expect_raised(
+        """
+        limit(300 << 20)
+        expect(MemoryError, lambda: MESH.render(16384))
+        expect(MemoryError, lambda: MESH.build(12))
+        print(MESH.render(64).shape)
+        """,
+        "MemoryError",
+        "(64, 64, 3)",
+    )
+
+
 def test_sample_sdf_of_10_12_points_is_refused_before_allocating():
     # Before issue 32: a PanicException from rust-numpy's allocation.
     with pytest.raises(MemoryError, match="needs 28000000000000 bytes"):
