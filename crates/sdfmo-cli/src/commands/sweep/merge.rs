@@ -342,8 +342,8 @@ fn info_problem(info: &ShardInfo) -> Option<String> {
             "settings size {}, max_voxels {} or views {} are out of range",
             s.size, s.max_voxels, s.views
         )
-    } else if s.threads.is_some_and(|t| !(1..=1024).contains(&t)) {
-        format!("settings.threads {:?} is not within 1..=1024", s.threads)
+    } else if s.threads == Some(0) {
+        "settings.threads is 0".to_owned()
     } else if info.entries.len() != info.shard.owned(info.manifest_entries)
         || info.models != info.entries.len()
     {
