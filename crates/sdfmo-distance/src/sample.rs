@@ -152,8 +152,29 @@ pub fn sdf_training_points_into(
     params: &TrainingSamples,
     seed: u64,
 ) {
+    sdf_training_points_part(mesh, out.len(), 0, out, params, seed);
+}
+
+/// Points `start..start + out.len()` of the `n` points of [`sdf_training_points`], into `out`:
+/// the same values as those of the whole run, so a caller can draw a large run in parts and
+/// stop between them (the Python package's Ctrl-C). `start` must be a multiple of
+/// [`TRAINING_BLOCK`]. Each call costs a pass over the triangles (the area table) besides its
+/// points.
+///
+/// # Panics
+/// As [`sdf_training_points`], and if `start` is not a multiple of [`TRAINING_BLOCK`] or the
+/// part ends past `n`.
+pub fn sdf_training_points_part(
+    mesh: &TriMesh,
+    n: usize,
+    start: usize,
+    out: &mut [Vec3],
+    params: &TrainingSamples,
+    seed: u64,
+) {
     use rayon::prelude::*;
-    let n = out.len();
+    assert!(start.is_multiple_of(TRAINING_BLOCK) && start + out.len() <= n);
+    let first_block = start / TRAINING_BLOCK;
     assert!((0.0..=1.0).contains(&params.near_fraction));
     assert!(params.sigmas.iter().all(|s| s.is_finite() && *s >= 0.0));
     assert!(params.padding.is_finite() && params.padding >= 0.0);
@@ -179,6 +200,7 @@ pub fn sdf_training_points_into(
     out.par_chunks_mut(TRAINING_BLOCK)
         .enumerate()
         .for_each(|(block, chunk)| {
+            let block = first_block + block;
             let mut rng = block_rng(seed, block as u64);
             let first = block * TRAINING_BLOCK;
             for (k, slot) in chunk.iter_mut().enumerate() {
@@ -215,6 +237,19 @@ pub fn sdf_training_points_into(
 mod tests {
     use super::*;
     use sdfmo_mesh::procedural::box_mesh;
+
+    #[test]
+    fn a_run_drawn_in_parts_is_the_whole_run() {
+        let mesh = box_mesh(Vec3::splat(-0.5), Vec3::splat(0.5));
+        let params = TrainingSamples::default();
+        let n = 5 * TRAINING_BLOCK + 123;
+        let whole = sdf_training_points(&mesh, n, &params, 4);
+        let mut parts = vec![Vec3::ZERO; n];
+        for (i, chunk) in parts.chunks_mut(2 * TRAINING_BLOCK).enumerate() {
+            sdf_training_points_part(&mesh, n, i * 2 * TRAINING_BLOCK, chunk, &params, 4);
+        }
+        assert_eq!(parts, whole);
+    }
 
     #[test]
     fn points_are_deterministic_and_in_range() {

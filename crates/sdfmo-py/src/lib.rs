@@ -24,7 +24,9 @@ use numpy::prelude::*;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
-use sdf_multioctree::distance::sample::{sdf_training_points_into, TrainingSamples};
+use sdf_multioctree::distance::sample::{
+    sdf_training_points_part, TrainingSamples, TRAINING_BLOCK,
+};
 use sdf_multioctree::metrics;
 use sdf_multioctree::Vec3;
 
@@ -135,9 +137,9 @@ fn sample_sdf<'py>(
     // Refused before allocating anything when the arrays cannot fit in this machine's memory
     // (`sample_sdf(m, 10**12)` raised a PanicException before issue 32); then every array is
     // allocated fallibly, so a smaller limit (an address-space limit) is a MemoryError too.
-    let need = n.saturating_mul(SAMPLE_BYTES);
+    let need = n as u128 * SAMPLE_BYTES as u128;
     if let Some(total) = sdf_multioctree::build::physical_memory() {
-        if need as u64 > total {
+        if need > u128::from(total) {
             return Err(errors::memory_error(format!(
                 "sample_sdf of n={n} points needs {need} bytes ({SAMPLE_BYTES} per point), more \
                  than this machine's {total} bytes of memory"
@@ -168,7 +170,15 @@ fn sample_sdf<'py>(
                 }
                 Ok(d)
             },
-            || sdf_training_points_into(&data.mesh, &mut pts, &params, seed),
+            || {
+                // In parts of SAMPLE_PART points, so that Ctrl-C stops the drawing too.
+                for (i, part) in pts.chunks_mut(SAMPLE_PART).enumerate() {
+                    if cancel.is_set() {
+                        return;
+                    }
+                    sdf_training_points_part(&data.mesh, n, i * SAMPLE_PART, part, &params, seed);
+                }
+            },
         );
         let dist = match dist {
             Ok(d) => d,
@@ -193,6 +203,10 @@ fn sample_sdf<'py>(
     result?;
     PyTuple::new(py, [out_p.into_any(), out_d.into_any()])
 }
+
+/// Points `sample_sdf` draws between two checks for Ctrl-C (a multiple of the sampler's block;
+/// each part also costs one pass over the triangles).
+const SAMPLE_PART: usize = 256 * TRAINING_BLOCK;
 
 /// Bytes `sample_sdf` allocates per point: the float32 points and distances it returns (16)
 /// and the points as the sampler writes them (12).
