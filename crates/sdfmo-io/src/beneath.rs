@@ -24,7 +24,8 @@ use crate::{os, FileKind, IoError, Result};
 /// [`IoError::OutsideFolder`] for an absolute `relative` or one with `..`;
 /// [`IoError::SymbolicLink`] when any component below `folder` is a link;
 /// [`IoError::NotRegularFile`] when the file (or a folder on the way) is of the wrong kind;
-/// [`IoError::TooLarge`]; [`IoError::Os`] (of kind `NotFound` for a missing file).
+/// [`IoError::TooLarge`]; [`IoError::OutOfMemory`] when the buffer cannot be allocated;
+/// [`IoError::Os`] (of kind `NotFound` for a missing file).
 pub fn read_beneath(folder: &Path, relative: &Path, limit: u64) -> Result<Vec<u8>> {
     let path = folder.join(relative);
     let outside = |reason| IoError::OutsideFolder {
@@ -66,7 +67,8 @@ pub fn read_beneath(folder: &Path, relative: &Path, limit: u64) -> Result<Vec<u8
     if meta.len() > limit {
         return Err(too_large(meta.len()));
     }
-    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    let mut bytes = Vec::new();
+    crate::read::reserve(&mut bytes, meta.len(), &path)?;
     file.take(limit.saturating_add(1))
         .read_to_end(&mut bytes)
         .map_err(os("read", &path))?;

@@ -120,7 +120,7 @@ pub fn read_regular_checked<E: From<IoError>>(
 }
 
 /// Reserves room for `more` bytes in `bytes`, or [`IoError::OutOfMemory`].
-fn reserve(bytes: &mut Vec<u8>, more: u64, path: &Path) -> Result<()> {
+pub(crate) fn reserve(bytes: &mut Vec<u8>, more: u64, path: &Path) -> Result<()> {
     let total = more.saturating_add(bytes.len() as u64);
     let out_of_memory = || IoError::OutOfMemory {
         path: path.to_path_buf(),
