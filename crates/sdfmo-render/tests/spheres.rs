@@ -271,14 +271,18 @@ fn out_dir() -> PathBuf {
 #[test]
 fn png_round_trips_exactly() {
     let r = shot(&shadow_pair(), &cam(29), Mode::Lambert, true, 2);
-    let path = out_dir().join("lambert.png");
+    // Its own folder: the leftover count below must not see another test's temporaries (the
+    // EXR test writes beside out_dir() at the same time; this failed once in a workspace run).
+    let dir = out_dir().join("png-round-trip");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("lambert.png");
     save_png(&r, &path).unwrap();
     let back = image::open(&path).unwrap().into_rgb8();
     assert_eq!(back.dimensions(), (29, 29));
     assert_eq!(back.into_raw(), r.rgb);
     assert_eq!(r.to_image().into_raw(), r.rgb);
     // no temporary file left behind
-    let leftovers = std::fs::read_dir(out_dir())
+    let leftovers = std::fs::read_dir(&dir)
         .unwrap()
         .filter(|e| {
             e.as_ref()
