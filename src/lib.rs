@@ -312,11 +312,55 @@ pub fn render_mesh(mesh: &TriMesh, camera: &Camera, mode: Mode) -> Result<Render
 /// # Ok::<(), sdf_multioctree::Error>(())
 /// ```
 pub fn octree_distance<B: AsRef<[u8]>>(octree: &format::Octree<B>, point: Vec3) -> f32 {
-    let meta = octree.meta();
-    let normalized = (point - meta.center) * meta.scale;
-    match trace::distance_at(octree, normalized) {
-        Some(sample) => sample.distance / meta.scale,
+    let frame = octree_frame(octree);
+    match trace::distance_at(octree, frame.point_to_normalized(point.as_dvec3())) {
+        Some(sample) => frame.length_to_model(sample.distance),
         None => f32::NAN,
+    }
+}
+
+/// The octree's frame: model units (the mesh's own) ↔ the normalised root cube `[-1, 1]³` the
+/// octree and the renderer work in, from the normalisation stored in the file
+/// ([`format::OctreeMeta`]).
+pub fn octree_frame<B: AsRef<[u8]>>(octree: &format::Octree<B>) -> mesh::Normalization {
+    let meta = octree.meta();
+    mesh::Normalization {
+        center: meta.center,
+        scale: meta.scale,
+    }
+}
+
+/// The mesh's frame: model units ↔ the normalised root cube, exactly as [`build_octree`],
+/// [`render_mesh`] and the command line normalise it ([`DEFAULT_MARGIN`]); the frame of every
+/// octree built from it.
+pub fn mesh_frame(mesh: &TriMesh) -> mesh::Normalization {
+    mesh::Normalization::for_bounds(&mesh.bounds(), DEFAULT_MARGIN)
+}
+
+/// `camera` with its eye and target given in model units, moved into `frame`'s normalised frame,
+/// where the renderer works (field of view and image size unchanged). The command line's
+/// `--eye`/`--target` and Python's `eye=`/`target=` go through this same conversion, so one
+/// eye gives one image in every front-end. The paper's views ([`paper_views`]) are defined in
+/// the normalised frame already.
+///
+/// ```
+/// use sdf_multioctree::{build_octree, camera_from_model, demo_mesh, octree_frame};
+/// use sdf_multioctree::{paper_views, render_octree, Method, Mode, Vec3};
+///
+/// let mesh = demo_mesh();
+/// let (octree, _) = build_octree(&mesh, 5, Method::Multi { max_voxels: 8 })?;
+/// let mut camera = paper_views(32)[0].clone();
+/// camera.eye = Vec3::new(0.0, 0.0, 40.0); // model units: 40 units in front of the part
+/// camera.target = mesh.bounds().center();
+/// let image = render_octree(&octree, &camera_from_model(&octree_frame(&octree), &camera), Mode::Mask)?;
+/// assert!(image.counters.hits > 0);
+/// # Ok::<(), sdf_multioctree::Error>(())
+/// ```
+pub fn camera_from_model(frame: &mesh::Normalization, camera: &Camera) -> Camera {
+    Camera {
+        eye: frame.point_to_normalized(camera.eye.as_dvec3()),
+        target: frame.point_to_normalized(camera.target.as_dvec3()),
+        ..camera.clone()
     }
 }
 

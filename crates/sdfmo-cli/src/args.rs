@@ -85,11 +85,15 @@ pub enum SignArg {
 pub struct DistanceArgs {
     /// Mesh file (OBJ, glTF/GLB, STL).
     pub mesh: PathBuf,
-    /// Text file of points, one `x y z` a line, in the normalised frame (the mesh is normalised
-    /// into the root cube [-1, 1]³ with margin 0.05, as the builder does); blank lines and lines
-    /// starting with `#` are skipped.
+    /// Text file of points, one `x y z` a line, in model units (the mesh's own coordinates, as
+    /// Python and the library take them; `--normalized` for the octree's frame); blank lines and
+    /// lines starting with `#` are skipped. The distances are in the points' units.
     #[arg(long, value_name = "FILE")]
     pub points: PathBuf,
+    /// The points (and so the distances) are in the normalised frame: the root cube [-1, 1]³ the
+    /// mesh is normalised into with margin 0.05, as the builder does.
+    #[arg(long)]
+    pub normalized: bool,
     /// Sign method.
     #[arg(long, value_enum, default_value_t = SignArg::Auto)]
     pub sign: SignArg,
@@ -232,12 +236,18 @@ pub struct RenderOptions {
     #[arg(long, value_name = "N", default_value_t = 0,
           value_parser = clap::value_parser!(u32).range(0..=i64::from(sdf_multioctree::render::MAX_AO_SAMPLES)))]
     pub ao: u32,
-    /// Camera position (default: the paper's view 0, 0,0,3).
+    /// Camera position, in model units (the mesh's own coordinates; `--normalized` for the
+    /// octree's frame). Default: the paper's view 0, (0, 0, 3) in the normalised frame.
     #[arg(long, value_name = "x,y,z", value_parser = parse_vec3, allow_hyphen_values = true, conflicts_with = "views")]
     pub eye: Option<[f32; 3]>,
-    /// Point looked at (default: the origin).
+    /// Point looked at, in model units like `--eye` (default: the origin of the normalised
+    /// frame, the centre of the model's bounding box).
     #[arg(long, value_name = "x,y,z", value_parser = parse_vec3, allow_hyphen_values = true, conflicts_with = "views")]
     pub target: Option<[f32; 3]>,
+    /// `--eye` and `--target` are in the normalised frame, the root cube [-1, 1]³ the octree and
+    /// the paper's views are defined in, instead of model units.
+    #[arg(long, conflicts_with = "views")]
+    pub normalized: bool,
     /// Vertical field of view in degrees (default 60).
     #[arg(long, value_name = "DEG", value_parser = parse_fov, conflicts_with = "views")]
     pub fov: Option<f32>,

@@ -194,8 +194,17 @@ fn distance_signs_output_file_and_malformed_lines() {
     )
     .unwrap();
     let out = dir.join("d.txt");
-    let j = json_ok(&os!["distance", cube, "--points", pts, "-o", out]);
+    let j = json_ok(&os![
+        "distance",
+        cube,
+        "--points",
+        pts,
+        "-o",
+        out,
+        "--normalized"
+    ]);
     keys(&j, &["points", "query_ms"]);
+    assert_eq!(j["frame"], "normalized");
     assert_eq!(j["points"], 3);
     let d: Vec<f32> = std::fs::read_to_string(&out)
         .unwrap()
@@ -210,6 +219,21 @@ fn distance_signs_output_file_and_malformed_lines() {
     let j = json_ok(&os!["distance", cube, "--points", pts, "--sign", "winding"]);
     assert_eq!(j["distances"].as_array().unwrap().len(), 3);
     assert_eq!(j["sign"], "winding");
+    // By default the points are model units (the cube is [0, 1]³): its centre is 0.5 inside,
+    // a point 0.5 above its top face 0.5 outside, in the cube's own units.
+    std::fs::write(&pts, "0.5 0.5 0.5\n0.5 1.5 0.5\n").unwrap();
+    let j = json_ok(&os!["distance", cube, "--points", pts]);
+    assert_eq!(j["frame"], "model");
+    let d: Vec<f64> = j["distances"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert!(
+        (d[0] + 0.5).abs() < 1e-5 && (d[1] - 0.5).abs() < 1e-5,
+        "{d:?}"
+    );
 
     std::fs::write(&pts, "0 0 0\n0 0\n").unwrap();
     fails_cleanly(&os!["distance", cube, "--points", pts], "p.xyz:2");
@@ -310,6 +334,7 @@ fn build_render_and_compare_the_demo_part() {
         "mask",
         "--eye=2,1.5,2.5",
         "--target=0,0,0",
+        "--normalized",
         "--fov=45",
         "--size=40x30",
         "-o",
@@ -323,6 +348,7 @@ fn build_render_and_compare_the_demo_part() {
         smo,
         "--shadows",
         "--eye=2,1.5,2.5",
+        "--normalized",
         "--size=40x30",
         "-o",
         dir.join("lit.png"),
@@ -335,6 +361,7 @@ fn build_render_and_compare_the_demo_part() {
     let j = json_ok(&os![
         "render-mesh",
         "--eye=2,1.5,2.5",
+        "--normalized",
         "--size=40x30",
         "-o",
         reference,

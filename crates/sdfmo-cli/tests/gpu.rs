@@ -194,6 +194,7 @@ fn gpu_pixel_error_matches_cpu() {
                 "1",
                 "--eye",
                 "0,0,5",
+                "--normalized",
                 "--device",
                 device,
                 "--size",

@@ -653,7 +653,13 @@ fn fan_triangulated_parts_build_render_and_answer() {
             &"-o",
             &d.join("r.png"),
         ]);
-        let text = run_ok(&[&"distance", m, &"--points", &d.join("p.xyz")]);
+        let text = run_ok(&[
+            &"distance",
+            m,
+            &"--points",
+            &d.join("p.xyz"),
+            &"--normalized",
+        ]);
         let values: Vec<f32> = text.lines().map(|l| l.parse().unwrap()).collect();
         // Normalised frame: the cylinder's radius 1 maps to 0.95; the centre is inside, the
         // point at y = 0.9 above the top cap (0.2375), x = 2 beside the wall.

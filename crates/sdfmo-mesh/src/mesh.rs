@@ -1,6 +1,6 @@
 //! The triangle mesh, its bounding box and the normalisation into the octree's root cube.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 use crate::error::{MeshError, Result};
 use crate::topology::Topology;
@@ -127,6 +127,28 @@ impl Normalization {
     #[inline]
     pub fn to_model(&self, p: Vec3) -> Vec3 {
         p / self.scale + self.center
+    }
+
+    /// A model-unit point given in f64 (text, float64 arrays, a camera) → the normalised frame,
+    /// computed in f64 and rounded once: the one conversion every front-end uses, so that the
+    /// command line, Python and the facade query the same normalised point for the same input.
+    /// Non-finite where the image overflows f32.
+    #[inline]
+    pub fn point_to_normalized(&self, p: DVec3) -> Vec3 {
+        ((p - self.center.as_dvec3()) * f64::from(self.scale)).as_vec3()
+    }
+
+    /// A normalised-frame point → model units, in f64 and rounded once (the inverse of
+    /// [`point_to_normalized`](Self::point_to_normalized) up to rounding).
+    #[inline]
+    pub fn point_to_model(&self, p: Vec3) -> Vec3 {
+        (p.as_dvec3() / f64::from(self.scale) + self.center.as_dvec3()).as_vec3()
+    }
+
+    /// A length (a distance) of the normalised frame in model units, in f64 and rounded once.
+    #[inline]
+    pub fn length_to_model(&self, d: f32) -> f32 {
+        (f64::from(d) / f64::from(self.scale)) as f32
     }
 }
 

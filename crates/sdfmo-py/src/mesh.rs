@@ -126,21 +126,19 @@ impl MeshData {
     /// A model-unit point in the normalised frame (in f64, rounded once).
     #[inline]
     pub fn to_normalized(&self, p: DVec3) -> Vec3 {
-        ((p - self.norm.center.as_dvec3()) * f64::from(self.norm.scale)).as_vec3()
+        self.norm.point_to_normalized(p)
     }
 
     /// A normalised length in model units.
     #[inline]
     pub fn to_model_length(&self, d: f32) -> f32 {
-        (f64::from(d) / f64::from(self.norm.scale)) as f32
+        self.norm.length_to_model(d)
     }
 
     /// A normalised point in model units.
     #[inline]
     pub fn to_model(&self, p: Vec3) -> [f32; 3] {
-        (p.as_dvec3() / f64::from(self.norm.scale) + self.norm.center.as_dvec3())
-            .as_vec3()
-            .to_array()
+        self.norm.point_to_model(p).to_array()
     }
 }
 
@@ -804,13 +802,13 @@ impl Mesh {
         Ok(Octree::new(octree, Some(stats)))
     }
 
-    /// render(width=1024, height=None, *, mode="lambert", view=0, eye=None, target=None, fov=None, shadows=False, ao=0, threads=None)
+    /// render(width=1024, height=None, *, mode="lambert", view=0, eye=None, target=None, fov=None, frame="model", shadows=False, ao=0, threads=None)
     ///
     /// Ray traces the mesh as ``sdfmo render-mesh`` does (the reference image of the paper's
     /// protocol): normalised exactly as the builder normalises it, so the images line up with
     /// ``Octree.render``'s, face normals, the same camera and shading. Returns uint8 of shape
     /// ``(height, width, 3)``. See ``Octree.render`` for the arguments.
-    #[pyo3(signature = (width = 1024, height = None, **options), text_signature = "($self, width=1024, height=None, *, mode='lambert', view=0, eye=None, target=None, fov=None, shadows=False, ao=0, threads=None)")]
+    #[pyo3(signature = (width = 1024, height = None, **options), text_signature = "($self, width=1024, height=None, *, mode='lambert', view=0, eye=None, target=None, fov=None, frame='model', shadows=False, ao=0, threads=None)")]
     fn render<'py>(
         &self,
         py: Python<'py>,
@@ -819,7 +817,7 @@ impl Mesh {
         options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let options = RenderOptions::from_kwargs("render", options)?;
-        let args = RenderArgs::parse(width, height, options)?;
+        let args = RenderArgs::parse(width, height, options, &self.data.norm)?;
         let data = &self.data;
         args.render(py, |settings, camera, cancel| {
             let dist = data.distance(SignMode::Auto)?;

@@ -156,8 +156,7 @@ impl Octree {
         points: &Bound<'py, PyAny>,
         threads: Option<i64>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let meta = self.octree.meta();
-        let (center, scale) = (meta.center.as_dvec3(), f64::from(meta.scale));
+        let frame = sdf_multioctree::octree_frame(&self.octree);
         let octree = &self.octree;
         arrays::f32_per_point(py, points, threads, |view, d, cancel| {
             let n = view.len();
@@ -178,9 +177,9 @@ impl Octree {
                     .enumerate()
                     .with_min_len(256)
                     .for_each(|(k, o)| {
-                        let p: Vec3 = ((view.get(start + k) - center) * scale).as_vec3();
+                        let p: Vec3 = frame.point_to_normalized(view.get(start + k));
                         *o = match distance_at(octree, p) {
-                            Some(s) => (f64::from(s.distance) / scale) as f32,
+                            Some(s) => frame.length_to_model(s.distance),
                             None => f32::NAN,
                         };
                     });
@@ -189,21 +188,22 @@ impl Octree {
         })
     }
 
-    /// render(width=1024, height=None, *, mode="lambert", view=0, eye=None, target=None, fov=None, shadows=False, ao=0, threads=None)
+    /// render(width=1024, height=None, *, mode="lambert", view=0, eye=None, target=None, fov=None, frame="model", shadows=False, ao=0, threads=None)
     ///
     /// Ray traces the octree as ``sdfmo render`` does; returns uint8 of shape
     /// ``(height, width, 3)`` (``height`` defaults to ``width``).
     ///
-    /// The camera is the command-line tool's, in the normalised frame (the root cube
-    /// [-1, 1]^3, whatever the model's units): one of the paper's four views (``view`` 0..3:
-    /// eye on a circle of radius 3 in the y = 0 plane, looking at the origin, 60 degrees
-    /// vertical field of view), with ``eye``, ``target`` (3 floats each) and ``fov``
+    /// The camera is the command-line tool's: one of the paper's four views (``view`` 0..3:
+    /// eye on a circle of radius 3 in the y = 0 plane of the normalised frame, the root cube
+    /// [-1, 1]^3, looking at its origin, 60 degrees vertical field of view), with ``eye``,
+    /// ``target`` (3 floats each, **in model units**, the mesh's own coordinates, like every
+    /// point this package takes; ``frame="normalized"`` for the root cube's) and ``fov``
     /// (degrees) replacing its parts. ``mode``: ``"lambert"`` (the paper's shading),
     /// ``"mask"``, ``"depth"`` or ``"normal"``; ``shadows`` and ``ao`` (ambient-occlusion
     /// rays per pixel, 0..=1024) apply to lambert only. The image is the same for any
     /// ``threads``. Releases the GIL; Ctrl-C raises ``KeyboardInterrupt`` (checked before each
     /// tile of 32 x 32 pixels).
-    #[pyo3(signature = (width = 1024, height = None, **options), text_signature = "($self, width=1024, height=None, *, mode='lambert', view=0, eye=None, target=None, fov=None, shadows=False, ao=0, threads=None)")]
+    #[pyo3(signature = (width = 1024, height = None, **options), text_signature = "($self, width=1024, height=None, *, mode='lambert', view=0, eye=None, target=None, fov=None, frame='model', shadows=False, ao=0, threads=None)")]
     fn render<'py>(
         &self,
         py: Python<'py>,
@@ -212,7 +212,12 @@ impl Octree {
         options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let options = RenderOptions::from_kwargs("render", options)?;
-        let args = RenderArgs::parse(width, height, options)?;
+        let args = RenderArgs::parse(
+            width,
+            height,
+            options,
+            &sdf_multioctree::octree_frame(&self.octree),
+        )?;
         let octree = &self.octree;
         args.render(py, |settings, camera, cancel| {
             Ok(sdf_multioctree::render::render_cancellable(

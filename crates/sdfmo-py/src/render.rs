@@ -5,6 +5,7 @@ use glam::Vec3;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use sdf_multioctree::mesh::Normalization;
 use sdf_multioctree::render::{
     Camera, Mode, RenderError, RenderSettings, Rendered, MAX_AO_SAMPLES,
 };
@@ -20,6 +21,7 @@ pub struct RenderOptions {
     eye: Option<[f32; 3]>,
     target: Option<[f32; 3]>,
     fov: Option<f32>,
+    frame: String,
     shadows: bool,
     ao: i64,
     threads: Option<i64>,
@@ -38,9 +40,10 @@ impl RenderOptions {
         let options = RenderOptions {
             mode: k.take("mode", "lambert".to_owned())?,
             view: k.take("view", 0)?,
-            eye: k.take("eye", None)?,
-            target: k.take("target", None)?,
+            eye: point_option(&mut k, "eye")?,
+            target: point_option(&mut k, "target")?,
             fov: k.take("fov", None)?,
+            frame: k.take("frame", "model".to_owned())?,
             shadows: k.take("shadows", false)?,
             ao: k.take("ao", 0)?,
             threads: k.take("threads", None)?,
@@ -54,6 +57,21 @@ impl RenderOptions {
 /// mode keeps them, and as much again for the tiles being rendered.
 const RENDER_BYTES_PER_PIXEL: u64 = 2 * (3 + 12);
 
+/// An optional point keyword (`eye`, `target`): 3 finite-or-not numbers, the error naming the
+/// keyword and the length it got (a 2-element `eye` used to be a bare "expected 3 items").
+fn point_option(k: &mut Kwargs<'_>, name: &'static str) -> PyResult<Option<[f32; 3]>> {
+    let v: Option<Vec<f32>> = k.take(name, None)?;
+    match v {
+        None => Ok(None),
+        Some(v) => <[f32; 3]>::try_from(v.as_slice()).map(Some).map_err(|_| {
+            PyValueError::new_err(format!(
+                "{name} must be 3 numbers (x, y, z), got {} of them",
+                v.len()
+            ))
+        }),
+    }
+}
+
 /// Largest image edge (the command-line tool's `--size` limit).
 const MAX_IMAGE_EDGE: i64 = 16384;
 
@@ -65,14 +83,21 @@ pub struct RenderArgs {
 }
 
 impl RenderArgs {
-    /// Checks the arguments of a `render` call (see `Octree.render`).
-    pub fn parse(width: i64, height: Option<i64>, options: RenderOptions) -> PyResult<RenderArgs> {
+    /// Checks the arguments of a `render` call (see `Octree.render`); `model_frame` is the
+    /// source's normalisation, through which `eye` and `target` in model units are mapped.
+    pub fn parse(
+        width: i64,
+        height: Option<i64>,
+        options: RenderOptions,
+        model_frame: &Normalization,
+    ) -> PyResult<RenderArgs> {
         let RenderOptions {
             mode,
             view,
             eye,
             target,
             fov,
+            frame,
             shadows,
             ao,
             threads,
@@ -112,12 +137,28 @@ impl RenderArgs {
             )));
         }
         let threads = run::check_threads(threads)?;
+        let normalized = match frame.as_str() {
+            "model" => false,
+            "normalized" => true,
+            other => return Err(PyValueError::new_err(format!(
+                "frame must be \"model\" (eye and target in the mesh's units) or \"normalized\" \
+                     (in the root cube [-1, 1]^3), got {other:?}"
+            ))),
+        };
+        // The command line's conversion (`sdfmo render --eye`): one eye, one image.
+        let place = |p: [f32; 3]| {
+            if normalized {
+                Vec3::from_array(p)
+            } else {
+                model_frame.point_to_normalized(Vec3::from_array(p).as_dvec3())
+            }
+        };
         let mut camera = Camera::paper_view(view as u32, width as u32, height as u32);
         if let Some(e) = eye {
-            camera.eye = Vec3::from_array(e);
+            camera.eye = place(e);
         }
         if let Some(t) = target {
-            camera.target = Vec3::from_array(t);
+            camera.target = place(t);
         }
         if let Some(f) = fov {
             if !(f > 0.0 && f < 180.0) {

@@ -7,6 +7,7 @@ use anyhow::Context;
 use glam::Vec3;
 use sdf_multioctree::distance::{reshape_fans, MeshDistance, SignMode};
 use sdf_multioctree::format::{LodOctree, PackedOctree, SmoFile};
+use sdf_multioctree::mesh::Normalization;
 use sdf_multioctree::metrics;
 use sdf_multioctree::render::shading::{light_dir, DepthRange, AMBIENT, LIGHT_INTENSITY};
 use sdf_multioctree::render::{
@@ -52,13 +53,17 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
     match args.device {
         DeviceArg::Cpu => {
             let octree = load(sdf_multioctree::format::MAX_FILE_SIZE)?;
+            let frame = sdf_multioctree::octree_frame(&octree);
             let scene = OctreeScene(&octree);
             let mut view = cpu_views(&scene, &args.opts, &source);
-            render_all(&mut view, &source, "cpu", None, &args.opts, &outputs)
+            render_all(
+                &mut view, &source, "cpu", None, &args.opts, &frame, &outputs,
+            )
         }
         DeviceArg::Gpu => {
             let mut gpu = open_gpu(args)?;
             let octree = load(gpu.max_file_bytes())?;
+            let frame = sdf_multioctree::octree_frame(&octree);
             let on_gpu = gpu
                 .upload(&octree)
                 .with_context(|| format!("cannot upload {source} to the GPU"))?;
@@ -71,7 +76,9 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
                     gpu.render(&on_gpu, gcam, mode, shading)
                 })
             };
-            render_all(&mut view, &source, &device, timing, &args.opts, &outputs)
+            render_all(
+                &mut view, &source, &device, timing, &args.opts, &frame, &outputs,
+            )
         }
     }
 }
@@ -172,6 +179,7 @@ fn run_pixel_error(args: &RenderArgs, pixels: f32, outputs: &[ViewOutputs]) -> a
     if args.device == DeviceArg::Gpu {
         let mut gpu = open_gpu(args)?;
         let lod = load(gpu.max_file_bytes())?;
+        let frame = sdf_multioctree::octree_frame(lod.finest());
         let on_gpu = gpu
             .upload_lod(&lod)
             .with_context(|| format!("cannot upload {source} to the GPU"))?;
@@ -187,9 +195,12 @@ fn run_pixel_error(args: &RenderArgs, pixels: f32, outputs: &[ViewOutputs]) -> a
                 gpu.render_pixel_error(&on_gpu, gcam, mode, shading, error)
             })
         };
-        return render_all(&mut view, &source, &device, timing, &args.opts, outputs);
+        return render_all(
+            &mut view, &source, &device, timing, &args.opts, &frame, outputs,
+        );
     }
     let lod = load(sdf_multioctree::format::MAX_FILE_SIZE)?;
+    let frame = sdf_multioctree::octree_frame(lod.finest());
     let settings = settings(&args.opts);
     let mut view = |cam: &Camera, progress: &Progress<'_>| -> anyhow::Result<ViewRender> {
         let scene = LodScene {
@@ -203,7 +214,7 @@ fn run_pixel_error(args: &RenderArgs, pixels: f32, outputs: &[ViewOutputs]) -> a
             .with_context(|| format!("cannot render {source}"))?;
         Ok((r, None))
     };
-    render_all(&mut view, &source, "cpu", None, &args.opts, outputs)
+    render_all(&mut view, &source, "cpu", None, &args.opts, &frame, outputs)
 }
 
 /// The GPU kernel renders the primary rays only: shadows, occlusion and a thread count are
@@ -252,12 +263,20 @@ pub fn run_mesh(args: &RenderMeshArgs) -> anyhow::Result<()> {
     // Only the surface matters for the images: flat fans re-triangulated.
     let reshaped = reshape_fans(&input.mesh);
     let mesh = reshaped.as_ref().map_or(&input.mesh, |r| &r.mesh);
-    let (normalized, _) = mesh.normalized(sdf_multioctree::DEFAULT_MARGIN);
+    let (normalized, frame) = mesh.normalized(sdf_multioctree::DEFAULT_MARGIN);
     let dist = MeshDistance::new(&normalized, SignMode::Auto)
         .with_context(|| format!("cannot prepare ray queries on {}", input.source))?;
     let scene = MeshScene(&dist);
     let mut view = cpu_views(&scene, &args.opts, &input.source);
-    render_all(&mut view, &input.source, "cpu", None, &args.opts, &outputs)
+    render_all(
+        &mut view,
+        &input.source,
+        "cpu",
+        None,
+        &args.opts,
+        &frame,
+        &outputs,
+    )
 }
 
 /// One view's image and, on a GPU, the kernel's time in milliseconds.
@@ -289,7 +308,7 @@ fn check_options(opts: &RenderOptions) -> anyhow::Result<Vec<ViewOutputs>> {
             opts.mode.name()
         );
     }
-    let views = cameras(opts).len();
+    let views = cameras(opts, &Normalization::IDENTITY).len();
     let naming = output_naming(views);
     let name = |p: &PathBuf, k: usize| {
         if views > 1 {
@@ -338,19 +357,28 @@ impl ModeArg {
 }
 
 /// The cameras the options ask for: the paper's four views, or one camera (paper view 0 with
-/// `--eye`, `--target`, `--fov` overriding its parts).
-pub fn cameras(opts: &RenderOptions) -> Vec<Camera> {
+/// `--eye`, `--target`, `--fov` overriding its parts). `--eye` and `--target` are model units
+/// mapped through `frame` (the source's normalisation; the same conversion as Python's and the
+/// facade's [`sdf_multioctree::camera_from_model`]) unless `--normalized`.
+pub fn cameras(opts: &RenderOptions, frame: &Normalization) -> Vec<Camera> {
     let (w, h) = opts.size;
     let mut paper = Camera::paper_views(w, h);
     if opts.views == Some(ViewsArg::Paper) {
         return paper;
     }
     let mut cam = paper.swap_remove(0);
+    let place = |p: [f32; 3]| {
+        if opts.normalized {
+            Vec3::from_array(p)
+        } else {
+            frame.point_to_normalized(Vec3::from_array(p).as_dvec3())
+        }
+    };
     if let Some(eye) = opts.eye {
-        cam.eye = Vec3::from_array(eye);
+        cam.eye = place(eye);
     }
     if let Some(target) = opts.target {
-        cam.target = Vec3::from_array(target);
+        cam.target = place(target);
     }
     if let Some(fov) = opts.fov {
         cam.fov_y_deg = fov;
@@ -382,16 +410,17 @@ pub fn counters_json(c: &Counters) -> serde_json::Value {
 /// Renders every camera with `render_view` (the image and, on a GPU, the kernel's time), writes
 /// the PNGs (and EXRs) all or none, prints times and counters. `source` names the input,
 /// `device` where the rays were traced ("cpu" or the GPU adapter's name), `timing` how a GPU
-/// timed its kernel.
+/// timed its kernel, `frame` the source's normalisation (for `--eye`/`--target` in model units).
 fn render_all(
     render_view: &mut dyn FnMut(&Camera, &Progress<'_>) -> anyhow::Result<ViewRender>,
     source: &str,
     device: &str,
     timing: Timing,
     opts: &RenderOptions,
+    frame: &Normalization,
     outputs: &[ViewOutputs],
 ) -> anyhow::Result<()> {
-    let cams = cameras(opts);
+    let cams = cameras(opts, frame);
     ensure_parent(&opts.output)?;
     if let Some(exr) = &opts.exr {
         ensure_parent(exr)?;
@@ -466,6 +495,7 @@ fn render_all(
         return print_json(&json!({
             "source": source,
             "mode": opts.mode.name(),
+            "frame": if opts.normalized { "normalized" } else { "model" },
             "width": w,
             "height": h,
             "device": device,

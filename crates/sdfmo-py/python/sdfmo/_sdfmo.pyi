@@ -20,13 +20,15 @@ _U8 = npt.NDArray[np.uint8]
 class _RenderOptions(TypedDict, total=False):
     """The keyword-only options of ``Mesh.render`` and ``Octree.render`` (the runtime reads them
     from ``**options``); defaults: ``mode="lambert"``, ``view=0``, ``eye``, ``target``, ``fov``
-    and ``threads`` ``None``, ``shadows=False``, ``ao=0``."""
+    and ``threads`` ``None``, ``frame="model"`` (``eye`` and ``target`` in model units;
+    ``"normalized"``: in the root cube), ``shadows=False``, ``ao=0``."""
 
     mode: _Mode
     view: int
     eye: Optional[Sequence[float]]
     target: Optional[Sequence[float]]
     fov: Optional[float]
+    frame: Literal["model", "normalized"]
     shadows: bool
     ao: int
     threads: Optional[int]
