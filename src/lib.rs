@@ -349,7 +349,7 @@ pub fn mesh_frame(mesh: &TriMesh) -> mesh::Normalization {
 ///
 /// let mesh = demo_mesh();
 /// let (octree, _) = build_octree(&mesh, 5, Method::Multi { max_voxels: 8 })?;
-/// let mut camera = paper_views(32)[0].clone();
+/// let mut camera = paper_views(32)[0];
 /// camera.eye = Vec3::new(0.0, 0.0, 40.0); // model units: 40 units in front of the part
 /// camera.target = mesh.bounds().center();
 /// let image = render_octree(&octree, &camera_from_model(&octree_frame(&octree), &camera), Mode::Mask)?;
@@ -360,7 +360,7 @@ pub fn camera_from_model(frame: &mesh::Normalization, camera: &Camera) -> Camera
     Camera {
         eye: frame.point_to_normalized(camera.eye.as_dvec3()),
         target: frame.point_to_normalized(camera.target.as_dvec3()),
-        ..camera.clone()
+        ..*camera
     }
 }
 

@@ -140,10 +140,12 @@ impl RenderArgs {
         let normalized = match frame.as_str() {
             "model" => false,
             "normalized" => true,
-            other => return Err(PyValueError::new_err(format!(
+            other => {
+                return Err(PyValueError::new_err(format!(
                 "frame must be \"model\" (eye and target in the mesh's units) or \"normalized\" \
                      (in the root cube [-1, 1]^3), got {other:?}"
-            ))),
+            )))
+            }
         };
         // The command line's conversion (`sdfmo render --eye`): one eye, one image.
         let place = |p: [f32; 3]| {

@@ -152,7 +152,11 @@ pub fn parse_points(
             Some(frame) => frame.point_to_normalized(DVec3::from_array(p)),
             None => DVec3::from_array(p).as_vec3(),
         };
-        if let Some(c) = q.to_array().iter().find(|c| !(c.abs() <= MAX_COORDINATE)) {
+        if let Some(c) = q
+            .to_array()
+            .iter()
+            .find(|c| !c.is_finite() || c.abs() > MAX_COORDINATE)
+        {
             bail!(
                 "{}: {} lies {c:e} from the origin of the normalised frame, beyond \
                  {MAX_COORDINATE:e}, where distances overflow f32",
