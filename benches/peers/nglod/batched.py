@@ -169,9 +169,9 @@ class Trainer:
 
     def _capture(self) -> None:
         m = self.model.m
+        self.initial = [q.detach().clone() for q in self.params]  # first: _reset needs it
         self.static_p = torch.zeros(m, self.bs, 3, device=self.device)
         self.static_d = torch.zeros(m, self.bs, device=self.device)
-        self.initial = [q.detach().clone() for q in self.params]
         # Warm-up steps on a side stream (PyTorch's whole-network capture recipe): they update
         # the parameters, which _reset puts back, so the schedule's steps are all counted.
         s = torch.cuda.Stream()

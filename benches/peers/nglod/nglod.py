@@ -38,6 +38,9 @@ import torch.nn.functional as F
 
 import sdfmo
 
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # benches/peers
+from peerio import atomic_write  # noqa: E402
+
 FEATURE_DIM = 32
 HIDDEN = 128
 NUM_LODS = 5  # LOD k has resolution 2 ** (k + 1), k = 1..NUM_LODS
@@ -333,14 +336,6 @@ def render(model: NGLOD, k: int, view: int, size: int, skip: torch.Tensor, chunk
 # --------------------------------------------------------------------------------------------
 # Commands
 # --------------------------------------------------------------------------------------------
-
-
-def atomic_write(path: str, data: bytes) -> None:
-    d = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=d, prefix=".tmp-")
-    with os.fdopen(fd, "wb") as f:
-        f.write(data)
-    os.replace(tmp, path)
 
 
 def save_png_atomic(path: str, img: np.ndarray) -> None:

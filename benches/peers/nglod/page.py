@@ -24,9 +24,7 @@ import statistics
 import sys
 import time
 
-import numpy as np
-
-from report import atomic_write, load
+from report import atomic_write, load, montage
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.abspath(os.path.join(HERE, "../../.."))
@@ -88,22 +86,8 @@ def cmd_collect(a) -> None:
                       "gpu_timing": g["gpu_timing"], "gpu_ms_views": [v["gpu_ms"] for v in g["views"]],
                       "frame_ms_views": [v["render_ms"] for v in g["views"]]})
     atomic_write(os.path.join(DATA, "gpu-bench.json"), json.dumps({"rows": bench, "machine": machine}, indent=1))
-    montage(out, "abc8", os.path.join(DATA, "lods_abc8_view0.png"))
-
-
-def montage(out: str, stem: str, path: str) -> None:
-    """Reference and LODs 2-5 of view 0, each downsampled 2x (512²), side by side."""
-    import sdfmo
-    imgs = [sdfmo.load_png(os.path.join(out, "models", stem, "reference_0.png"))]
-    imgs += [sdfmo.load_png(os.path.join(out, "models", stem, "images", f"nglod_lod{k}_0.png")) for k in LODS]
-    small = [im.reshape(im.shape[0] // 2, 2, im.shape[1] // 2, 2, 3).mean((1, 3)).round().astype(np.uint8) for im in imgs]
-    gap = np.full((small[0].shape[0], 4, 3), 255, np.uint8)
-    row = [small[0]]
-    for s in small[1:]:
-        row += [gap, s]
-    tmp = path + ".tmp.png"
-    sdfmo.save_png(tmp, np.concatenate(row, axis=1))
-    os.replace(tmp, path)
+    montage(out, os.path.join(out, "models", "abc8", "reference_0.png"), "abc8",
+            os.path.join(DATA, "lods_abc8_view0.png"))
 
 
 # --------------------------------------------------------------------------------------------
@@ -256,7 +240,7 @@ def cmd_page(a) -> None:
     w(f"- **Multi-octree PSNR above NGLOD at comparable size (depth 9 against the NGLOD LOD of closest size): "
       f"{len(wins)} of {len(t4)} models**, by " + ", ".join(f"{s} {d:+.2f} dB (LOD {k}, NGLOD {q:.2f}× the bytes)" for s, k, d, q in t4)
       + f" (median {statistics.median(t[2] for t in t4):+.2f} dB).")
-    w(f"- By the seed paper's dense count of NGLOD's bytes the pairing is " + ", ".join(f"{s} LOD {k} ({d:+.2f} dB)" for s, k, d, _ in t4d) + ".")
+    w("- By the seed paper's dense count of NGLOD's bytes the pairing is " + ", ".join(f"{s} LOD {k} ({d:+.2f} dB)" for s, k, d, _ in t4d) + ".")
     allp = [x for v in paired.values() for x in v]
     w(f"- **At the paired depth** (LOD k against depth k + 5) the multi-octree leads in {sum(1 for x in allp if x > 0)} of "
       f"{len(allp)} cells, by {min(allp):+.2f} to {max(allp):+.2f} dB (median {statistics.median(allp):+.2f}).")

@@ -13,28 +13,14 @@ import math
 import os
 import statistics
 import sys
-import tempfile
 import time
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # benches/peers
+from peerio import atomic_write, load  # noqa: E402
+
 LODS = [2, 3, 4, 5]
-
-
-def atomic_write(path: str, data: bytes | str) -> None:
-    if isinstance(data, str):
-        data = data.encode()
-    d = os.path.dirname(os.path.abspath(path))
-    os.makedirs(d, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=d, prefix=".tmp-")
-    with os.fdopen(fd, "wb") as f:
-        f.write(data)
-    os.replace(tmp, path)
-
-
-def load(path: str):
-    with open(path) as f:
-        return json.load(f)
 
 
 def collect(out: str) -> dict:
@@ -173,10 +159,11 @@ def plot_gap(m: dict, stem: str, path: str) -> None:
     os.replace(tmp, path)
 
 
-def montage(out: str, sweep_dir: str, stem: str, path: str) -> None:
-    """Reference and LODs 2-5 of view 0, each downsampled 2x (512²), side by side."""
+def montage(out: str, reference: str, stem: str, path: str) -> None:
+    """The reference PNG and LODs 2-5 of view 0 (from run.sh's OUT layout), each downsampled 2x
+    (512²), side by side."""
     import sdfmo
-    imgs = [sdfmo.load_png(os.path.join(sweep_dir, "images", stem, "reference_0.png"))]
+    imgs = [sdfmo.load_png(reference)]
     imgs += [sdfmo.load_png(os.path.join(out, "models", stem, "images", f"nglod_lod{k}_0.png")) for k in LODS]
     small = [im.reshape(im.shape[0] // 2, 2, im.shape[1] // 2, 2, 3).mean((1, 3)).round().astype(np.uint8) for im in imgs]
     gap = np.full((small[0].shape[0], 4, 3), 255, np.uint8)
@@ -285,7 +272,8 @@ def main() -> None:
     plot_curve(models[curve], curve, os.path.join(figdir, f"curve_{curve}.png"))
     if models[curve]["gap"]:
         plot_gap(models[curve], curve, os.path.join(figdir, f"gap_{curve}.png"))
-    montage(a.out, a.sweep, curve, os.path.join(figdir, f"lods_{curve}_view0.png"))
+    montage(a.out, os.path.join(a.sweep, "images", curve, "reference_0.png"), curve,
+            os.path.join(figdir, f"lods_{curve}_view0.png"))
     atomic_write(os.path.join(figdir, "results.json"), json.dumps(res, indent=1))
 
     L = []

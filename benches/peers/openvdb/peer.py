@@ -22,32 +22,14 @@ import sys
 import tempfile
 import time
 
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # benches/peers
+from peerio import atomic_write, load, stem_of  # noqa: E402
+
 VARIANTS = ["float", "fp16", "fp8", "fp4", "fpn"]
 
 
 def log(*a) -> None:
     print(f"[openvdb {time.strftime('%H:%M:%S', time.gmtime())}]", *a, file=sys.stderr, flush=True)
-
-
-def atomic_write(path: str, data: str | bytes) -> None:
-    if isinstance(data, str):
-        data = data.encode()
-    d = os.path.dirname(os.path.abspath(path))
-    os.makedirs(d, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=d, prefix=".tmp-")
-    with os.fdopen(fd, "wb") as f:
-        f.write(data)
-    os.replace(tmp, path)
-
-
-def load(path: str):
-    with open(path) as f:
-        return json.load(f)
-
-
-def stem_of(path: str) -> str:
-    s = os.path.splitext(os.path.basename(path))[0]
-    return "".join(c if c.isalnum() or c in "_.-" else "_" for c in s)
 
 
 def run_timed(cmd: list[str], nice: int) -> dict:
@@ -195,8 +177,6 @@ def timing(a) -> None:
                 rec["samples"].setdefault(key, []).append(value)
 
             for rnd in range(a.rounds):
-                steps = []
-
                 def ours_build():
                     la = loadavg()
                     r = run_timed([a.sdfmo, "build", m, "-d", str(depth), "--method", "multi", "--threads",

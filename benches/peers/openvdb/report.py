@@ -19,33 +19,14 @@ import sys
 import tempfile
 import time
 
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # benches/peers
+from peerio import atomic_write, load, stem_of  # noqa: E402
+
 VARIANTS = ["float", "fp16", "fp8", "fp4", "fpn"]
 BANDS = [1, 2, 3]
 NANO_ROW_BAND = 1
 ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", ".."))  # the band of the `nanovdb-*` rows (the smallest grids; every band is on the page)
 VNAME = {"float": "float", "fp16": "Fp16", "fp8": "Fp8", "fp4": "Fp4", "fpn": "FpN"}
-
-
-def atomic_write(path: str, data: bytes | str) -> None:
-    if isinstance(data, str):
-        data = data.encode()
-    d = os.path.dirname(os.path.abspath(path))
-    os.makedirs(d, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=d, prefix=".tmp-")
-    with os.fdopen(fd, "wb") as f:
-        f.write(data)
-    os.chmod(tmp, 0o644)
-    os.replace(tmp, path)
-
-
-def load(path: str):
-    with open(path) as f:
-        return json.load(f)
-
-
-def stem_of(path: str) -> str:
-    s = os.path.splitext(os.path.basename(path))[0]
-    return "".join(c if c.isalnum() or c in "_.-" else "_" for c in s)
 
 
 def mean(xs):
@@ -294,7 +275,6 @@ def write_page(a, stems, cells, res) -> None:
 
     # reference check and reuse of committed data
     same_refs, n_refs = 0, 0
-    from hashlib import sha256
     for st in stems:
         for k in range(4):
             p1 = os.path.join(a.out, "refs", st, f"reference_{k}.png")
