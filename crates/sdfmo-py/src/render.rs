@@ -57,8 +57,9 @@ impl RenderOptions {
 /// mode keeps them, and as much again for the tiles being rendered.
 const RENDER_BYTES_PER_PIXEL: u64 = 2 * (3 + 12);
 
-/// An optional point keyword (`eye`, `target`): 3 finite-or-not numbers, the error naming the
-/// keyword and the length it got (a 2-element `eye` used to be a bare "expected 3 items").
+/// An optional point keyword (`eye`, `target`): 3 numbers (finiteness is the camera's check),
+/// the error naming the keyword and the length it got (a 2-element `eye` used to be a bare
+/// "expected 3 items").
 fn point_option(k: &mut Kwargs<'_>, name: &'static str) -> PyResult<Option<[f32; 3]>> {
     let v: Option<Vec<f32>> = k.take(name, None)?;
     match v {
