@@ -24,7 +24,8 @@ import statistics
 import sys
 import time
 
-from report import atomic_write, load, montage
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # benches/peers
+from peerio import atomic_write, load  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.abspath(os.path.join(HERE, "../../.."))
@@ -86,6 +87,8 @@ def cmd_collect(a) -> None:
                       "gpu_timing": g["gpu_timing"], "gpu_ms_views": [v["gpu_ms"] for v in g["views"]],
                       "frame_ms_views": [v["render_ms"] for v in g["views"]]})
     atomic_write(os.path.join(DATA, "gpu-bench.json"), json.dumps({"rows": bench, "machine": machine}, indent=1))
+    from report import montage  # numpy and sdfmo: only `collect` needs them
+
     montage(out, os.path.join(out, "models", "abc8", "reference_0.png"), "abc8",
             os.path.join(DATA, "lods_abc8_view0.png"))
 
@@ -133,6 +136,39 @@ def pick_comparable(run, target, count):
 def pick_not_smaller(run, target, count):
     ks = [k for k in LODS if size(run, k, count) >= target]
     return min(ks) if ks else None
+
+
+def comparable_size_leads(main, sr, models, count):
+    """Per model, the multi-octree at depth 9 against the NGLOD LOD of closest size (`count` as in
+    `size`): (model, LOD, PSNR lead in dB, NGLOD bytes / octree bytes)."""
+    out = []
+    for stem in models:
+        u = sr.get((stem, "multi", 9))
+        if not u:
+            continue
+        k = pick_comparable(main[stem], u["bytes"], count)
+        out.append((stem, k, u["psnr"] - psnr(main[stem], k), size(main[stem], k, count) / u["bytes"]))
+    return out
+
+
+def paired_leads(main, sr, models):
+    """Per model, the multi-octree's PSNR lead at depth k + 5 over NGLOD's LOD k, for each LOD."""
+    return {stem: [sr[(stem, "multi", k + 5)]["psnr"] - psnr(main[stem], k) for k in LODS] for stem in models}
+
+
+def nglod_wins(main, sr, models):
+    """Where NGLOD is smaller and at least as good as an octree of depth 6-10:
+    (model, LOD, octree method, depth, octree row)."""
+    out = []
+    for stem in models:
+        r = main[stem]
+        for k in LODS:
+            for meth in ("svo", "multi"):
+                for d in range(6, 11):
+                    q = sr.get((stem, meth, d))
+                    if q and psnr(r, k) >= q["psnr"] and size(r, k) <= q["bytes"]:
+                        out.append((stem, k, meth, d, q))
+    return out
 
 
 def spread(xs):
@@ -223,17 +259,9 @@ def cmd_page(a) -> None:
       f"(torch {t0['torch']}), collected {data['provenance']['collected']}.*")
     w("")
     # ---- claims first
-    t4, t4d = [], []
-    for stem in models:
-        u = sr.get((stem, "multi", 9))
-        if not u:
-            continue
-        r = main[stem]
-        k = pick_comparable(r, u["bytes"], "bytes")
-        t4.append((stem, k, u["psnr"] - psnr(r, k), size(r, k) / u["bytes"]))
-        kd = pick_comparable(r, u["bytes"], "seed")
-        t4d.append((stem, kd, u["psnr"] - psnr(r, kd), size(r, kd, "seed") / u["bytes"]))
-    paired = {stem: [sr[(stem, "multi", k + 5)]["psnr"] - psnr(main[stem], k) for k in LODS] for stem in models}
+    t4 = comparable_size_leads(main, sr, models, "bytes")
+    t4d = comparable_size_leads(main, sr, models, "seed")
+    paired = paired_leads(main, sr, models)
     w("## The claims, checked (the paper's schedule, all five models)")
     w("")
     wins = [t for t in t4 if t[2] > 0]
@@ -255,16 +283,8 @@ def cmd_page(a) -> None:
           f"{u9 - m_:+.2f} dB over the seeds' mean ({u9 - hi:+.2f} against the best seed, {u9 - lo:+.2f} against the worst); "
           f"the paired-depth leads move by at most {max(sds[k][3] - sds[k][2] for k in LODS):.2f} dB between seeds, far "
           "below the leads themselves.")
-    smaller_better = []
-    for stem in models:
-        r = main[stem]
-        for k in LODS:
-            for meth in ("svo", "multi"):
-                for d in range(6, 11):
-                    q = sr.get((stem, meth, d))
-                    if q and psnr(r, k) >= q["psnr"] and size(r, k) <= q["bytes"]:
-                        smaller_better.append(f"{stem} LOD {k} ({fm(psnr(r, k))} dB, {mb(size(r, k))} MB) vs {meth} d{d} "
-                                              f"({fm(q['psnr'])} dB, {mb(q['bytes'])} MB)")
+    smaller_better = [f"{stem} LOD {k} ({fm(psnr(main[stem], k))} dB, {mb(size(main[stem], k))} MB) vs {meth} d{d} "
+                      f"({fm(q['psnr'])} dB, {mb(q['bytes'])} MB)" for stem, k, meth, d, q in nglod_wins(main, sr, models)]
     w("- **Where NGLOD wins: size at low quality.** NGLOD smaller *and* at least as good as an octree of some depth "
       "6–10: " + ("; ".join(smaller_better) if smaller_better else "nowhere") + ".")
     ratios = []
