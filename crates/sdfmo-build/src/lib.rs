@@ -210,6 +210,17 @@ fn validate(mesh: &TriMesh, settings: &BuildSettings) -> Result<()> {
     if !(0.0..0.5).contains(&settings.margin) {
         return Err(BuildError::InvalidMargin(settings.margin));
     }
+    check_mesh(mesh)
+}
+
+/// Refuses a mesh no octree can be built of, nor an SDF asked of: one whose bounding box has
+/// no extent (every vertex the same point) or whose every triangle has zero area (points and
+/// lines: no surface, no inside). [`build`] checks it first; the front-ends check it where a
+/// mesh is made (Python's `Mesh`), so that no query answers with the distance to a point.
+///
+/// # Errors
+/// [`BuildError::DegenerateMesh`], naming which.
+pub fn check_mesh(mesh: &TriMesh) -> Result<()> {
     let b = mesh.bounds();
     let ext = (b.max - b.min).max_element();
     if ext.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !ext.is_finite() {

@@ -40,10 +40,14 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
     Ok(sdf_multioctree::io::write_atomic(path, bytes)?)
 }
 
-/// Checks an output path before any work: it must name a file that may be replaced
-/// ([`sdf_multioctree::io::check_destination`]) and, when `extensions` is not empty, end in one of them
-/// (case-insensitive), so that `-o image.jpg` does not silently get PNG bytes.
-pub fn check_output(path: &Path, what: &str, extensions: &[&str]) -> anyhow::Result<()> {
+/// Checks an output path before any work ([`sdf_multioctree::io::check_output`]): it must name a
+/// file that may be replaced and, when `extensions` is not empty, end in one of them, so that
+/// `-o image.jpg` does not silently get PNG bytes.
+pub fn check_output(
+    path: &Path,
+    what: &str,
+    extensions: &'static [&'static str],
+) -> anyhow::Result<()> {
     check_output_as(path, what, extensions, Naming::Given)
 }
 
@@ -52,25 +56,12 @@ pub fn check_output(path: &Path, what: &str, extensions: &[&str]) -> anyhow::Res
 pub fn check_output_as(
     path: &Path,
     what: &str,
-    extensions: &[&str],
+    extensions: &'static [&'static str],
     naming: Naming,
 ) -> anyhow::Result<()> {
-    sdf_multioctree::io::check_destination_as(path, naming)?;
-    if extensions.is_empty() {
-        return Ok(());
-    }
-    let ext = path
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase());
-    if ext.as_deref().is_some_and(|e| extensions.contains(&e)) {
-        return Ok(());
-    }
-    let wanted: Vec<String> = extensions.iter().map(|e| format!(".{e}")).collect();
-    anyhow::bail!(
-        "{}: {what} must end in {} (the format follows the extension)",
-        path.display(),
-        wanted.join(" or ")
-    )
+    Ok(sdf_multioctree::io::check_output(
+        path, what, extensions, naming,
+    )?)
 }
 
 /// Writes `bytes` atomically at a name the command derived (inside an output folder): a

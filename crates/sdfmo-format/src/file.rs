@@ -474,6 +474,13 @@ impl PackedOctree {
         Ok(PackedOctreeView::new(bytes)?.to_octree())
     }
 
+    /// [`PackedOctree::from_bytes`] for bytes the caller owns: they become the octree's buffer
+    /// (no copy) when they are already in the canonical encoding, as every file this crate
+    /// writes is.
+    pub fn from_vec(bytes: Vec<u8>) -> Result<PackedOctree> {
+        Ok(PackedOctree::new(bytes)?.into_canonical())
+    }
+
     /// Reads and validates a `.smo` file of at most [`MAX_FILE_SIZE`] bytes (a regular file:
     /// devices and FIFOs are refused without reading).
     pub fn load(path: &Path) -> Result<PackedOctree> {
@@ -481,15 +488,14 @@ impl PackedOctree {
     }
 
     /// [`PackedOctree::load`] with an explicit size limit in bytes, checked before reading.
-    /// The bytes read become the octree's buffer (no second copy) when they are already in the
-    /// canonical encoding, as every file this crate writes is.
+    /// The bytes read become the octree's buffer ([`PackedOctree::from_vec`]).
     pub fn load_with_limit(path: &Path, max_bytes: u64) -> Result<PackedOctree> {
         // Header first: a file whose header declares another size is refused before its body
         // is read (the 1.x checks only: a 2.0 file is `UnsupportedVersion`, as from bytes).
         let bytes = sdfmo_io::read_regular_checked(path, max_bytes, HEADER_SIZE, |head, len| {
             crate::validate::check_header_size(head, len).map(|_| len)
         })?;
-        Ok(PackedOctree::new(bytes)?.into_canonical())
+        PackedOctree::from_vec(bytes)
     }
 }
 

@@ -105,6 +105,10 @@ pub const MAX_VOXELS_PER_LEAF: usize = 255;
 /// a vertex of up to 8 faces.
 pub const MAX_CLIP_VOXELS_PER_LEAF: usize = 8;
 
+/// The extension of a `.smo` file, without the dot: the command-line tool and the Python package
+/// refuse to write an octree under any other (`sdfmo_io::check_extension`).
+pub const FILE_EXTENSION: &str = "smo";
+
 /// Largest `.smo` file [`PackedOctree::load`] reads (16 GiB); a larger file is refused before
 /// any memory is allocated (use [`PackedOctree::load_with_limit`] to change it).
 pub const MAX_FILE_SIZE: u64 = 1 << 34;

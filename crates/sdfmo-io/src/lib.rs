@@ -11,6 +11,8 @@
 //!   files inside an output folder, numbered siblings) replaces a link found there instead of
 //!   following it, and [`create_derived_dir`] does the same for derived folders.
 //!   The temporary file is removed on every error path.
+//!   An output's name carries its format's extension ([`check_extension`]: `out.jpg` never
+//!   gets PNG bytes), checked by every front-end before any work.
 //! - **Reads take regular files only, with a size limit known before reading**
 //!   ([`read_regular`]): devices and FIFOs are refused at once (no endless `/dev/zero`, no
 //!   blocking FIFO), and a file larger than the caller's limit is refused before allocating.
@@ -51,8 +53,8 @@ pub use confine::resolve_in_folder;
 pub use random::SplitMix64;
 pub use read::{open_regular, read_regular, read_regular_checked, read_regular_to_string};
 pub use write::{
-    check_destination, check_destination_as, create_derived_dir, remove_pending_temporaries,
-    write_atomic, write_atomic_as, Naming, OutputBatch,
+    check_destination, check_destination_as, check_extension, check_output, create_derived_dir,
+    remove_pending_temporaries, write_atomic, write_atomic_as, Naming, OutputBatch,
 };
 
 /// What kind of file system object a path names, for errors about the wrong kind.
@@ -207,6 +209,21 @@ pub enum IoError {
         /// Its link count.
         links: u64,
     },
+    /// An output path whose extension is not the one its format needs
+    /// ([`check_extension`]).
+    #[error(
+        "{}: {what} must end in {} (the format follows the extension)",
+        path.display(),
+        dotted(expected)
+    )]
+    WrongExtension {
+        /// The path as given.
+        path: PathBuf,
+        /// What the path is for (a command-line option, a parameter name).
+        what: String,
+        /// The extensions accepted, without the dot.
+        expected: &'static [&'static str],
+    },
 }
 
 impl IoError {
@@ -221,6 +238,7 @@ impl IoError {
             | IoError::SymbolicLink { path }
             | IoError::HardLinked { path, .. }
             | IoError::NotAFilePath { path, .. }
+            | IoError::WrongExtension { path, .. }
             | IoError::MissingFolder { path, .. } => path,
             IoError::OutsideFolder { folder, .. } => folder,
         }
@@ -234,6 +252,12 @@ impl IoError {
             _ => None,
         }
     }
+}
+
+/// `["png", "exr"]` as `.png or .exr`.
+fn dotted(extensions: &[&str]) -> String {
+    let dotted: Vec<String> = extensions.iter().map(|e| format!(".{e}")).collect();
+    dotted.join(" or ")
 }
 
 /// The result type of this crate.

@@ -92,6 +92,52 @@ pub fn check_destination_as(path: &Path, naming: Naming) -> Result<PathBuf> {
     }
 }
 
+/// Checks that `path` ends in one of `extensions` (given without the dot, compared
+/// case-insensitively), so that `out.jpg` does not silently get PNG bytes: the format follows
+/// the extension. `what` names the output in the error (a command-line option, a parameter).
+///
+/// ```
+/// use std::path::Path;
+/// assert!(sdfmo_io::check_extension(Path::new("a/out.PNG"), "-o", &["png"]).is_ok());
+/// let e = sdfmo_io::check_extension(Path::new("out.jpg"), "-o", &["png"]).unwrap_err();
+/// assert_eq!(e.to_string(), "out.jpg: -o must end in .png (the format follows the extension)");
+/// ```
+///
+/// # Errors
+/// [`IoError::WrongExtension`].
+pub fn check_extension(path: &Path, what: &str, extensions: &'static [&'static str]) -> Result<()> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    if ext.as_deref().is_some_and(|e| extensions.contains(&e)) {
+        return Ok(());
+    }
+    Err(IoError::WrongExtension {
+        path: path.to_path_buf(),
+        what: what.to_owned(),
+        expected: extensions,
+    })
+}
+
+/// Checks an output path before any work, as every front-end does: [`check_destination_as`]
+/// (a file that may be replaced), then, when `extensions` is not empty, [`check_extension`]
+/// (`what` names the output in that error).
+///
+/// # Errors
+/// As [`check_destination_as`] and [`check_extension`].
+pub fn check_output(
+    path: &Path,
+    what: &str,
+    extensions: &'static [&'static str],
+    naming: Naming,
+) -> Result<()> {
+    check_destination_as(path, naming)?;
+    if extensions.is_empty() {
+        return Ok(());
+    }
+    check_extension(path, what, extensions)
+}
+
 /// Writes `bytes` to `path` atomically: readers see the old file or the whole new one, never a
 /// prefix, and a failure leaves the old file and no temporary behind. See the crate docs for
 /// the rules on special files and symbolic links.

@@ -4,11 +4,13 @@
 use glam::DVec3;
 use numpy::ndarray::ArrayView2;
 use numpy::prelude::*;
-use numpy::{Element, PyArray1, PyArray2, PyArray3, PyReadonlyArray2, PyUntypedArray};
-use pyo3::exceptions::PyValueError;
+use numpy::{
+    Element, PyArray1, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArray,
+};
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::type_object::PyTypeCheck;
-use pyo3::types::PyTuple;
+use pyo3::types::{PyBytes, PyTuple};
 
 use crate::run::{self, Cancel, Cancelled};
 
@@ -295,4 +297,74 @@ pub fn image_arg(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<image::RgbImage
     let bytes: Vec<u8> = a.as_array().iter().copied().collect();
     image::RgbImage::from_raw(w32, h32, bytes)
         .ok_or_else(|| PyValueError::new_err(format!("{name}: inconsistent image buffer")))
+}
+
+/// The bytes of a bytes-like argument (anything with the buffer protocol), read in place where
+/// nothing else can change them.
+pub enum BytesArg<'py> {
+    /// A `bytes` object (immutable), read in place.
+    Bytes(Bound<'py, PyBytes>),
+    /// A read-only buffer (a `memoryview` of `bytes`, a read-only array), read in place.
+    ReadOnly(PyReadonlyArray1<'py, u8>),
+    /// A writable buffer (`bytearray`, a numpy array), copied once while the GIL is held:
+    /// another thread could write to it while the bytes are validated without the GIL.
+    Copied(Vec<u8>),
+}
+
+impl BytesArg<'_> {
+    /// The bytes.
+    pub fn as_slice(&self) -> &[u8] {
+        match self {
+            BytesArg::Bytes(b) => b.as_bytes(),
+            BytesArg::ReadOnly(a) => a.as_slice().expect("numpy.frombuffer is contiguous"),
+            BytesArg::Copied(v) => v,
+        }
+    }
+}
+
+/// Reads a bytes-like argument named `name`: `bytes`, `bytearray`, `memoryview` or any
+/// C-contiguous buffer (a numpy array of any dtype gives its raw bytes, as `bytes(a)` does),
+/// through `numpy.frombuffer` (a view, no copy). Anything else is a `TypeError` naming the
+/// type.
+pub fn bytes_arg<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<BytesArg<'py>> {
+    if let Ok(b) = obj.cast::<PyBytes>() {
+        return Ok(BytesArg::Bytes(b.clone()));
+    }
+    let py = obj.py();
+    let np = py.import("numpy")?;
+    let view = np
+        .call_method1("frombuffer", (obj, np.getattr("uint8")?))
+        .map_err(|e| {
+            let type_name = obj
+                .get_type()
+                .name()
+                .map(|n| n.to_string())
+                .unwrap_or_default();
+            // numpy's reason only where it adds to the type (a strided array, not a str).
+            let why = if e.is_instance_of::<PyTypeError>(py) {
+                String::new()
+            } else {
+                format!(" ({})", e.value(py))
+            };
+            PyTypeError::new_err(format!(
+                "{name} must be a bytes-like object (bytes, bytearray, memoryview, a \
+                 C-contiguous numpy array), got {type_name}{why}"
+            ))
+        })?
+        .cast_into::<PyArray1<u8>>()?;
+    let writeable: bool = view.getattr("flags")?.getattr("writeable")?.extract()?;
+    let view = view.try_readonly().map_err(borrow_err)?;
+    if !writeable {
+        return Ok(BytesArg::ReadOnly(view));
+    }
+    let bytes = view.as_slice().expect("numpy.frombuffer is contiguous");
+    let mut copy = Vec::new();
+    copy.try_reserve_exact(bytes.len()).map_err(|_| {
+        crate::errors::memory_error(format!(
+            "cannot allocate {} bytes to copy {name}",
+            bytes.len()
+        ))
+    })?;
+    copy.extend_from_slice(bytes);
+    Ok(BytesArg::Copied(copy))
 }

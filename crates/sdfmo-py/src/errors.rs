@@ -2,7 +2,7 @@
 //!
 //! | raised | for |
 //! |---|---|
-//! | `ValueError` | bad arguments: shapes, dtypes, NaN or infinite coordinates, indices out of range, unknown option names, a depth or voxel cap out of range, images of different sizes, an image file that is not a PNG |
+//! | `ValueError` | bad arguments: shapes, dtypes, NaN or infinite coordinates, indices out of range, unknown option names, a depth or voxel cap out of range, a degenerate mesh (no extent or no area), images of different sizes, an image file that is not a PNG, an output path without its format's extension (`.png`, `.smo`) |
 //! | `FileNotFoundError`, `PermissionError`, `IsADirectoryError`, `OSError` | files that cannot be read or written (the operating system's error, with `errno` and `filename`; a device, FIFO or a file over the size limit is a plain `OSError`) |
 //! | `sdfmo.MeshError` (a `ValueError`) | a mesh file that is not a readable OBJ / glTF / STL: truncated, malformed, unknown format, no triangles |
 //! | `sdfmo.FormatError` (a `ValueError`) | a `.smo` file that is truncated, corrupt (checksum), of an unknown version, or hostile |
@@ -103,6 +103,8 @@ fn io_error_with(e: &IoError, message: String) -> PyErr {
         IoError::MissingFolder { .. } => PyFileNotFoundError::new_err((2, message, filename)),
         // EFBIG: larger than the reader's limit.
         IoError::TooLarge { .. } => os_error(Some(27), message, filename),
+        // A bad argument, not the file system's refusal.
+        IoError::WrongExtension { .. } => PyValueError::new_err(message),
         _ => os_error(None, message, filename),
     }
 }
@@ -164,10 +166,28 @@ pub fn render_error(e: &RenderError) -> PyErr {
 }
 
 /// A metrics error: an image file that cannot be read or written as the `OSError` subclass,
-/// everything else (sizes differ, empty images, not a PNG, corrupt PNG) as `ValueError`.
+/// everything else (sizes differ, empty images, not a PNG, corrupt PNG) as `ValueError`. Sizes
+/// are said as numpy shapes, `(height, width, 3)`: the layer's `width×height` reads as the
+/// wrong shape to a numpy user.
 pub fn metrics_error(e: &MetricsError) -> PyErr {
     match e {
         MetricsError::Read(io) | MetricsError::Write(io) => io_error(io),
+        &MetricsError::SizeMismatch {
+            reference_width,
+            reference_height,
+            test_width,
+            test_height,
+        } => PyValueError::new_err(format!(
+            "image sizes differ: reference has shape ({reference_height}, {reference_width}, 3), \
+             test ({test_height}, {test_width}, 3) (height, width, channels)"
+        )),
+        &MetricsError::EmptyImage {
+            role,
+            width,
+            height,
+        } => PyValueError::new_err(format!(
+            "the {role} image is empty: shape ({height}, {width}, 3) (height, width, channels)"
+        )),
         _ => PyValueError::new_err(chain(e)),
     }
 }

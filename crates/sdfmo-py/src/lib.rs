@@ -27,6 +27,7 @@ use pyo3::types::{PyDict, PyTuple};
 use sdf_multioctree::distance::sample::{
     sdf_training_points_part, TrainingSamples, TRAINING_BLOCK,
 };
+use sdf_multioctree::io::Naming;
 use sdf_multioctree::metrics;
 use sdf_multioctree::Vec3;
 
@@ -254,9 +255,12 @@ fn load_png<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'p
 /// save_png(path, image)
 ///
 /// Writes a uint8 ``(h, w, 3)`` image as an 8-bit RGB PNG, atomically (a temporary file in the
-/// same folder, then renamed), creating the folder if needed.
+/// same folder, then renamed), creating the folder if needed. ``path`` must end in ``.png``
+/// (any case; ``ValueError`` otherwise, as ``sdfmo render -o`` refuses it).
 #[pyfunction]
 fn save_png(py: Python<'_>, path: std::path::PathBuf, image: &Bound<'_, PyAny>) -> PyResult<()> {
+    sdf_multioctree::io::check_output(&path, "path", &["png"], Naming::Given)
+        .map_err(|e| errors::io_error(&e))?;
     let img = arrays::image_arg(image, "image")?;
     py.detach(|| metrics::save_png(&img, &path))
         .map_err(|e| errors::metrics_error(&e))

@@ -207,11 +207,15 @@ pub struct Mesh {
 }
 
 impl Mesh {
-    /// Wraps a mesh.
-    pub fn from_trimesh(mesh: TriMesh) -> Mesh {
-        Mesh {
+    /// Wraps a mesh, refusing one with no extent or no area (`ValueError`, the builder's
+    /// [`BuildError::DegenerateMesh`](build::BuildError::DegenerateMesh)): its normalisation
+    /// has no scale and every query would answer with the distance to a point or a line
+    /// (`sample_sdf` returned zeros before issue 37).
+    pub fn from_trimesh(mesh: TriMesh) -> PyResult<Mesh> {
+        build::check_mesh(&mesh).map_err(|e| errors::build_error(&e))?;
+        Ok(Mesh {
             data: MeshData::new(mesh),
-        }
+        })
     }
 }
 
@@ -412,7 +416,9 @@ impl Mesh {
     /// A mesh from numpy arrays: ``vertices`` of shape ``(n, 3)`` (any float dtype, stored as
     /// float32, model units) and ``faces`` of shape ``(m, 3)`` (any integer dtype, indices into
     /// ``vertices``). Raises ``ValueError`` for a wrong shape or dtype, a NaN or infinite
-    /// coordinate, or an index out of range (each naming the element).
+    /// coordinate, or an index out of range (each naming the element), and for a degenerate
+    /// mesh: every vertex the same point (zero extent) or every triangle of zero area (no
+    /// surface to measure a signed distance to; ``build`` refuses the same meshes).
     ///
     /// With ``clean=True`` bit-identical vertices are welded and degenerate and duplicate
     /// triangles are dropped, as ``Mesh.load`` does (then ``faces`` and the face indices the
@@ -435,7 +441,7 @@ impl Mesh {
         } else {
             mesh
         };
-        Ok(Mesh::from_trimesh(mesh))
+        Mesh::from_trimesh(mesh)
     }
 
     /// Mesh.load(path) -> Mesh
@@ -460,7 +466,7 @@ impl Mesh {
         let loaded = py
             .detach(|| mesh::load_mesh(&path))
             .map_err(|e| errors::mesh_error(&e))?;
-        Ok(Mesh::from_trimesh(loaded.mesh))
+        Mesh::from_trimesh(loaded.mesh)
     }
 
     /// The vertices, float32 of shape ``(n, 3)``, model units (a copy).
@@ -807,7 +813,8 @@ impl Mesh {
     /// Ray traces the mesh as ``sdfmo render-mesh`` does (the reference image of the paper's
     /// protocol): normalised exactly as the builder normalises it, so the images line up with
     /// ``Octree.render``'s, face normals, the same camera and shading. Returns uint8 of shape
-    /// ``(height, width, 3)``. See ``Octree.render`` for the arguments.
+    /// ``(height, width, 3)``, numpy's order (``render(640, 480).shape == (480, 640, 3)``). See
+    /// ``Octree.render`` for the arguments.
     #[pyo3(signature = (width = 1024, height = None, **options), text_signature = "($self, width=1024, height=None, *, mode='lambert', view=0, eye=None, target=None, fov=None, frame='model', shadows=False, ao=0, threads=None)")]
     fn render<'py>(
         &self,

@@ -7,7 +7,8 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
 use rayon::prelude::*;
 use sdf_multioctree::build::BuildStats;
-use sdf_multioctree::format::{PackedOctree, ValueBits};
+use sdf_multioctree::format::{PackedOctree, ValueBits, FILE_EXTENSION};
+use sdf_multioctree::io::Naming;
 use sdf_multioctree::render::OctreeScene;
 use sdf_multioctree::trace::distance_at;
 
@@ -53,21 +54,34 @@ impl Octree {
     /// Octree.from_bytes(data) -> Octree
     ///
     /// An octree from the bytes of a ``.smo`` file, validated as ``Octree.load`` validates a
-    /// file (``sdfmo.FormatError`` when they are not a valid octree).
+    /// file (``sdfmo.FormatError`` when they are not a valid octree). ``data``: any bytes-like
+    /// object (``bytes``, ``bytearray``, ``memoryview``, a C-contiguous numpy array such as a
+    /// uint8 one), read in place; a writable one (``bytearray``, an array) is copied first, so
+    /// that no other thread can change the bytes while they are validated. ``TypeError`` for
+    /// anything else.
     #[staticmethod]
-    fn from_bytes(py: Python<'_>, data: &[u8]) -> PyResult<Octree> {
-        let octree = py
-            .detach(|| PackedOctree::from_bytes(data))
-            .map_err(|e| errors::format_error(&e))?;
+    fn from_bytes(py: Python<'_>, data: &Bound<'_, PyAny>) -> PyResult<Octree> {
+        let data = arrays::bytes_arg(data, "data")?;
+        let octree = match data {
+            arrays::BytesArg::Copied(v) => py.detach(|| PackedOctree::from_vec(v)),
+            borrowed => {
+                let bytes = borrowed.as_slice();
+                py.detach(|| PackedOctree::from_bytes(bytes))
+            }
+        }
+        .map_err(|e| errors::format_error(&e))?;
         Ok(Octree::new(octree, None))
     }
 
     /// save(path)
     ///
     /// Writes the ``.smo`` file atomically (a temporary file in the same folder, synced, then
-    /// renamed): the destination is either the old file or the whole new one. A destination
-    /// that is a directory, a device or a FIFO is refused (``OSError``).
+    /// renamed): the destination is either the old file or the whole new one. ``path`` must end
+    /// in ``.smo`` (any case; ``ValueError`` otherwise, as ``sdfmo build -o`` refuses it). A
+    /// destination that is a directory, a device or a FIFO is refused (``OSError``).
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        sdf_multioctree::io::check_output(&path, "path", &[FILE_EXTENSION], Naming::Given)
+            .map_err(|e| errors::io_error(&e))?;
         py.detach(|| self.octree.save(&path))
             .map_err(|e| errors::format_error(&e))
     }
@@ -83,6 +97,15 @@ impl Octree {
     #[getter]
     fn depth(&self) -> u8 {
         self.octree.depth()
+    }
+
+    /// Edge of a leaf cell in model units: ``2 / (2**depth * scale)`` (the root cube's edge,
+    /// 2 in the normalised frame, halved ``depth`` times). ``distance`` is NaN farther than
+    /// 1.78 of it from the surface.
+    #[getter]
+    fn cell_size(&self) -> f64 {
+        let meta = self.octree.meta();
+        f64::from(sdf_multioctree::format::cell_size(meta.depth)) / f64::from(meta.scale)
     }
 
     /// Size of the ``.smo`` file in bytes.
@@ -146,9 +169,20 @@ impl Octree {
     ///
     /// The signed distance the octree stores at each point (model units in and out): the
     /// trilinear value of the leaf's voxels (their minimum in a multi-voxel leaf; surface
-    /// voxels unsigned), as the ray tracer sees it. ``NaN`` where the point lies outside the
-    /// root cube or in a cell with no stored leaf (the builder stores only the cells the
-    /// surface passes through). float32 of shape ``(...)`` for points of shape ``(..., 3)``.
+    /// voxels unsigned), as the ray tracer sees it. float32 of shape ``(...)`` for points of
+    /// shape ``(..., 3)``.
+    ///
+    /// ``NaN`` where the point lies outside the root cube or in a leaf cell (edge
+    /// ``cell_size``) that is not stored. The builder stores only cells that the surface
+    /// touches within one corner quantisation step and whose stored field crosses zero, so the
+    /// field is a narrow band: **every point farther than 1.78 × cell_size from the surface is
+    /// NaN** (the cell's diagonal, √3, grown by a quantisation step on each side: √3 · (1 +
+    /// 2√3/127) = 1.7793 at 8 bits, 1.7324 at 16). Nearer, a point is finite where its cell is
+    /// stored: measured on the teapot at depths 6 and 7, 99.7 % of the points within
+    /// 0.1 × cell_size of the surface, 85 % at 0.25-0.5, 31-33 % at 0.75-1, 1 % at 1.25-1.5
+    /// and none beyond 1.7; on the CAD part abc5 86 % (depth 6) and 94 % (depth 7) of the
+    /// surface's own points (cells the surface crosses whose stored field does not). Test for
+    /// NaN (``numpy.isnan``) and fall back on ``Mesh.signed_distance`` where the band ends.
     #[pyo3(signature = (points, *, threads = None))]
     fn distance<'py>(
         &self,
@@ -191,7 +225,8 @@ impl Octree {
     /// render(width=1024, height=None, *, mode="lambert", view=0, eye=None, target=None, fov=None, frame="model", shadows=False, ao=0, threads=None)
     ///
     /// Ray traces the octree as ``sdfmo render`` does; returns uint8 of shape
-    /// ``(height, width, 3)`` (``height`` defaults to ``width``).
+    /// ``(height, width, 3)``, numpy's order (``render(640, 480).shape == (480, 640, 3)``;
+    /// ``height`` defaults to ``width``).
     ///
     /// The camera is the command-line tool's: one of the paper's four views (``view`` 0..3:
     /// eye on a circle of radius 3 in the y = 0 plane of the normalised frame, the root cube

@@ -206,7 +206,10 @@ impl RenderArgs {
         // allocatable now, or a MemoryError instead of an abort in the renderer.
         run::ensure_headroom(
             pixels as u64 * RENDER_BYTES_PER_PIXEL,
-            &format!("a {}x{} render", self.camera.width, self.camera.height),
+            &format!(
+                "a render of height {} and width {}",
+                self.camera.height, self.camera.width
+            ),
         )?;
         let r = run::run(py, self.threads, pixels, |cancel| {
             match f(&self.settings, &self.camera, &|| cancel.is_set()) {

@@ -72,6 +72,9 @@ BAD_INPUTS = [
     ("Octree.save into a directory", lambda: MESH.build(3).save("/"), OSError, "/"),
     ("Octree.save into a missing folder", lambda: MESH.build(3).save("/nonexistent/dir/x.smo"), FileNotFoundError, "x.smo"),
     ("load_png of a missing file", lambda: sdfmo.load_png("/nonexistent/x.png"), FileNotFoundError, "x.png"),
+    ("Octree.from_bytes of a str", lambda: sdfmo.Octree.from_bytes("junk"), TypeError, "bytes-like object"),
+    ("Octree.from_bytes of a strided array", lambda: sdfmo.Octree.from_bytes(np.zeros(64, np.uint8)[::2]),
+     TypeError, "not C-contiguous"),
 ]
 
 
@@ -128,3 +131,70 @@ def test_keyword_options_keep_pythons_errors_and_signatures():
     mask = MESH.render(16, mode="mask", view=1, threads=1)
     assert lambert.shape == mask.shape == (16, 16, 3)
     assert not np.array_equal(lambert, mask)
+
+
+def test_a_degenerate_mesh_is_refused_where_it_is_made():
+    # Before issue 37 a mesh of one point (or of triangles without area) was accepted and
+    # answered every query: sample_sdf returned zeros, only build refused it. Now the builder's
+    # own check (BuildError::DegenerateMesh) runs where the Mesh is made.
+    point = np.ones((4, 3))
+    with pytest.raises(ValueError, match="degenerate mesh: the bounding box has extent 0"):
+        sdfmo.Mesh(point, F)
+    # Cleaning drops every degenerate triangle first, as Mesh.load does.
+    with pytest.raises(ValueError, match="no triangles"):
+        sdfmo.Mesh(point, F, clean=True)
+    line = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]], np.float64)
+    with pytest.raises(ValueError, match="degenerate mesh: every triangle has zero area"):
+        sdfmo.Mesh(line, F)
+    # One triangle with area is enough: the others may be degenerate.
+    m = sdfmo.Mesh(np.vstack([V, [[5, 5, 5]]]), np.vstack([F, [[4, 4, 4]]]))
+    assert m.face_count == 5
+
+
+def test_outputs_must_carry_their_formats_extension(tmp_path):
+    # Before issue 37 save_png("x.jpg") and Octree.save("x.bin") wrote PNG and .smo bytes under
+    # those names, where the CLI refuses them; now the same rule (sdfmo_io::check_output), the
+    # CLI's message with the parameter's name.
+    with pytest.raises(ValueError) as e:
+        sdfmo.save_png(tmp_path / "x.jpg", IMG)
+    assert str(e.value) == f"{tmp_path / 'x.jpg'}: path must end in .png (the format follows the extension)"
+    octree = MESH.build(3)
+    with pytest.raises(ValueError, match=r"x\.bin: path must end in \.smo \(the format follows"):
+        octree.save(tmp_path / "x.bin")
+    with pytest.raises(ValueError, match=r"must end in \.smo"):
+        octree.save(tmp_path / "noext")
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+    # Any case, as the CLI.
+    sdfmo.save_png(tmp_path / "x.PNG", IMG)
+    octree.save(tmp_path / "x.Smo")
+    assert sdfmo.Octree.load(tmp_path / "x.Smo").to_bytes() == octree.to_bytes()
+    # A directory is still the file system's refusal, checked first as the CLI does.
+    with pytest.raises(IsADirectoryError):
+        octree.save(tmp_path)
+
+
+def test_from_bytes_takes_any_bytes_like_object():
+    # Before issue 37 from_bytes(bytearray(...)) was a TypeError: only bytes were taken.
+    data = MESH.build(4).to_bytes()
+    a = np.frombuffer(data, np.uint8)
+    for obj in [data, bytearray(data), memoryview(data), memoryview(bytearray(data)), a, a.copy(),
+                a.copy().view(np.int8), memoryview(data).cast("B", (len(data) // 4, 4))]:
+        assert sdfmo.Octree.from_bytes(obj).to_bytes() == data, type(obj)
+    # A writable buffer is copied: changing it afterwards does not change the octree.
+    buf = bytearray(data)
+    octree = sdfmo.Octree.from_bytes(buf)
+    buf[:] = bytes(len(buf))
+    assert octree.to_bytes() == data
+    with pytest.raises(sdfmo.FormatError):
+        sdfmo.Octree.from_bytes(bytearray())
+
+
+def test_image_sizes_are_said_in_numpys_order():
+    # Before issue 37 the message said "reference is 8×8, test is 8×4" (width × height) for
+    # arrays of shape (8, 8, 3) and (4, 8, 3).
+    with pytest.raises(ValueError) as e:
+        sdfmo.psnr(IMG, IMG[:4])
+    assert str(e.value) == (
+        "image sizes differ: reference has shape (8, 8, 3), test (4, 8, 3) (height, width, channels)"
+    )
+    assert MESH.render(6, 4).shape == (4, 6, 3)

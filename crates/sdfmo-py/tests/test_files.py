@@ -131,6 +131,32 @@ def test_octree_distance_is_the_stored_field(meshes):
     assert np.isnan(octree.distance([[1e6, 0, 0]]))[0]
 
 
+def test_octree_distance_is_nan_beyond_the_documented_band(meshes):
+    # Octree.distance documents its band: NaN at every point farther than 1.78 * cell_size
+    # from the surface (a leaf cell's diagonal grown by a quantisation step on each side), and
+    # finite at 99.7 % of the points within 0.1 * cell_size on the teapot.
+    m = meshes["teapot.obj"]
+    rng = np.random.default_rng(5)
+    surface, _ = sdfmo.sample_sdf(m, 20000, seed=2, near_fraction=1.0, sigmas=(0.0, 0.0))
+    dirs = rng.normal(size=surface.shape)
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    for depth, bits, bound in [(6, 8, 1.7793), (7, 16, 1.7324)]:
+        octree = m.build(depth, bits=bits)
+        h = octree.cell_size
+        assert h == pytest.approx(2.0 / (2**depth * octree.stats["scale"]), rel=1e-12)
+        pts = surface + dirs * (h * rng.uniform(0.0, 4.0, size=(len(surface), 1)))
+        d = octree.distance(pts)
+        true = m.unsigned_distance(pts) / h
+        finite = np.isfinite(d)
+        assert (true[finite] <= bound).all(), true[finite].max()
+        assert (true > bound).sum() > 1000
+        # The band is about a cell wide, not less: some points past one cell are finite.
+        assert (finite & (true > 1.0)).sum() > 50
+        near = true < 0.1
+        assert near.sum() > 500
+        assert finite[near].mean() >= 0.99, finite[near].mean()
+
+
 def test_corrupt_octree_files_raise_format_error(meshes, tmp_path):
     data = meshes["abc8.stl"].build(5).to_bytes()
     for name, bad in [

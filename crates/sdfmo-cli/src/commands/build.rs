@@ -14,7 +14,11 @@ use crate::progress;
 /// Builds the octree with a progress bar, saves it atomically and prints the statistics.
 pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
     // A bad destination fails now, not after the build.
-    check_output(&args.output, "the octree file (-o)", &["smo"])?;
+    check_output(
+        &args.output,
+        "the octree file (-o)",
+        &[sdf_multioctree::format::FILE_EXTENSION],
+    )?;
     let input = load_input(args.mesh.as_deref())?;
     let settings = BuildSettings {
         depth: args.depth,

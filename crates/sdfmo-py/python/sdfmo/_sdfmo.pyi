@@ -5,7 +5,7 @@ from typing import Literal, Optional, Sequence, Tuple, TypedDict, Union, overloa
 
 import numpy as np
 import numpy.typing as npt
-from typing_extensions import Unpack
+from typing_extensions import Buffer, Unpack
 
 __version__: str
 
@@ -43,7 +43,8 @@ class Mesh:
     """A triangle mesh in model units, with exact distance queries."""
 
     def __init__(self, vertices: npt.ArrayLike, faces: npt.ArrayLike, *, clean: bool = False) -> None:
-        """A mesh from ``vertices`` ``(n, 3)`` floats and ``faces`` ``(m, 3)`` integers."""
+        """A mesh from ``vertices`` ``(n, 3)`` floats and ``faces`` ``(m, 3)`` integers;
+        ``ValueError`` for a degenerate one (zero extent, or every triangle of zero area)."""
     @staticmethod
     def load(path: _Path) -> "Mesh":
         """Loads an OBJ, glTF/GLB or STL file (welded and cleaned)."""
@@ -139,7 +140,8 @@ class Mesh:
     def render(
         self, width: int = 1024, height: Optional[int] = None, **options: Unpack[_RenderOptions]
     ) -> _U8:
-        """Ray traces the mesh (the reference image), uint8 ``(h, w, 3)``."""
+        """Ray traces the mesh (the reference image), uint8 of shape ``(height, width, 3)``:
+        ``render(640, 480).shape == (480, 640, 3)``."""
 
 class Octree:
     """A sparse octree of trilinear signed-distance voxels (``.smo``)."""
@@ -148,15 +150,19 @@ class Octree:
     def load(path: _Path) -> "Octree":
         """Loads and validates a ``.smo`` file."""
     @staticmethod
-    def from_bytes(data: bytes) -> "Octree":
-        """An octree from the bytes of a ``.smo`` file."""
+    def from_bytes(data: Buffer) -> "Octree":
+        """An octree from the bytes of a ``.smo`` file: any bytes-like object (``bytes``,
+        ``bytearray``, ``memoryview``, a C-contiguous numpy array)."""
     def save(self, path: _Path) -> None:
-        """Writes the ``.smo`` file atomically."""
+        """Writes the ``.smo`` file atomically; ``path`` must end in ``.smo`` (``ValueError``)."""
     def to_bytes(self) -> bytes:
         """The bytes of the ``.smo`` file."""
     @property
     def depth(self) -> int:
         """Depth of the leaves."""
+    @property
+    def cell_size(self) -> float:
+        """Edge of a leaf cell in model units, ``2 / (2**depth * scale)``."""
     @property
     def nbytes(self) -> int:
         """Size of the ``.smo`` file in bytes."""
@@ -164,11 +170,14 @@ class Octree:
     def stats(self) -> dict:
         """Counts, size, transform and (for a fresh build) the builder's statistics."""
     def distance(self, points: _Points, *, threads: Optional[int] = None) -> _F32:
-        """Stored signed distance, model units; NaN where no cell is stored."""
+        """Stored signed distance, model units; NaN where no cell is stored: always farther
+        than 1.78 * cell_size from the surface (the band's width), and in the cells the
+        surface crosses whose stored field does not."""
     def render(
         self, width: int = 1024, height: Optional[int] = None, **options: Unpack[_RenderOptions]
     ) -> _U8:
-        """Ray traces the octree, uint8 ``(h, w, 3)``."""
+        """Ray traces the octree, uint8 of shape ``(height, width, 3)``:
+        ``render(640, 480).shape == (480, 640, 3)``."""
 
 def sample_sdf(
     mesh: Mesh,
@@ -196,4 +205,5 @@ def load_png(path: _Path) -> _U8:
     """Reads a PNG as uint8 ``(h, w, 3)`` RGB."""
 
 def save_png(path: _Path, image: _U8) -> None:
-    """Writes a uint8 ``(h, w, 3)`` image as an 8-bit RGB PNG, atomically."""
+    """Writes a uint8 ``(h, w, 3)`` image as an 8-bit RGB PNG, atomically; ``path`` must end
+    in ``.png`` (``ValueError``)."""
