@@ -157,7 +157,11 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
     }
     bar.set_message("plots and page");
     let report = report_of(&models, &rows);
-    files.extend(plots::write_plots(out, &report.rows)?);
+    files.extend(plots::write_plots(
+        out,
+        &report.rows,
+        report.provenance.frames,
+    )?);
     files.push(report::write_html(out, &report, &files)?);
     bar.finish_and_clear();
 

@@ -164,7 +164,7 @@ const PLOTS: [(&str, &str, Axis<'static>, Axis<'static>, Extract); 4] = [
     (
         "plot_psnr_vs_render_time.png",
         "PSNR vs render time per view",
-        Axis::log("render time (ms)"),
+        Axis::log(RENDER_TIME),
         Axis::linear("PSNR (dB)"),
         |r| r.psnr.map(|p| (r.render_ms, p)),
     ),
@@ -182,6 +182,18 @@ const PLOTS: [(&str, &str, Axis<'static>, Axis<'static>, Extract); 4] = [
     ),
 ];
 
+/// The render-time axis's label; [`write_plots`] adds how the time was taken (the median of the
+/// sweep's `--frames` renders of each view: one frame's time on a loaded machine is noise).
+const RENDER_TIME: &str = "render time per view (ms)";
+
+/// [`RENDER_TIME`] with how the time was taken from `frames` renders of each view.
+fn render_time_label(frames: usize) -> String {
+    match frames {
+        0 | 1 => format!("{RENDER_TIME}, one frame"),
+        n => format!("{RENDER_TIME}, median of {n} frames"),
+    }
+}
+
 /// The plot of a sweep with `--levels`: PSNR against the bytes a reader needs for each level.
 const LEVELS_PLOT: (&str, &str, Axis<'static>, Axis<'static>, Extract) = (
     "plot_psnr_vs_bytes_read.png",
@@ -192,8 +204,10 @@ const LEVELS_PLOT: (&str, &str, Axis<'static>, Axis<'static>, Extract) = (
 );
 
 /// Writes every plot into `dir` (the levels plot only when rows have `bytes_read`); returns the
-/// file names.
-pub fn write_plots(dir: &Path, rows: &[Row]) -> anyhow::Result<Vec<String>> {
+/// file names. `frames`: the renders of each view whose median is a row's `render_ms`, said on
+/// the render-time axis.
+pub fn write_plots(dir: &Path, rows: &[Row], frames: usize) -> anyhow::Result<Vec<String>> {
+    let time_label = render_time_label(frames);
     register_font()?;
     let mut models: Vec<&str> = Vec::new();
     let mut others: Vec<&str> = Vec::new();
@@ -243,6 +257,14 @@ pub fn write_plots(dir: &Path, rows: &[Row]) -> anyhow::Result<Vec<String>> {
                 }
             }
         }
+        let x = &Axis {
+            label: if x.label == RENDER_TIME {
+                &time_label
+            } else {
+                x.label
+            },
+            ..*x
+        };
         let img = plot(title, x, y, &series).with_context(|| format!("cannot draw {file}"))?;
         write_derived_png(&dir.join(file), &img)?;
         files.push((*file).to_owned());
@@ -291,8 +313,9 @@ fn spans_a_decade(values: impl Iterator<Item = f64>) -> bool {
 
 /// Ticks of a logarithmic axis over `r`: 1, 2 and 5 times each power of ten inside it (every
 /// integer multiple when that gives fewer than four), so that a range below 100 ms is labelled
-/// too, not only at the powers of ten.
-fn log_ticks(r: &std::ops::Range<f64>) -> Vec<f64> {
+/// too, not only at the powers of ten; the powers of ten alone when that gives more than
+/// [`MAX_LOG_TICKS`] (over more than about three decades the labels at 1 and 2 collide).
+pub(super) fn log_ticks(r: &std::ops::Range<f64>) -> Vec<f64> {
     let (lo, hi) = (r.start, r.end);
     if !(lo > 0.0 && hi > lo && hi.is_finite()) {
         return Vec::new();
@@ -310,16 +333,23 @@ fn log_ticks(r: &std::ops::Range<f64>) -> Vec<f64> {
         out
     };
     let coarse = ticks(&[1.0, 2.0, 5.0]);
-    if coarse.len() >= 4 {
+    if coarse.len() > MAX_LOG_TICKS {
+        ticks(&[1.0])
+    } else if coarse.len() >= 4 {
         coarse
     } else {
         ticks(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0])
     }
 }
 
+/// Most labels on a logarithmic axis: the plots' charts are 700-800 pixels wide, and the
+/// labels at 1 and 2 times a power of ten lie 0.3 decade apart, too close for a 6-character
+/// label once the axis spans more than about three decades (ten ticks at 1, 2, 5).
+const MAX_LOG_TICKS: usize = 10;
+
 /// A tick label: integers only on an integer axis, else about three significant digits without
 /// trailing zeros (0.3, 25, 1200, 0.045).
-fn axis_label(v: f64, integer: bool) -> String {
+pub(super) fn axis_label(v: f64, integer: bool) -> String {
     if integer {
         return if (v - v.round()).abs() < 1e-6 {
             format!("{}", v.round())
@@ -537,6 +567,13 @@ mod tests {
             vec![7.0, 8.0, 9.0, 10.0, 20.0, 30.0, 40.0]
         );
         assert!(log_ticks(&(0.0..10.0)).is_empty());
+        // Over more than three decades (the dataset's triangle counts): the powers of ten
+        // alone, whose labels do not collide.
+        assert_eq!(
+            log_ticks(&(30.0..2.0e6)),
+            vec![100.0, 1000.0, 10000.0, 100000.0, 1000000.0]
+        );
+        assert_eq!(log_ticks(&(0.9..900.0)).len(), 9);
     }
 
     fn row(model: &str, method: &str, depth: u8, psnr: Option<f64>) -> Row {
@@ -563,7 +600,7 @@ mod tests {
             row("a", "multi", 4, Some(22.0)),
             row("a", "multi", 5, None), // identical images: no point, no failure
         ];
-        let files = write_plots(&dir, &rows).unwrap();
+        let files = write_plots(&dir, &rows, 5).unwrap();
         assert_eq!(files.len(), 4);
         for f in &files {
             let img = image::open(dir.join(f)).unwrap().to_rgb8();
@@ -599,6 +636,15 @@ mod tests {
         assert!(spans_a_decade([0.5, 4.0].into_iter()));
         assert!(!spans_a_decade([3.3, 3.8].into_iter()));
         assert!(!spans_a_decade(std::iter::empty()));
+    }
+
+    #[test]
+    fn the_render_time_axis_says_how_the_time_was_taken() {
+        assert_eq!(
+            render_time_label(5),
+            "render time per view (ms), median of 5 frames"
+        );
+        assert_eq!(render_time_label(1), "render time per view (ms), one frame");
     }
 
     #[test]

@@ -8,12 +8,15 @@ use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::prelude::*;
 
 use super::DatasetStats;
-use crate::commands::sweep::plots::PALETTE;
+use crate::commands::sweep::plots::{axis_label, log_ticks, PALETTE};
 use crate::commands::sweep::{Model, Row, SweepSettings};
 use crate::output::write_derived_png;
 
 const WIDTH: u32 = 1100;
 const HEIGHT: u32 = 560;
+/// Width of the scatter plot's legend column, right of the chart: inside the chart the legend
+/// covered the points of the smallest models.
+const LEGEND_WIDTH: u32 = 230;
 
 /// One colour per depth (or method), cycled: the sweep's palette without its brown and pink.
 const COLORS: [RGBColor; 6] = {
@@ -95,7 +98,7 @@ pub fn write(
         }
     }
     let img = scatter(
-        "Build and render time (per view) against triangles",
+        "Build time and render time per view against triangles",
         &points,
     )?;
     write_derived_png(&out.join("dataset_time_vs_triangles.png"), &img)?;
@@ -127,7 +130,7 @@ fn cdf(
         x_desc: xlabel,
         y_desc: "share of models",
         y_label_area: 64,
-        legend: SeriesLabelPosition::LowerRight,
+        legend: Legend::Inside(SeriesLabelPosition::LowerRight),
     };
     frame.draw(xr, 0.0..1.0, |chart| {
         for (k, (label, values)) in series.iter().enumerate() {
@@ -152,7 +155,9 @@ fn cdf(
     })
 }
 
-/// A log–log scatter plot, one colour per series.
+/// A log–log scatter plot, one colour per series, ticks at 1, 2 and 5 times the powers of ten
+/// (the powers alone over a wide range, [`log_ticks`]) with short labels, the legend in a
+/// column of its own.
 fn scatter(title: &str, series: &[(String, Vec<(f64, f64)>)]) -> anyhow::Result<image::RgbImage> {
     let all = || series.iter().flat_map(|s| s.1.iter().copied());
     let log_range = |v: &mut dyn Iterator<Item = f64>| {
@@ -167,24 +172,41 @@ fn scatter(title: &str, series: &[(String, Vec<(f64, f64)>)]) -> anyhow::Result<
     };
     let xr = log_range(&mut all().map(|p| p.0));
     let yr = log_range(&mut all().map(|p| p.1));
+    let entries: Vec<(&str, RGBColor)> = series
+        .iter()
+        .enumerate()
+        .map(|(k, (label, _))| (label.as_str(), COLORS[k % COLORS.len()]))
+        .collect();
     let frame = Frame {
         title,
         x_desc: "triangles",
         y_desc: "time (ms)",
         y_label_area: 72,
-        legend: SeriesLabelPosition::UpperLeft,
+        legend: Legend::Column(&entries),
     };
-    frame.draw(xr.log_scale(), yr.log_scale(), |chart| {
-        for (k, (label, pts)) in series.iter().enumerate() {
-            let color = COLORS[k % COLORS.len()];
-            chart
-                .draw_series(pts.iter().map(|&p| Circle::new(p, 3, color.filled())))
-                .map_err(|e| anyhow!("{e}"))?
-                .label(label.as_str())
-                .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()));
-        }
-        Ok(())
-    })
+    let (kx, ky) = (log_ticks(&xr), log_ticks(&yr));
+    frame.draw(
+        xr.log_scale().with_key_points(kx),
+        yr.log_scale().with_key_points(ky),
+        |chart| {
+            for (k, (_, pts)) in series.iter().enumerate() {
+                let color = COLORS[k % COLORS.len()];
+                chart
+                    .draw_series(pts.iter().map(|&p| Circle::new(p, 3, color.filled())))
+                    .map_err(|e| anyhow!("{e}"))?;
+            }
+            Ok(())
+        },
+    )
+}
+
+/// Where a plot's legend goes.
+enum Legend<'a> {
+    /// Inside the chart, plotters' legend of the labelled series.
+    Inside(SeriesLabelPosition),
+    /// In a column right of the chart, outside the data: a filled circle and a label per
+    /// entry.
+    Column(&'a [(&'a str, RGBColor)]),
 }
 
 /// What the dataset plots share around their series: the caption, the axes' descriptions, the
@@ -194,7 +216,7 @@ struct Frame<'a> {
     x_desc: &'a str,
     y_desc: &'a str,
     y_label_area: u32,
-    legend: SeriesLabelPosition,
+    legend: Legend<'a>,
 }
 
 impl Frame<'_> {
@@ -222,9 +244,21 @@ impl Frame<'_> {
         {
             let root = BitMapBackend::with_buffer(&mut buf, (WIDTH, HEIGHT)).into_drawing_area();
             root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
-            let mut chart = ChartBuilder::on(&root)
+            let (area, column) = match self.legend {
+                Legend::Column(_) => {
+                    let (area, column) = root.split_horizontally(WIDTH - LEGEND_WIDTH);
+                    (area, Some(column))
+                }
+                Legend::Inside(_) => (root.clone(), None),
+            };
+            // Short tick labels (0.3, 25, 100000: no trailing ".0"), the sweep's plots' rule.
+            let label = |v: &f64| axis_label(*v, false);
+            let mut chart = ChartBuilder::on(&area)
                 .caption(self.title, ("sans-serif", 22))
                 .margin(12)
+                // Room right of the chart for half of the last x label, which is centred on
+                // the chart's edge (a 6-digit label was cut off).
+                .margin_right(40)
                 .x_label_area_size(48)
                 .y_label_area_size(self.y_label_area)
                 .build_cartesian_2d(xr, yr)
@@ -233,19 +267,39 @@ impl Frame<'_> {
                 .configure_mesh()
                 .x_desc(self.x_desc)
                 .y_desc(self.y_desc)
+                .x_label_formatter(&label)
+                .y_label_formatter(&label)
                 .label_style(("sans-serif", 16))
                 .axis_desc_style(("sans-serif", 18))
                 .draw()
                 .map_err(|e| anyhow!("{e}"))?;
             series(&mut chart)?;
-            chart
-                .configure_series_labels()
-                .position(self.legend)
-                .label_font(("sans-serif", 16))
-                .background_style(WHITE.mix(0.9))
-                .border_style(BLACK)
-                .draw()
-                .map_err(|e| anyhow!("{e}"))?;
+            match self.legend {
+                Legend::Inside(position) => chart
+                    .configure_series_labels()
+                    .position(position)
+                    .label_font(("sans-serif", 16))
+                    .background_style(WHITE.mix(0.9))
+                    .border_style(BLACK)
+                    .draw()
+                    .map_err(|e| anyhow!("{e}"))?,
+                Legend::Column(entries) => {
+                    let column = column.expect("split for the column");
+                    for (i, (text, color)) in entries.iter().enumerate() {
+                        let y = 60 + 28 * i as i32;
+                        column
+                            .draw(&Circle::new((14, y), 5, color.filled()))
+                            .map_err(|e| anyhow!("{e}"))?;
+                        column
+                            .draw(&Text::new(
+                                text.to_string(),
+                                (28, y - 9),
+                                ("sans-serif", 16).into_font(),
+                            ))
+                            .map_err(|e| anyhow!("{e}"))?;
+                    }
+                }
+            }
             root.present().map_err(|e| anyhow!("{e}"))?;
         }
         image::RgbImage::from_raw(WIDTH, HEIGHT, buf).ok_or_else(|| anyhow!("plot buffer size"))
