@@ -171,7 +171,17 @@ impl RenderArgs {
             }
             camera.fov_y_deg = f;
         }
-        // Non-finite or degenerate cameras (eye == target): the renderer's own message.
+        // An eye on the target, named as the caller gave it (the renderer's message would name
+        // the normalised point: eye=(0, 0, 0) in model units read "[-0.95, -0.95, -0.95]").
+        // The defaults differ, so at least one of the two was given.
+        if camera.eye == camera.target {
+            let [x, y, z] = eye.or(target).unwrap_or(camera.eye.to_array());
+            return Err(PyValueError::new_err(format!(
+                "invalid camera: eye and target are the same point ({x}, {y}, {z}) \
+                 (frame=\"{frame}\")"
+            )));
+        }
+        // Non-finite or degenerate cameras: the renderer's own message.
         camera
             .frame()
             .map_err(|e| crate::errors::render_error(&e))?;
