@@ -137,9 +137,9 @@ use render::{MeshScene, OctreeScene, RenderSettings};
 // The types and functions the high-level API takes and returns, at the root so that a caller
 // of these functions (and the examples) needs no layer path.
 pub use build::{BuildStats, Method};
-pub use format::PackedOctree;
+pub use format::{PackedOctree, SmoFile, SmoPrefix};
 pub use mesh::TriMesh;
-pub use render::{save_png, Camera, Mode, Rendered};
+pub use render::{save_png, Camera, LevelRequest, Mode, Rendered};
 
 /// Declares [`Error`], one variant per layer with the prefix its message gets, with its
 /// `Display`, `source` (the layer error's own source: the layer's message is already shown)
@@ -234,6 +234,72 @@ pub fn build_octree(
 /// [`Error::Format`] for an unreadable, truncated, corrupt or hostile file.
 pub fn load_octree(path: impl AsRef<Path>) -> Result<PackedOctree> {
     Ok(PackedOctree::load(path.as_ref())?)
+}
+
+/// Loads a `.smo` file of either kind, one octree or levels of detail (`sdfmo build --lod`,
+/// [`build::build_lod`]), validating it: the whole file, or a file with levels cut where a
+/// level ends (a download in progress, `head -c`). Returns the levels it holds
+/// ([`SmoPrefix::file`], to draw with [`render_levels`]) and those of the whole file
+/// ([`SmoPrefix::declared`]; [`SmoPrefix::is_complete`] says whether all are held).
+///
+/// ```
+/// use sdf_multioctree::build::{build_lod, BuildSettings};
+/// use sdf_multioctree::{demo_mesh, load_levels, paper_views, render_levels, render_octree};
+/// use sdf_multioctree::{Error, LevelRequest, Method, Mode};
+///
+/// // Levels 3 to 5 of the demo part in one file, cut where level 4 ends.
+/// let settings = BuildSettings { depth: 5, coarsest_level: Some(3), ..BuildSettings::default() };
+/// let (lod, _) = build_lod(&demo_mesh(), &settings, None, None, &|| false)?;
+/// let cut = lod.entries()[1].end() as usize;
+/// let path = std::env::temp_dir().join(format!("sdfmo-doc-levels-{}.smo", std::process::id()));
+/// std::fs::write(&path, &lod.to_bytes()[..cut]).unwrap();
+///
+/// let data = load_levels(&path)?;
+/// assert_eq!((data.held(), data.declared), ((3, 4), (3, 5)));
+/// let camera = &paper_views(32)[0];
+/// // A level is that level's octree; the default is the finest held.
+/// let level_3 = render_levels(&data.file, camera, Mode::Depth, LevelRequest::Level(3))?;
+/// let alone = render_octree(&lod.levels()[0], camera, Mode::Depth)?;
+/// assert_eq!(level_3.rgb, alone.rgb);
+/// let finest = render_levels(&data.file, camera, Mode::Mask, LevelRequest::Finest)?;
+/// // Each ray at the coarsest level held whose voxels stay under 2 pixels.
+/// let by_error = render_levels(&data.file, camera, Mode::Mask, LevelRequest::PixelError(2.0))?;
+/// assert!(finest.counters.hits > 0 && by_error.counters.hits > 0);
+/// // Level 5 is not in the prefix: the error names the levels held.
+/// let e = render_levels(&data.file, camera, Mode::Mask, LevelRequest::Level(5)).unwrap_err();
+/// assert!(matches!(e, Error::Render(_)) && e.to_string().contains("levels 3..=4"), "{e}");
+/// # std::fs::remove_file(&path).ok();
+/// # Ok::<(), sdf_multioctree::Error>(())
+/// ```
+///
+/// # Errors
+/// [`Error::Format`] for an unreadable, corrupt or hostile file, and for one cut anywhere but
+/// where a level ends ([`format::FormatError::CutInsideLevel`], or `Truncated` before the
+/// coarsest level's end or in a file without levels).
+pub fn load_levels(path: impl AsRef<Path>) -> Result<SmoPrefix> {
+    Ok(SmoFile::load_prefix(path.as_ref(), format::MAX_FILE_SIZE)?)
+}
+
+/// Ray traces the levels of a `.smo` file ([`load_levels`]) in `mode` on all cores: `level`
+/// picks what is drawn ([`LevelRequest`]: the finest level held, one level, or each ray's level
+/// by pixel error), the rule `sdfmo render --lod`/`--pixel-error` and Python's `lod=` and
+/// `pixel_error=` follow. The camera is in the normalised frame (see [`camera_from_model`]
+/// with `octree_frame(file.finest())` for one in model units). Example: [`load_levels`].
+///
+/// # Errors
+/// [`Error::Render`] for an invalid camera, a level the file does not hold (naming those it
+/// holds), or a pixel error on a file without levels or not finite and > 0.
+pub fn render_levels(
+    file: &SmoFile,
+    camera: &Camera,
+    mode: Mode,
+    level: LevelRequest,
+) -> Result<Rendered> {
+    let settings = RenderSettings::new(mode);
+    Ok(match level.scene(file, camera)? {
+        render::LevelScene::Level(s) => render::render(&s, camera, &settings)?,
+        render::LevelScene::PixelError(s) => render::render(&s, camera, &settings)?,
+    })
 }
 
 /// Saves an octree as a `.smo` file, atomically.
@@ -393,6 +459,58 @@ mod tests {
     #[test]
     fn default_margin_is_the_builders() {
         assert_eq!(DEFAULT_MARGIN, BuildSettings::default().margin);
+    }
+
+    /// `render_levels` of each level of a file with levels is `render_octree` of that level
+    /// alone (the CLI's `render --lod` path), of the whole file and of each prefix cut where a
+    /// level ends; a cut inside a level is refused.
+    #[test]
+    fn render_levels_draws_each_level_of_every_level_boundary_prefix() {
+        let settings = BuildSettings {
+            depth: 5,
+            coarsest_level: Some(3),
+            ..BuildSettings::default()
+        };
+        let (lod, _) = build::build_lod(&demo_mesh(), &settings, None, None, &|| false).unwrap();
+        let bytes = lod.to_bytes();
+        let camera = paper_views(24)[1];
+        let dir = std::env::temp_dir().join(format!("sdfmo-facade-levels-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for (i, e) in lod.entries().iter().enumerate() {
+            let path = dir.join(format!("cut{i}.smo"));
+            std::fs::write(&path, &bytes[..e.end() as usize]).unwrap();
+            let data = load_levels(&path).unwrap();
+            assert_eq!((data.held(), data.declared), ((3, e.level), (3, 5)));
+            assert_eq!(data.is_complete(), e.level == 5);
+            for k in 3..=e.level {
+                let a = render_levels(&data.file, &camera, Mode::Normal, LevelRequest::Level(k));
+                let b = render_octree(lod.level(k).unwrap(), &camera, Mode::Normal).unwrap();
+                assert_eq!(
+                    a.unwrap().rgb,
+                    b.rgb,
+                    "prefix to level {}, level {k}",
+                    e.level
+                );
+            }
+            let finest = render_levels(&data.file, &camera, Mode::Depth, LevelRequest::Finest);
+            let b = render_octree(lod.level(e.level).unwrap(), &camera, Mode::Depth).unwrap();
+            assert_eq!(finest.unwrap().rgb, b.rgb);
+            let missing = render_levels(&data.file, &camera, Mode::Mask, LevelRequest::Level(6));
+            assert!(matches!(missing, Err(Error::Render(_))));
+            if e.level < 5 {
+                std::fs::write(&path, &bytes[..e.end() as usize + 9]).unwrap();
+                let cut = load_levels(&path).unwrap_err();
+                assert!(
+                    matches!(
+                        cut,
+                        Error::Format(format::FormatError::CutInsideLevel { level, .. })
+                            if level == e.level + 1
+                    ),
+                    "{cut}"
+                );
+            }
+        }
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]

@@ -96,6 +96,23 @@ pub enum FormatError {
         /// Bytes needed.
         needed: u64,
     },
+    /// A prefix of a file with levels ends inside a level (after its first byte, before its
+    /// last): only a whole file, or a prefix cut where a level ends, can be drawn
+    /// ([`SmoFile::from_prefix`](crate::SmoFile::from_prefix)).
+    #[error(
+        "truncated .smo data: {len} bytes end inside level {level} (bytes {start}..{end}); a \
+         file with levels is read whole or cut where a level ends"
+    )]
+    CutInsideLevel {
+        /// Bytes available.
+        len: u64,
+        /// The level the data ends in.
+        level: u8,
+        /// Where that level starts.
+        start: u64,
+        /// Where it ends (a prefix of this many bytes holds it).
+        end: u64,
+    },
     /// The first eight bytes are not the `.smo` magic.
     #[error("not a .smo file (bad magic {found:02x?})")]
     BadMagic {

@@ -82,9 +82,9 @@ pub use interpolant::{
     cell_corners, cell_size, child_coord, corner_offset, trilinear, trilinear_gradient,
 };
 pub use lod::{
-    check_smo_head, lod_header_size, read_smo, LevelEntry, LodOctree, LodPrefix, SmoFile, SmoRead,
-    LOD_HEADER_FIXED, LOD_HEADER_TRAILER, LOD_LEVEL_ENTRY, LOD_VERSION_MAJOR, LOD_VERSION_MINOR,
-    SMO_HEAD_BYTES,
+    check_smo_head, lod_header_size, read_smo, LevelEntry, LodOctree, LodPrefix, SmoFile,
+    SmoPrefix, SmoRead, LOD_HEADER_FIXED, LOD_HEADER_TRAILER, LOD_LEVEL_ENTRY, LOD_VERSION_MAJOR,
+    LOD_VERSION_MINOR, SMO_HEAD_BYTES,
 };
 pub use octree::{NodeRef, Octree, PackedOctree, PackedOctreeView};
 

@@ -562,6 +562,29 @@ pub fn read_smo(path: &Path, max_bytes: u64, read: SmoRead) -> Result<Vec<u8>> {
     })
 }
 
+/// What [`SmoFile::from_prefix`] read: the levels the data holds (the whole file, or a file
+/// with levels cut where a level ends) and the levels the whole file has.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SmoPrefix {
+    /// The levels held (of a prefix: those before the cut, as a file of their own).
+    pub file: SmoFile,
+    /// The levels the whole file has, `(coarsest, finest)`, from its header (a 1.x file: its
+    /// depth twice).
+    pub declared: (u8, u8),
+}
+
+impl SmoPrefix {
+    /// The levels held, `(coarsest, finest)` ([`SmoFile::level_range`]).
+    pub fn held(&self) -> (u8, u8) {
+        self.file.level_range()
+    }
+
+    /// Whether every level the file declares is held (the data is the whole file).
+    pub fn is_complete(&self) -> bool {
+        self.held() == self.declared
+    }
+}
+
 /// A `.smo` file of either kind: one octree (version 1.x) or levels of detail (2.0).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum SmoFile {
@@ -590,6 +613,47 @@ impl SmoFile {
     /// [`SmoFile::load`] with an explicit size limit in bytes, checked before reading.
     pub fn load_with_limit(path: &Path, max_bytes: u64) -> Result<SmoFile> {
         SmoFile::from_bytes(&read_smo(path, max_bytes, SmoRead::Whole)?)
+    }
+
+    /// Reads either kind from the whole file or, for a file with levels, from a prefix that
+    /// ends where a level ends (or in the zero padding after it): the levels it holds, and
+    /// those the whole file declares. A 1.x file must be whole ([`SmoFile::from_bytes`]).
+    ///
+    /// # Errors
+    /// [`SmoFile::from_bytes`]'s for a 1.x file; [`LodOctree::from_prefix`]'s for a file with
+    /// levels (a prefix without its coarsest level is [`FormatError::Truncated`]), and
+    /// [`FormatError::CutInsideLevel`] for a prefix that ends inside a later level: data cut
+    /// off in the middle of a level is a broken copy, not a file of fewer levels.
+    pub fn from_prefix(bytes: &[u8]) -> Result<SmoPrefix> {
+        if !SmoFile::has_levels(bytes) {
+            let file = SmoFile::from_bytes(bytes)?;
+            let declared = file.level_range();
+            return Ok(SmoPrefix { file, declared });
+        }
+        let p = LodOctree::from_prefix(bytes)?;
+        let len = bytes.len() as u64;
+        if let Some(next) = p.declared.get(p.octree.levels.len()) {
+            if len > next.offset {
+                return Err(FormatError::CutInsideLevel {
+                    len,
+                    level: next.level,
+                    start: next.offset,
+                    end: next.end(),
+                });
+            }
+        }
+        // `from_prefix` read a valid table: at least one level, coarsest first.
+        let declared = (p.declared[0].level, p.declared[p.declared.len() - 1].level);
+        Ok(SmoPrefix {
+            file: SmoFile::Levels(p.octree),
+            declared,
+        })
+    }
+
+    /// Reads a `.smo` file of at most `max_bytes` bytes, header first ([`read_smo`] with
+    /// [`SmoRead::Prefix`]), as [`SmoFile::from_prefix`] reads its bytes.
+    pub fn load_prefix(path: &Path, max_bytes: u64) -> Result<SmoPrefix> {
+        SmoFile::from_prefix(&read_smo(path, max_bytes, SmoRead::Prefix)?)
     }
 
     /// Whether `bytes` start like a version-2.0 file (magic and major version 2).
@@ -731,6 +795,62 @@ mod tests {
         let p = LodOctree::from_prefix(&bytes[..e.end() as usize]).unwrap();
         let two = LodOctree::from_levels(l.levels()[..2].to_vec()).unwrap();
         assert_eq!(p.octree.to_bytes(), two.to_bytes());
+    }
+
+    /// `SmoFile::from_prefix` takes the whole file and every cut where a level ends (or in
+    /// the padding after it), and refuses every other cut: inside a later level with
+    /// `CutInsideLevel` naming it, before the coarsest level's end with `Truncated`.
+    #[test]
+    fn smo_prefixes_end_on_level_boundaries() {
+        let l = lod();
+        let bytes = l.to_bytes();
+        let entries = l.entries();
+        let mut boundaries = 0;
+        for cut in 0..=bytes.len() {
+            let len = cut as u64;
+            let held = entries.iter().filter(|e| e.end() <= len).count();
+            let inside = entries.get(held).filter(|e| len > e.offset);
+            match SmoFile::from_prefix(&bytes[..cut]) {
+                Ok(p) => {
+                    assert!(held > 0 && inside.is_none(), "cut {cut}");
+                    assert_eq!(p.declared, (1, 4));
+                    assert_eq!(p.held(), (1, held as u8));
+                    assert_eq!(p.is_complete(), held == entries.len());
+                    match p.file {
+                        SmoFile::Levels(x) => assert_eq!(x.levels(), &l.levels()[..held]),
+                        SmoFile::Octree(_) => panic!("read as 1.x"),
+                    }
+                    boundaries += 1;
+                }
+                Err(FormatError::CutInsideLevel {
+                    len: at,
+                    level,
+                    start,
+                    end,
+                }) => {
+                    let e = inside.expect("refused at a boundary");
+                    assert!(held > 0, "cut {cut}");
+                    assert_eq!((at, level, start, end), (len, e.level, e.offset, e.end()));
+                }
+                Err(e) => {
+                    assert_eq!(held, 0, "cut {cut}: {e}");
+                    assert!(matches!(e, FormatError::Truncated { .. }), "cut {cut}: {e}");
+                }
+            }
+        }
+        // Each level's end plus the padding bytes before the next level, and the whole file.
+        let padding: u64 = entries.windows(2).map(|w| w[1].offset - w[0].end()).sum();
+        assert_eq!(boundaries as u64, entries.len() as u64 + padding);
+        // A 1.x file is read whole only, as `from_bytes` reads it.
+        let o = sphere(3);
+        let whole = SmoFile::from_prefix(o.as_bytes()).unwrap();
+        assert_eq!((whole.held(), whole.declared), ((3, 3), (3, 3)));
+        assert!(whole.is_complete());
+        let cut = &o.as_bytes()[..o.byte_size() - 1];
+        assert!(matches!(
+            SmoFile::from_prefix(cut),
+            Err(FormatError::Truncated { .. })
+        ));
     }
 
     #[test]

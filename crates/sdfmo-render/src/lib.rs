@@ -22,6 +22,7 @@
 #![deny(missing_docs)]
 
 pub mod camera;
+mod levels;
 #[cfg(feature = "mesh-reference")]
 pub mod mesh;
 pub mod octree;
@@ -36,6 +37,7 @@ pub mod shading;
 use std::path::PathBuf;
 
 pub use camera::{Camera, CameraFrame};
+pub use levels::{LevelRequest, LevelScene};
 #[cfg(feature = "mesh-reference")]
 pub use mesh::{apply_normalization, mesh_in_octree_frame, octree_normalization, MeshScene};
 pub use octree::{LodScene, OctreeScene};
@@ -98,6 +100,25 @@ pub enum RenderError {
         /// The exr crate's error.
         #[source]
         source: exr::error::Error,
+    },
+    /// A level the data does not hold was asked for ([`LevelRequest::Level`]).
+    #[error("level {level} is not in the data: {}", levels::held_levels(*coarsest, *finest))]
+    LevelNotHeld {
+        /// The level asked for.
+        level: u8,
+        /// The coarsest level held.
+        coarsest: u8,
+        /// The finest level held.
+        finest: u8,
+    },
+    /// A pixel error ([`LevelRequest::PixelError`]) for a file without levels of detail.
+    #[error(
+        "the file has no levels of detail (its one level is {depth}): a pixel error needs a \
+         file built with levels (`sdfmo build --lod`)"
+    )]
+    NoLevels {
+        /// The file's one level.
+        depth: u8,
     },
     /// The render was cancelled by its caller ([`render_cancellable`]).
     #[error("the render was cancelled")]

@@ -40,7 +40,8 @@ pub mod traversal;
 
 pub use distance::{distance_at, DistanceSample};
 pub use lod::{
-    intersect_lod, intersect_lod_packet, level_for_distance, pixel_angle, LevelChoice, LodHit,
+    eye_levels, intersect_lod, intersect_lod_packet, level_for_distance, pixel_angle, LevelChoice,
+    LodHit,
 };
 pub use normal::{hit_normal, trilinear_gradient};
 pub use packet::{intersect_packet, RayPacket, PACKET_SIZE};

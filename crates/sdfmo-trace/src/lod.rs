@@ -87,6 +87,16 @@ fn cube_levels(lod: &LodOctree, origin: Vec3, pixels: f32, pixel_angle: f32) -> 
     (at(d_min.max(0.0)), at(d_max))
 }
 
+/// The levels [`LevelChoice::PixelError`] can choose for rays from `eye`: `(coarsest,
+/// finest)`, those the farthest and the nearest point of the root cube `[-1, 1]³` need (the
+/// same widened distances as the packet shortcut). Every hit [`intersect_lod`] returns for a
+/// ray from `eye` is at a level between them; where they are equal, every ray is traced at
+/// that one level. What a front-end reports as the levels a view draws.
+pub fn eye_levels(lod: &LodOctree, eye: Vec3, pixels: f32, pixel_angle: f32) -> (u8, u8) {
+    let (near, far) = cube_levels(lod, eye, pixels, pixel_angle);
+    (far, near)
+}
+
 /// [`intersect_lod`] for a packet of rays (lanes not traced: `None`; each traced lane exactly
 /// what [`intersect_lod`]`(lod, ray, 0.0, t_max, choice)` returns). A fixed level, and a
 /// pixel-error choice under which every traced lane's span needs one and the same level (a
@@ -269,6 +279,11 @@ mod tests {
             };
             let h = intersect_lod(&lod, &ray, 0.0, f32::INFINITY, choice).expect("hits the sphere");
             assert!(level_for_distance(h.hit.t, pixels, pa, 2, 6) <= h.level);
+            let (coarse, fine) = eye_levels(&lod, origin, pixels, pa);
+            assert!(
+                (coarse..=fine).contains(&h.level),
+                "{dist}: {coarse}..={fine}"
+            );
             let direct = intersect(lod.level(h.level).unwrap(), &ray, 0.0, f32::INFINITY);
             assert_eq!(Some(h.hit), direct);
             // Far away the coarsest level does; near, the finest is needed.

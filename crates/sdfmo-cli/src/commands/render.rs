@@ -6,15 +6,15 @@ use std::path::PathBuf;
 use anyhow::Context;
 use glam::Vec3;
 use sdf_multioctree::distance::{reshape_fans, MeshDistance, SignMode};
-use sdf_multioctree::format::{LodOctree, PackedOctree, SmoFile};
+use sdf_multioctree::format::{FormatError, SmoFile, SmoPrefix, MAX_FILE_SIZE};
 use sdf_multioctree::mesh::Normalization;
 use sdf_multioctree::metrics;
 use sdf_multioctree::render::shading::{light_dir, DepthRange, AMBIENT, LIGHT_INTENSITY};
 use sdf_multioctree::render::{
-    self, Camera, Counters, LodScene, MeshScene, Mode, OctreeScene, RenderPlan, RenderSettings,
-    Rendered, Traceable,
+    self, Camera, Counters, LevelRequest, LevelScene, LodScene, MeshScene, Mode, RenderPlan,
+    RenderSettings, Rendered, Traceable,
 };
-use sdf_multioctree::trace::{pixel_angle, LevelChoice};
+use sdf_multioctree::trace::LevelChoice;
 use sdfmo_gpu::{GpuCamera, GpuImage, GpuMode, GpuRenderer, GpuTiming, PixelError, Shading};
 use serde_json::json;
 
@@ -24,63 +24,197 @@ use crate::output::{check_output_as, ensure_parent, indexed_path, print_json, pr
 use crate::progress;
 use sdf_multioctree::io::Naming;
 
-/// Renders a `.smo` octree, on the CPU or on a GPU.
+/// Renders a `.smo` octree, on the CPU or on a GPU: the level `--lod` names (default: the
+/// finest the data holds) or each ray's by `--pixel-error`, of a whole file or of a file with
+/// levels cut where a level ends (a note on stderr says which levels are missing).
 pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
     let outputs = check_options(&args.opts)?;
-    if args.device == DeviceArg::Gpu {
-        check_gpu_options(&args.opts)?;
-    }
-    let load = |max_bytes: u64| -> anyhow::Result<PackedOctree> {
-        let file = SmoFile::load_with_limit(&args.octree, max_bytes).map_err(|e| match e {
-            // I/O errors name the file already; format errors do not.
-            sdf_multioctree::format::FormatError::Io(io) => anyhow::Error::new(io),
-            e => anyhow::Error::new(e)
-                .context(format!("cannot load octree {}", args.octree.display())),
-        })?;
-        let (coarsest, finest) = file.level_range();
-        file.into_level(args.lod).with_context(|| {
-            format!(
-                "{} has levels {coarsest}..={finest}, not level {}",
-                args.octree.display(),
-                args.lod.unwrap_or(finest)
-            )
-        })
+    let gpu = match args.device {
+        DeviceArg::Cpu => None,
+        DeviceArg::Gpu => {
+            check_gpu_options(&args.opts)?;
+            Some(open_gpu(args)?)
+        }
+    };
+    let max_bytes = gpu
+        .as_ref()
+        .map_or(MAX_FILE_SIZE, GpuRenderer::max_file_bytes);
+    let data = SmoFile::load_prefix(&args.octree, max_bytes).map_err(|e| match e {
+        // I/O errors name the file already; format errors do not.
+        FormatError::Io(io) => anyhow::Error::new(io),
+        e => anyhow::Error::new(e).context(format!("cannot load octree {}", args.octree.display())),
+    })?;
+    let request = match (args.lod, args.pixel_error) {
+        (Some(level), _) => LevelRequest::Level(level),
+        (None, Some(pixels)) => LevelRequest::PixelError(pixels),
+        (None, None) => LevelRequest::Finest,
     };
     let source = args.octree.display().to_string();
-    if let Some(pixels) = args.pixel_error {
-        return run_pixel_error(args, pixels, &outputs);
+    // The request is checked before any work (the camera only sets a pixel error's scale).
+    let (w, h) = args.opts.size;
+    let first = request
+        .scene(&data.file, &Camera::paper_view(0, w, h))
+        .with_context(|| format!("cannot render {source}"))?;
+    if !data.is_complete() {
+        let drawing = match first {
+            LevelScene::Level(s) => format!("drawing level {}", s.0.depth()),
+            LevelScene::PixelError(_) => {
+                format!(
+                    "choosing among {} by the pixel error",
+                    levels_text(data.held())
+                )
+            }
+        };
+        eprintln!(
+            "note: {source} holds {} of {} (a prefix); {drawing}",
+            levels_text(data.held()),
+            range_text(data.declared)
+        );
     }
-    match args.device {
-        DeviceArg::Cpu => {
-            let octree = load(sdf_multioctree::format::MAX_FILE_SIZE)?;
-            let frame = sdf_multioctree::octree_frame(&octree);
-            let scene = OctreeScene(&octree);
-            let mut view = cpu_views(&scene, &args.opts, &source);
-            render_all(
-                &mut view, &source, "cpu", None, &args.opts, &frame, &outputs,
-            )
-        }
-        DeviceArg::Gpu => {
-            let mut gpu = open_gpu(args)?;
-            let octree = load(gpu.max_file_bytes())?;
-            let frame = sdf_multioctree::octree_frame(&octree);
-            let on_gpu = gpu
-                .upload(&octree)
-                .with_context(|| format!("cannot upload {source} to the GPU"))?;
-            let (device, timing) = gpu_device(&gpu);
-            let plan = RenderPlan::new(&settings(&args.opts))?;
-            let mode = gpu_mode(args.opts.mode);
-            // A GPU frame takes milliseconds: progress moves per view only.
+    let frame = sdf_multioctree::octree_frame(data.file.finest());
+    let levels = FileLevels {
+        data: &data,
+        request,
+    };
+    let Some(mut gpu) = gpu else {
+        let settings = settings(&args.opts);
+        let mut view = |cam: &Camera, progress: &Progress<'_>| -> anyhow::Result<ViewRender> {
+            let r = match request.scene(&data.file, cam)? {
+                LevelScene::Level(s) => render::render_with_progress(&s, cam, &settings, progress),
+                LevelScene::PixelError(s) => {
+                    render::render_with_progress(&s, cam, &settings, progress)
+                }
+            }
+            .with_context(|| format!("cannot render {source}"))?;
+            Ok((r, None))
+        };
+        let by = RenderedBy::cpu(&source).with_levels(levels);
+        return render_all(&mut view, &by, &args.opts, &frame, &outputs);
+    };
+    let (device, timing) = gpu_device(&gpu);
+    let by = RenderedBy {
+        source: &source,
+        device: &device,
+        timing,
+        levels: Some(levels),
+    };
+    let plan = RenderPlan::new(&settings(&args.opts))?;
+    let mode = gpu_mode(args.opts.mode);
+    let cannot_upload = || format!("cannot upload {source} to the GPU");
+    // A GPU frame takes milliseconds: progress moves per view only.
+    match first {
+        LevelScene::Level(s) => {
+            let on_gpu = gpu.upload(s.0).with_context(cannot_upload)?;
             let mut view = |cam: &Camera, _: &Progress<'_>| -> anyhow::Result<ViewRender> {
                 gpu_view(&mut gpu, cam, &plan, &source, |gpu, gcam, shading| {
                     gpu.render(&on_gpu, gcam, mode, shading)
                 })
             };
-            render_all(
-                &mut view, &source, &device, timing, &args.opts, &frame, &outputs,
-            )
+            render_all(&mut view, &by, &args.opts, &frame, &outputs)
+        }
+        LevelScene::PixelError(s) => {
+            let on_gpu = gpu.upload_lod(s.lod).with_context(cannot_upload)?;
+            let mut view = |cam: &Camera, _: &Progress<'_>| -> anyhow::Result<ViewRender> {
+                // The CPU's rule, with this camera's pixel (`LevelRequest::scene`).
+                let LevelScene::PixelError(LodScene {
+                    choice:
+                        LevelChoice::PixelError {
+                            pixels,
+                            pixel_angle,
+                        },
+                    ..
+                }) = request.scene(&data.file, cam)?
+                else {
+                    anyhow::bail!("a pixel-error request drew one level");
+                };
+                let error = PixelError {
+                    pixels,
+                    pixel_angle,
+                };
+                gpu_view(&mut gpu, cam, &plan, &source, |gpu, gcam, shading| {
+                    gpu.render_pixel_error(&on_gpu, gcam, mode, shading, error)
+                })
+            };
+            render_all(&mut view, &by, &args.opts, &frame, &outputs)
         }
     }
+}
+
+/// "levels 6-8", or "level 8" for one.
+fn levels_text((coarsest, finest): (u8, u8)) -> String {
+    if coarsest == finest {
+        format!("level {coarsest}")
+    } else {
+        format!("levels {coarsest}-{finest}")
+    }
+}
+
+/// "6-10", or "8" for one level.
+fn range_text((coarsest, finest): (u8, u8)) -> String {
+    if coarsest == finest {
+        coarsest.to_string()
+    } else {
+        format!("{coarsest}-{finest}")
+    }
+}
+
+/// The levels of the file a render draws from, for `--json`'s `levels`.
+#[derive(Clone, Copy)]
+struct FileLevels<'a> {
+    data: &'a SmoPrefix,
+    request: LevelRequest,
+}
+
+/// What a render's summary says of where its images come from: the input, the device that
+/// traced the rays, how a GPU timed its kernel, and an octree file's levels.
+struct RenderedBy<'a> {
+    /// Names the input.
+    source: &'a str,
+    /// Where the rays were traced: "cpu" or the GPU adapter's name.
+    device: &'a str,
+    /// How a GPU timed its kernel.
+    timing: Timing,
+    /// The levels of a `.smo` input (none for a mesh).
+    levels: Option<FileLevels<'a>>,
+}
+
+impl<'a> RenderedBy<'a> {
+    /// Rays traced on the CPU.
+    fn cpu(source: &'a str) -> RenderedBy<'a> {
+        RenderedBy {
+            source,
+            device: "cpu",
+            timing: None,
+            levels: None,
+        }
+    }
+
+    fn with_levels(self, levels: FileLevels<'a>) -> RenderedBy<'a> {
+        RenderedBy {
+            levels: Some(levels),
+            ..self
+        }
+    }
+}
+
+/// `"levels"` of `--json`: the levels the file has (`file`), those the data holds (`held`;
+/// fewer for a prefix) and those the views were drawn at (`drawn`: the one level, or with a
+/// pixel error every level the rule can choose for each view's eye), each a list of levels.
+fn levels_json(levels: &FileLevels<'_>, cams: &[Camera]) -> anyhow::Result<serde_json::Value> {
+    let list = |(a, b): (u8, u8)| (a..=b).collect::<Vec<u8>>();
+    let mut drawn = std::collections::BTreeSet::new();
+    for cam in cams {
+        let (a, b) = levels
+            .request
+            .scene(&levels.data.file, cam)?
+            .levels(cam.eye);
+        drawn.extend(a..=b);
+    }
+    Ok(json!({
+        "file": list(levels.data.declared),
+        "held": list(levels.data.held()),
+        "drawn": drawn,
+    }))
 }
 
 /// A GPU renderer for `sdfmo render --device gpu`, and the file's length checked against the
@@ -160,63 +294,6 @@ fn gpu_view(
     Ok((r, Some(img.gpu_ms)))
 }
 
-/// `sdfmo render --pixel-error E`: each ray at the coarsest level whose voxels project below
-/// E pixels at its hit distance (`sdfmo_trace::intersect_lod` on the CPU, `smo_intersect_lod`
-/// of the WGSL kernel on a GPU: the same rule).
-fn run_pixel_error(args: &RenderArgs, pixels: f32, outputs: &[ViewOutputs]) -> anyhow::Result<()> {
-    let load = |max_bytes: u64| -> anyhow::Result<LodOctree> {
-        let file = SmoFile::load_with_limit(&args.octree, max_bytes)
-            .with_context(|| format!("cannot load octree {}", args.octree.display()))?;
-        match file {
-            SmoFile::Levels(lod) => Ok(lod),
-            SmoFile::Octree(_) => anyhow::bail!(
-                "{} has no levels of detail (build it with `sdfmo build --lod`)",
-                args.octree.display()
-            ),
-        }
-    };
-    let source = args.octree.display().to_string();
-    if args.device == DeviceArg::Gpu {
-        let mut gpu = open_gpu(args)?;
-        let lod = load(gpu.max_file_bytes())?;
-        let frame = sdf_multioctree::octree_frame(lod.finest());
-        let on_gpu = gpu
-            .upload_lod(&lod)
-            .with_context(|| format!("cannot upload {source} to the GPU"))?;
-        let (device, timing) = gpu_device(&gpu);
-        let plan = RenderPlan::new(&settings(&args.opts))?;
-        let mode = gpu_mode(args.opts.mode);
-        let mut view = |cam: &Camera, _: &Progress<'_>| -> anyhow::Result<ViewRender> {
-            let error = PixelError {
-                pixels,
-                pixel_angle: pixel_angle(cam.fov_y_deg, cam.height),
-            };
-            gpu_view(&mut gpu, cam, &plan, &source, |gpu, gcam, shading| {
-                gpu.render_pixel_error(&on_gpu, gcam, mode, shading, error)
-            })
-        };
-        return render_all(
-            &mut view, &source, &device, timing, &args.opts, &frame, outputs,
-        );
-    }
-    let lod = load(sdf_multioctree::format::MAX_FILE_SIZE)?;
-    let frame = sdf_multioctree::octree_frame(lod.finest());
-    let settings = settings(&args.opts);
-    let mut view = |cam: &Camera, progress: &Progress<'_>| -> anyhow::Result<ViewRender> {
-        let scene = LodScene {
-            lod: &lod,
-            choice: LevelChoice::PixelError {
-                pixels,
-                pixel_angle: pixel_angle(cam.fov_y_deg, cam.height),
-            },
-        };
-        let r = render::render_with_progress(&scene, cam, &settings, progress)
-            .with_context(|| format!("cannot render {source}"))?;
-        Ok((r, None))
-    };
-    render_all(&mut view, &source, "cpu", None, &args.opts, &frame, outputs)
-}
-
 /// The GPU kernel renders the primary rays only: shadows, occlusion and a thread count are
 /// CPU options.
 fn check_gpu_options(opts: &RenderOptions) -> anyhow::Result<()> {
@@ -268,15 +345,8 @@ pub fn run_mesh(args: &RenderMeshArgs) -> anyhow::Result<()> {
         .with_context(|| format!("cannot prepare ray queries on {}", input.source))?;
     let scene = MeshScene(&dist);
     let mut view = cpu_views(&scene, &args.opts, &input.source);
-    render_all(
-        &mut view,
-        &input.source,
-        "cpu",
-        None,
-        &args.opts,
-        &frame,
-        &outputs,
-    )
+    let by = RenderedBy::cpu(&input.source);
+    render_all(&mut view, &by, &args.opts, &frame, &outputs)
 }
 
 /// One view's image and, on a GPU, the kernel's time in milliseconds.
@@ -408,18 +478,21 @@ pub fn counters_json(c: &Counters) -> serde_json::Value {
 }
 
 /// Renders every camera with `render_view` (the image and, on a GPU, the kernel's time), writes
-/// the PNGs (and EXRs) all or none, prints times and counters. `source` names the input,
-/// `device` where the rays were traced ("cpu" or the GPU adapter's name), `timing` how a GPU
-/// timed its kernel, `frame` the source's normalisation (for `--eye`/`--target` in model units).
+/// the PNGs (and EXRs) all or none, prints times and counters. `by` says where the images come
+/// from, `frame` is the source's normalisation (for `--eye`/`--target` in model units).
 fn render_all(
     render_view: &mut dyn FnMut(&Camera, &Progress<'_>) -> anyhow::Result<ViewRender>,
-    source: &str,
-    device: &str,
-    timing: Timing,
+    by: &RenderedBy<'_>,
     opts: &RenderOptions,
     frame: &Normalization,
     outputs: &[ViewOutputs],
 ) -> anyhow::Result<()> {
+    let RenderedBy {
+        source,
+        device,
+        timing,
+        ..
+    } = *by;
     let cams = cameras(opts, frame);
     ensure_parent(&opts.output)?;
     if let Some(exr) = &opts.exr {
@@ -505,6 +578,7 @@ fn render_all(
             "gpu_timing": timing,
             "frames": opts.frames,
             "counters": counters_json(&total),
+            "levels": by.levels.as_ref().map(|l| levels_json(l, &cams)).transpose()?,
         }));
     }
     let mut s = String::new();

@@ -1,0 +1,193 @@
+//! Which level of a `.smo` file a render draws: the one rule behind `sdfmo render --lod` and
+//! `--pixel-error`, Python's `Octree.render(lod=…, pixel_error=…)` and the facade's
+//! `render_levels`.
+
+use glam::Vec3;
+use sdfmo_format::SmoFile;
+use sdfmo_trace::{eye_levels, pixel_angle, LevelChoice};
+
+use crate::{Camera, LodScene, OctreeScene, RenderError};
+
+/// Which level of a `.smo` file ([`SmoFile`]: one octree, or levels of detail, perhaps a prefix
+/// of the file) a render draws.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum LevelRequest {
+    /// The finest level the data holds (a 1.x file's one level).
+    #[default]
+    Finest,
+    /// This level, which the data must hold.
+    Level(u8),
+    /// Each ray at the coarsest level held whose voxels project to at most this many pixels at
+    /// its hit distance ([`LevelChoice::PixelError`]); a file with levels only.
+    PixelError(f32),
+}
+
+/// What a [`LevelRequest`] draws of a file for one camera: one level's octree, or the levels
+/// held, chosen ray by ray. Render the scene of either arm (both are [`Traceable`](crate::Traceable)).
+#[derive(Clone, Copy)]
+pub enum LevelScene<'a> {
+    /// One level.
+    Level(OctreeScene<'a>),
+    /// The levels held, each ray at the level its pixel error needs.
+    PixelError(LodScene<'a>),
+}
+
+impl LevelRequest {
+    /// The scene that draws `file` for `camera` (whose vertical field of view and height give
+    /// the angle of a pixel).
+    ///
+    /// # Errors
+    /// [`RenderError::LevelNotHeld`] naming the levels held; [`RenderError::NoLevels`] for a
+    /// pixel error on a file without levels; [`RenderError::InvalidSettings`] for a pixel
+    /// error that is not finite and > 0.
+    pub fn scene<'a>(
+        self,
+        file: &'a SmoFile,
+        camera: &Camera,
+    ) -> Result<LevelScene<'a>, RenderError> {
+        match self {
+            LevelRequest::Finest => Ok(LevelScene::Level(OctreeScene(file.finest()))),
+            LevelRequest::Level(level) => match file.level(Some(level)) {
+                Some(octree) => Ok(LevelScene::Level(OctreeScene(octree))),
+                None => {
+                    let (coarsest, finest) = file.level_range();
+                    Err(RenderError::LevelNotHeld {
+                        level,
+                        coarsest,
+                        finest,
+                    })
+                }
+            },
+            LevelRequest::PixelError(pixels) => {
+                if !(pixels.is_finite() && pixels > 0.0) {
+                    return Err(RenderError::InvalidSettings(format!(
+                        "the pixel error must be finite and > 0, got {pixels}"
+                    )));
+                }
+                match file {
+                    SmoFile::Octree(o) => Err(RenderError::NoLevels { depth: o.depth() }),
+                    SmoFile::Levels(lod) => Ok(LevelScene::PixelError(LodScene {
+                        lod,
+                        choice: LevelChoice::PixelError {
+                            pixels,
+                            pixel_angle: pixel_angle(camera.fov_y_deg, camera.height),
+                        },
+                    })),
+                }
+            }
+        }
+    }
+}
+
+impl LevelScene<'_> {
+    /// The levels the rays from `eye` (a camera's, normalised frame) are drawn at, `(coarsest,
+    /// finest)`: the one level, or by pixel error those [`eye_levels`] gives (every hit's level
+    /// lies between them).
+    pub fn levels(&self, eye: Vec3) -> (u8, u8) {
+        match self {
+            LevelScene::Level(s) => (s.0.depth(), s.0.depth()),
+            LevelScene::PixelError(s) => match s.choice {
+                LevelChoice::PixelError {
+                    pixels,
+                    pixel_angle,
+                } => eye_levels(s.lod, eye, pixels, pixel_angle),
+                LevelChoice::Level(k) => {
+                    let k = k.clamp(s.lod.coarsest(), s.lod.depth());
+                    (k, k)
+                }
+            },
+        }
+    }
+}
+
+/// "it holds levels 6..=8" (or "level 8 only"), for [`RenderError::LevelNotHeld`].
+pub(crate) fn held_levels(coarsest: u8, finest: u8) -> String {
+    if coarsest == finest {
+        format!("it holds level {coarsest} only")
+    } else {
+        format!("it holds levels {coarsest}..={finest}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{render, Mode, RenderSettings};
+    use sdfmo_format::testing::sphere_leaves;
+    use sdfmo_format::{LodOctree, OctreeMeta, PackedOctree, ValueBits};
+
+    fn sphere(depth: u8) -> PackedOctree {
+        let meta = OctreeMeta::unit(depth, ValueBits::Eight);
+        PackedOctree::from_leaves(meta, sphere_leaves(depth, 0.6)).unwrap()
+    }
+
+    /// Each request draws what it names (a level: that level's octree, the same image as
+    /// rendering it alone), and refuses what the data cannot draw.
+    #[test]
+    fn requests_draw_the_level_they_name_or_say_what_is_held() {
+        let lod = SmoFile::Levels(LodOctree::from_levels((2..=5).map(sphere).collect()).unwrap());
+        let one = SmoFile::Octree(sphere(4));
+        let cam = Camera::paper_view(0, 48, 32);
+        let settings = RenderSettings::new(Mode::Depth);
+        for (request, want) in [
+            (LevelRequest::Finest, 5),
+            (LevelRequest::Level(2), 2),
+            (LevelRequest::Level(4), 4),
+        ] {
+            let scene = request.scene(&lod, &cam).unwrap();
+            assert_eq!(scene.levels(cam.eye), (want, want));
+            let LevelScene::Level(s) = scene else {
+                panic!("{request:?}: not one level")
+            };
+            let alone = sphere(want);
+            let a = render(&s, &cam, &settings).unwrap();
+            let b = render(&OctreeScene(&alone), &cam, &settings).unwrap();
+            assert_eq!((a.rgb, a.depth), (b.rgb, b.depth), "{request:?}");
+        }
+        // From radius 3 at 32 pixels high, one pixel covers about 0.05 units there: the
+        // coarse levels do, level 5 (edge 0.0625) at most.
+        let scene = LevelRequest::PixelError(1.0).scene(&lod, &cam).unwrap();
+        let (coarse, fine) = scene.levels(cam.eye);
+        assert!(
+            2 <= coarse && coarse <= fine && fine <= 5,
+            "{coarse}..={fine}"
+        );
+        assert!(matches!(scene, LevelScene::PixelError(_)));
+        let Err(e) = LevelRequest::Level(6).scene(&lod, &cam) else {
+            panic!("level 6 drawn")
+        };
+        assert!(matches!(
+            e,
+            RenderError::LevelNotHeld {
+                level: 6,
+                coarsest: 2,
+                finest: 5
+            }
+        ));
+        assert_eq!(
+            e.to_string(),
+            "level 6 is not in the data: it holds levels 2..=5"
+        );
+        let Err(e) = LevelRequest::Level(3).scene(&one, &cam) else {
+            panic!("level 3 of a depth-4 file drawn")
+        };
+        assert!(e.to_string().ends_with("it holds level 4 only"), "{e}");
+        assert!(matches!(
+            LevelRequest::PixelError(1.0).scene(&one, &cam),
+            Err(RenderError::NoLevels { depth: 4 })
+        ));
+        for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            assert!(matches!(
+                LevelRequest::PixelError(bad).scene(&lod, &cam),
+                Err(RenderError::InvalidSettings(_))
+            ));
+        }
+        assert_eq!(
+            LevelRequest::Finest
+                .scene(&one, &cam)
+                .unwrap()
+                .levels(cam.eye),
+            (4, 4)
+        );
+    }
+}
