@@ -3,35 +3,92 @@
 use std::path::PathBuf;
 
 use glam::Vec3;
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
 use rayon::prelude::*;
 use sdf_multioctree::build::BuildStats;
-use sdf_multioctree::format::{PackedOctree, ValueBits, FILE_EXTENSION};
+use sdf_multioctree::format::{
+    PackedOctree, SmoFile, SmoPrefix, ValueBits, FILE_EXTENSION, MAX_DEPTH, MAX_FILE_SIZE,
+};
 use sdf_multioctree::io::Naming;
-use sdf_multioctree::render::OctreeScene;
+use sdf_multioctree::render::{render_cancellable, LevelRequest, LevelScene};
 use sdf_multioctree::trace::distance_at;
 
 use crate::arrays;
 use crate::errors;
+use crate::kwargs::Kwargs;
 use crate::render::{RenderArgs, RenderOptions};
 use crate::run::{self, Cancelled};
 
 /// A sparse octree of trilinear signed-distance voxels (the ``.smo`` format), as built by
-/// ``Mesh.build`` or loaded by ``Octree.load``.
+/// ``Mesh.build`` or loaded by ``Octree.load``; a loaded file may have levels of detail
+/// (``sdfmo build --lod``), all of them or those of a prefix cut where a level ends.
 ///
 /// The octree lives in the normalised frame of its mesh (the root cube [-1, 1]^3); the
 /// transform is stored in the file, and ``distance`` takes and returns model units.
 #[pyclass(module = "sdfmo", frozen)]
 pub struct Octree {
-    octree: PackedOctree,
+    /// The levels held (one for a file without levels) and those of the whole file.
+    data: SmoPrefix,
     stats: Option<BuildStats>,
 }
 
 impl Octree {
     /// Wraps an octree and, when it was just built, the builder's statistics.
     pub fn new(octree: PackedOctree, stats: Option<BuildStats>) -> Octree {
-        Octree { octree, stats }
+        let file = SmoFile::Octree(octree);
+        let declared = file.level_range();
+        Octree {
+            data: SmoPrefix { file, declared },
+            stats,
+        }
+    }
+
+    /// A loaded file, whole or a prefix cut where a level ends.
+    fn loaded(data: SmoPrefix) -> Octree {
+        Octree { data, stats: None }
+    }
+
+    /// The finest level held: what `distance`, `depth` and `stats` describe.
+    fn finest(&self) -> &PackedOctree {
+        self.data.file.finest()
+    }
+
+    /// The file of the levels held (a prefix's levels as a file of their own).
+    fn file_bytes(&self) -> std::borrow::Cow<'_, [u8]> {
+        match &self.data.file {
+            SmoFile::Octree(o) => o.as_bytes().into(),
+            SmoFile::Levels(l) => l.to_bytes().into(),
+        }
+    }
+}
+
+/// The levels `coarsest..=finest` as a Python list of ints (a `Vec<u8>` would become `bytes`).
+fn level_list((coarsest, finest): (u8, u8)) -> Vec<u32> {
+    (coarsest..=finest).map(u32::from).collect()
+}
+
+/// `lod=` and `pixel_error=` of `Octree.render`, taken out of its keywords (the rest are
+/// `RenderOptions`, shared with `Mesh.render`, which has no levels): the `LevelRequest` of
+/// `sdfmo render --lod` / `--pixel-error`.
+fn level_request(options: Option<&Bound<'_, PyDict>>) -> PyResult<LevelRequest> {
+    let mut k = Kwargs::new("render", options);
+    let lod: Option<i64> = k.take("lod", None)?;
+    let pixel_error: Option<f64> = k.take("pixel_error", None)?;
+    match (lod, pixel_error) {
+        (Some(_), Some(_)) => Err(PyValueError::new_err(
+            "lod and pixel_error exclude each other (one level, or each ray's level by pixel error)",
+        )),
+        (Some(l), None) => match u8::try_from(l) {
+            Ok(l) if l <= MAX_DEPTH => Ok(LevelRequest::Level(l)),
+            _ => Err(PyValueError::new_err(format!(
+                "lod must be a level in 0..={MAX_DEPTH}, got {l}"
+            ))),
+        },
+        // The range check (finite, > 0) is `LevelRequest::scene`'s.
+        (None, Some(e)) => Ok(LevelRequest::PixelError(e as f32)),
+        (None, None) => Ok(LevelRequest::Finest),
     }
 }
 
@@ -39,16 +96,18 @@ impl Octree {
 impl Octree {
     /// Octree.load(path) -> Octree
     ///
-    /// Loads and validates a ``.smo`` file (header, sizes, checksum, every node and voxel).
-    /// Raises ``FileNotFoundError`` / ``PermissionError`` / ``IsADirectoryError`` /
-    /// ``OSError`` when the file cannot be read and ``sdfmo.FormatError`` when its bytes are
-    /// not a valid octree.
+    /// Loads and validates a ``.smo`` file (header, sizes, checksum, every node and voxel):
+    /// one octree, or levels of detail (``sdfmo build --lod``), whole or cut where a level ends
+    /// (a download in progress; ``levels`` and ``file_levels`` say what it holds). Raises
+    /// ``FileNotFoundError`` / ``PermissionError`` / ``IsADirectoryError`` / ``OSError`` when
+    /// the file cannot be read and ``sdfmo.FormatError`` when its bytes are not a valid octree
+    /// (a file cut inside a level included).
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Octree> {
-        let octree = py
-            .detach(|| PackedOctree::load(&path))
+        let data = py
+            .detach(|| SmoFile::load_prefix(&path, MAX_FILE_SIZE))
             .map_err(|e| errors::format_error(&e))?;
-        Ok(Octree::new(octree, None))
+        Ok(Octree::loaded(data))
     }
 
     /// Octree.from_bytes(data) -> Octree
@@ -62,15 +121,18 @@ impl Octree {
     #[staticmethod]
     fn from_bytes(py: Python<'_>, data: &Bound<'_, PyAny>) -> PyResult<Octree> {
         let data = arrays::bytes_arg(data, "data")?;
-        let octree = match data {
-            arrays::BytesArg::Copied(v) => py.detach(|| PackedOctree::from_vec(v)),
+        let data = match data {
+            // A file without levels keeps the copy as its buffer (no second one).
+            arrays::BytesArg::Copied(v) if !SmoFile::has_levels(&v) => py
+                .detach(|| PackedOctree::from_vec(v))
+                .map(|o| Octree::new(o, None).data),
             borrowed => {
                 let bytes = borrowed.as_slice();
-                py.detach(|| PackedOctree::from_bytes(bytes))
+                py.detach(|| SmoFile::from_prefix(bytes))
             }
         }
         .map_err(|e| errors::format_error(&e))?;
-        Ok(Octree::new(octree, None))
+        Ok(Octree::loaded(data))
     }
 
     /// save(path)
@@ -78,53 +140,76 @@ impl Octree {
     /// Writes the ``.smo`` file atomically (a temporary file in the same folder, synced, then
     /// renamed): the destination is either the old file or the whole new one. ``path`` must end
     /// in ``.smo`` (any case; ``ValueError`` otherwise, as ``sdfmo build -o`` refuses it). A
-    /// destination that is a directory, a device or a FIFO is refused (``OSError``).
+    /// destination that is a directory, a device or a FIFO is refused (``OSError``). A file
+    /// with levels is written with the levels held (a prefix's as the file of those levels).
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         sdf_multioctree::io::check_output(&path, "path", &[FILE_EXTENSION], Naming::Given)
             .map_err(|e| errors::io_error(&e))?;
-        py.detach(|| self.octree.save(&path))
-            .map_err(|e| errors::format_error(&e))
+        py.detach(|| match &self.data.file {
+            SmoFile::Octree(o) => o.save(&path),
+            SmoFile::Levels(l) => l.save(&path),
+        })
+        .map_err(|e| errors::format_error(&e))
     }
 
     /// to_bytes() -> bytes
     ///
     /// The bytes of the ``.smo`` file (what ``save`` writes).
     fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
-        PyBytes::new(py, self.octree.as_bytes())
+        PyBytes::new(py, &self.file_bytes())
     }
 
-    /// Depth of the leaves (edge 2/2^depth in the normalised frame).
+    /// Depth of the leaves (edge 2/2^depth in the normalised frame): of a file with levels,
+    /// the finest level held.
     #[getter]
     fn depth(&self) -> u8 {
-        self.octree.depth()
+        self.finest().depth()
     }
 
     /// Edge of a leaf cell in model units: ``2 / (2**depth * scale)`` (the root cube's edge,
     /// 2 in the normalised frame, halved ``depth`` times). ``distance`` is NaN farther than
-    /// 1.78 of it from the surface.
+    /// 1.78 of it from the surface. Of a file with levels: the finest level held's.
     #[getter]
     fn cell_size(&self) -> f64 {
-        let meta = self.octree.meta();
+        let meta = self.finest().meta();
         f64::from(sdf_multioctree::format::cell_size(meta.depth)) / f64::from(meta.scale)
     }
 
-    /// Size of the ``.smo`` file in bytes.
+    /// The levels held, coarsest first: ``[depth]`` without levels of detail; of a file cut
+    /// where a level ends, those before the cut. ``render(lod=...)`` draws one of them.
+    #[getter]
+    fn levels(&self) -> Vec<u32> {
+        level_list(self.data.held())
+    }
+
+    /// The levels of the whole file, coarsest first: ``levels`` and, when the data is a
+    /// prefix of the file, the levels it lacks after them.
+    #[getter]
+    fn file_levels(&self) -> Vec<u32> {
+        level_list(self.data.declared)
+    }
+
+    /// Size of the ``.smo`` file in bytes (what ``save`` writes).
     #[getter]
     fn nbytes(&self) -> usize {
-        self.octree.byte_size()
+        match &self.data.file {
+            SmoFile::Octree(o) => o.byte_size(),
+            SmoFile::Levels(l) => l.byte_size() as usize,
+        }
     }
 
     /// stats -> dict
     ///
     /// ``depth``, ``bits``, ``nodes``, ``leaves``, ``voxels``, ``surface_voxels``, ``bytes``,
     /// ``center`` and ``scale`` (the transform: normalised = (model - center) * scale) of any
-    /// octree; for one built in this process also the builder's ``build_ms``, ``phases`` (a
+    /// octree (of a file with levels: of the finest level held, ``bytes`` that level's);
+    /// for one built in this process also the builder's ``build_ms``, ``phases`` (a
     /// list of (name, ms)), ``voxels_per_leaf`` (histogram: index = voxel count) and
     /// ``cap_hits`` (leaves whose components exceeded ``max_voxels``), as ``sdfmo build
     /// --json`` prints them.
     #[getter]
     fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let o = &self.octree;
+        let o = self.finest();
         let d = PyDict::new(py);
         let meta = o.meta();
         d.set_item("depth", o.depth())?;
@@ -156,12 +241,22 @@ impl Octree {
     }
 
     fn __repr__(&self) -> String {
+        let o = self.finest();
+        let (c, f) = self.data.held();
+        let (dc, df) = self.data.declared;
+        let levels = if !self.data.is_complete() {
+            format!("levels {c}-{f} of {dc}-{df}, ")
+        } else if c != f {
+            format!("levels {c}-{f}, ")
+        } else {
+            String::new()
+        };
         format!(
-            "sdfmo.Octree(depth {}, {} leaves, {} voxels, {} bytes)",
-            self.octree.depth(),
-            self.octree.leaf_count(),
-            self.octree.voxel_count(),
-            self.octree.byte_size()
+            "sdfmo.Octree({levels}depth {}, {} leaves, {} voxels, {} bytes)",
+            o.depth(),
+            o.leaf_count(),
+            o.voxel_count(),
+            self.nbytes()
         )
     }
 
@@ -183,6 +278,7 @@ impl Octree {
     /// and none beyond 1.7; on the CAD part abc5 86 % (depth 6) and 94 % (depth 7) of the
     /// surface's own points (cells the surface crosses whose stored field does not). Test for
     /// NaN (``numpy.isnan``) and fall back on ``Mesh.signed_distance`` where the band ends.
+    /// Of a file with levels, the finest level held.
     #[pyo3(signature = (points, *, threads = None))]
     fn distance<'py>(
         &self,
@@ -190,8 +286,8 @@ impl Octree {
         points: &Bound<'py, PyAny>,
         threads: Option<i64>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let frame = sdf_multioctree::octree_frame(&self.octree);
-        let octree = &self.octree;
+        let frame = sdf_multioctree::octree_frame(self.finest());
+        let octree = self.finest();
         arrays::f32_per_point(py, points, threads, |view, d, cancel| {
             let n = view.len();
             let chunk = run::chunk_len();
@@ -222,7 +318,7 @@ impl Octree {
         })
     }
 
-    /// render(width=1024, height=None, *, mode="lambert", view=0, eye=None, target=None, fov=None, frame="model", shadows=False, ao=0, threads=None)
+    /// render(width=1024, height=None, *, mode="lambert", view=0, eye=None, target=None, fov=None, frame="model", shadows=False, ao=0, threads=None, lod=None, pixel_error=None)
     ///
     /// Ray traces the octree as ``sdfmo render`` does; returns uint8 of shape
     /// ``(height, width, 3)``, numpy's order (``render(640, 480).shape == (480, 640, 3)``;
@@ -238,7 +334,13 @@ impl Octree {
     /// rays per pixel, 0..=1024) apply to lambert only. The image is the same for any
     /// ``threads``. Releases the GIL; Ctrl-C raises ``KeyboardInterrupt`` (checked before each
     /// tile of 32 x 32 pixels).
-    #[pyo3(signature = (width = 1024, height = None, **options), text_signature = "($self, width=1024, height=None, *, mode='lambert', view=0, eye=None, target=None, fov=None, frame='model', shadows=False, ao=0, threads=None)")]
+    ///
+    /// Levels of detail, as ``sdfmo render --lod`` / ``--pixel-error``: by default the finest
+    /// level held is drawn; ``lod`` draws one level of ``levels`` (another is a ``ValueError``
+    /// naming those held); ``pixel_error`` (pixels, > 0; a file with levels only) traces each
+    /// ray at the coarsest level held whose voxels project to at most that many pixels at its
+    /// hit distance, for this camera's field of view and height. Not both.
+    #[pyo3(signature = (width = 1024, height = None, **options), text_signature = "($self, width=1024, height=None, *, mode='lambert', view=0, eye=None, target=None, fov=None, frame='model', shadows=False, ao=0, threads=None, lod=None, pixel_error=None)")]
     fn render<'py>(
         &self,
         py: Python<'py>,
@@ -246,21 +348,21 @@ impl Octree {
         height: Option<i64>,
         options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyAny>> {
+        let request = level_request(options)?;
         let options = RenderOptions::from_kwargs("render", options)?;
         let args = RenderArgs::parse(
             width,
             height,
             options,
-            &sdf_multioctree::octree_frame(&self.octree),
+            &sdf_multioctree::octree_frame(self.finest()),
         )?;
-        let octree = &self.octree;
+        let file = &self.data.file;
         args.render(py, |settings, camera, cancel| {
-            Ok(sdf_multioctree::render::render_cancellable(
-                &OctreeScene(octree),
-                camera,
-                settings,
-                cancel,
-            ))
+            Ok(match request.scene(file, camera) {
+                Ok(LevelScene::Level(s)) => render_cancellable(&s, camera, settings, cancel),
+                Ok(LevelScene::PixelError(s)) => render_cancellable(&s, camera, settings, cancel),
+                Err(e) => Err(e),
+            })
         })
     }
 }

@@ -1,7 +1,7 @@
 """Type stubs of the compiled module ``sdfmo._sdfmo`` (re-exported by ``sdfmo``)."""
 
 import os
-from typing import Literal, Optional, Sequence, Tuple, TypedDict, Union, overload
+from typing import List, Literal, Optional, Sequence, Tuple, TypedDict, Union, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -32,6 +32,14 @@ class _RenderOptions(TypedDict, total=False):
     shadows: bool
     ao: int
     threads: Optional[int]
+
+class _OctreeRenderOptions(_RenderOptions, total=False):
+    """``Octree.render``'s options: ``_RenderOptions`` and the level drawn, as ``sdfmo render
+    --lod`` / ``--pixel-error``: ``lod`` one level of ``Octree.levels`` (default the finest),
+    or ``pixel_error`` (pixels > 0, a file with levels only) each ray's level; not both."""
+
+    lod: Optional[int]
+    pixel_error: Optional[float]
 
 class FormatError(ValueError):
     """A ``.smo`` file that is truncated, corrupt, of an unknown version or inconsistent."""
@@ -148,7 +156,7 @@ class Octree:
 
     @staticmethod
     def load(path: _Path) -> "Octree":
-        """Loads and validates a ``.smo`` file."""
+        """Loads and validates a ``.smo`` file (with levels: whole or cut where a level ends)."""
     @staticmethod
     def from_bytes(data: Buffer) -> "Octree":
         """An octree from the bytes of a ``.smo`` file: any bytes-like object (``bytes``,
@@ -159,7 +167,13 @@ class Octree:
         """The bytes of the ``.smo`` file."""
     @property
     def depth(self) -> int:
-        """Depth of the leaves."""
+        """Depth of the leaves (the finest level held)."""
+    @property
+    def levels(self) -> List[int]:
+        """The levels held, coarsest first (``[depth]`` without levels of detail)."""
+    @property
+    def file_levels(self) -> List[int]:
+        """The levels of the whole file (more than ``levels`` for a prefix of it)."""
     @property
     def cell_size(self) -> float:
         """Edge of a leaf cell in model units, ``2 / (2**depth * scale)``."""
@@ -174,10 +188,13 @@ class Octree:
         than 1.78 * cell_size from the surface (the band's width), and in the cells the
         surface crosses whose stored field does not."""
     def render(
-        self, width: int = 1024, height: Optional[int] = None, **options: Unpack[_RenderOptions]
+        self,
+        width: int = 1024,
+        height: Optional[int] = None,
+        **options: Unpack[_OctreeRenderOptions],
     ) -> _U8:
-        """Ray traces the octree, uint8 of shape ``(height, width, 3)``:
-        ``render(640, 480).shape == (480, 640, 3)``."""
+        """Ray traces the octree (a level, or by pixel error), uint8 of shape
+        ``(height, width, 3)``: ``render(640, 480).shape == (480, 640, 3)``."""
 
 def sample_sdf(
     mesh: Mesh,
