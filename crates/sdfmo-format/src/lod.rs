@@ -672,18 +672,6 @@ impl SmoFile {
         }
     }
 
-    /// [`SmoFile::level`], by value (no copy).
-    pub fn into_level(self, level: Option<u8>) -> Option<PackedOctree> {
-        match self {
-            SmoFile::Octree(o) => (level.is_none() || level == Some(o.depth())).then_some(o),
-            SmoFile::Levels(l) => {
-                let k = level.unwrap_or(l.depth());
-                let i = k.checked_sub(l.coarsest())?;
-                l.levels.into_iter().nth(usize::from(i))
-            }
-        }
-    }
-
     /// The levels the file holds: `(coarsest, finest)`.
     pub fn level_range(&self) -> (u8, u8) {
         match self {

@@ -244,7 +244,9 @@ impl Octree {
         let o = self.finest();
         let (c, f) = self.data.held();
         let (dc, df) = self.data.declared;
-        let levels = if !self.data.is_complete() {
+        let levels = if !self.data.is_complete() && c == f {
+            format!("level {c} of {dc}-{df}, ")
+        } else if !self.data.is_complete() {
             format!("levels {c}-{f} of {dc}-{df}, ")
         } else if c != f {
             format!("levels {c}-{f}, ")
