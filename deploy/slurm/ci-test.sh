@@ -4,12 +4,16 @@
 #   deploy/slurm/ci-test.sh target/debug/sdfmo
 #
 # A manifest of 42 models (4 shared meshes, 36 generated parts, one malformed file, one model
-# too slow for its --model-timeout) is swept as a 4-task array job in which shard 1 is
-# cancelled mid-run and resubmitted alone; the merge job runs after it (--dependency=afterok).
-# The reference is the plain in-process `sdfmo sweep` of the 40 good models. Checks: the merged
-# rows equal the single process's bit for bit (model, method, depth, bytes, PSNR and FLIP of
-# every view, octree counts), no ledger holds a model twice and nothing finished before the
-# kill ran again, and exactly the two bad models are failures. About 3 minutes on 2 cores.
+# too slow for its --model-timeout) is swept by the recipe as a user runs it: submit.sh submits
+# a 4-task array job and its merge (--dependency=afterok); shard 1 is cancelled mid-run while
+# the others run or wait (shard 3 is held in the queue); resubmit.sh reruns shard 1, cancels the
+# stale merge (which waits on the cancelled array) and submits one that waits on the rerun and
+# on the shards still queued or running. The reference is the plain in-process `sdfmo sweep` of
+# the 40 good models. Checks: the stale merge is CANCELLED, the new one waits for the held shard
+# and completes, its rows equal the single process's bit for bit (model, method, depth, bytes,
+# PSNR and FLIP of every view, octree counts), no ledger holds a model twice and nothing
+# finished before the kill ran again, and exactly the two bad models are failures. About 3
+# minutes on 2 cores.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 sdfmo=$(realpath "${1:?usage: $0 PATH/TO/sdfmo}")
@@ -20,7 +24,7 @@ jobs=()
 # On the way out (an error included), cancel this test's jobs and no one else's.
 trap 'if [ ${#jobs[@]} -gt 0 ]; then scancel "${jobs[@]}" > /dev/null 2>&1 || true; fi' EXIT
 shards=4
-flags=(--depths 5..6 --size 48 --model-timeout 20)
+flags=(--depths 5..6 --size 48 --model-timeout 20 --max-memory 2G)
 t0=$(date +%s)
 
 "$sdfmo" generate-parts -n 36 --seed 24 -o "$work/parts" > /dev/null
@@ -66,38 +70,51 @@ done < "$work/manifest.txt"
 "$sdfmo" sweep "${good[@]}" "${flags[@]:0:4}" -o "$work/single" > /dev/null
 echo "ci-test: single process done ($(($(date +%s) - t0)) s)"
 
-# The array job, shard 1 cancelled once it has finished a model and started the slow one.
-export SDFMO="$sdfmo"
-array=$(sbatch --parsable --export=ALL,SDFMO="$sdfmo",SDFMO_SHARDS=$shards --array=0-$((shards - 1)) \
-    --output="$work/slurm-%A_%a.out" "$here/sweep-array.sbatch" "$work/manifest.txt" "$work/shards" "${flags[@]}")
-array=${array%%;*}
-jobs+=("$array")
+# The recipe as a user runs it: submit.sh submits the array and its merge; shard 1 is cancelled
+# once it has finished a model and started the slow one; resubmit.sh reruns it, cancels the
+# merge that waits on the cancelled array and submits one that waits on the rerun.
+export SDFMO="$sdfmo" SDFMO_MEM_PER_TASK=3G
+"$here/submit.sh" "$work/manifest.txt" "$work/shards" $shards "${flags[@]}"
+job() { awk -v k="$1" '$1 == k { id = $2 } END { print id }' "$work/shards/submit.jobs"; }
+array=$(job array)
+old_merge=$(job merge)
+jobs+=("$array" "$old_merge")
+# Shard 3 is held in the queue (2 cores: it cannot have started yet) until after the
+# resubmission, so that the new merge must also wait for a shard of the first array.
+scontrol hold "${array}_3"
 ledger1="$work/shards/shard-1/ledger.jsonl"
 for _ in $(seq 600); do
     [ -s "$ledger1" ] && break
     sleep 0.2
 done
-[ -s "$ledger1" ] || { echo "ci-test: shard 1 wrote no ledger line" >&2; cat "$work"/slurm-*_1.out >&2; exit 1; }
+[ -s "$ledger1" ] || { echo "ci-test: shard 1 wrote no ledger line" >&2; cat "$work"/shards/slurm-*_1.out >&2; exit 1; }
 sleep 2
 scancel "${array}_1"
-while [ -n "$(squeue -h -j "$array" 2> /dev/null)" ]; do sleep 1; done
+while [ -n "$(squeue -h -j "${array}_1" 2> /dev/null)" ]; do sleep 1; done
 before=$(wc -l < "$ledger1")
-state=$(sacct -n -X -j "${array}_1" -o State 2> /dev/null | head -n1 || true)
-echo "ci-test: shard 1 cancelled with $before ledger line(s) ${state:+($state)}"
+echo "ci-test: shard 1 cancelled with $before ledger line(s)"
 cp "$ledger1" "$work/ledger1-before-resume.jsonl"
-resumed=$(sbatch --parsable --export=ALL,SDFMO="$sdfmo",SDFMO_SHARDS=$shards --array=1 \
-    --output="$work/slurm-resume-%A_%a.out" "$here/sweep-array.sbatch" "$work/manifest.txt" "$work/shards" "${flags[@]}")
-resumed=${resumed%%;*}
-jobs+=("$resumed")
-sbatch --wait --dependency="afterok:$resumed" --export=ALL,SDFMO="$sdfmo" --output="$work/slurm-merge-%j.out" \
-    "$here/merge.sbatch" "$work/shards" "$work/merged" > /dev/null
-echo "ci-test: array, resume and merge done ($(($(date +%s) - t0)) s)"
+"$here/resubmit.sh" "$work/shards" 1
+merge=$(job merge)
+jobs+=("$(job array)" "$merge")
+state() { scontrol show job "$1" | grep -o 'JobState=[A-Z_]*' | cut -d= -f2; }
+[ "$merge" != "$old_merge" ] || { echo "ci-test: resubmit.sh submitted no new merge" >&2; exit 1; }
+[ "$(state "$old_merge")" = CANCELLED ] || { echo "ci-test: the stale merge $old_merge is $(state "$old_merge"), not CANCELLED" >&2; exit 1; }
+dependency=$(scontrol show job "$merge" | grep -o 'Dependency=[^ ]*')
+case "$dependency" in
+    *"afterok:${array}_3("*) ;;
+    *) echo "ci-test: the new merge does not wait for the held shard 3: $dependency" >&2; exit 1 ;;
+esac
+scontrol release "${array}_3"
+while [ -n "$(squeue -h -j "$merge" 2> /dev/null)" ]; do sleep 1; done
+[ "$(state "$merge")" = COMPLETED ] || { echo "ci-test: the merge $merge ended $(state "$merge")" >&2; cat "$work"/shards/slurm-merge-*.out >&2; exit 1; }
+echo "ci-test: array, resubmission and merge done ($(($(date +%s) - t0)) s; stale merge $old_merge cancelled, merge $merge with $dependency completed)"
 
 python3 - "$work" <<'PY'
 import json, sys, glob
 work = sys.argv[1]
 single = json.load(open(f"{work}/single/results.json"))
-merged = json.load(open(f"{work}/merged/results.json"))
+merged = json.load(open(f"{work}/shards/report/results.json"))
 keys = ["model", "method", "depth", "psnr", "flip", "bytes", "nodes", "leaves", "voxels",
         "surface_voxels", "cap_hits", "psnr_views", "flip_views"]
 strip = lambda rows: [{k: r[k] for k in keys} for r in rows]

@@ -1,6 +1,8 @@
-//! The deploy recipes (deploy/slurm, deploy/k8s) checked without a cluster: `submit.sh` run
-//! against a stub `sbatch` that records its arguments, and the Kubernetes Jobs read for what a
-//! restricted security policy requires (issue 32).
+//! The deploy recipes (deploy/slurm, deploy/k8s, the Dockerfile) checked without a cluster:
+//! `submit.sh` run against a stub `sbatch` that records its arguments, the Kubernetes Jobs read
+//! for what a restricted security policy requires (issue 32) and for the image the Dockerfile
+//! builds. deploy/lint.sh lints the same files and deploy/slurm/ci-test.sh runs the Slurm recipe
+//! on a real Slurm.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -28,6 +30,15 @@ fn stub_sbatch(dir: &Path) -> PathBuf {
 }
 
 fn submit(dir: &Path, shards: &str, env: &[(&str, &str)]) -> std::process::Output {
+    submit_with(dir, shards, &[], env)
+}
+
+fn submit_with(
+    dir: &Path,
+    shards: &str,
+    flags: &[&str],
+    env: &[(&str, &str)],
+) -> std::process::Output {
     let bin = stub_sbatch(dir);
     let manifest = dir.join("manifest.txt");
     std::fs::write(&manifest, "a.obj\n").unwrap();
@@ -41,6 +52,7 @@ fn submit(dir: &Path, shards: &str, env: &[(&str, &str)]) -> std::process::Outpu
         .arg(&manifest)
         .arg(dir.join("root"))
         .arg(shards)
+        .args(flags)
         .current_dir(dir)
         .env("PATH", path)
         .envs(env.iter().copied())
@@ -117,5 +129,111 @@ fn kubernetes_jobs_run_unprivileged_with_a_pinned_image_and_resources() {
             !tag.is_empty() && tag != "latest" && !tag.contains('/'),
             "{image} is not pinned"
         );
+    }
+}
+
+/// The sbatch memory request (`SDFMO_MEM_PER_TASK`, sbatch's `--mem`) must hold the sweep's
+/// `--max-memory`, which it then requires: without it each build's budget is half the node's
+/// memory, whatever Slurm granted. The recipe set `--max-memory` with no `--mem` at all.
+#[test]
+fn submit_sh_asks_slurm_for_the_memory_the_builds_may_use() {
+    let t = tempfile::tempdir().unwrap();
+    let calls = t.path().join("calls");
+    fn mem(m: &str) -> [(&str, &str); 1] {
+        [("SDFMO_MEM_PER_TASK", m)]
+    }
+    for flags in [&["--max-memory", "6G"][..], &["--max-memory=6GiB"][..]] {
+        let o = submit_with(t.path(), "8", flags, &mem("8G"));
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let text = std::fs::read_to_string(&calls).unwrap();
+        assert!(text.contains("--mem=8G --array=0-7"), "{text}");
+        std::fs::remove_file(&calls).unwrap();
+    }
+    for (flags, m, says) in [
+        (
+            &["--max-memory", "6G"][..],
+            "4G",
+            "is more than SDFMO_MEM_PER_TASK=4G",
+        ),
+        (
+            &["--max-memory", "6.5G"][..],
+            "6000",
+            "is more than SDFMO_MEM_PER_TASK=6000",
+        ),
+        (&[][..], "8G", "needs the sweep's --max-memory"),
+        (
+            &["--max-memory", "lots"][..],
+            "8G",
+            "cannot read --max-memory 'lots'",
+        ),
+        (
+            &["--max-memory", "1G"][..],
+            "8 G",
+            "SDFMO_MEM_PER_TASK must be a memory size",
+        ),
+        (
+            &["--max-memory", "1G"][..],
+            "$(id)",
+            "SDFMO_MEM_PER_TASK must be a memory size",
+        ),
+    ] {
+        let o = submit_with(t.path(), "8", flags, &mem(m));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{flags:?} {m}: {err}");
+        assert!(err.contains(says), "{flags:?} {m}: {err}");
+        assert!(!calls.exists(), "{flags:?} {m} submitted");
+    }
+    // Recorded for resubmit.sh: the settings as NUL-separated words, the jobs one a line.
+    let o = submit_with(t.path(), "8", &["--max-memory", "6G"], &mem("8G"));
+    assert!(o.status.success());
+    let args = std::fs::read(t.path().join("root/submit.args")).unwrap();
+    let words: Vec<&[u8]> = args.split(|&b| b == 0).collect();
+    assert_eq!(&words[1..4], [&b"8"[..], b"", b"8G"]);
+    assert_eq!(&words[5..7], [&b"--max-memory"[..], b"6G"]);
+    let jobs = std::fs::read_to_string(t.path().join("root/submit.jobs")).unwrap();
+    // Three submissions went through; the refused ones recorded nothing.
+    assert_eq!(jobs, "array 42 0-7\nmerge 42 afterok:42\n".repeat(3));
+}
+
+/// The Kubernetes Jobs run the image the Dockerfile's build command names, as the user the
+/// Dockerfile makes, and that image carries the workspace's version (the Jobs pulled an image
+/// nothing in the repository built).
+#[test]
+fn kubernetes_jobs_run_the_image_the_dockerfile_builds() {
+    let root = deploy().join("..");
+    let dockerfile = std::fs::read_to_string(root.join("Dockerfile")).unwrap();
+    let built = dockerfile
+        .lines()
+        .find_map(|l| l.strip_prefix("#   docker build -t "))
+        .and_then(|l| l.split_whitespace().next())
+        .expect("the Dockerfile's header names the image it builds");
+    let version = std::fs::read_to_string(root.join("Cargo.toml"))
+        .unwrap()
+        .lines()
+        .find_map(|l| l.strip_prefix("version = \""))
+        .map(|v| v.trim_end_matches('"').to_owned())
+        .unwrap();
+    assert!(
+        built.ends_with(&format!(":{version}")),
+        "{built} is not version {version}"
+    );
+    assert!(
+        dockerfile.contains(&format!("org.opencontainers.image.version=\"{version}\"")),
+        "the image's version label is not {version}"
+    );
+    assert!(dockerfile.contains("\nUSER 65532:65532\n"));
+    let text = std::fs::read_to_string(deploy().join("k8s/sweep-indexed-job.yaml")).unwrap();
+    let images: Vec<&str> = text
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("image: "))
+        .map(|l| l.split_whitespace().next().unwrap())
+        .collect();
+    assert_eq!(images, [built, built]);
+    assert_eq!(text.matches("runAsUser: 65532").count(), 2);
+    // Every base image pinned by a tag and a digest.
+    for from in dockerfile.lines().filter(|l| l.starts_with("FROM ")) {
+        let image = from.split_whitespace().nth(1).unwrap();
+        let (tagged, digest) = image.split_once("@sha256:").expect(from);
+        assert!(tagged.contains(':') && digest.len() == 64, "{from}");
     }
 }
