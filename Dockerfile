@@ -22,9 +22,9 @@
 FROM rust:1.95.0-slim-bookworm@sha256:d7482085ff5b415f84dba5647ae71606650bdef00db7aeb69f4b3d170c3e4082 AS build
 WORKDIR /src
 COPY . .
-# --locked: the dependency versions of Cargo.lock, which CI tests. Symbols are kept and the line
-# tables of the release profile dropped (about 14 MB instead of 76 MB: cargo then strips the
-# debug information, as `strip --strip-debug` of the release build gives 13.7 MB).
+# --locked: the dependency versions of Cargo.lock, which CI tests. Without the release profile's
+# line tables cargo strips the debug information and keeps the symbols: about 14 MB instead of
+# 76 MB (`strip --strip-debug` makes 13.7 MB of today's release build).
 RUN CARGO_PROFILE_RELEASE_DEBUG=false cargo build --release --locked -p sdfmo-cli \
     && install -D -m 0755 target/release/sdfmo /out/sdfmo
 
