@@ -309,10 +309,13 @@ pub fn build_cancellable(
 /// levels and each level's statistics, coarsest first; `progress` covers the whole build (each
 /// level weighted by 4^level, the growth of a surface's cells per level).
 ///
-/// The simplest correct construction: one build per level (each level's subdivision, corners
-/// and leaf decisions are its own; sharing the coarse levels' work with the fine one is not
-/// done). The memory check is the finest level's (the levels are built one after the other;
-/// the coarser ones held meanwhile are at most a third of the finest one's size).
+/// The levels share the reshaped, normalised mesh (made once); from the per-depth vertex snap
+/// on ([`build`]'s step 1: the grid is `2^-(depth + 10)` for 8-bit corners) everything is the
+/// level's own: the snapped mesh differs per depth, so its welding, distance structure, winding
+/// data, subdivision, corners and leaf decisions do too, and reusing any of them across levels
+/// would change the level's bytes. The memory check is the finest level's (the levels are
+/// built one after the other; the coarser ones held meanwhile are at most a third of the
+/// finest one's size).
 ///
 /// # Errors
 /// [`BuildError::InvalidLevels`] when the coarsest level is below [`MIN_DEPTH`] or above the
@@ -338,6 +341,10 @@ pub fn build_lod(
     let weight = |k: u8| 4f64.powi(i32::from(k));
     let total: f64 = (coarsest..=depth).map(weight).sum();
     let run = || -> Result<(LodOctree, Vec<BuildStats>)> {
+        // The reshaped, normalised mesh depends on the mesh and the margin only: made once.
+        // Everything after the per-depth snap (welding, the distance structure, the winding
+        // sign's data) depends on the depth and is each level's own.
+        let normalised = Normalised::new(mesh, settings.margin);
         let mut levels = Vec::new();
         let mut stats = Vec::new();
         let mut done = 0.0;
@@ -353,7 +360,14 @@ pub fn build_lod(
                     p((((done + w * f64::from(f)) / total) as f32).clamp(0.0, 1.0));
                 }
             };
-            let (octree, st) = build_in_pool(mesh, &level_settings, Some(&scaled), cancel)?;
+            let shared_ms = if k == coarsest { normalised.ms } else { 0.0 };
+            let (octree, st) = build_level(
+                &normalised,
+                shared_ms,
+                &level_settings,
+                Some(&scaled),
+                cancel,
+            )?;
             done += w;
             levels.push(octree);
             stats.push(st);
@@ -516,8 +530,45 @@ fn global_signed_distance(
     dist.sign_closest(p, &c)
 }
 
+/// The mesh after flat fans are re-triangulated and the result normalised: the part of step 1
+/// that does not depend on the depth (shared by the levels of [`build_lod`]).
+struct Normalised {
+    mesh: TriMesh,
+    norm: sdfmo_mesh::Normalization,
+    /// Milliseconds it took.
+    ms: f64,
+}
+
+impl Normalised {
+    fn new(mesh: &TriMesh, margin: f32) -> Normalised {
+        let t = Instant::now();
+        // Same surface; the fans' wedges would make every query and cell list near them O(n).
+        let reshaped = sdfmo_distance::reshape_fans(mesh);
+        let mesh = reshaped.as_ref().map_or(mesh, |r| &r.mesh);
+        let (mesh, norm) = mesh.normalized(margin);
+        Normalised {
+            mesh,
+            norm,
+            ms: ms(t),
+        }
+    }
+}
+
 fn build_in_pool(
     mesh: &TriMesh,
+    settings: &BuildSettings,
+    progress: Option<&(dyn Fn(f32) + Sync)>,
+    cancel: &(dyn Fn() -> bool + Sync),
+) -> Result<(PackedOctree, BuildStats)> {
+    let normalised = Normalised::new(mesh, settings.margin);
+    build_level(&normalised, normalised.ms, settings, progress, cancel)
+}
+
+/// Steps 1 (the snap) to 6 of one depth, from the normalised mesh; `normalised_ms` (the time
+/// of making it, or 0 where an earlier level counted it) is added to the normalize phase.
+fn build_level(
+    normalised: &Normalised,
+    normalised_ms: f64,
     settings: &BuildSettings,
     progress: Option<&(dyn Fn(f32) + Sync)>,
     cancel: &(dyn Fn() -> bool + Sync),
@@ -537,16 +588,15 @@ fn build_in_pool(
     let depth = settings.depth;
     report(0.0)?;
 
-    // 1. Normalise, after re-triangulating flat fans (same surface; their wedges would make
-    // every query and cell list near them O(n)).
+    // 1. Normalise (the depth-independent part done by the caller), snap to this depth's grid.
     let t = Instant::now();
-    let reshaped = sdfmo_distance::reshape_fans(mesh);
-    let mesh = reshaped.as_ref().map_or(mesh, |r| &r.mesh);
-    let (norm_mesh, norm) = mesh.normalized(settings.margin);
+    let norm = normalised.norm;
     // Both methods: where the multi-octree has nothing to add it must equal the SVO.
-    let norm_mesh = norm_mesh.transformed(|p| snap_to_grid(p, depth, settings.bits));
+    let norm_mesh = normalised
+        .mesh
+        .transformed(|p| snap_to_grid(p, depth, settings.bits));
     let local = LocalMesh::new(&norm_mesh);
-    phases.push(("normalize".to_string(), ms(t)));
+    phases.push(("normalize".to_string(), normalised_ms + ms(t)));
     report(0.03)?;
 
     // 2. Distance structure.

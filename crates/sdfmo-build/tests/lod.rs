@@ -37,6 +37,48 @@ fn every_level_is_the_build_of_its_depth() {
     }
 }
 
+/// The same on a shared CAD part that is not watertight (abc1: the hybrid pseudo-normal /
+/// winding-number sign, whose per-triangle data each level makes for its own snapped mesh),
+/// with the levels sharing one normalised mesh; progress moves through every level and ends at
+/// 1, and a cancellation asked during a later level stops the whole build.
+#[test]
+#[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
+fn every_level_is_the_build_of_its_depth_on_abc1() {
+    let path = std::path::PathBuf::from(env!("SDFMO_TEST_DATA_DIR")).join("abc1.stl");
+    let mesh = sdfmo_mesh::load_mesh(&path).expect("abc1").mesh;
+    let settings = lod_settings(6, 4, MULTI);
+    let seen = std::sync::Mutex::new(Vec::new());
+    let record = |f: f32| seen.lock().unwrap().push(f);
+    let (lod, _) = build_lod(&mesh, &settings, None, Some(&record), &|| false).expect("lod");
+    for k in 4..=6 {
+        let (alone, _) = build(&mesh, &BuildSettings::new(k, MULTI), None).expect("build");
+        assert_eq!(
+            lod.level(k).unwrap().as_bytes(),
+            alone.as_bytes(),
+            "level {k}"
+        );
+    }
+    let seen = seen.into_inner().unwrap();
+    assert!(seen.windows(2).all(|w| w[0] <= w[1]), "{seen:?}");
+    assert_eq!(seen.last(), Some(&1.0));
+    // Level 4 weighs 1/21 of the whole, level 5 4/21: values inside each level's span.
+    for (lo, hi) in [
+        (0.0, 1.0 / 21.0),
+        (1.0 / 21.0, 5.0 / 21.0),
+        (5.0 / 21.0, 1.0),
+    ] {
+        let inside = seen.iter().filter(|&&f| f > lo && f < hi).count();
+        assert!(inside >= 3, "{inside} reports in ({lo}, {hi}): {seen:?}");
+    }
+    // Cancelled once progress has passed the first level: the build stops, nothing returned.
+    let last = std::sync::atomic::AtomicU32::new(0);
+    let store = |f: f32| last.store(f.to_bits(), std::sync::atomic::Ordering::Relaxed);
+    let past_first = || f32::from_bits(last.load(std::sync::atomic::Ordering::Relaxed)) > 0.1;
+    let r = build_lod(&mesh, &settings, None, Some(&store), &past_first);
+    assert!(matches!(r, Err(BuildError::Cancelled)), "{r:?}");
+    assert!(f32::from_bits(last.load(std::sync::atomic::Ordering::Relaxed)) < 0.5);
+}
+
 #[test]
 fn level_settings_are_checked() {
     let mesh = sdfmo_mesh::procedural::demo_part();
