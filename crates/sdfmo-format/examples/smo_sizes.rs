@@ -11,7 +11,10 @@
 //! `--write DIR` also saves each octree as `DIR/<shape>_d<depth>_<bits>.smo`; `--time` also
 //! prints the best of 5 timings of `from_leaves`, `to_bytes`, `from_bytes` (validate + copy)
 //! and `PackedOctreeView::new` (validate only, read in place) — run it with `--release` for that.
-//! `--load FILE…` instead reports the sections and the load time of existing `.smo` files.
+//! `--load FILE…` instead reports the sections and the load time of existing `.smo` files;
+//! `--compressed FILE…` the size of each file in the compressed container at three zstd levels,
+//! with the time to write it and to decode it (best of 5; decoding includes the CRC-32 checks);
+//! `--compressed-at LEVEL FILE…` at one level.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -21,7 +24,9 @@ use std::time::Instant;
 mod common;
 
 use glam::Vec3;
-use sdfmo_format::{LeafInput, OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, Voxel};
+use sdfmo_format::{
+    compressed, LeafInput, OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, Voxel,
+};
 
 /// Best of 5 wall-clock timings of `f`, in milliseconds.
 fn best_ms(f: &mut dyn FnMut()) -> f64 {
@@ -59,6 +64,43 @@ fn load_files(paths: Vec<String>) -> Result<(), Box<dyn std::error::Error>> {
             o.section_sizes().bytes_per_voxel(o.voxel_count()),
             bytes.len() as f64 / 1e3 / decode,
         );
+    }
+    Ok(())
+}
+
+/// Compressed sizes and decode speed of existing `.smo` files (1.x or 2.0).
+fn compressed_files(paths: Vec<String>, levels: &[i32]) -> Result<(), Box<dyn std::error::Error>> {
+    use sdfmo_format::compressed::{compress_with_level, decompress};
+    use sdfmo_format::SmoFile;
+    println!("| file | voxels (finest) | voxels (all levels) | traced B | level | compressed B | B/voxel (all) | ratio | write ms | decode ms | decode MB/s |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    for p in paths {
+        let path = std::path::Path::new(&p);
+        let bytes = std::fs::read(path)?;
+        let (finest, all) = match SmoFile::from_bytes(&bytes)? {
+            SmoFile::Octree(o) => (o.voxel_count(), o.voxel_count()),
+            SmoFile::Levels(l) => (
+                l.finest().voxel_count(),
+                l.levels().iter().map(|o| o.voxel_count()).sum(),
+            ),
+        };
+        for &level in levels {
+            let t = Instant::now();
+            let packed = compress_with_level(&bytes, level)?;
+            let write = t.elapsed().as_secs_f64() * 1e3;
+            let decode = best_ms(&mut || {
+                std::hint::black_box(decompress(&packed, u64::MAX).ok());
+            });
+            println!(
+                "| {} | {finest} | {all} | {} | {level} | {} | {:.3} | {:.2} | {write:.0} | {decode:.2} | {:.0} |",
+                path.file_name().unwrap_or_default().to_string_lossy(),
+                bytes.len(),
+                packed.len(),
+                packed.len() as f64 / all as f64,
+                bytes.len() as f64 / packed.len() as f64,
+                bytes.len() as f64 / 1e3 / decode,
+            );
+        }
     }
     Ok(())
 }
@@ -154,6 +196,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--write" => write = Some(args.next().ok_or("--write DIR")?.into()),
             "--time" => time = true,
             "--load" => return load_files(args.collect()),
+            "--compressed" => {
+                return compressed_files(
+                    args.collect(),
+                    &[3, 9, compressed::DEFAULT_COMPRESSION_LEVEL],
+                )
+            }
+            "--compressed-at" => {
+                let level = args.next().ok_or("--compressed-at LEVEL FILE…")?.parse()?;
+                return compressed_files(args.collect(), &[level]);
+            }
             other => return Err(format!("unknown argument {other}").into()),
         }
     }

@@ -487,14 +487,21 @@ impl PackedOctree {
         PackedOctree::load_with_limit(path, MAX_FILE_SIZE)
     }
 
-    /// [`PackedOctree::load`] with an explicit size limit in bytes, checked before reading.
-    /// The bytes read become the octree's buffer ([`PackedOctree::from_vec`]).
+    /// [`PackedOctree::load`] with an explicit size limit in bytes, checked before reading (and,
+    /// for a compressed file, on the decoded size). The bytes read (or decoded) become the
+    /// octree's buffer ([`PackedOctree::from_vec`]).
     pub fn load_with_limit(path: &Path, max_bytes: u64) -> Result<PackedOctree> {
         // Header first: a file whose header declares another size is refused before its body
         // is read (the 1.x checks only: a 2.0 file is `UnsupportedVersion`, as from bytes).
         let bytes = sdfmo_io::read_regular_checked(path, max_bytes, HEADER_SIZE, |head, len| {
+            if crate::compressed::is_compressed(head) {
+                return Ok(len);
+            }
             crate::validate::check_header_size(head, len).map(|_| len)
         })?;
+        if crate::compressed::is_compressed(&bytes) {
+            return PackedOctree::from_vec(crate::compressed::decompress(&bytes, max_bytes)?);
+        }
         PackedOctree::from_vec(bytes)
     }
 }

@@ -56,6 +56,7 @@
 
 #![deny(missing_docs)]
 
+pub mod compressed;
 mod crc32;
 mod error;
 mod file;

@@ -551,15 +551,25 @@ pub fn check_smo_head(head: &[u8], len: u64, read: SmoRead) -> Result<()> {
 /// [`SMO_HEAD_BYTES`] bytes are checked by [`check_smo_head`] against the file's length before
 /// the rest is read ([`sdfmo_io::read_regular_checked`]), so a file whose header declares
 /// another size than it has is refused after one small read, whatever its length. The bytes
-/// are not validated further (the caller's `from_bytes` does that).
+/// are not validated further (the caller's `from_bytes` does that). A compressed file
+/// ([`crate::compressed`]) is decoded, to at most `max_bytes` bytes: the result is the `.smo`
+/// it was made from.
 ///
 /// # Errors
 /// The file's I/O errors ([`FormatError::Io`]: not a regular file, over `max_bytes`, out of
 /// memory) and [`check_smo_head`]'s.
 pub fn read_smo(path: &Path, max_bytes: u64, read: SmoRead) -> Result<Vec<u8>> {
-    sdfmo_io::read_regular_checked(path, max_bytes, SMO_HEAD_BYTES, |head, len| {
+    let bytes = sdfmo_io::read_regular_checked(path, max_bytes, SMO_HEAD_BYTES, |head, len| {
+        if crate::compressed::is_compressed(head) {
+            // A compressed file checks itself as a whole (its CRC-32 and stream table).
+            return Ok(len);
+        }
         check_smo_head(head, len, read).map(|()| len)
-    })
+    })?;
+    if crate::compressed::is_compressed(&bytes) {
+        return crate::compressed::decompress(&bytes, max_bytes);
+    }
+    Ok(bytes)
 }
 
 /// What [`SmoFile::from_prefix`] read: the levels the data holds (the whole file, or a file
