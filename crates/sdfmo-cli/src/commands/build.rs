@@ -41,7 +41,7 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
     let (octree, stats) =
         built.with_context(|| format!("cannot build an octree of {}", input.source))?;
     ensure_parent(&args.output)?;
-    octree.save(&args.output)?;
+    let stored = save(args, octree.as_bytes())?;
 
     if args.json {
         let mut j = stats_json(&stats);
@@ -53,6 +53,8 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
             j["max_voxels"] = json!(args.max_voxels);
         }
         j["output"] = json!(args.output.display().to_string());
+        j["compress_level"] = json!(args.compress);
+        j["stored_bytes"] = json!(stored);
         let estimate = build::estimate_memory(&input.mesh, &settings);
         j["memory_estimate"] = json!(estimate.bytes);
         j["candidate_cells_estimate"] = json!(estimate.candidate_cells.round());
@@ -72,6 +74,7 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
         stats.bytes as f64 / 1e6,
         stats.build_ms
     );
+    s.push_str(&stored_note(args, stats.bytes, stored, stats.voxels));
     let hist: Vec<String> = stats
         .voxels_per_leaf
         .iter()
@@ -108,6 +111,31 @@ fn headline(args: &BuildArgs, input: &crate::commands::InputMesh, levels: &str) 
     )
 }
 
+/// Writes the file atomically, compressed with `--compress`; returns the bytes written.
+fn save(args: &BuildArgs, smo: &[u8]) -> anyhow::Result<usize> {
+    let Some(level) = args.compress else {
+        sdf_multioctree::io::write_atomic(&args.output, smo)?;
+        return Ok(smo.len());
+    };
+    let packed = sdf_multioctree::format::compressed::compress_with_level(smo, level)
+        .context("cannot compress the octree")?;
+    sdf_multioctree::io::write_atomic(&args.output, &packed)?;
+    Ok(packed.len())
+}
+
+/// The summary's note on a compressed file: its size on disk against the traced bytes.
+fn stored_note(args: &BuildArgs, traced: usize, stored: usize, voxels: usize) -> String {
+    match args.compress {
+        Some(level) => format!(
+            "  compressed (zstd {level}): {stored} bytes on disk ({:.3} MB, {:.3} bytes per voxel, {:.1}x smaller)\n",
+            stored as f64 / 1e6,
+            stored as f64 / voxels.max(1) as f64,
+            traced as f64 / stored.max(1) as f64
+        ),
+        None => String::new(),
+    }
+}
+
 /// `sdfmo build --lod`: every level from the coarsest to the depth, one build each, in one
 /// version-2.0 file.
 fn run_lod(
@@ -127,7 +155,7 @@ fn run_lod(
     let (lod, stats) =
         built.with_context(|| format!("cannot build the levels of {}", input.source))?;
     ensure_parent(&args.output)?;
-    lod.save(&args.output)?;
+    let stored = save(args, &lod.to_bytes())?;
     let entries = lod.entries();
     let total_ms: f64 = stats.iter().map(|s| s.build_ms).sum();
     if args.json {
@@ -151,6 +179,8 @@ fn run_lod(
             "build_ms": total_ms,
             "levels": levels,
             "output": args.output.display().to_string(),
+            "compress_level": args.compress,
+            "stored_bytes": stored,
         });
         return print_json(&j);
     }
@@ -162,6 +192,8 @@ fn run_lod(
         lod.byte_size() as f64 / 1e6,
         total_ms
     );
+    let voxels: usize = stats.iter().map(|st| st.voxels).sum();
+    s.push_str(&stored_note(args, lod.byte_size() as usize, stored, voxels));
     for (st, e) in stats.iter().zip(&entries) {
         let _ = writeln!(
             s,

@@ -5,6 +5,7 @@ use std::io::Read as _;
 use std::path::Path;
 
 use anyhow::Context;
+use sdf_multioctree::format::compressed::COMPRESSED_MAGIC;
 use sdf_multioctree::format::{
     read_smo, FormatError, LevelEntry, LodOctree, PackedOctree, SmoFile, SmoRead, MAGIC,
     MAX_FILE_SIZE,
@@ -98,15 +99,20 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
 /// Whether the file starts with the `.smo` magic (an unreadable file is left to the mesh
 /// loader, whose error names it).
 fn is_smo(path: &Path) -> bool {
+    file_magic(path).is_some_and(|m| m == MAGIC || m == COMPRESSED_MAGIC)
+}
+
+/// The first eight bytes of a regular file (`None` for anything else or a shorter file).
+fn file_magic(path: &Path) -> Option<[u8; 8]> {
     // Only a regular file is opened: opening a FIFO blocks until a writer comes (hostile.rs).
     if !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
-        return false;
+        return None;
     }
     let mut head = [0u8; 8];
     std::fs::File::open(path)
         .and_then(|mut f| f.read_exact(&mut head))
-        .is_ok()
-        && head == MAGIC
+        .ok()
+        .map(|()| head)
 }
 
 /// One level of a `.smo` file as `info` lists it: level, bytes, and the counts when loaded.
@@ -151,6 +157,9 @@ fn run_smo(path: &Path, as_json: bool) -> anyhow::Result<()> {
             };
             ("1.x", o.byte_size() as u64, vec![(e, Some(o))])
         };
+    // A compressed file is read whole and decoded: its size on disk beside the `.smo`'s.
+    let stored = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+    let compressed = file_magic(path) == Some(COMPRESSED_MAGIC);
     if as_json {
         return print_json(&json!({
             "source": path.display().to_string(),
@@ -158,6 +167,8 @@ fn run_smo(path: &Path, as_json: bool) -> anyhow::Result<()> {
             "version": version,
             "file_size": file_size,
             "bytes_read": bytes.len(),
+            "compressed": compressed,
+            "stored_bytes": stored,
             "levels": levels.iter().map(|(e, o)| level_json(e, o.as_ref())).collect::<Vec<_>>(),
         }));
     }
@@ -166,6 +177,13 @@ fn run_smo(path: &Path, as_json: bool) -> anyhow::Result<()> {
         path.display(),
         bytes.len()
     );
+    if compressed {
+        let _ = writeln!(
+            s,
+            "  compressed: {stored} bytes on disk ({:.1}x smaller)",
+            bytes.len() as f64 / stored.max(1) as f64
+        );
+    }
     for (e, o) in &levels {
         match o {
             Some(o) => {
