@@ -27,11 +27,24 @@ fn json(text: &str) -> serde_json::Value {
 fn a_compressed_build_loads_and_renders_as_the_plain_one() {
     let dir = tempfile::tempdir().unwrap();
     let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    let (plain_smo, packed_smo) = (p("plain.smo"), p("packed.smo"));
     for lod in [false, true] {
-        let extra: &[&str] = if lod { &["--lod", "--coarsest", "4"] } else { &[] };
-        let plain = [&["build", "-d", "6", "-o", &p("plain.smo"), "--json"], extra].concat();
+        let extra: &[&str] = if lod {
+            &["--lod", "--coarsest", "4"]
+        } else {
+            &[]
+        };
+        let plain = [&["build", "-d", "6", "-o", &plain_smo, "--json"], extra].concat();
         let packed = [
-            &["build", "-d", "6", "-o", &p("packed.smo"), "--json", "--compress"],
+            &[
+                "build",
+                "-d",
+                "6",
+                "-o",
+                &packed_smo,
+                "--json",
+                "--compress",
+            ],
             extra,
         ]
         .concat();
@@ -39,7 +52,10 @@ fn a_compressed_build_loads_and_renders_as_the_plain_one() {
         let b = json(&ok(&packed));
         assert_eq!(a["bytes"], b["bytes"], "lod {lod}");
         assert_eq!(b["compress_level"], 9);
-        let (traced, stored) = (b["bytes"].as_u64().unwrap(), b["stored_bytes"].as_u64().unwrap());
+        let (traced, stored) = (
+            b["bytes"].as_u64().unwrap(),
+            b["stored_bytes"].as_u64().unwrap(),
+        );
         assert_eq!(stored, std::fs::metadata(p("packed.smo")).unwrap().len());
         assert!(stored * 4 < traced, "lod {lod}: {stored} of {traced} bytes");
 
@@ -47,7 +63,10 @@ fn a_compressed_build_loads_and_renders_as_the_plain_one() {
         assert_eq!(info["compressed"], true);
         assert_eq!(info["stored_bytes"].as_u64(), Some(stored));
         assert_eq!(info["file_size"].as_u64(), Some(traced));
-        assert_eq!(json(&ok(&["info", &p("plain.smo"), "--json"]))["compressed"], false);
+        assert_eq!(
+            json(&ok(&["info", &p("plain.smo"), "--json"]))["compressed"],
+            false
+        );
 
         for (src, out) in [("plain.smo", "plain.png"), ("packed.smo", "packed.png")] {
             ok(&["render", &p(src), "-o", &p(out), "--size", "96"]);
