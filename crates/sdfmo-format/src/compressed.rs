@@ -327,10 +327,10 @@ fn encode_level(file: &[u8], raw: &mut Vec<Vec<u8>>) -> Result<()> {
     let corners = section(file, layout.corners);
     let mut residuals = vec![0u8; corners.len()];
     match bits {
-        ValueBits::Eight => tree.transform::<u8, true>(corners, &mut residuals),
+        ValueBits::Eight => tree.encode(corners, &mut residuals),
         ValueBits::Sixteen => {
             let mut out = vec![0u16; residuals.len() / 2];
-            tree.transform::<u16, true>(&words(corners), &mut out);
+            tree.encode(&words(corners), &mut out);
             put_words(&out, &mut residuals);
         }
     }
@@ -427,15 +427,18 @@ fn decode_level(streams: &[(&[u8], usize)], out: &mut [u8], start: usize) -> Res
         "compressed clip stream",
     )?;
     let tree = LeafTree::walk(header.depth, &mask_bytes, &count_bytes, header.voxel_count)?;
-    let mut residuals = vec![0u8; corners.1];
-    unpack(corners.0, &mut residuals, "compressed corners stream")?;
     let codes = section_mut(file, layout.corners);
     match bits {
-        ValueBits::Eight => tree.transform::<u8, false>(&residuals, codes),
+        // The residuals go straight where the codes belong and are decoded in place.
+        ValueBits::Eight => {
+            unpack(corners.0, codes, "compressed corners stream")?;
+            tree.decode(codes);
+        }
         ValueBits::Sixteen => {
-            let mut out = vec![0u16; codes.len() / 2];
-            tree.transform::<u16, false>(&words(&residuals), &mut out);
-            put_words(&out, codes);
+            unpack(corners.0, codes, "compressed corners stream")?;
+            let mut values = words(codes);
+            tree.decode(&mut values);
+            put_words(&values, codes);
         }
     }
     Ok(start + size)
@@ -608,68 +611,86 @@ impl LeafTree {
         })
     }
 
-    /// Codes to residuals (`ENCODE`) or residuals to codes: each corner minus its prediction,
-    /// wrapping (`u8` and `u16` wrap as the `i8` and `i16` codes do). The prediction of corner
-    /// `o = 4x + 2y + z` of a voxel is, in order: corner `o` with that axis's bit set of the
-    /// first voxel of the neighbour leaf along −x (if `x = 0`), −y (if `y = 0`) or −z (if `z =
-    /// 0`), the first neighbour that exists; else the voxel's own corner `o` without its
-    /// highest bit; else (corner 0) zero.
-    fn transform<T: Code, const ENCODE: bool>(&self, input: &[T], output: &mut [T]) {
-        debug_assert_eq!(input.len(), self.voxels * 8);
-        debug_assert_eq!(output.len(), self.voxels * 8);
+    /// Where each corner's prediction comes from in a voxel of `leaf`: the prediction of
+    /// corner `o = 4x + 2y + z` is, in order: corner `o` with that axis's bit set of the first
+    /// voxel of the neighbour leaf along −x (if `x = 0`), −y (if `y = 0`) or −z (if `z = 0`),
+    /// the first neighbour that exists (an index into the codes, before this leaf's); else
+    /// ([`OWN`]) the voxel's own corner `o` without its highest bit; else (corner 0,
+    /// [`ZERO_SOURCE`]) zero.
+    #[inline(always)]
+    fn sources(&self, leaf: &[u32; 4]) -> [usize; 8] {
+        let mut source = [ZERO_SOURCE; 8];
+        for (o, src) in source.iter_mut().enumerate() {
+            *src = if o & 4 == 0 && leaf[1] != NONE {
+                self.leaves[leaf[1] as usize][0] as usize * 8 + (o | 4)
+            } else if o & 2 == 0 && leaf[2] != NONE {
+                self.leaves[leaf[2] as usize][0] as usize * 8 + (o | 2)
+            } else if o & 1 == 0 && leaf[3] != NONE {
+                self.leaves[leaf[3] as usize][0] as usize * 8 + (o | 1)
+            } else if o == 0 {
+                ZERO_SOURCE
+            } else {
+                OWN
+            };
+        }
+        source
+    }
+
+    /// The voxel range `[first, end)` of leaf `j`.
+    #[inline(always)]
+    fn voxel_range(&self, j: usize) -> (usize, usize) {
+        let end = self.leaves.get(j + 1).map_or(self.voxels as u32, |l| l[0]);
+        (self.leaves[j][0] as usize, end as usize)
+    }
+
+    /// Codes to residuals: each corner minus its prediction ([`LeafTree::sources`]), wrapping
+    /// (`u8` and `u16` wrap as the `i8` and `i16` codes do).
+    fn encode<T: Code>(&self, codes: &[T], residuals: &mut [T]) {
+        debug_assert_eq!(codes.len(), self.voxels * 8);
         for (j, leaf) in self.leaves.iter().enumerate() {
-            let end = self.leaves.get(j + 1).map_or(self.voxels as u32, |l| l[0]) as usize;
-            // Where each corner's prediction comes from: a corner of a neighbour's first voxel
-            // (an index into the codes, before this leaf's), or (`OWN`) an earlier corner of
-            // this voxel, or nothing (corner 0 alone).
-            let mut source = [ZERO_SOURCE; 8];
-            for (o, src) in source.iter_mut().enumerate() {
-                *src = if o & 4 == 0 && leaf[1] != NONE {
-                    self.leaves[leaf[1] as usize][0] as usize * 8 + (o | 4)
-                } else if o & 2 == 0 && leaf[2] != NONE {
-                    self.leaves[leaf[2] as usize][0] as usize * 8 + (o | 2)
-                } else if o & 1 == 0 && leaf[3] != NONE {
-                    self.leaves[leaf[3] as usize][0] as usize * 8 + (o | 1)
-                } else if o == 0 {
-                    ZERO_SOURCE
-                } else {
-                    OWN
-                };
+            let source = self.sources(leaf);
+            let (first, end) = self.voxel_range(j);
+            for at in (first * 8..end * 8).step_by(8) {
+                let here: &[T; 8] = codes[at..at + 8].try_into().expect("8 codes");
+                let before = &codes[..at];
+                for o in 0..8 {
+                    let p = match source[o] {
+                        ZERO_SOURCE => T::ZERO,
+                        OWN => here[OWN_CORNER[o]],
+                        from => before[from],
+                    };
+                    residuals[at + o] = here[o].sub(p);
+                }
             }
-            for v in leaf[0] as usize..end {
-                let at = v * 8;
-                let here: &[T; 8] = input[at..at + 8].try_into().expect("8 codes");
-                if ENCODE {
-                    let before = &input[..at];
-                    let out: &mut [T; 8] = (&mut output[at..at + 8]).try_into().expect("8 codes");
-                    for o in 0..8 {
-                        let p = match source[o] {
-                            ZERO_SOURCE => T::ZERO,
-                            OWN => here[OWN_CORNER[o]],
-                            from => before[from],
-                        };
-                        out[o] = here[o].sub(p);
-                    }
-                } else {
-                    let (before, rest) = output.split_at_mut(at);
-                    let out: &mut [T; 8] = (&mut rest[..8]).try_into().expect("8 codes");
-                    for o in 0..8 {
-                        let p = match source[o] {
-                            ZERO_SOURCE => T::ZERO,
-                            OWN => out[OWN_CORNER[o]],
-                            from => before[from],
-                        };
-                        out[o] = here[o].add(p);
-                    }
+        }
+    }
+
+    /// Residuals to codes, in place: voxel by voxel in file order, so every prediction reads a
+    /// code already decoded (a neighbour's, or an earlier corner of the same voxel).
+    fn decode<T: Code>(&self, values: &mut [T]) {
+        debug_assert_eq!(values.len(), self.voxels * 8);
+        for (j, leaf) in self.leaves.iter().enumerate() {
+            let source = self.sources(leaf);
+            let (first, end) = self.voxel_range(j);
+            for at in (first * 8..end * 8).step_by(8) {
+                let (before, rest) = values.split_at_mut(at);
+                let out: &mut [T; 8] = (&mut rest[..8]).try_into().expect("8 codes");
+                for o in 0..8 {
+                    let p = match source[o] {
+                        ZERO_SOURCE => T::ZERO,
+                        OWN => out[OWN_CORNER[o]],
+                        from => before[from],
+                    };
+                    out[o] = out[o].add(p);
                 }
             }
         }
     }
 }
 
-/// [`LeafTree::transform`]'s source of a corner with no prediction (corner 0, no neighbour).
+/// [`LeafTree::sources`]' source of a corner with no prediction (corner 0, no neighbour).
 const ZERO_SOURCE: usize = usize::MAX;
-/// [`LeafTree::transform`]'s source of a corner predicted by an earlier corner of its voxel.
+/// [`LeafTree::sources`]' source of a corner predicted by an earlier corner of its voxel.
 const OWN: usize = usize::MAX - 1;
 
 /// The corner of the same voxel that predicts corner `o` when no neighbour does: `o` without
