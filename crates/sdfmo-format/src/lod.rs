@@ -606,8 +606,12 @@ pub enum SmoFile {
 
 impl SmoFile {
     /// Reads either kind from bytes, by the major version (bytes 8..10): 1 → [`PackedOctree::from_bytes`],
-    /// 2 → [`LodOctree::from_bytes`]; anything else is the 1.x reader's error.
+    /// 2 → [`LodOctree::from_bytes`]; anything else is the 1.x reader's error. A compressed
+    /// container ([`crate::compressed`]) is decoded first (to at most [`MAX_FILE_SIZE`] bytes).
     pub fn from_bytes(bytes: &[u8]) -> Result<SmoFile> {
+        if crate::compressed::is_compressed(bytes) {
+            return SmoFile::from_bytes(&crate::compressed::decompress(bytes, MAX_FILE_SIZE)?);
+        }
         if SmoFile::has_levels(bytes) {
             return Ok(SmoFile::Levels(LodOctree::from_bytes(bytes)?));
         }
@@ -635,6 +639,10 @@ impl SmoFile {
     /// [`FormatError::CutInsideLevel`] for a prefix that ends inside a later level: data cut
     /// off in the middle of a level is a broken copy, not a file of fewer levels.
     pub fn from_prefix(bytes: &[u8]) -> Result<SmoPrefix> {
+        if crate::compressed::is_compressed(bytes) {
+            // A compressed file is whole or refused (its CRC-32): no prefix of it decodes.
+            return SmoFile::from_prefix(&crate::compressed::decompress(bytes, MAX_FILE_SIZE)?);
+        }
         if !SmoFile::has_levels(bytes) {
             let file = SmoFile::from_bytes(bytes)?;
             let declared = file.level_range();

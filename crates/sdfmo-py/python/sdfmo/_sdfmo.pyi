@@ -161,8 +161,10 @@ class Octree:
     def from_bytes(data: Buffer) -> "Octree":
         """An octree from the bytes of a ``.smo`` file: any bytes-like object (``bytes``,
         ``bytearray``, ``memoryview``, a C-contiguous numpy array)."""
-    def save(self, path: _Path) -> None:
-        """Writes the ``.smo`` file atomically; ``path`` must end in ``.smo`` (``ValueError``)."""
+    def save(self, path: _Path, *, compress: Optional[int] = None) -> None:
+        """Writes the ``.smo`` file atomically; ``path`` must end in ``.smo`` (``ValueError``).
+        ``compress``: a zstd level 1..=22 writes the compressed container (``Octree.load``
+        reads it back as the same octree)."""
     def to_bytes(self) -> bytes:
         """The bytes of the ``.smo`` file."""
     @property

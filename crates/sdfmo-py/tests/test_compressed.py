@@ -1,0 +1,60 @@
+"""The compressed container from Python: ``Octree.load`` and ``Octree.from_bytes`` read what
+``sdfmo build --compress`` writes as the same octree, and ``save(compress=...)`` writes a file
+the CLI reads back the same."""
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import sdfmo
+
+
+def run(cli, *args):
+    r = subprocess.run([str(cli), *map(str, args)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    return r
+
+
+@pytest.mark.parametrize("lod", [False, True])
+def test_compressed_files_load_and_render_as_the_plain_ones(cli, tmp_path, lod):
+    extra = ["--lod", "--coarsest", "4"] if lod else []
+    plain, packed = tmp_path / "plain.smo", tmp_path / "packed.smo"
+    run(cli, "build", "-d", "6", "-o", plain, *extra)
+    run(cli, "build", "-d", "6", "-o", packed, "--compress", *extra)
+    assert packed.stat().st_size * 4 < plain.stat().st_size
+    a, b = sdfmo.Octree.load(plain), sdfmo.Octree.load(packed)
+    # The same octree: the same bytes of the .smo, the same levels and pixels.
+    assert a.to_bytes() == b.to_bytes()
+    assert a.levels == b.levels
+    assert np.array_equal(a.render(48, 40), b.render(48, 40))
+    for data in (packed.read_bytes(), bytearray(packed.read_bytes())):
+        assert sdfmo.Octree.from_bytes(data).to_bytes() == a.to_bytes()
+
+
+def test_save_compressed_round_trips_through_the_cli(cli, tmp_path):
+    plain = tmp_path / "plain.smo"
+    run(cli, "build", "-d", "6", "-o", plain)
+    octree = sdfmo.Octree.load(plain)
+    out = tmp_path / "out.smo"
+    octree.save(out, compress=3)
+    assert out.read_bytes()[:4] == b"\x89SMZ"
+    assert sdfmo.Octree.load(out).to_bytes() == plain.read_bytes()
+    info = json.loads(run(cli, "info", out, "--json").stdout)
+    assert info["compressed"] is True and info["stored_bytes"] == out.stat().st_size
+    for bad in (0, 23):
+        with pytest.raises(ValueError, match="zstd level 1..=22"):
+            octree.save(tmp_path / "bad.smo", compress=bad)
+    assert not (tmp_path / "bad.smo").exists()
+
+
+def test_a_damaged_compressed_file_is_a_format_error(cli, tmp_path):
+    packed = tmp_path / "packed.smo"
+    run(cli, "build", "-d", "5", "-o", packed, "--compress")
+    data = bytearray(packed.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    with pytest.raises(sdfmo.FormatError):
+        sdfmo.Octree.from_bytes(bytes(data))
+    with pytest.raises(sdfmo.FormatError):
+        sdfmo.Octree.from_bytes(bytes(data[:100]))
