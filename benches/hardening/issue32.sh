@@ -48,6 +48,8 @@ for k in 0 1; do $B sweep --manifest $W/data/m.txt --shard $k/2 "${F[@]}" -o $W/
 fresh() { rm -rf $W/c; mkdir -p $W/c; cp -a $W/base/shard-0 $W/base/shard-1 $W/c/; cp -a $W/data $W/c/data; }
 M=(sweep --merge $W/c/shard-0 $W/c/shard-1)
 S0=$W/c/shard-0; S1=$W/c/shard-1
+# ledger_row NAME 'python on r': a case that only edits shard-1's ledger (see jl) and merges.
+ledger_row() { fresh; jl $S1/ledger.jsonl "$2"; row "$1" "true" $B "${M[@]}" -o $W/c/r; }
 
 echo "| case | binary | exit | time | peak | stderr | afterwards |"
 echo "|---|---|---|---|---|---|---|"
@@ -79,30 +81,22 @@ fresh; js $S1/shard.json "v['shard']['count']=0"
 row "shard.json shard count 0" "true" $B "${M[@]}" -o $W/c/r
 fresh; for k in 0 1; do js $W/c/shard-$k/shard.json "v['manifest_entries']=1"; done
 row "shard.json manifest_entries 1 (4 records)" "true" $B "${M[@]}" -o $W/c/r
-fresh; jl $S1/ledger.jsonl "r['rows'][0]['depth']=255"
-row "row depth 255" "true" $B "${M[@]}" -o $W/c/r
-fresh; jl $S1/ledger.jsonl "r['rows'][0]['flip']=-0.5"
-row "row FLIP −0.5" "true" $B "${M[@]}" -o $W/c/r
-fresh; jl $S1/ledger.jsonl "r['rows'][0]['psnr']=1e300"
-row "row PSNR 1e300" "true" $B "${M[@]}" -o $W/c/r
-fresh; jl $S1/ledger.jsonl "r['wall_ms']=-5"
-row "record wall_ms −5" "true" $B "${M[@]}" -o $W/c/r
-fresh; jl $S1/ledger.jsonl "r['rows'][0]['bytes']=0"
-row "row bytes 0" "true" $B "${M[@]}" -o $W/c/r
-fresh; jl $S1/ledger.jsonl "r['name']='a' if r['id']=='b.obj' else r['name']; r['model']['model']=r['name']; [x.__setitem__('model',r['name']) for x in r['rows']]"
-row "two records named a (ids differ)" "true" $B "${M[@]}" -o $W/c/r
+ledger_row "row depth 255" "r['rows'][0]['depth']=255"
+ledger_row "row FLIP −0.5" "r['rows'][0]['flip']=-0.5"
+ledger_row "row PSNR 1e300" "r['rows'][0]['psnr']=1e300"
+ledger_row "record wall_ms −5" "r['wall_ms']=-5"
+ledger_row "row bytes 0" "r['rows'][0]['bytes']=0"
+ledger_row "two records named a (ids differ)" "r['name']='a' if r['id']=='b.obj' else r['name']; r['model']['model']=r['name']; [x.__setitem__('model',r['name']) for x in r['rows']]"
 fresh; jl $S1/ledger.jsonl "r['error']='<script>alert(1)</script>'; r['model']=None; r['rows']=[]"
 row "failure text <script>" "grep -c '<script>' $W/c/r/index.html" $B "${M[@]}" -o $W/c/r
 fresh; sum0=$(cat $S0/results.json | md5sum)
 row "-o shard-0 (an input folder)" "[ \"\$(md5sum < $S0/results.json)\" = \"$sum0\" ] && echo shard-0 intact || echo shard-0 OVERWRITTEN" $B "${M[@]}" -o $S0
 fresh
 row "-o shard-0/images/../report" "ls $S0 | tr '\n' ' '" $B "${M[@]}" -o $S0/images/../report
-fresh; jl $S1/ledger.jsonl "r['index'] = 5 if r['id']=='b.obj' else r['index']"
-row "record of b with index 5" "true" $B "${M[@]}" -o $W/c/r
+ledger_row "record of b with index 5" "r['index'] = 5 if r['id']=='b.obj' else r['index']"
 fresh; head -1 $S0/ledger.jsonl >> $S1/ledger.jsonl
 row "shard-0's record appended to shard-1's ledger" "true" $B "${M[@]}" -o $W/c/r
-fresh; jl $S1/ledger.jsonl "r['ledger']=1"
-row "ledger records of the old layout (version 1)" "true" $B "${M[@]}" -o $W/c/r
+ledger_row "ledger records of the old layout (version 1)" "r['ledger']=1"
 fresh; printf 'b.obj\na.obj\nc.obj\n-dash.obj\n' > $W/c/data/m.txt
 for k in 0 1; do $B sweep --manifest $W/c/data/m.txt --shard $k/2 "${F[@]}" -o $W/c/shard-$k > /dev/null 2>&1; done
 row "manifest reordered, both shards rerun, merge" "true" $B "${M[@]}" -o $W/c/r
