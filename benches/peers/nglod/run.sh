@@ -30,15 +30,8 @@ HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 ROOT="$(cd "$HERE/../../.." && pwd)"
 cd "$ROOT"
 
-if [ "$#" -lt 1 ]; then
-    echo "usage: $0 MODEL..." >&2
-    exit 2
-fi
-MODELS=()
-for m in "$@"; do
-    [ -f "$m" ] || { echo "run.sh: no such mesh file: $m" >&2; exit 2; }
-    MODELS+=("$(cd "$(dirname "$m")" && pwd)/$(basename "$m")")
-done
+. "$HERE/../models.sh"
+peer_models "$@"
 
 THREADS="${NGLOD_THREADS:-2}"
 NICE="${NGLOD_NICE:-19}"

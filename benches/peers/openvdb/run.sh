@@ -30,12 +30,8 @@ set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 ROOT="$(cd "$HERE/../../.." && pwd)"
 cd "$ROOT"
-[ "$#" -ge 1 ] || { echo "usage: $0 MODEL..." >&2; exit 2; }
-MODELS=()
-for m in "$@"; do
-    [ -f "$m" ] || { echo "run.sh: no such mesh file: $m" >&2; exit 2; }
-    MODELS+=("$(cd "$(dirname "$m")" && pwd)/$(basename "$m")")
-done
+. "$HERE/../models.sh"
+peer_models "$@"
 THREADS="${VDB_THREADS:-2}"
 NICE="${VDB_NICE:-10}"
 OUT="${VDB_OUT:-$HERE/out}"
