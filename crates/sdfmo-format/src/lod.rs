@@ -285,6 +285,20 @@ fn read_level(bytes: &[u8], entry: &LevelEntry, meta: &OctreeMeta) -> Result<Pac
     Ok(view.to_octree())
 }
 
+/// That `len` bytes of data do not run past the `file_size` the header declares.
+fn check_no_trailing(header: &LodHeader, len: u64) -> Result<()> {
+    if len > header.file_size {
+        return corrupt(
+            "file_size",
+            format!(
+                "{} (the data has {len} bytes: trailing bytes)",
+                header.file_size
+            ),
+        );
+    }
+    Ok(())
+}
+
 /// The zero padding between the end of level `entry` and the next level (or nothing after the
 /// last), as far as `bytes` reaches.
 fn check_gap(bytes: &[u8], entry: &LevelEntry, next: Option<&LevelEntry>) -> Result<()> {
@@ -458,15 +472,7 @@ impl LodOctree {
     pub fn from_prefix(bytes: &[u8]) -> Result<LodPrefix> {
         let header = read_header(bytes)?;
         let len = bytes.len() as u64;
-        if len > header.file_size {
-            return corrupt(
-                "file_size",
-                format!(
-                    "{} (the data has {len} bytes: trailing bytes)",
-                    header.file_size
-                ),
-            );
-        }
+        check_no_trailing(&header, len)?;
         let mut levels = Vec::new();
         for (i, e) in header.entries.iter().enumerate() {
             if e.end() > len {
@@ -535,16 +541,7 @@ pub fn check_smo_head(head: &[u8], len: u64, read: SmoRead) -> Result<()> {
             needed: header.file_size,
         });
     }
-    if len > header.file_size {
-        return corrupt(
-            "file_size",
-            format!(
-                "{} (the data has {len} bytes: trailing bytes)",
-                header.file_size
-            ),
-        );
-    }
-    Ok(())
+    check_no_trailing(&header, len)
 }
 
 /// Reads a `.smo` file of at most `max_bytes` bytes, header first: its first
