@@ -85,7 +85,7 @@ fn shared_corners_cost_almost_nothing() {
     // A volume-only sphere shell: the corners each voxel shares with the voxel before it along
     // an axis are predicted exactly, so the corner residuals are mostly zero.
     // Against zstd on the file as it is, at the same level, the container is far smaller.
-    let leaves: Vec<LeafInput> = sdfmo_format::testing::sphere_leaves(7, 0.6);
+    let leaves: Vec<LeafInput> = common::shape_leaves(7, false);
     let o = PackedOctree::from_leaves(meta(7, ValueBits::Eight), leaves).unwrap();
     let smo = o.to_bytes();
     let packed = compress(&smo).unwrap();
