@@ -184,6 +184,18 @@ fn edit_shard_json(shard: &Path, edit: impl Fn(&mut Value)) {
     std::fs::write(&p, serde_json::to_vec(&v).unwrap()).unwrap();
 }
 
+/// Every file under `dir` with its bytes, in path order.
+fn files(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    tree(dir)
+        .into_iter()
+        .filter(|p| p.is_file())
+        .map(|p| {
+            let b = std::fs::read(&p).unwrap();
+            (p, b)
+        })
+        .collect()
+}
+
 /// Every path under `dir` (links not followed).
 fn tree(dir: &Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
@@ -416,26 +428,12 @@ fn shard_numbers_are_range_checked() {
 fn merging_into_an_input_folder_is_refused() {
     let t = copy_fixture();
     let s0 = t.path().join("shard-0");
-    let before: Vec<(PathBuf, Vec<u8>)> = tree(&s0)
-        .into_iter()
-        .filter(|p| p.is_file())
-        .map(|p| {
-            let b = std::fs::read(&p).unwrap();
-            (p, b)
-        })
-        .collect();
+    let before = files(&s0);
     for out in [s0.clone(), s0.join("report"), s0.join("images/../new")] {
         let o = merge(t.path(), &out);
         refused(&o, "is inside the shard folder", &out.display().to_string());
     }
-    let after: Vec<(PathBuf, Vec<u8>)> = tree(&s0)
-        .into_iter()
-        .filter(|p| p.is_file())
-        .map(|p| {
-            let b = std::fs::read(&p).unwrap();
-            (p, b)
-        })
-        .collect();
+    let after = files(&s0);
     assert_eq!(before, after);
 }
 

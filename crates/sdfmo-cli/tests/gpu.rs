@@ -42,7 +42,6 @@ fn fails_cleanly(o: &Output, needle: &str) {
     assert!(o.stdout.is_empty());
 }
 
-/// A depth-6 multi-octree of the built-in demo part.
 /// Whether a GPU render failed for want of an adapter (the test is then skipped, unless
 /// `SDFMO_REQUIRE_GPU=1`, where that fails it).
 fn no_adapter(o: &Output) -> bool {
@@ -59,6 +58,7 @@ fn no_adapter(o: &Output) -> bool {
     true
 }
 
+/// A depth-6 SVO of the built-in demo part.
 fn demo_octree(dir: &std::path::Path) -> String {
     let smo = dir.join("demo.smo").display().to_string();
     // The SVO: the multi-octree's sharp edges (intersect voxels, issue 11) may take either
@@ -67,6 +67,32 @@ fn demo_octree(dir: &std::path::Path) -> String {
     let o = sdfmo(&["build", "-d", "6", "--method", "svo", "-o", &smo], &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     smo
+}
+
+/// Renders with `render` (device → its output and image path) on the GPU and then the CPU, and
+/// checks that the GPU took time, both hit the same pixels, and the images match (identical or
+/// PSNR ≥ 45 dB). The GPU's and the CPU's JSON, or `None` when there is no adapter.
+fn gpu_matches_cpu(render: impl Fn(&str) -> (Output, String)) -> Option<(Value, Value)> {
+    let (o, gpu_png) = render("gpu");
+    if no_adapter(&o) {
+        return None;
+    }
+    assert!(o.status.success(), "{}", stderr(&o));
+    let gpu: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let (o, cpu_png) = render("cpu");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let cpu: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(gpu["gpu_ms"].as_f64().is_some_and(|ms| ms > 0.0), "{gpu}");
+    assert_eq!(gpu["counters"]["hits"], cpu["counters"]["hits"]);
+    assert!(gpu["counters"]["hits"].as_u64().unwrap() > 0);
+    let o = sdfmo(&["compare", &cpu_png, &gpu_png, "--json"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let cmp: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(
+        cmp["identical"] == true || cmp["psnr"].as_f64().is_some_and(|p| p >= 45.0),
+        "{cmp}"
+    );
+    Some((gpu, cpu))
 }
 
 #[test]
@@ -84,15 +110,9 @@ fn gpu_render_matches_cpu_and_adds_device_keys() {
         );
         (o, png)
     };
-    let (o, gpu_png) = render("gpu");
-    if no_adapter(&o) {
+    let Some((gpu, cpu)) = gpu_matches_cpu(render) else {
         return;
-    }
-    assert!(o.status.success(), "{}", stderr(&o));
-    let gpu: Value = serde_json::from_slice(&o.stdout).unwrap();
-    let (o, cpu_png) = render("cpu");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let cpu: Value = serde_json::from_slice(&o.stdout).unwrap();
+    };
     for key in [
         "source",
         "mode",
@@ -112,17 +132,6 @@ fn gpu_render_matches_cpu_and_adds_device_keys() {
     assert!(gpu["device"]
         .as_str()
         .is_some_and(|d| !d.is_empty() && d != "cpu"));
-    assert!(gpu["gpu_ms"].as_f64().is_some_and(|ms| ms > 0.0), "{gpu}");
-    assert_eq!(gpu["counters"]["hits"], cpu["counters"]["hits"]);
-    assert!(gpu["counters"]["hits"].as_u64().unwrap() > 0);
-    let o = sdfmo(&["compare", &cpu_png, &gpu_png, "--json"], &[]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let cmp: Value = serde_json::from_slice(&o.stdout).unwrap();
-    let identical = cmp["identical"] == true;
-    assert!(
-        identical || cmp["psnr"].as_f64().is_some_and(|p| p >= 45.0),
-        "{cmp}"
-    );
 }
 
 /// Extra `render` arguments, environment, and what the one-line error must contain.
@@ -207,25 +216,9 @@ fn gpu_pixel_error_matches_cpu() {
         );
         (o, png)
     };
-    let (o, gpu_png) = render("gpu");
-    if no_adapter(&o) {
+    let Some((gpu, cpu)) = gpu_matches_cpu(render) else {
         return;
-    }
-    assert!(o.status.success(), "{}", stderr(&o));
-    let gpu: Value = serde_json::from_slice(&o.stdout).unwrap();
-    let (o, cpu_png) = render("cpu");
-    assert!(o.status.success(), "{}", stderr(&o));
-    let cpu: Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert!(gpu["gpu_ms"].as_f64().is_some_and(|ms| ms > 0.0), "{gpu}");
-    assert_eq!(gpu["counters"]["hits"], cpu["counters"]["hits"]);
-    assert!(gpu["counters"]["hits"].as_u64().unwrap() > 0);
-    let o = sdfmo(&["compare", &cpu_png, &gpu_png, "--json"], &[]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let cmp: Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert!(
-        cmp["identical"] == true || cmp["psnr"].as_f64().is_some_and(|p| p >= 45.0),
-        "{cmp}"
-    );
+    };
     let flat = demo_octree(&dir);
     let png = dir.join("flat.png").display().to_string();
     fails_cleanly(
