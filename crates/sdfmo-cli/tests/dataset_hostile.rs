@@ -9,6 +9,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::sync::OnceLock;
 
+use sdf_multioctree::mesh::{procedural::box_mesh, write::to_obj};
+use sdf_multioctree::Vec3;
 use serde_json::Value;
 
 const SDFMO: &str = env!("CARGO_BIN_EXE_sdfmo");
@@ -48,25 +50,7 @@ fn refused(o: &Output, needle: &str, what: &str) {
 
 /// A closed box of `size` as OBJ.
 fn box_obj(size: f32) -> String {
-    let mut s = String::new();
-    for i in 0..8 {
-        let c = |b: usize| if i & b != 0 { size } else { 0.0 };
-        s.push_str(&format!("v {} {} {}\n", c(1), c(2), c(4)));
-    }
-    for f in [
-        [1, 3, 4, 2],
-        [5, 6, 8, 7],
-        [1, 2, 6, 5],
-        [3, 7, 8, 4],
-        [1, 5, 7, 3],
-        [2, 4, 8, 6],
-    ] {
-        s.push_str(&format!(
-            "f {} {} {}\nf {} {} {}\n",
-            f[0], f[1], f[2], f[0], f[2], f[3]
-        ));
-    }
-    s
+    to_obj(&box_mesh(Vec3::ZERO, Vec3::splat(size)))
 }
 
 /// The dataset: `a.obj`, `b.obj`, `c.obj`, `-dash.obj` (a name like an option) and

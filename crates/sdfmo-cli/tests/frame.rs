@@ -7,6 +7,7 @@ use std::process::Command;
 
 use sdf_multioctree::distance::{MeshDistance, SignMode};
 use sdf_multioctree::glam::{DVec3, Vec3};
+use sdf_multioctree::mesh::{procedural::box_mesh, write::to_obj};
 use sdf_multioctree::{camera_from_model, load_mesh, load_octree, mesh_frame, octree_frame};
 use sdf_multioctree::{render_mesh, render_octree, Camera, Mode, DEFAULT_MARGIN};
 
@@ -15,26 +16,10 @@ const SDFMO: &str = env!("CARGO_BIN_EXE_sdfmo");
 /// A box far from the origin with a non-trivial scale (model units [10, 14] × [−3, −1] × [5, 6]),
 /// so that a front-end that skipped the conversion would answer differently.
 fn box_obj(dir: &Path) -> PathBuf {
-    let (lo, hi) = ([10.0, -3.0, 5.0], [14.0, -1.0, 6.0]);
-    let mut obj = String::new();
-    for i in 0..8 {
-        let c = |k: usize, bit: usize| if i >> bit & 1 == 1 { hi[k] } else { lo[k] };
-        obj += &format!("v {} {} {}\n", c(0, 0), c(1, 1), c(2, 2));
-    }
-    // Outward-facing quads of the cube, as triangles (1-based).
-    for f in [
-        [1, 3, 4, 2],
-        [5, 6, 8, 7],
-        [1, 2, 6, 5],
-        [3, 7, 8, 4],
-        [1, 5, 7, 3],
-        [2, 4, 8, 6],
-    ] {
-        obj += &format!(
-            "f {} {} {}\nf {} {} {}\n",
-            f[0], f[1], f[2], f[0], f[2], f[3]
-        );
-    }
+    let obj = to_obj(&box_mesh(
+        Vec3::new(10.0, -3.0, 5.0),
+        Vec3::new(14.0, -1.0, 6.0),
+    ));
     let p = dir.join("box.obj");
     std::fs::write(&p, obj).unwrap();
     p
