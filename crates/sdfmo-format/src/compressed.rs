@@ -11,7 +11,7 @@
 //!   decoder already has: the same grid point in the leaf before it along −x, −y or −z (the
 //!   shared corner of a volume voxel is the same global distance, so the residual is 0), else an
 //!   earlier corner of the same voxel;
-//! * every stream is one zstd frame ([`zstd`], the reference C library).
+//! * every stream is one zstd frame (the `zstd` crate: the reference C library, RFC 8878).
 //!
 //! Decoding is the exact inverse: [`decompress`] returns the original file byte for byte (checked
 //! against the CRC-32 of the whole file stored in the container, then by the reader's own
