@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Traced bytes per voxel of the candidate brick layout (docs/format-3.md), estimated exactly from
+# today's files: the five shared models at depths 8-10, both methods, built by the release CLI,
+# then counted by sdfmo-format's brick_estimate example. Sizes only (no timing).
+#
+#   benches/brick_estimate.sh > docs/results/format/brick-estimate.csv
+set -euo pipefail
+DATA=${SDFMO_TEST_DATA:-../shared/data}
+cd "$(dirname "$0")/.."
+cargo build --release -q -p sdfmo-cli
+cargo build --release -q -p sdfmo-format --example brick_estimate
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+files=()
+for model in abc1.stl abc3.stl abc5.stl abc8.stl teapot.obj; do
+  for method in svo multi; do
+    for depth in 8 9 10; do
+      out="$tmp/${model%.*}-$method-$depth.smo"
+      target/release/sdfmo build "$DATA/$model" -d "$depth" --method "$method" -o "$out" > /dev/null 2>&1
+      files+=("$out")
+    done
+  done
+done
+target/release/examples/brick_estimate "${files[@]}"
