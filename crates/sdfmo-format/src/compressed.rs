@@ -21,8 +21,9 @@
 
 use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
-use crate::file::{Header, Layout, CHECKSUM_SIZE, FORMAT_VERSION_MAJOR, HEADER_SIZE, MAGIC};
-use crate::lod::{lod_header_size, LodOctree, LOD_VERSION_MAJOR};
+use crate::header::lod_header_size;
+use crate::header::{Header, Layout, CHECKSUM_SIZE, FORMAT_VERSION_MAJOR, HEADER_SIZE, MAGIC};
+use crate::lod::{LodOctree, SmoFile};
 use crate::{PackedOctreeView, ValueBits, MAX_DEPTH};
 
 /// The first eight bytes of a compressed file: `\x89 S M Z \r \n \x1a \n` (the `.smo` magic with
@@ -160,7 +161,7 @@ pub fn decompress(bytes: &[u8], max_decoded: u64) -> Result<Vec<u8>> {
     }
     if at > 0 {
         let prelude = &out[..at];
-        if prelude.len() < 10 || prelude[..8] != MAGIC || u16_at(prelude, 8) != LOD_VERSION_MAJOR {
+        if !SmoFile::has_levels(prelude) {
             return Err(FormatError::corrupt(
                 "compressed prelude",
                 "not a 2.0 header (magic and major version 2)",

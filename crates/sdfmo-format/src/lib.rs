@@ -60,6 +60,7 @@ pub mod compressed;
 mod crc32;
 mod error;
 mod file;
+mod header;
 mod interpolant;
 pub mod kernel;
 mod lod;
@@ -74,18 +75,19 @@ use glam::Vec3;
 
 pub use crc32::crc32;
 pub use error::{FormatError, Result};
-pub use file::{
-    HeaderField, SectionSizes, CHECKSUM_SIZE, FLAG_CLIP_VOXELS, FLAG_MULTI_VOXEL,
+pub use file::SectionSizes;
+pub use header::{
+    lod_header_size, HeaderField, CHECKSUM_SIZE, FLAG_CLIP_VOXELS, FLAG_MULTI_VOXEL,
     FLAG_SURFACE_VOXELS, FORMAT_VERSION_MAJOR, FORMAT_VERSION_MINOR, HEADER_FIELDS, HEADER_SIZE,
-    KNOWN_FLAGS, MAGIC,
+    KNOWN_FLAGS, LOD_HEADER_FIELDS, LOD_HEADER_FIXED, LOD_HEADER_TRAILER, LOD_LEVEL_ENTRY,
+    LOD_LEVEL_FIELDS, LOD_TRAILER_FIELDS, LOD_VERSION_MAJOR, LOD_VERSION_MINOR, MAGIC,
 };
 pub use interpolant::{
     cell_corners, cell_size, child_coord, corner_offset, trilinear, trilinear_gradient,
 };
 pub use lod::{
-    check_smo_head, lod_header_size, read_smo, LevelEntry, LodOctree, LodPrefix, SmoFile,
-    SmoPrefix, SmoRead, LOD_HEADER_FIXED, LOD_HEADER_TRAILER, LOD_LEVEL_ENTRY, LOD_VERSION_MAJOR,
-    LOD_VERSION_MINOR, SMO_HEAD_BYTES,
+    check_smo_head, read_smo, LevelEntry, LodOctree, LodPrefix, SmoFile, SmoPrefix, SmoRead,
+    SMO_HEAD_BYTES,
 };
 pub use octree::{NodeRef, Octree, PackedOctree, PackedOctreeView};
 

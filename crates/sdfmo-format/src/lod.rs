@@ -11,38 +11,18 @@ use glam::Vec3;
 
 use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
-use crate::file::MAGIC;
-use crate::octree::bytes_at;
+use crate::header::{
+    align8, lod_header_size, LevelValues, LodHeaderValues, TrailerValues, LOD_HEADER_FIXED,
+    LOD_HEADER_TRAILER, LOD_LEVEL_ENTRY, LOD_VERSION_MAJOR, LOD_VERSION_MINOR, MAGIC,
+};
 use crate::validate::{check_header_size, check_magic};
 use crate::{
     OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, FORMAT_VERSION_MAJOR, MAX_DEPTH,
     MAX_FILE_SIZE,
 };
 
-/// Major version of a file with levels of detail (the 1.x layout is one octree; 2.0 is a
-/// header, a level table and one 1.x octree per level).
-pub const LOD_VERSION_MAJOR: u16 = 2;
-/// Minor version this crate writes for files with levels.
-pub const LOD_VERSION_MINOR: u16 = 0;
-/// Bytes of the fixed part of a 2.0 header (before the level table).
-pub const LOD_HEADER_FIXED: usize = 64;
-/// Bytes of one level-table entry (`offset` u64, `size` u64).
-pub const LOD_LEVEL_ENTRY: usize = 16;
-/// Bytes after the level table: the header's CRC-32 (u32) and 4 zero bytes.
-pub const LOD_HEADER_TRAILER: usize = 8;
-
 /// The smallest 1.x file: a 128-byte header and the checksum (an empty octree).
 const MIN_BLOCK: u64 = 132;
-
-#[inline]
-fn align8(x: u64) -> u64 {
-    x.div_ceil(8) * 8
-}
-
-/// Header bytes of a 2.0 file with `levels` levels (a multiple of 8).
-pub const fn lod_header_size(levels: usize) -> usize {
-    LOD_HEADER_FIXED + LOD_LEVEL_ENTRY * levels + LOD_HEADER_TRAILER
-}
 
 /// Where one level lies in a 2.0 file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -103,17 +83,14 @@ fn corrupt<T>(field: &'static str, reason: impl Into<String>) -> Result<T> {
     Err(FormatError::corrupt(field, reason))
 }
 
-fn u16_at(b: &[u8], at: usize) -> u16 {
-    u16::from_le_bytes(bytes_at::<2>(b, at))
-}
-fn u32_at(b: &[u8], at: usize) -> u32 {
-    u32::from_le_bytes(bytes_at::<4>(b, at))
-}
-fn u64_at(b: &[u8], at: usize) -> u64 {
-    u64::from_le_bytes(bytes_at::<8>(b, at))
-}
-fn f32_at(b: &[u8], at: usize) -> f32 {
-    f32::from_le_bytes(bytes_at::<4>(b, at))
+/// The fixed part of a 2.0 header read from `bytes` zero-padded to [`LOD_HEADER_FIXED`]: a
+/// short prefix reads its fields, the rest as 0 (the callers check the length after the magic
+/// and version).
+fn fixed_header(bytes: &[u8]) -> LodHeaderValues {
+    let mut fixed = [0u8; LOD_HEADER_FIXED];
+    let n = bytes.len().min(LOD_HEADER_FIXED);
+    fixed[..n].copy_from_slice(&bytes[..n]);
+    LodHeaderValues::read(&fixed)
 }
 
 /// Reads and checks a 2.0 header from the first bytes of `bytes` (which may be a prefix of
@@ -127,7 +104,9 @@ fn read_header(bytes: &[u8]) -> Result<LodHeader> {
             needed: LOD_HEADER_FIXED as u64,
         });
     }
-    let (major, minor) = (u16_at(bytes, 8), u16_at(bytes, 10));
+    // Zero-padded: the version is read (and a newer major refused) before the length check.
+    let h = fixed_header(bytes);
+    let (major, minor) = (h.version_major, h.version_minor);
     if major != LOD_VERSION_MAJOR {
         return Err(FormatError::UnsupportedVersion {
             major,
@@ -141,9 +120,7 @@ fn read_header(bytes: &[u8]) -> Result<LodHeader> {
             needed: LOD_HEADER_FIXED as u64,
         });
     }
-    let depth = bytes[20];
-    let coarsest = bytes[21];
-    let count = bytes[22];
+    let (depth, coarsest, count) = (h.depth, h.coarsest, h.level_count);
     if depth > MAX_DEPTH {
         return Err(FormatError::InvalidDepth {
             depth,
@@ -158,7 +135,7 @@ fn read_header(bytes: &[u8]) -> Result<LodHeader> {
             ),
         );
     }
-    let header_size = u64::from(u32_at(bytes, 12));
+    let header_size = u64::from(h.header_size);
     let expected = lod_header_size(count as usize) as u64;
     if header_size != expected {
         return corrupt(
@@ -174,35 +151,37 @@ fn read_header(bytes: &[u8]) -> Result<LodHeader> {
     }
     let hs = header_size as usize;
     let crc_at = hs - LOD_HEADER_TRAILER;
-    let stored = u32_at(bytes, crc_at);
+    let trailer = TrailerValues::read(&bytes[crc_at..hs]);
     let computed = crc32(&bytes[..crc_at]);
-    if stored != computed {
-        return Err(FormatError::ChecksumMismatch { stored, computed });
+    if trailer.header_crc != computed {
+        return Err(FormatError::ChecksumMismatch {
+            stored: trailer.header_crc,
+            computed,
+        });
     }
-    if u32_at(bytes, crc_at + 4) != 0 {
+    if trailer.trailer_zero != 0 {
         return corrupt("header padding", "non-zero byte after the header's CRC-32");
     }
-    let flags = u32_at(bytes, 16);
-    if flags != 0 {
+    if h.flags != 0 {
         return corrupt(
             "flags",
-            format!("{flags:#x} (a 2.0 header defines no flag)"),
+            format!("{:#x} (a 2.0 header defines no flag)", h.flags),
         );
     }
-    let Some(bits) = ValueBits::from_bits(bytes[23]) else {
-        return corrupt("value_bits", format!("{} (must be 8 or 16)", bytes[23]));
+    let Some(bits) = ValueBits::from_bits(h.value_bits) else {
+        return corrupt("value_bits", format!("{} (must be 8 or 16)", h.value_bits));
     };
     let meta = OctreeMeta {
         depth,
         bits,
-        center: Vec3::new(f32_at(bytes, 24), f32_at(bytes, 28), f32_at(bytes, 32)),
-        scale: f32_at(bytes, 36),
+        center: Vec3::new(h.center_x, h.center_y, h.center_z),
+        scale: h.scale,
     };
     meta.validate()?;
-    if bytes[48..LOD_HEADER_FIXED].iter().any(|&b| b != 0) {
+    if h.reserved.iter().any(|&b| b != 0) {
         return corrupt("reserved", "bytes 48..64 must be 0");
     }
-    let file_size = u64_at(bytes, 40);
+    let file_size = h.file_size;
     if file_size > MAX_FILE_SIZE {
         return corrupt(
             "file_size",
@@ -213,7 +192,7 @@ fn read_header(bytes: &[u8]) -> Result<LodHeader> {
     let mut next = header_size;
     for i in 0..count as usize {
         let at = LOD_HEADER_FIXED + i * LOD_LEVEL_ENTRY;
-        let (offset, size) = (u64_at(bytes, at), u64_at(bytes, at + 8));
+        let LevelValues { offset, size } = LevelValues::read(&bytes[at..at + LOD_LEVEL_ENTRY]);
         if offset != next {
             return corrupt(
                 "level table",
@@ -415,31 +394,39 @@ impl LodOctree {
         let size = self.byte_size() as usize;
         let mut out = vec![0u8; size];
         let meta = self.meta();
-        out[..8].copy_from_slice(&MAGIC);
-        out[8..10].copy_from_slice(&LOD_VERSION_MAJOR.to_le_bytes());
-        out[10..12].copy_from_slice(&LOD_VERSION_MINOR.to_le_bytes());
         let hs = lod_header_size(entries.len());
-        out[12..16].copy_from_slice(&(hs as u32).to_le_bytes());
-        // 16..20: flags, 0.
-        out[20] = meta.depth;
-        out[21] = self.coarsest();
-        out[22] = entries.len() as u8;
-        out[23] = meta.bits.bits();
-        for (k, v) in [meta.center.x, meta.center.y, meta.center.z, meta.scale]
-            .iter()
-            .enumerate()
-        {
-            out[24 + 4 * k..28 + 4 * k].copy_from_slice(&v.to_le_bytes());
+        LodHeaderValues {
+            magic: MAGIC,
+            version_major: LOD_VERSION_MAJOR,
+            version_minor: LOD_VERSION_MINOR,
+            header_size: hs as u32,
+            flags: 0,
+            depth: meta.depth,
+            coarsest: self.coarsest(),
+            level_count: entries.len() as u8,
+            value_bits: meta.bits.bits(),
+            center_x: meta.center.x,
+            center_y: meta.center.y,
+            center_z: meta.center.z,
+            scale: meta.scale,
+            file_size: size as u64,
+            reserved: [0; 16],
         }
-        out[40..48].copy_from_slice(&(size as u64).to_le_bytes());
+        .write(&mut out);
         for (i, e) in entries.iter().enumerate() {
             let at = LOD_HEADER_FIXED + i * LOD_LEVEL_ENTRY;
-            out[at..at + 8].copy_from_slice(&e.offset.to_le_bytes());
-            out[at + 8..at + 16].copy_from_slice(&e.size.to_le_bytes());
+            LevelValues {
+                offset: e.offset,
+                size: e.size,
+            }
+            .write(&mut out[at..at + LOD_LEVEL_ENTRY]);
         }
         let crc_at = hs - LOD_HEADER_TRAILER;
-        let crc = crc32(&out[..crc_at]);
-        out[crc_at..crc_at + 4].copy_from_slice(&crc.to_le_bytes());
+        TrailerValues {
+            header_crc: crc32(&out[..crc_at]),
+            trailer_zero: 0,
+        }
+        .write(&mut out[crc_at..hs]);
         for (e, l) in entries.iter().zip(&self.levels) {
             out[e.offset as usize..e.end() as usize].copy_from_slice(l.as_bytes());
         }
@@ -673,7 +660,9 @@ impl SmoFile {
 
     /// Whether `bytes` start like a version-2.0 file (magic and major version 2).
     pub fn has_levels(bytes: &[u8]) -> bool {
-        bytes.len() >= 10 && bytes[..8] == MAGIC && u16_at(bytes, 8) == LOD_VERSION_MAJOR
+        bytes.len() >= 10
+            && bytes[..8] == MAGIC
+            && fixed_header(bytes).version_major == LOD_VERSION_MAJOR
     }
 
     /// The octree to draw at `level`, or the finest one with `None`: a 1.x file has the one

@@ -6,7 +6,7 @@ use std::ops::Range;
 
 use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
-use crate::file::{minor_version, Counts, Header, Layout, CHECKSUM_SIZE, HEADER_SIZE};
+use crate::header::{minor_version, Counts, Header, Layout, CHECKSUM_SIZE, HEADER_SIZE};
 use crate::quant::{self, dequant_scale, quantize};
 use crate::{
     morton, LeafInput, OctreeMeta, ValueBits, Voxel, MAX_CLIP_VOXELS_PER_LEAF, MAX_VOXELS_PER_LEAF,

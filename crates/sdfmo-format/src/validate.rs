@@ -4,7 +4,7 @@ use glam::Vec3;
 
 use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
-use crate::file::{
+use crate::header::{
     minor_version, Counts, Header, Layout, CHECKSUM_SIZE, FLAG_CLIP_VOXELS, FLAG_MULTI_VOXEL,
     FLAG_SURFACE_VOXELS, FORMAT_VERSION_MAJOR, HEADER_SIZE, KNOWN_FLAGS, MAGIC,
 };

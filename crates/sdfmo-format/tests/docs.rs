@@ -3,8 +3,9 @@
 
 use glam::Vec3;
 use sdfmo_format::{
-    FormatError, LeafInput, LodOctree, OctreeMeta, PackedOctree, ValueBits, Voxel, HEADER_FIELDS,
-    HEADER_SIZE,
+    FormatError, HeaderField, LeafInput, LodOctree, OctreeMeta, PackedOctree, ValueBits, Voxel,
+    HEADER_FIELDS, HEADER_SIZE, LOD_HEADER_FIELDS, LOD_HEADER_FIXED, LOD_LEVEL_ENTRY,
+    LOD_LEVEL_FIELDS, LOD_TRAILER_FIELDS,
 };
 
 fn format_md() -> String {
@@ -12,9 +13,10 @@ fn format_md() -> String {
     std::fs::read_to_string(path).expect("FORMAT.md")
 }
 
-/// The rows `| offset | size | type | `name` | … |` of the section headed `## Header`.
-fn documented_header(md: &str) -> Vec<(String, usize, usize)> {
-    let start = md.find("\n## Header").expect("a ## Header section");
+/// The rows `| offset | size | type | `name` | … |` of the section whose heading starts with
+/// `heading`, up to the next `## ` heading: `(offset column, size, name)`.
+fn documented_rows(md: &str, heading: &str) -> Vec<(String, usize, String)> {
+    let start = md.find(&format!("\n{heading}")).expect("the section");
     let body = &md[start + 1..];
     let end = body[3..].find("\n## ").map_or(body.len(), |e| e + 3);
     body[..end]
@@ -22,24 +24,46 @@ fn documented_header(md: &str) -> Vec<(String, usize, usize)> {
         .filter_map(|line| {
             let cells: Vec<&str> = line.split('|').map(str::trim).collect();
             // ["", offset, size, type, `name`, meaning, ""]
-            let offset = cells.get(1)?.parse().ok()?;
             let size = cells.get(2)?.parse().ok()?;
             let name = cells.get(4)?.trim_matches('`').to_string();
-            Some((name, offset, size))
+            Some((cells[1].to_string(), size, name))
         })
+        .collect()
+}
+
+fn code_rows(
+    table: &[HeaderField],
+    offset: impl Fn(usize) -> String,
+) -> Vec<(String, usize, String)> {
+    table
+        .iter()
+        .map(|f| (offset(f.offset), f.size, f.name.to_string()))
         .collect()
 }
 
 #[test]
 fn docs_header_table_matches_code() {
-    let documented = documented_header(&format_md());
-    let code: Vec<_> = HEADER_FIELDS
-        .iter()
-        .map(|f| (f.name.to_string(), f.offset, f.size))
-        .collect();
-    assert_eq!(documented, code);
+    let documented = documented_rows(&format_md(), "## Header");
+    assert_eq!(documented, code_rows(&HEADER_FIELDS, |o| o.to_string()));
     let last = HEADER_FIELDS.last().unwrap();
     assert_eq!(last.offset + last.size, HEADER_SIZE);
+}
+
+/// The 2.0 header's table, row for row: the fixed fields at their offsets, the level table's
+/// entries at `64 + 16·i` (named `offset_i`, `size_i` in the text), the trailer at `H − 8`.
+#[test]
+fn docs_lod_header_table_matches_code() {
+    let documented = documented_rows(&format_md(), "## Levels of detail");
+    let mut code = code_rows(&LOD_HEADER_FIELDS, |o| o.to_string());
+    code.extend(LOD_LEVEL_FIELDS.iter().map(|f| {
+        (
+            format!("{} + {LOD_LEVEL_ENTRY}·i", LOD_HEADER_FIXED + f.offset),
+            f.size,
+            format!("{}_i", f.name),
+        )
+    }));
+    code.extend(code_rows(&LOD_TRAILER_FIELDS, |o| format!("H − {}", 8 - o)));
+    assert_eq!(documented, code);
 }
 
 /// Bytes of the hex dump between the worked-example markers.
