@@ -129,10 +129,10 @@ impl PackedOctree {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::header::*;
-    use crate::ValueBits;
     use crate::crc32::crc32;
     use crate::error::FormatError;
+    use crate::header::*;
+    use crate::ValueBits;
     use crate::{LeafInput, OctreeMeta, Voxel};
     use glam::Vec3;
 

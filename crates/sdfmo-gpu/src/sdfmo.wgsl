@@ -27,15 +27,15 @@
 //   so every field below is word-aligned. The file must have been validated on the host first
 //   (`PackedOctreeView::new`): the kernel trusts every count and index.
 //
-// What the kernel reads, in words of the file:
-//   header word 4       flags (bit 2 CLIP_VOXELS: the file has the clip bitmap)
-//   header word 5       depth (byte 20) and value_bits (byte 21)
-//   header words 10–12  inner_node_count I, leaf_count L, voxel_count V
-//   header words 16, 20, 24, 28  byte offsets of the nodes, leaves, surface, corners sections
-//   header word 30      corners_size (the clip bitmap starts at corners_offset + corners_size)
-//   (a file with levels, 2.0: bytes 20 and 21 of its header, the finest and coarsest level,
-//   and the low word of each level's 64-bit offset in the level table at byte 64; each level
-//   is read as above at its own offset, see "Levels of detail" at the end of this file)
+// What the kernel reads, in words of the file (the SMO_HEADER_* word indices are generated
+// from sdfmo_format's header tables, HEADER_FIELDS and LOD_HEADER_FIELDS / LOD_LEVEL_FIELDS):
+//   header  flags (CLIP_VOXELS: the file has the clip bitmap), depth and value_bits,
+//           inner_node_count I, leaf_count L, voxel_count V, the byte offsets of the nodes,
+//           leaves, surface and corners sections, corners_size (the clip bitmap starts at
+//           corners_offset + corners_size)
+//   (a file with levels, 2.0: its header's depth and coarsest level, and the low word of each
+//   level's 64-bit offset in the level table; each level is read as above at its own offset,
+//   see "Levels of detail" at the end of this file)
 //   (the low words of the header's 64-bit offsets and size: exact only for a file shorter than
 //   4 GiB. The host refuses a longer one before uploading it, sdfmo_gpu::MAX_GPU_FILE_BYTES;
 //   an engine binding the file itself must do the same.)
@@ -132,19 +132,19 @@ fn smo_info(dequant: f32) -> SmoInfo {
 /// its own start, become word offsets in the buffer.
 fn smo_info_at(base: u32, dequant: f32) -> SmoInfo {
     var info: SmoInfo;
-    let w5 = smo[base + 5u];
-    info.depth = w5 & 0xffu;
-    info.value_bits = (w5 >> 8u) & 0xffu;
-    info.inner_count = smo[base + 10u];
-    info.leaf_count = smo[base + 11u];
-    info.voxel_count = smo[base + 12u];
-    info.nodes = base + (smo[base + 16u] >> 2u);
-    info.leaves = base + (smo[base + 20u] >> 2u);
-    info.surface = base + (smo[base + 24u] >> 2u);
-    info.corners = base + (smo[base + 28u] >> 2u);
+    info.depth = (smo[base + SMO_HEADER_DEPTH] >> SMO_HEADER_DEPTH_SHIFT) & 0xffu;
+    info.value_bits = (smo[base + SMO_HEADER_VALUE_BITS] >> SMO_HEADER_VALUE_BITS_SHIFT) & 0xffu;
+    info.inner_count = smo[base + SMO_HEADER_INNER_COUNT];
+    info.leaf_count = smo[base + SMO_HEADER_LEAF_COUNT];
+    info.voxel_count = smo[base + SMO_HEADER_VOXEL_COUNT];
+    info.nodes = base + (smo[base + SMO_HEADER_NODES_OFFSET] >> 2u);
+    info.leaves = base + (smo[base + SMO_HEADER_LEAVES_OFFSET] >> 2u);
+    info.surface = base + (smo[base + SMO_HEADER_SURFACE_OFFSET] >> 2u);
+    let corners = smo[base + SMO_HEADER_CORNERS_OFFSET];
+    info.corners = base + (corners >> 2u);
     info.clip = 0u;
-    if (smo[base + 4u] & 4u) != 0u {
-        info.clip = base + ((smo[base + 28u] + smo[base + 30u]) >> 2u);
+    if (smo[base + SMO_HEADER_FLAGS] & SMO_FLAG_CLIP_VOXELS) != 0u {
+        info.clip = base + ((corners + smo[base + SMO_HEADER_CORNERS_SIZE]) >> 2u);
     }
     info.dequant = dequant;
     return info;
@@ -805,7 +805,7 @@ fn smo_hit_normal(info: SmoInfo, ray: SmoRay, hit: SmoHit) -> vec3<f32> {
 // ---- Levels of detail (.smo 2.0; sdfmo-trace lod.rs) ----
 //
 // A file with levels bound as it is saved (FORMAT.md, "Levels of detail"): the 2.0 header
-// (byte 20 depth D, byte 21 coarsest c; at byte 64 + 16·i the u64 offset of level c + i),
+// (depth D, coarsest c; in the level table, entry i the u64 offset of level c + i),
 // then each level as a complete 1.x file of its own, at a multiple of 8 bytes. Level k is
 // traced by `smo_intersect` over `smo_lod_level_info(lod, k)`; `smo_intersect_lod` picks the
 // level per ray by screen-space error exactly as sdfmo_trace::intersect_lod does (the same
@@ -821,15 +821,17 @@ struct SmoLod {
 /// Reads the 2.0 header of the bound file. `dequant` = the finest level's diagonal / Q
 /// (`sdfmo_format::quant::dequant_scale(D, bits)`, from the host).
 fn smo_lod(dequant: f32) -> SmoLod {
-    let w5 = smo[5];
-    return SmoLod((w5 >> 8u) & 0xffu, w5 & 0xffu, dequant);
+    let coarsest = (smo[SMO_LOD_HEADER_COARSEST] >> SMO_LOD_HEADER_COARSEST_SHIFT) & 0xffu;
+    let depth = (smo[SMO_LOD_HEADER_DEPTH] >> SMO_LOD_HEADER_DEPTH_SHIFT) & 0xffu;
+    return SmoLod(coarsest, depth, dequant);
 }
 
 /// Level `level` (coarsest ≤ level ≤ depth) of the bound 2.0 file. Its dequantisation factor
 /// is the finest level's times 2^(D − level): exact, because `dequant_scale` is a power-of-two
 /// multiple of the cell size rounded once to f32 (the crate's tests check every depth).
 fn smo_lod_level_info(lod: SmoLod, level: u32) -> SmoInfo {
-    let base = smo[16u + 4u * (level - lod.coarsest)] >> 2u;
+    let entry = SMO_LOD_TABLE + SMO_LOD_ENTRY * (level - lod.coarsest);
+    let base = smo[entry + SMO_LOD_LEVEL_OFFSET] >> 2u;
     return smo_info_at(base, ldexp(lod.dequant, i32(lod.depth) - i32(level)));
 }
 

@@ -116,12 +116,59 @@ fn shared_constants_have_the_rust_values() {
     assert_eq!(sdfmo_trace::clip::CLIP_TOLERANCE, CLIP_TOLERANCE);
     // Every shared constant is generated, none is written in the WGSL files.
     let generated = sdfmo_gpu::kernel_constants_wgsl();
-    assert_eq!(generated.matches("const ").count(), expected.len());
+    assert_eq!(
+        generated.matches("const ").count(),
+        expected.len() + HEADER_WORDS.len() + 1 // and SMO_FLAG_CLIP_VOXELS
+    );
     let written = sdfmo_gpu::shader_source().replace(&generated, "");
-    for (name, ..) in expected {
+    let names = expected
+        .iter()
+        .map(|e| e.0)
+        .chain(HEADER_WORDS.iter().map(|e| e.0))
+        .chain(["SMO_FLAG_CLIP_VOXELS"]);
+    for name in names {
         assert!(
             !written.contains(&format!("const {name}")),
             "{name} written by hand"
         );
     }
+}
+
+/// The header words the kernel reads, with the word index (or bit shift) the WGSL used to have
+/// as a literal before they were generated from the format's field tables.
+const HEADER_WORDS: [(&str, u64); 20] = [
+    ("SMO_HEADER_FLAGS", 4),
+    ("SMO_HEADER_DEPTH", 5),
+    ("SMO_HEADER_DEPTH_SHIFT", 0),
+    ("SMO_HEADER_VALUE_BITS", 5),
+    ("SMO_HEADER_VALUE_BITS_SHIFT", 8),
+    ("SMO_HEADER_INNER_COUNT", 10),
+    ("SMO_HEADER_LEAF_COUNT", 11),
+    ("SMO_HEADER_VOXEL_COUNT", 12),
+    ("SMO_HEADER_NODES_OFFSET", 16),
+    ("SMO_HEADER_LEAVES_OFFSET", 20),
+    ("SMO_HEADER_SURFACE_OFFSET", 24),
+    ("SMO_HEADER_CORNERS_OFFSET", 28),
+    ("SMO_HEADER_CORNERS_SIZE", 30),
+    ("SMO_LOD_HEADER_DEPTH", 5),
+    ("SMO_LOD_HEADER_DEPTH_SHIFT", 0),
+    ("SMO_LOD_HEADER_COARSEST", 5),
+    ("SMO_LOD_HEADER_COARSEST_SHIFT", 8),
+    ("SMO_LOD_LEVEL_OFFSET", 0),
+    ("SMO_LOD_TABLE", 16),
+    ("SMO_LOD_ENTRY", 4),
+];
+
+/// The header word indices come from `sdfmo_format`'s tables and equal what the kernel read
+/// before (so images are unchanged); the clip flag is the format's.
+#[test]
+fn header_words_are_the_format_tables() {
+    let m = module(&sdfmo_gpu::shader_source());
+    for (name, word) in HEADER_WORDS {
+        assert_eq!(const_value(&m, name), word, "{name}");
+    }
+    assert_eq!(
+        const_value(&m, "SMO_FLAG_CLIP_VOXELS"),
+        u64::from(sdfmo_format::FLAG_CLIP_VOXELS)
+    );
 }
