@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The tests, as the README gives them: the Rust workspace, then the Python package (a venv in
-# target/py-venv with maturin, numpy and pytest; the wheel built from crates/sdfmo-py in the dev
-# profile, which shares target/debug with the Rust tests; pytest against the installed wheel
-# and the CLI binary the Rust tests built). Arguments go to `cargo test`.
+# target/py-venv with maturin, numpy, pytest and mypy, whose stubtest checks the stubs; the
+# wheel built from crates/sdfmo-py in the dev profile, which shares target/debug with the Rust
+# tests; pytest against the installed wheel and the CLI binary the Rust tests built). Arguments go to `cargo test`.
 # PYTHON picks the interpreter (default python3, >= 3.9).
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -25,8 +25,8 @@ if [ ! -x "$VENV/bin/python" ]; then
         fi
     fi
 fi
-if ! "$VENV/bin/python" -c 'import maturin, numpy, pytest' 2> /dev/null; then
-    "$VENV/bin/python" -m pip install -q --disable-pip-version-check 'maturin>=1.9.4,<2' numpy pytest
+if ! "$VENV/bin/python" -c 'import maturin, numpy, pytest, mypy' 2> /dev/null; then
+    "$VENV/bin/python" -m pip install -q --disable-pip-version-check 'maturin>=1.9.4,<2' numpy pytest 'mypy>=1.11'
 fi
 rm -rf target/py-wheels
 "$VENV/bin/maturin" build --quiet --profile dev -m crates/sdfmo-py/Cargo.toml -o target/py-wheels

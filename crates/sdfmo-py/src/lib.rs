@@ -14,7 +14,6 @@
 
 mod arrays;
 pub mod errors;
-mod kwargs;
 mod mesh;
 mod octree;
 mod render;
@@ -23,7 +22,7 @@ pub mod run;
 use numpy::prelude::*;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyTuple};
+use pyo3::types::PyTuple;
 use sdf_multioctree::distance::sample::{
     sdf_training_points_part, TrainingSamples, TRAINING_BLOCK,
 };
@@ -34,8 +33,6 @@ use sdf_multioctree::Vec3;
 use crate::mesh::Mesh;
 use crate::octree::Octree;
 
-/// psnr(reference, test) -> float
-///
 /// PSNR in dB between two uint8 images of shape ``(h, w, 3)``, over all pixels and channels
 /// (``inf`` for identical images), as ``sdfmo compare`` computes it. ``ValueError`` when the
 /// shapes differ or a dtype is not uint8.
@@ -47,8 +44,6 @@ fn psnr(py: Python<'_>, reference: &Bound<'_, PyAny>, test: &Bound<'_, PyAny>) -
         .map_err(|e| errors::metrics_error(&e))
 }
 
-/// flip(reference, test, *, return_map=False) -> float | (float, numpy.ndarray)
-///
 /// Mean LDR-FLIP (NVIDIA's perceptual difference; 0 = identical) between two uint8 images of
 /// shape ``(h, w, 3)``, treated as sRGB at 67 pixels per degree, as ``sdfmo compare`` and
 /// NVIDIA's ``flip`` tool compute it. With ``return_map`` also the per-pixel error, float32 of
@@ -76,37 +71,35 @@ fn flip<'py>(
     Ok(PyTuple::new(py, [mean, map])?.into_any())
 }
 
-/// sample_sdf(mesh, n, *, seed=0, near_fraction=0.95, sigmas=(0.025, 0.0079), padding=0.1, sign="auto", threads=None) -> (points, sdf)
-///
 /// DeepSDF-style training samples of ``mesh``: ``points`` float32 ``(n, 3)`` and their exact
 /// signed distances ``sdf`` float32 ``(n,)``, model units, negative inside.
 ///
 /// The first ``round(n * near_fraction)`` points are uniform on the surface (area-weighted)
 /// plus isotropic Gaussian noise, alternating between the two standard deviations ``sigmas``
-/// (fractions of the bounding-box diagonal; the defaults are DeepSDF's variances 0.0025 and
-/// 0.00025 for a shape in the unit sphere); the rest are uniform in the bounding box grown by
+/// (fractions of the bounding-box diagonal; default ``(0.025, 0.0079)``, DeepSDF's variances
+/// 0.0025 and 0.00025 for a shape in the unit sphere, which the signature shows as ``...``:
+/// PyO3 prints literal defaults only); the rest are uniform in the bounding box grown by
 /// ``padding`` times its longest extent on every side. The same ``seed`` gives the same arrays
 /// whatever ``threads``; ``sdf`` equals ``mesh.signed_distance(points, sign=sign)`` exactly.
 /// Releases the GIL; Ctrl-C raises ``KeyboardInterrupt``.
 #[pyfunction]
-#[pyo3(
-    signature = (mesh, n, **options),
-    text_signature = "(mesh, n, *, seed=0, near_fraction=0.95, sigmas=(0.025, 0.0079), padding=0.1, sign='auto', threads=None)"
-)]
+#[pyo3(signature = (
+    mesh, n, *, seed = 0, near_fraction = 0.95, sigmas = (0.025, 0.0079), padding = 0.1,
+    sign = "auto", threads = None
+))]
 fn sample_sdf<'py>(
     py: Python<'py>,
     mesh: &Bound<'py, Mesh>,
     n: i64,
-    options: Option<&Bound<'py, PyDict>>,
+    seed: u64,
+    near_fraction: f64,
+    sigmas: (f64, f64),
+    padding: f64,
+    sign: &str,
+    threads: Option<i64>,
 ) -> PyResult<Bound<'py, PyTuple>> {
-    let mut k = kwargs::Kwargs::new("sample_sdf", options);
-    let seed: u64 = k.take("seed", 0)?;
-    let near_fraction: f64 = k.take("near_fraction", 0.95)?;
-    let sigmas: (f64, f64) = k.take("sigmas", (0.025, 0.0079))?;
-    let padding: f64 = k.take("padding", 0.1)?;
-    let mode = mesh::sign_arg(&k.take::<String>("sign", "auto".to_owned())?)?;
-    let threads = run::check_threads(k.take("threads", None)?)?;
-    k.finish()?;
+    let mode = mesh::sign_arg(sign)?;
+    let threads = run::check_threads(threads)?;
     let n = usize::try_from(n)
         .map_err(|_| PyValueError::new_err(format!("n must be >= 0, got {n}")))?;
     if !(0.0..=1.0).contains(&near_fraction) {
@@ -238,8 +231,6 @@ fn check_sample_reach(data: &mesh::MeshData, sigma: f64, padding: f64) -> PyResu
     Ok(())
 }
 
-/// load_png(path) -> numpy.ndarray
-///
 /// Reads a PNG as uint8 ``(h, w, 3)`` RGB, as ``sdfmo compare`` and NVIDIA's ``flip`` tool read
 /// it (16-bit channels keep their high byte, alpha is dropped, grey is replicated). ``OSError``
 /// subclasses when the file cannot be read, ``ValueError`` when it is not a valid PNG.
@@ -252,8 +243,6 @@ fn load_png<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'p
     Ok(arrays::image_array(py, img.into_raw(), w, h)?.into_any())
 }
 
-/// save_png(path, image)
-///
 /// Writes a uint8 ``(h, w, 3)`` image as an 8-bit RGB PNG, atomically (a temporary file in the
 /// same folder, then renamed), creating the folder if needed. ``path`` must end in ``.png``
 /// (any case; ``ValueError`` otherwise, as ``sdfmo render -o`` refuses it).

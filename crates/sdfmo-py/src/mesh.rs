@@ -8,7 +8,7 @@ use numpy::prelude::*;
 use numpy::{PyArray2, PyUntypedArray};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyTuple};
+use pyo3::types::PyTuple;
 use rayon::prelude::*;
 use sdf_multioctree::build::{self, BuildSettings, Method};
 use sdf_multioctree::distance::{MeshDistance, SignMode, MAX_QUERY_COORDINATE};
@@ -19,7 +19,6 @@ use sdf_multioctree::DEFAULT_MARGIN;
 
 use crate::arrays::{self, PointsArg, PointsView};
 use crate::errors;
-use crate::kwargs::Kwargs;
 use crate::octree::Octree;
 use crate::render::{RenderArgs, RenderOptions};
 use crate::run::{self, Cancel, Cancelled};
@@ -411,8 +410,6 @@ impl Mesh {
 
 #[pymethods]
 impl Mesh {
-    /// Mesh(vertices, faces, *, clean=False)
-    ///
     /// A mesh from numpy arrays: ``vertices`` of shape ``(n, 3)`` (any float dtype, stored as
     /// float32, model units) and ``faces`` of shape ``(m, 3)`` (any integer dtype, indices into
     /// ``vertices``). Raises ``ValueError`` for a wrong shape or dtype, a NaN or infinite
@@ -444,8 +441,6 @@ impl Mesh {
         Mesh::from_trimesh(mesh)
     }
 
-    /// Mesh.load(path) -> Mesh
-    ///
     /// Loads an OBJ, glTF/GLB or STL file (binary or ASCII; the format from the extension,
     /// confirmed by the content), welding bit-identical vertices and dropping degenerate and
     /// duplicate triangles, with the command-line tool's rules: regular files only, at most
@@ -535,8 +530,6 @@ impl Mesh {
         )
     }
 
-    /// signed_distance(points, *, sign="auto", return_closest=False, return_face=False, threads=None)
-    ///
     /// Exact signed distance from each point to the mesh, negative inside, in model units.
     ///
     /// ``points``: shape ``(..., 3)``, any float dtype, C or Fortran order (float32 and
@@ -566,8 +559,6 @@ impl Mesh {
         self.distance_batch(py, points, Some(mode), return_closest, return_face, threads)
     }
 
-    /// unsigned_distance(points, *, return_closest=False, return_face=False, threads=None)
-    ///
     /// Exact distance from each point to the nearest point of the mesh (never negative), in
     /// model units. Arguments and results as ``signed_distance``.
     #[pyo3(signature = (points, *, return_closest = false, return_face = false, threads = None))]
@@ -582,8 +573,6 @@ impl Mesh {
         self.distance_batch(py, points, None, return_closest, return_face, threads)
     }
 
-    /// winding_number(points, *, threads=None)
-    ///
     /// Generalised winding number of the mesh at each point (Jacobson et al. 2013, with the
     /// hierarchical approximation of Barill et al. 2018): about 1 inside a closed outward
     /// surface, 0 outside, fractional near the holes of an open one. float32 of shape
@@ -608,8 +597,6 @@ impl Mesh {
         })
     }
 
-    /// contains(points, *, sign="auto", threads=None)
-    ///
     /// Whether each point lies inside the mesh: ``signed_distance(points, sign=sign) < 0``
     /// (the same sign decision). bool of shape ``(...)``.
     #[pyo3(signature = (points, *, sign = "auto", threads = None))]
@@ -625,8 +612,6 @@ impl Mesh {
         d.call_method1("__lt__", (0.0f32,))
     }
 
-    /// ray_intersect(origins, directions, *, t_max=inf, threads=None) -> (t, face)
-    ///
     /// First hit of each ray ``origin + t * direction`` (t >= 0) on the mesh, with the
     /// watertight ray-triangle test (a ray through an edge or a vertex never slips through).
     /// ``origins`` and ``directions``: shape ``(..., 3)``, the same shape, model units; the
@@ -714,8 +699,6 @@ impl Mesh {
         PyTuple::new(py, [t, f])
     }
 
-    /// build(depth, *, method="multi", max_voxels=8, bits=8, sign="auto", threads=None, max_memory=None) -> Octree
-    ///
     /// Builds the sparse octree of trilinear signed-distance voxels, as ``sdfmo build`` does:
     /// ``method`` ``"multi"`` (the multi-octree: up to ``max_voxels`` voxels per leaf, one per
     /// component) or ``"svo"`` (the classic sparse voxel octree); leaves at ``depth`` (1..=16;
@@ -724,24 +707,22 @@ impl Mesh {
     /// when its predicted peak memory exceeds ``max_memory`` bytes (default: half the physical
     /// memory, the command-line tool's default). Releases the GIL; Ctrl-C stops it between
     /// phases and chunks of corners and leaves (the subdivision phase runs to its end).
-    #[pyo3(
-        signature = (depth, **options),
-        text_signature = "($self, depth, *, method='multi', max_voxels=8, bits=8, sign='auto', threads=None, max_memory=None)"
-    )]
+    #[pyo3(signature = (
+        depth, *, method = "multi", max_voxels = 8, bits = 8, sign = "auto", threads = None,
+        max_memory = None
+    ))]
     fn build(
         &self,
         py: Python<'_>,
         depth: i64,
-        options: Option<&Bound<'_, PyDict>>,
+        method: &str,
+        max_voxels: i64,
+        bits: i64,
+        sign: &str,
+        threads: Option<i64>,
+        max_memory: Option<u64>,
     ) -> PyResult<Octree> {
-        let mut k = Kwargs::new("build", options);
-        let method: String = k.take("method", "multi".to_owned())?;
-        let max_voxels: i64 = k.take("max_voxels", 8)?;
-        let bits: i64 = k.take("bits", 8)?;
-        let sign: String = k.take("sign", "auto".to_owned())?;
-        let threads = run::check_threads(k.take("threads", None)?)?;
-        let max_memory: Option<u64> = k.take("max_memory", None)?;
-        k.finish()?;
+        let threads = run::check_threads(threads)?;
         let depth = u8::try_from(depth)
             .ok()
             .filter(|d| (build::MIN_DEPTH..=sdf_multioctree::format::MAX_DEPTH).contains(d))
@@ -752,7 +733,7 @@ impl Mesh {
                     sdf_multioctree::format::MAX_DEPTH
                 ))
             })?;
-        let method = match method.as_str() {
+        let method = match method {
             "multi" => Method::Multi {
                 max_voxels: u8::try_from(max_voxels)
                     .ok()
@@ -786,7 +767,7 @@ impl Mesh {
             // The pool is ours (cancellation and reuse); the builder runs in it.
             threads: None,
             margin: DEFAULT_MARGIN,
-            sign: sign_arg(&sign)?,
+            sign: sign_arg(sign)?,
             ..BuildSettings::default()
         };
         let budget = max_memory.or_else(build::default_memory_budget);
@@ -808,22 +789,41 @@ impl Mesh {
         Ok(Octree::new(octree, Some(stats)))
     }
 
-    /// render(width=1024, height=None, *, mode="lambert", view=0, eye=None, target=None, fov=None, frame="model", shadows=False, ao=0, threads=None)
-    ///
     /// Ray traces the mesh as ``sdfmo render-mesh`` does (the reference image of the paper's
     /// protocol): normalised exactly as the builder normalises it, so the images line up with
     /// ``Octree.render``'s, face normals, the same camera and shading. Returns uint8 of shape
     /// ``(height, width, 3)``, numpy's order (``render(640, 480).shape == (480, 640, 3)``). See
     /// ``Octree.render`` for the arguments.
-    #[pyo3(signature = (width = 1024, height = None, **options), text_signature = "($self, width=1024, height=None, *, mode='lambert', view=0, eye=None, target=None, fov=None, frame='model', shadows=False, ao=0, threads=None)")]
+    #[pyo3(signature = (
+        width = 1024, height = None, *, mode = "lambert", view = 0, eye = None, target = None,
+        fov = None, frame = "model", shadows = false, ao = 0, threads = None
+    ))]
     fn render<'py>(
         &self,
         py: Python<'py>,
         width: i64,
         height: Option<i64>,
-        options: Option<&Bound<'py, PyDict>>,
+        mode: &str,
+        view: i64,
+        eye: Option<Vec<f32>>,
+        target: Option<Vec<f32>>,
+        fov: Option<f32>,
+        frame: &str,
+        shadows: bool,
+        ao: i64,
+        threads: Option<i64>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let options = RenderOptions::from_kwargs("render", options)?;
+        let options = RenderOptions {
+            mode,
+            view,
+            eye,
+            target,
+            fov,
+            frame,
+            shadows,
+            ao,
+            threads,
+        };
         let args = RenderArgs::parse(width, height, options, &self.data.norm)?;
         let data = &self.data;
         args.render(py, |settings, camera, cancel| {

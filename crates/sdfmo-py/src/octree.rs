@@ -19,7 +19,6 @@ use sdf_multioctree::trace::distance_at;
 
 use crate::arrays;
 use crate::errors;
-use crate::kwargs::Kwargs;
 use crate::render::{RenderArgs, RenderOptions};
 use crate::run::{self, Cancelled};
 
@@ -74,10 +73,7 @@ fn level_list((coarsest, finest): (u8, u8)) -> Vec<u32> {
 /// `lod=` and `pixel_error=` of `Octree.render`, taken out of its keywords (the rest are
 /// `RenderOptions`, shared with `Mesh.render`, which has no levels): the `LevelRequest` of
 /// `sdfmo render --lod` / `--pixel-error`.
-fn level_request(options: Option<&Bound<'_, PyDict>>) -> PyResult<LevelRequest> {
-    let mut k = Kwargs::new("render", options);
-    let lod: Option<i64> = k.take("lod", None)?;
-    let pixel_error: Option<f64> = k.take("pixel_error", None)?;
+fn level_request(lod: Option<i64>, pixel_error: Option<f64>) -> PyResult<LevelRequest> {
     match (lod, pixel_error) {
         (Some(_), Some(_)) => Err(PyValueError::new_err(
             "lod and pixel_error exclude each other (one level, or each ray's level by pixel error)",
@@ -96,8 +92,6 @@ fn level_request(options: Option<&Bound<'_, PyDict>>) -> PyResult<LevelRequest> 
 
 #[pymethods]
 impl Octree {
-    /// Octree.load(path) -> Octree
-    ///
     /// Loads and validates a ``.smo`` file (header, sizes, checksum, every node and voxel):
     /// one octree, or levels of detail (``sdfmo build --lod``), whole or cut where a level ends
     /// (a download in progress; ``levels`` and ``file_levels`` say what it holds). Raises
@@ -112,8 +106,6 @@ impl Octree {
         Ok(Octree::loaded(data))
     }
 
-    /// Octree.from_bytes(data) -> Octree
-    ///
     /// An octree from the bytes of a ``.smo`` file, validated as ``Octree.load`` validates a
     /// file (``sdfmo.FormatError`` when they are not a valid octree). ``data``: any bytes-like
     /// object (``bytes``, ``bytearray``, ``memoryview``, a C-contiguous numpy array such as a
@@ -137,8 +129,6 @@ impl Octree {
         Ok(Octree::loaded(data))
     }
 
-    /// save(path, *, compress=None)
-    ///
     /// Writes the ``.smo`` file atomically (a temporary file in the same folder, synced, then
     /// renamed): the destination is either the old file or the whole new one. ``path`` must end
     /// in ``.smo`` (any case; ``ValueError`` otherwise, as ``sdfmo build -o`` refuses it). A
@@ -172,8 +162,6 @@ impl Octree {
         .map_err(|e| errors::format_error(&e))
     }
 
-    /// to_bytes() -> bytes
-    ///
     /// The bytes of the ``.smo`` file (what ``save`` writes).
     fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
         PyBytes::new(py, &self.file_bytes())
@@ -282,8 +270,6 @@ impl Octree {
         )
     }
 
-    /// distance(points, *, threads=None)
-    ///
     /// The signed distance the octree stores at each point (model units in and out): the
     /// trilinear value of the leaf's voxels (their minimum in a multi-voxel leaf; surface
     /// voxels unsigned), as the ray tracer sees it. float32 of shape ``(...)`` for points of
@@ -340,8 +326,6 @@ impl Octree {
         })
     }
 
-    /// render(width=1024, height=None, *, mode="lambert", view=0, eye=None, target=None, fov=None, frame="model", shadows=False, ao=0, threads=None, lod=None, pixel_error=None)
-    ///
     /// Ray traces the octree as ``sdfmo render`` does; returns uint8 of shape
     /// ``(height, width, 3)``, numpy's order (``render(640, 480).shape == (480, 640, 3)``;
     /// ``height`` defaults to ``width``).
@@ -362,16 +346,40 @@ impl Octree {
     /// naming those held); ``pixel_error`` (pixels, > 0; a file with levels only) traces each
     /// ray at the coarsest level held whose voxels project to at most that many pixels at its
     /// hit distance, for this camera's field of view and height. Not both.
-    #[pyo3(signature = (width = 1024, height = None, **options), text_signature = "($self, width=1024, height=None, *, mode='lambert', view=0, eye=None, target=None, fov=None, frame='model', shadows=False, ao=0, threads=None, lod=None, pixel_error=None)")]
+    #[pyo3(signature = (
+        width = 1024, height = None, *, mode = "lambert", view = 0, eye = None, target = None,
+        fov = None, frame = "model", shadows = false, ao = 0, threads = None, lod = None,
+        pixel_error = None
+    ))]
     fn render<'py>(
         &self,
         py: Python<'py>,
         width: i64,
         height: Option<i64>,
-        options: Option<&Bound<'py, PyDict>>,
+        mode: &str,
+        view: i64,
+        eye: Option<Vec<f32>>,
+        target: Option<Vec<f32>>,
+        fov: Option<f32>,
+        frame: &str,
+        shadows: bool,
+        ao: i64,
+        threads: Option<i64>,
+        lod: Option<i64>,
+        pixel_error: Option<f64>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let request = level_request(options)?;
-        let options = RenderOptions::from_kwargs("render", options)?;
+        let request = level_request(lod, pixel_error)?;
+        let options = RenderOptions {
+            mode,
+            view,
+            eye,
+            target,
+            fov,
+            frame,
+            shadows,
+            ao,
+            threads,
+        };
         let args = RenderArgs::parse(
             width,
             height,

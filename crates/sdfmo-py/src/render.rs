@@ -4,53 +4,35 @@
 use glam::Vec3;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
 use sdf_multioctree::mesh::Normalization;
 use sdf_multioctree::render::{
     Camera, Mode, RenderError, RenderSettings, Rendered, MAX_AO_SAMPLES,
 };
 
 use crate::arrays;
-use crate::kwargs::Kwargs;
 use crate::run;
 
-/// The keyword-only options of `render`, with their Python defaults.
-pub struct RenderOptions {
-    mode: String,
-    view: i64,
-    eye: Option<[f32; 3]>,
-    target: Option<[f32; 3]>,
-    fov: Option<f32>,
-    frame: String,
-    shadows: bool,
-    ao: i64,
-    threads: Option<i64>,
-}
-
-impl RenderOptions {
-    /// Reads the options from the call's keywords (`function` names the call in errors).
-    ///
-    /// # Errors
-    /// `TypeError` for an unknown keyword or a value of the wrong type.
-    pub fn from_kwargs(
-        function: &'static str,
-        kwargs: Option<&Bound<'_, PyDict>>,
-    ) -> PyResult<RenderOptions> {
-        let mut k = Kwargs::new(function, kwargs);
-        let options = RenderOptions {
-            mode: k.take("mode", "lambert".to_owned())?,
-            view: k.take("view", 0)?,
-            eye: point_option(&mut k, "eye")?,
-            target: point_option(&mut k, "target")?,
-            fov: k.take("fov", None)?,
-            frame: k.take("frame", "model".to_owned())?,
-            shadows: k.take("shadows", false)?,
-            ao: k.take("ao", 0)?,
-            threads: k.take("threads", None)?,
-        };
-        k.finish()?;
-        Ok(options)
-    }
+/// The keyword-only options of `Mesh.render` and `Octree.render` as the call gave them (the
+/// PyO3 signatures of both declare their names and defaults), checked by [`RenderArgs::parse`].
+pub struct RenderOptions<'a> {
+    /// `mode=`: "lambert", "mask", "depth" or "normal".
+    pub mode: &'a str,
+    /// `view=`: one of the paper's four cameras.
+    pub view: i64,
+    /// `eye=`: 3 numbers, in the frame `frame` names.
+    pub eye: Option<Vec<f32>>,
+    /// `target=`: 3 numbers, in the frame `frame` names.
+    pub target: Option<Vec<f32>>,
+    /// `fov=`: vertical field of view in degrees.
+    pub fov: Option<f32>,
+    /// `frame=`: "model" or "normalized".
+    pub frame: &'a str,
+    /// `shadows=`.
+    pub shadows: bool,
+    /// `ao=`: ambient-occlusion rays per pixel.
+    pub ao: i64,
+    /// `threads=`.
+    pub threads: Option<i64>,
 }
 
 /// Bytes a render may hold per pixel at its peak: RGB (3), depth (4) or normals (12) when the
@@ -60,8 +42,7 @@ const RENDER_BYTES_PER_PIXEL: u64 = 2 * (3 + 12);
 /// An optional point keyword (`eye`, `target`): 3 numbers (finiteness is the camera's check),
 /// the error naming the keyword and the length it got (a 2-element `eye` used to be a bare
 /// "expected 3 items").
-fn point_option(k: &mut Kwargs<'_>, name: &'static str) -> PyResult<Option<[f32; 3]>> {
-    let v: Option<Vec<f32>> = k.take(name, None)?;
+fn point_option(v: Option<Vec<f32>>, name: &'static str) -> PyResult<Option<[f32; 3]>> {
     match v {
         None => Ok(None),
         Some(v) => <[f32; 3]>::try_from(v.as_slice()).map(Some).map_err(|_| {
@@ -89,20 +70,13 @@ impl RenderArgs {
     pub fn parse(
         width: i64,
         height: Option<i64>,
-        options: RenderOptions,
+        o: RenderOptions<'_>,
         model_frame: &Normalization,
     ) -> PyResult<RenderArgs> {
-        let RenderOptions {
-            mode,
-            view,
-            eye,
-            target,
-            fov,
-            frame,
-            shadows,
-            ao,
-            threads,
-        } = options;
+        let (mode, view, fov, frame, shadows, ao) =
+            (o.mode, o.view, o.fov, o.frame, o.shadows, o.ao);
+        let eye = point_option(o.eye, "eye")?;
+        let target = point_option(o.target, "target")?;
         let height = height.unwrap_or(width);
         for (name, v) in [("width", width), ("height", height)] {
             if !(1..=MAX_IMAGE_EDGE).contains(&v) {
@@ -111,7 +85,7 @@ impl RenderArgs {
                 )));
             }
         }
-        let mode = match mode.as_str() {
+        let mode = match mode {
             "lambert" => Mode::Lambert,
             "mask" => Mode::Mask,
             "depth" => Mode::Depth,
@@ -137,8 +111,8 @@ impl RenderArgs {
                 "ao must be in 0..={MAX_AO_SAMPLES} rays per pixel, got {ao}"
             )));
         }
-        let threads = run::check_threads(threads)?;
-        let normalized = match frame.as_str() {
+        let threads = run::check_threads(o.threads)?;
+        let normalized = match frame {
             "model" => false,
             "normalized" => true,
             other => {

@@ -1,12 +1,24 @@
 """Type stubs of the compiled module ``sdfmo._sdfmo`` (re-exported by ``sdfmo``)."""
 
 import os
-from typing import List, Literal, Optional, Sequence, Tuple, TypedDict, Union, overload
+from typing import List, Literal, Optional, Sequence, Tuple, Union, final, overload
 
 import numpy as np
 import numpy.typing as npt
-from typing_extensions import Buffer, Unpack
+from typing_extensions import Buffer
 
+__all__ = [
+    "Mesh",
+    "Octree",
+    "sample_sdf",
+    "psnr",
+    "flip",
+    "load_png",
+    "save_png",
+    "FormatError",
+    "MeshError",
+    "__version__",
+]
 __version__: str
 
 _Path = Union[str, "os.PathLike[str]"]
@@ -17,40 +29,17 @@ _F32 = npt.NDArray[np.float32]
 _I64 = npt.NDArray[np.int64]
 _U8 = npt.NDArray[np.uint8]
 
-class _RenderOptions(TypedDict, total=False):
-    """The keyword-only options of ``Mesh.render`` and ``Octree.render`` (the runtime reads them
-    from ``**options``); defaults: ``mode="lambert"``, ``view=0``, ``eye``, ``target``, ``fov``
-    and ``threads`` ``None``, ``frame="model"`` (``eye`` and ``target`` in model units;
-    ``"normalized"``: in the root cube), ``shadows=False``, ``ao=0``."""
-
-    mode: _Mode
-    view: int
-    eye: Optional[Sequence[float]]
-    target: Optional[Sequence[float]]
-    fov: Optional[float]
-    frame: Literal["model", "normalized"]
-    shadows: bool
-    ao: int
-    threads: Optional[int]
-
-class _OctreeRenderOptions(_RenderOptions, total=False):
-    """``Octree.render``'s options: ``_RenderOptions`` and the level drawn, as ``sdfmo render
-    --lod`` / ``--pixel-error``: ``lod`` one level of ``Octree.levels`` (default the finest),
-    or ``pixel_error`` (pixels > 0, a file with levels only) each ray's level; not both."""
-
-    lod: Optional[int]
-    pixel_error: Optional[float]
-
 class FormatError(ValueError):
     """A ``.smo`` file that is truncated, corrupt, of an unknown version or inconsistent."""
 
 class MeshError(ValueError):
     """A mesh file that is not a readable OBJ, glTF/GLB or STL file."""
 
+@final
 class Mesh:
     """A triangle mesh in model units, with exact distance queries."""
 
-    def __init__(self, vertices: npt.ArrayLike, faces: npt.ArrayLike, *, clean: bool = False) -> None:
+    def __new__(cls, vertices: npt.ArrayLike, faces: npt.ArrayLike, *, clean: bool = False) -> "Mesh":
         """A mesh from ``vertices`` ``(n, 3)`` floats and ``faces`` ``(m, 3)`` integers;
         ``ValueError`` for a degenerate one (zero extent, or every triangle of zero area)."""
     @staticmethod
@@ -146,11 +135,24 @@ class Mesh:
     ) -> "Octree":
         """Builds the sparse SDF octree."""
     def render(
-        self, width: int = 1024, height: Optional[int] = None, **options: Unpack[_RenderOptions]
+        self,
+        width: int = 1024,
+        height: Optional[int] = None,
+        *,
+        mode: _Mode = "lambert",
+        view: int = 0,
+        eye: Optional[Sequence[float]] = None,
+        target: Optional[Sequence[float]] = None,
+        fov: Optional[float] = None,
+        frame: Literal["model", "normalized"] = "model",
+        shadows: bool = False,
+        ao: int = 0,
+        threads: Optional[int] = None,
     ) -> _U8:
         """Ray traces the mesh (the reference image), uint8 of shape ``(height, width, 3)``:
         ``render(640, 480).shape == (480, 640, 3)``."""
 
+@final
 class Octree:
     """A sparse octree of trilinear signed-distance voxels (``.smo``)."""
 
@@ -193,7 +195,18 @@ class Octree:
         self,
         width: int = 1024,
         height: Optional[int] = None,
-        **options: Unpack[_OctreeRenderOptions],
+        *,
+        mode: _Mode = "lambert",
+        view: int = 0,
+        eye: Optional[Sequence[float]] = None,
+        target: Optional[Sequence[float]] = None,
+        fov: Optional[float] = None,
+        frame: Literal["model", "normalized"] = "model",
+        shadows: bool = False,
+        ao: int = 0,
+        threads: Optional[int] = None,
+        lod: Optional[int] = None,
+        pixel_error: Optional[float] = None,
     ) -> _U8:
         """Ray traces the octree (a level, or by pixel error), uint8 of shape
         ``(height, width, 3)``: ``render(640, 480).shape == (480, 640, 3)``."""
@@ -204,7 +217,7 @@ def sample_sdf(
     *,
     seed: int = 0,
     near_fraction: float = 0.95,
-    sigmas: Tuple[float, float] = (0.025, 0.0079),
+    sigmas: Tuple[float, float] = ...,
     padding: float = 0.1,
     sign: _Sign = "auto",
     threads: Optional[int] = None,
