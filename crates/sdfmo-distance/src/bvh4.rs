@@ -68,6 +68,11 @@ pub(crate) struct Bvh4 {
     pub(crate) nodes: Vec<Node4>,
     /// The leaves' triangles, each leaf's packets contiguous, in the order of the search.
     pub(crate) packets: Vec<LeafPacket>,
+    /// Levels of nodes (a root alone is 1): bounds the search's stack.
+    pub(crate) depth: usize,
+    /// Largest absolute coordinate of any triangle corner (the closest-point search's rounding
+    /// margin scales with it).
+    pub(crate) extent: f32,
 }
 
 impl Bvh4 {
@@ -79,15 +84,21 @@ impl Bvh4 {
         let mut out = Bvh4 {
             nodes: Vec::with_capacity(nodes.len() / 3 + 1),
             packets: Vec::with_capacity(corners.len() / 3 + 1),
+            depth: 1,
+            extent: corners
+                .iter()
+                .flatten()
+                .fold(0.0f32, |m, v| m.max(v.abs().max_element())),
         };
         if nodes.is_empty() {
             out.nodes.push(Node4::EMPTY);
             return out;
         }
         out.nodes.push(Node4::EMPTY);
-        // (BVH2 node to collapse, Node4 slot it fills)
-        let mut work = vec![(0usize, 0usize)];
-        while let Some((n2, slot)) = work.pop() {
+        // (BVH2 node to collapse, Node4 slot it fills, its level)
+        let mut work = vec![(0usize, 0usize, 1usize)];
+        while let Some((n2, slot, level)) = work.pop() {
+            out.depth = out.depth.max(level);
             let root = &nodes[n2];
             let mut kids: Vec<usize> = if root.prim_count > 0 {
                 // A tree that is one leaf: the root node holds it as its only child.
@@ -136,7 +147,7 @@ impl Bvh4 {
                     let index = out.nodes.len();
                     out.nodes.push(Node4::EMPTY);
                     node.child[lane] = index as u32;
-                    work.push((k, index));
+                    work.push((k, index, level + 1));
                 }
             }
             out.nodes[slot] = node;

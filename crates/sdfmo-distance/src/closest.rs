@@ -3,6 +3,10 @@
 
 use super::*;
 
+/// Depth of the 4-wide tree up to which the search uses a small stack (the shared meshes' trees
+/// have 12–20 levels).
+const SHALLOW_BVH4: usize = 32;
+
 /// What the closest-point search reads of one leaf slot, in one 64-byte cache line (the
 /// sphere, the corners and the id were three arrays, so up to three cache misses per triangle).
 #[derive(Clone, Copy, Debug)]
@@ -21,19 +25,76 @@ pub(crate) struct LeafRecord {
     pub(crate) rotation: u8,
 }
 
-/// State of one closest-point search: the query and the best triangle so far (`best.distance`
-/// holds the squared distance until the search returns).
+/// State of one closest-point search: the query and the best triangle so far.
 struct Search {
     p: Vec3,
+    /// Squared distance of the best triangle so far (or the caller's bound).
     best_d2: f32,
     best_d: f32,
+    /// A packet whose four triangles' boxes are all farther than this (squared) is skipped:
+    /// `best_d` plus a margin that covers the rounding of both distances (see
+    /// [`Search::set_best`]).
+    cull_d2: f32,
+    /// `CULL_SLACK` × (the mesh's and the query's largest coordinate): the absolute part of
+    /// the margin.
+    cull_abs: f32,
+    /// Leaf slot of the best triangle when the SIMD filter's distance was taken without the
+    /// exact test (its closest point is computed once, at the end), else `u32::MAX` and the
+    /// best is in `best`.
+    best_slot: u32,
+    /// The best closest point found by an exact test (or the caller's seed), `distance`
+    /// squared.
     best: ClosestPoint,
 }
 
+/// Relative rounding slack of the packet box test: 16 ε is several times the error of the
+/// computed box distance (≤ 2 ε relative) plus that of a triangle's computed distance (≤ 4 ε
+/// of the largest coordinate involved plus 3 ε relative, Ericson's edge and face points).
+const CULL_SLACK: f32 = 16.0 * f32::EPSILON;
+
 impl Search {
-    /// The result: the best closest point with its distance (no longer squared).
-    fn finish(self) -> ClosestPoint {
+    fn new(p: Vec3, best_d2: f32, best: ClosestPoint, extent: f32) -> Search {
+        let mut search = Search {
+            p,
+            best_d2,
+            best_d: 0.0,
+            cull_d2: f32::INFINITY,
+            cull_abs: CULL_SLACK * (extent + p.abs().max_element()),
+            best_slot: u32::MAX,
+            best,
+        };
+        search.set_best(best_d2);
+        search
+    }
+
+    /// Records a new best squared distance and the packet bound that follows from it.
+    #[inline(always)]
+    fn set_best(&mut self, d2: f32) {
+        self.best_d2 = d2;
+        self.best_d = d2.sqrt();
+        let cull = self.best_d * (1.0 + CULL_SLACK) + self.cull_abs;
+        // (+∞ when there is no bound yet, or when squaring overflows: nothing is culled.)
+        self.cull_d2 = cull * cull;
+    }
+
+    /// The result: the best closest point with its distance (no longer squared). A best taken
+    /// from the SIMD filter gets its closest point from the exact test now; the filter's
+    /// distance is bit-identical to that test's (see `TrianglePacket::dist2_or_zero`).
+    fn finish(self, records: &[LeafRecord]) -> ClosestPoint {
         let mut best = self.best;
+        if let Some(rec) = records.get(self.best_slot as usize) {
+            let t = &rec.corners;
+            let (q, feature) =
+                point_triangle::closest_point_prerotated(self.p, t[0], t[1], t[2], rec.rotation);
+            let d2 = (self.p - q).length_squared();
+            debug_assert_eq!(d2.to_bits(), self.best_d2.to_bits());
+            best = ClosestPoint {
+                point: q,
+                distance: d2,
+                triangle: rec.id,
+                feature,
+            };
+        }
         if best.triangle != u32::MAX {
             best.distance = best.distance.sqrt();
         }
@@ -90,20 +151,34 @@ impl MeshDistance {
         best_d2: f32,
         best: ClosestPoint,
     ) -> ClosestPoint {
-        let mut search = Search {
-            p,
-            best_d2,
-            best_d: best_d2.sqrt(),
-            best,
-        };
+        // The stack holds at most three entries per level. Zeroing the one for the deepest
+        // supported tree (385 entries, 4.6 kB) cost as much as the rest of a query on abc5 in
+        // instruction counts, so trees of ordinary depth get a small one.
+        if self.bvh4.depth <= SHALLOW_BVH4 {
+            self.closest_with_stack::<{ 3 * SHALLOW_BVH4 + 1 }>(p, best_d2, best)
+        } else {
+            self.closest_with_stack::<{ 3 * MAX_BVH_DEPTH + 1 }>(p, best_d2, best)
+        }
+    }
+
+    /// [`closest_bounded`](Self::closest_bounded) with a stack of `STACK` entries (at least
+    /// three per level of the 4-wide tree, plus one).
+    #[inline(always)]
+    fn closest_with_stack<const STACK: usize>(
+        &self,
+        p: Vec3,
+        best_d2: f32,
+        best: ClosestPoint,
+    ) -> ClosestPoint {
+        let mut search = Search::new(p, best_d2, best, self.bvh4.extent);
         if !p.is_finite() {
             // NaN would make every box distance (even the empty lanes', min +∞ max −∞) 0.
-            return search.finish();
+            return search.finish(&self.leaf_records);
         }
         let pa = Vec3A::from(p);
         let nodes = &self.bvh4.nodes[..];
-        // Each level pushes at most three siblings: (child, leaf triangle count or 0, d²).
-        let mut stack = [(0u32, 0u32, 0.0f32); 3 * MAX_BVH_DEPTH + 1];
+        // Each level pushes at most three siblings: (child, leaf packet count or 0, d²).
+        let mut stack = [(0u32, 0u32, 0.0f32); STACK];
         let mut sp = 0usize;
         let mut ni = 0usize;
         'descend: loop {
@@ -152,37 +227,45 @@ impl MeshDistance {
             }
             break;
         }
-        search.finish()
+        search.finish(&self.leaf_records)
     }
 
     /// Tests the triangles of the leaf packets `packets` against the search's best so far: four
-    /// at a time through the SIMD filter, then exactly where a lane can win.
+    /// at a time, first their boxes, then the SIMD filter, then the exact test where the filter
+    /// leaves the distance open (face interior, degenerate triangle).
     #[inline(always)]
     fn search_leaf(&self, search: &mut Search, packets: std::ops::Range<usize>) {
         let p = search.p;
         for packet in &self.bvh4.packets[packets] {
+            if !packet.triangles.any_box_within(p, search.cull_d2) {
+                continue;
+            }
             let lanes = packet.triangles.dist2_or_zero(p).to_array();
             for (&d2, &slot) in lanes.iter().zip(&packet.slots) {
                 // (NaN lanes are skipped too.)
                 if d2.partial_cmp(&search.best_d2) != Some(std::cmp::Ordering::Less) {
                     continue;
                 }
+                if d2 != 0.0 {
+                    // Vertex or edge: the filter's distance is the exact test's, to the bit.
+                    search.set_best(d2);
+                    search.best_slot = slot;
+                    continue;
+                }
                 let rec = &self.leaf_records[slot as usize];
-                if d2 == 0.0 {
-                    // Face interior or degenerate: the filter gave no bound; the sphere may.
-                    let sphere = rec.sphere;
-                    let lim = search.best_d + sphere.w;
-                    if (p - sphere.truncate()).length_squared() > lim * lim {
-                        continue;
-                    }
+                // Face interior or degenerate: the filter gave no bound; the sphere may.
+                let sphere = rec.sphere;
+                let lim = search.best_d + sphere.w;
+                if (p - sphere.truncate()).length_squared() > lim * lim {
+                    continue;
                 }
                 let t = &rec.corners;
                 let (q, f) =
                     point_triangle::closest_point_prerotated(p, t[0], t[1], t[2], rec.rotation);
                 let d2 = (p - q).length_squared();
                 if d2 < search.best_d2 {
-                    search.best_d2 = d2;
-                    search.best_d = d2.sqrt();
+                    search.set_best(d2);
+                    search.best_slot = u32::MAX;
                     search.best = ClosestPoint {
                         point: q,
                         distance: d2,

@@ -51,6 +51,22 @@ impl TrianglePacket {
         packet
     }
 
+    /// Whether the bounding box of any of the four triangles is within squared distance
+    /// `bound` of `p` (computed from the corners: a lower bound on each triangle's distance
+    /// that costs a third of [`dist2_or_zero`](Self::dist2_or_zero)).
+    #[inline(always)]
+    pub(crate) fn any_box_within(&self, p: Vec3, bound: f32) -> bool {
+        let axis = |k: usize, v: f32| {
+            let lo = self.a[k].min(self.b[k]).min(self.c[k]);
+            let hi = self.a[k].max(self.b[k]).max(self.c[k]);
+            let v = Vec4::splat(v);
+            let d = (lo - v).max(v - hi).max(Vec4::ZERO);
+            d * d
+        };
+        let d2 = axis(0, p.x) + axis(1, p.y) + axis(2, p.z);
+        d2.cmple(Vec4::splat(bound)).any()
+    }
+
     /// Per lane: the squared distance from `p` to the triangle when its closest point is a
     /// vertex or on an edge (bit-identical to `(p - q).length_squared()` of the scalar
     /// `closest_point_ordered`), 0 when it is in the face interior or the triangle is degenerate
