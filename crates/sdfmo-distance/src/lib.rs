@@ -7,9 +7,11 @@
 //!
 //! - **Closest point**: obvhs' BVH2 collapsed into a 4-wide tree (four child boxes tested in one
 //!   SIMD pass), best-first (nearest child first, subtrees pruned by their box distance, a
-//!   fixed-size stack); each leaf's triangles go four at a time through a branch-free SIMD copy
-//!   of Ericson's Voronoi-region method, and only the lanes that can win run the exact scalar
-//!   test in f32, safe on degenerate triangles ([`closest_point_on_triangle`]).
+//!   stack sized to the tree's depth); each leaf's triangles go four at a time through a SIMD
+//!   test of their boxes, then a branch-free SIMD copy of Ericson's Voronoi-region method, whose
+//!   vertex and edge distances are the exact ones; the exact scalar test in f32, safe on
+//!   degenerate triangles ([`closest_point_on_triangle`]), runs only on face-interior lanes that
+//!   can win, and once for the winner.
 //! - **Sign**: angle-weighted pseudo-normals (Bærentzen & Aanæs 2005) for closed, consistently
 //!   oriented manifolds; the generalised winding number (Jacobson et al. 2013) with the
 //!   hierarchical dipole approximation of Barill et al. 2018 for open or non-manifold meshes.
