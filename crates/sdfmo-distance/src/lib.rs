@@ -533,10 +533,15 @@ impl MeshDistance {
             .max((t[2] - t[1]).length())
             .max((t[0] - t[2]).length());
         let eps = (0.05 * area_normal.length() / longest).max(1e-5);
+        // The back probe only where the front one passes (the same answer, one winding number
+        // fewer on a rejected triangle).
         let front = self.winding_number_scaled(c + n * eps, COARSE_FAR_SCALE);
+        let front_passes = front.abs() <= CLEAN_PROBE_TOLERANCE; // (false for NaN)
+        if !front_passes {
+            return None;
+        }
         let back = self.winding_number_scaled(c - n * eps, COARSE_FAR_SCALE);
-        (front.abs() <= CLEAN_PROBE_TOLERANCE && (back - 1.0).abs() <= CLEAN_PROBE_TOLERANCE)
-            .then_some(n)
+        ((back - 1.0).abs() <= CLEAN_PROBE_TOLERANCE).then_some(n)
     }
 
     /// The mesh the queries run against.
