@@ -1,7 +1,7 @@
 //! Exact triangle–box overlap by the separating axis theorem (Akenine-Möller 2001).
 //!
 //! Thirteen candidate axes: the three box normals (done first, as a bounding-box test), the
-//! triangle normal, and the nine cross products of the box axes with the triangle edges. The box
+//! triangle normal, then the nine cross products of the box axes with the triangle edges. The box
 //! is an axis-aligned cube given by its centre and half size; the caller inflates the half size
 //! to keep every leaf whose interpolant may cross zero (see `crate::subdivide`).
 
@@ -35,6 +35,17 @@ pub fn tri_box_overlap(center: Vec3, half: Vec3, a: Vec3, b: Vec3, c: Vec3) -> b
     let e1 = v2 - v1;
     let e2 = v0 - v2;
 
+    // Triangle normal: the plane against the box. Before the nine edge axes (the answer is
+    // their conjunction, so the order changes nothing): one axis instead of nine for the
+    // children of a subdivided cell that the triangle's plane misses.
+    let n = e0.cross(e1);
+    let r = half.x * n.x.abs() + half.y * n.y.abs() + half.z * n.z.abs();
+    let d = n.dot(v0);
+    let plane_meets_box = d.abs() <= r; // (false for NaN, as before)
+    if !plane_meets_box {
+        return false;
+    }
+
     // Nine edge cross-product axes. For axis a = (box axis k) × e, the projections of the three
     // vertices take at most two distinct values (two vertices share the edge), so testing the
     // extreme of the three is exact.
@@ -56,11 +67,7 @@ pub fn tri_box_overlap(center: Vec3, half: Vec3, a: Vec3, b: Vec3, c: Vec3) -> b
         }
     }
 
-    // Triangle normal: the plane against the box.
-    let n = e0.cross(e1);
-    let r = half.x * n.x.abs() + half.y * n.y.abs() + half.z * n.z.abs();
-    let d = n.dot(v0);
-    d.abs() <= r
+    true
 }
 
 #[inline(always)]
