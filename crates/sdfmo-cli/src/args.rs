@@ -386,8 +386,8 @@ pub struct SweepArgs {
     /// With --manifest: run shard K of N (0-based): the models at positions K, K + N, … Default:
     /// from SLURM_ARRAY_TASK_ID/SLURM_ARRAY_TASK_COUNT, or JOB_COMPLETION_INDEX and
     /// SDFMO_SHARD_COUNT, else the whole manifest.
-    #[arg(long, value_name = "K/N", requires = "manifest", value_parser = crate::commands::sweep::manifest::parse_shard)]
-    pub shard: Option<crate::commands::sweep::manifest::Shard>,
+    #[arg(long, value_name = "K/N", requires = "manifest", value_parser = sdfmo_harness::parse_shard)]
+    pub shard: Option<sdfmo_harness::Shard>,
     /// With --manifest: wall-time limit of each model in seconds; a model over it is killed and
     /// recorded as failed.
     #[arg(long, value_name = "SECONDS", requires = "manifest", value_parser = parse_timeout)]

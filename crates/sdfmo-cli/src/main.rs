@@ -14,7 +14,9 @@ mod alloc;
 mod args;
 mod commands;
 mod output;
-mod progress;
+
+// The harness's bars, as `crate::progress` for the commands.
+use sdfmo_harness::progress;
 
 use std::io::Write;
 use std::process::ExitCode;
@@ -104,10 +106,10 @@ fn main() -> ExitCode {
     match result {
         Ok(Ok(())) => ExitCode::SUCCESS,
         Ok(Err(err)) if is_broken_pipe(&err) => ExitCode::SUCCESS,
-        Ok(Err(err)) if err.is::<commands::sweep::shard::ModelsFailed>() => {
+        Ok(Err(err)) if err.is::<sdfmo_harness::ModelsFailed>() => {
             // A shard that ran every model but recorded failures: not an error of the command.
             let _ = writeln!(std::io::stderr(), "sdfmo: {err}");
-            ExitCode::from(commands::sweep::shard::EXIT_MODELS_FAILED)
+            ExitCode::from(sdfmo_harness::EXIT_MODELS_FAILED)
         }
         Ok(Err(err)) => {
             let _ = writeln!(std::io::stderr(), "sdfmo: error: {err:#}");

@@ -64,23 +64,7 @@ pub fn check_output_as(
     )?)
 }
 
-/// Writes `bytes` atomically at a name the command derived (inside an output folder): a
-/// symbolic link there is replaced, never followed ([`Naming::Derived`]).
-pub fn write_derived(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    Ok(sdf_multioctree::io::write_atomic_as(
-        path,
-        bytes,
-        Naming::Derived,
-    )?)
-}
-
-/// Encodes an RGB image as PNG and writes it atomically at a derived name ([`write_derived`]).
-pub fn write_derived_png(path: &Path, img: &image::RgbImage) -> anyhow::Result<()> {
-    let mut buf = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut buf, image::ImageFormat::Png)
-        .with_context(|| format!("cannot encode {}", path.display()))?;
-    write_derived(path, &buf.into_inner())
-}
+pub use sdfmo_harness::files::write_derived;
 
 /// `out.png` → `out_3.png` (the index before the extension); without an extension `out_3`.
 pub fn indexed_path(path: &Path, index: usize) -> PathBuf {

@@ -16,9 +16,9 @@ use super::isolate::{self, Limits};
 use super::ledger::{self, Ledger, Record};
 use super::manifest::{self, Entry, Manifest, Shard};
 use super::{report, Model, Row, SweepSettings};
-use crate::args::SweepArgs;
-use crate::output::{print_json, print_text, write_derived};
+use crate::files::write_derived;
 use crate::progress;
+use crate::{Outcome, SweepOptions};
 
 /// File name of a shard's description inside its output folder.
 pub const SHARD_FILE: &str = "shard.json";
@@ -124,7 +124,11 @@ pub struct ModelOutput {
 }
 
 /// Runs this process's shard of `manifest_path`.
-pub fn run(args: &SweepArgs, manifest_path: &Path, settings: &SweepSettings) -> anyhow::Result<()> {
+pub fn run(
+    args: &SweepOptions,
+    manifest_path: &Path,
+    settings: &SweepSettings,
+) -> anyhow::Result<Outcome> {
     let start = Instant::now();
     let manifest = Manifest::read(manifest_path, args.confine)?;
     let shard = Shard::resolve(args.shard)?;
@@ -239,12 +243,12 @@ pub fn run(args: &SweepArgs, manifest_path: &Path, settings: &SweepSettings) -> 
     };
     let bytes = serde_json::to_vec_pretty(&info).context("cannot serialise shard.json")?;
     write_derived(&info_path, &bytes)?;
-    if args.json {
-        print_json(&serde_json::json!({
+    let outcome = if args.json {
+        Outcome::json(&serde_json::json!({
             "output": out.display().to_string(),
             "shard": info,
             "files": files,
-        }))?;
+        }))?
     } else {
         let mut s = format!(
             "shard {shard}: {} models, {} done, {} failed, {} ran now, {} skipped ({}).\n",
@@ -261,20 +265,22 @@ pub fn run(args: &SweepArgs, manifest_path: &Path, settings: &SweepSettings) -> 
                 f.model, f.source, f.error
             ));
         }
-        print_text(&s)?;
-    }
+        Outcome::text(s)
+    };
     if !failures.is_empty() {
-        return Err(ModelsFailed {
-            failed: failures.len(),
-            total: mine.len(),
-        }
-        .into());
+        return Ok(outcome.then_fail(
+            ModelsFailed {
+                failed: failures.len(),
+                total: mine.len(),
+            }
+            .into(),
+        ));
     }
-    Ok(())
+    Ok(outcome)
 }
 
 /// Runs one manifest entry in its own process and returns its ledger record.
-fn run_entry(args: &SweepArgs, e: &Entry, limits: Limits) -> anyhow::Result<Record> {
+fn run_entry(args: &SweepOptions, e: &Entry, limits: Limits) -> anyhow::Result<Record> {
     let mut record = Record {
         ledger: ledger::LEDGER_VERSION,
         settings: String::new(),
@@ -316,7 +322,7 @@ fn run_entry(args: &SweepArgs, e: &Entry, limits: Limits) -> anyhow::Result<Reco
 /// The arguments of the process that sweeps one model: the same settings, this model only.
 /// Every option is one `--flag=value` word and the mesh comes last after `--`, so a model name
 /// or a path starting with `-` is never read as an option.
-fn child_args(args: &SweepArgs, path: &Path, name: &str) -> Vec<OsString> {
+fn child_args(args: &SweepOptions, path: &Path, name: &str) -> Vec<OsString> {
     let mut v: Vec<OsString> = vec!["sweep".into()];
     let mut model = OsString::from("--isolated-model=");
     model.push(name);

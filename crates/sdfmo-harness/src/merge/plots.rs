@@ -8,9 +8,9 @@ use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::prelude::*;
 
 use super::DatasetStats;
-use crate::commands::sweep::plots::{axis_label, log_ticks, PALETTE};
-use crate::commands::sweep::{Model, Row, SweepSettings};
-use crate::output::write_derived_png;
+use crate::files::write_derived_png;
+use crate::plots::{axis_label, log_ticks, PALETTE};
+use crate::{Model, Row, SweepSettings};
 
 const WIDTH: u32 = 1100;
 const HEIGHT: u32 = 560;
@@ -32,7 +32,7 @@ pub fn write(
     models: &[Model],
     rows: &[Row],
 ) -> anyhow::Result<Vec<String>> {
-    crate::commands::sweep::plots::register_font()?;
+    crate::plots::register_font()?;
     let mut files = Vec::new();
     let per_depth = |f: &dyn Fn(&Row, &Row) -> f64| -> Vec<(String, Vec<f64>)> {
         settings

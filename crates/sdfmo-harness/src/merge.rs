@@ -33,7 +33,6 @@ use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
-use clap::ValueEnum;
 use serde::Serialize;
 
 use super::ledger::{self, Record};
@@ -41,8 +40,8 @@ use super::manifest::{self, Shard};
 use super::report::extra::{row_problem, MAX_DEPTH};
 use super::shard::{Failure, ShardInfo, MAX_SHARD_FILE_BYTES, SHARD_FILE};
 use super::{heatmap_file, image_rel, reference_file, view_file, Model, Row, SweepSettings};
-use crate::args::{MethodArg, SweepArgs};
-use crate::output::{print_json, print_text, write_derived};
+use crate::files::write_derived;
+use crate::{Outcome, SweepMethod, SweepOptions};
 
 mod page;
 mod plots;
@@ -308,10 +307,7 @@ struct ShardDir {
 /// its flags allow), and the counts agree with the shard.
 fn info_problem(info: &ShardInfo) -> Option<String> {
     let s = &info.settings;
-    let methods: Vec<&str> = MethodArg::value_variants()
-        .iter()
-        .map(|m| m.name())
-        .collect();
+    let methods: Vec<&str> = SweepMethod::ALL.iter().map(|m| m.name()).collect();
     let problem = if info.manifest_entries == 0 || info.manifest_entries > manifest::MAX_ENTRIES {
         format!(
             "manifest_entries {} is not within 1..={}",
@@ -585,7 +581,7 @@ fn check_output_apart(out: &Path, dirs: &[PathBuf]) -> anyhow::Result<()> {
 }
 
 /// Runs the merge.
-pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
+pub fn run(args: &SweepOptions) -> anyhow::Result<Outcome> {
     let shards = read_shards(&args.merge)?;
     let out = &args.output;
     check_output_apart(out, &args.merge)?;
@@ -746,29 +742,29 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
     write_derived(&out.join("index.html"), html.as_bytes())?;
     files.push("index.html".into());
 
-    if args.json {
-        print_json(&serde_json::json!({
+    let outcome = if args.json {
+        Outcome::json(&serde_json::json!({
             "output": out.display().to_string(),
             "models": stats.manifest_models,
             "done": stats.done,
             "failed": stats.failed,
             "dataset": stats,
             "files": files,
-        }))?;
+        }))?
     } else {
-        print_text(&format!(
+        Outcome::text(format!(
             "{md}\nWrote {} (open {} in a browser).\n",
             files.join(", "),
             out.join("index.html").display()
-        ))?;
-    }
+        ))
+    };
     if unfinished > 0 {
         let first: Vec<String> = (0..info.manifest_entries)
             .filter(|i| !entries.contains(i))
             .take(5)
             .map(|i| i.to_string())
             .collect();
-        bail!(
+        return Ok(outcome.then_fail(anyhow::anyhow!(
             "{unfinished} of {} models have no current ledger record (manifest entries {}{}): a \
              shard did not finish, or ran before the manifest was edited (rerun it, then merge \
              again)",
@@ -779,9 +775,9 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
             } else {
                 ""
             }
-        );
+        )));
     }
-    Ok(())
+    Ok(outcome)
 }
 
 /// The failures as CSV.

@@ -3,11 +3,9 @@
 use std::fmt::Write as _;
 
 use super::{DatasetStats, DepthStats, Distribution, QUANTILES};
-use crate::commands::sweep::report::Provenance;
-use crate::commands::sweep::shard::Failure;
-use crate::commands::sweep::{
-    heatmap_file, image_rel, reference_file, view_file, Model, Row, SweepSettings,
-};
+use crate::report::Provenance;
+use crate::shard::Failure;
+use crate::{heatmap_file, image_rel, reference_file, view_file, Model, Row, SweepSettings};
 
 /// A number with `digits` decimals, `∞` for a missing (infinite) value.
 fn num(v: Option<f64>, digits: usize) -> String {

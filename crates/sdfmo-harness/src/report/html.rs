@@ -15,8 +15,8 @@ use super::tables::{
     fmt_psnr, label, levels_table, model_heading, model_table, protocol, shallower_table,
     summary_table, Table,
 };
-use crate::commands::sweep::{heatmap_file, image_rel, reference_file, view_file};
-use crate::output::write_derived;
+use crate::files::write_derived;
+use crate::{heatmap_file, image_rel, reference_file, view_file};
 
 /// What the page says about the bright outline in the multi-octree's FLIP maps of the demo part,
 /// read off the images (docs/report.md, "The outline along the cube's edges", has the pixels).

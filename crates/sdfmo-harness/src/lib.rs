@@ -1,17 +1,28 @@
-//! `sdfmo sweep`: for each mesh, method and depth, build, render the paper's four views, compare
-//! with the mesh reference; write the results as JSON, CSV, a Markdown table, plots and a page.
+//! The experiment harness of sdf-multioctree, behind `sdfmo sweep`: for each mesh, method and
+//! depth, build, render the paper's four views, compare with the mesh reference; write the
+//! results as JSON, CSV, a Markdown table, plots and a page (modules `report`, `plots`).
 //!
-//! Over a dataset (`--manifest`, docs/scale.md): [`manifest`] (which models, which shard),
-//! [`shard`] (run a shard: one process per model, [`isolate`]; one ledger line per model,
-//! [`ledger`]) and [`merge`] (the shards' folders into one dataset report).
+//! Over a dataset (`--manifest`, docs/scale.md): `manifest` (which models, which shard),
+//! `shard` (run a shard: one process per model, `isolate`; one ledger line per model,
+//! `ledger`) and `merge` (the shards' folders into one dataset report).
+//!
+//! A front-end fills [`SweepOptions`], calls [`run`] and prints the [`Outcome`]. A shard runs
+//! each model in a child process of the running executable, `EXE sweep --isolated-model=NAME
+//! … -- MESH`: the executable must be a front-end that hands those flags back to [`run`] (the
+//! `sdfmo` binary of sdfmo-cli).
+#![deny(missing_docs)]
 
+pub mod files;
+pub mod input;
 mod isolate;
 mod ledger;
-pub mod manifest;
+mod manifest;
 mod merge;
+mod options;
 mod plots;
+pub mod progress;
 mod report;
-pub mod shard;
+mod shard;
 
 use std::path::{Path, PathBuf};
 
@@ -24,12 +35,27 @@ use sdf_multioctree::metrics;
 use sdf_multioctree::render::{Camera, OctreeScene, PaperProtocol};
 use serde_json::json;
 
-pub use report::{Model, Provenance, Report, Row, SweepSettings};
+pub use manifest::{parse_shard, Shard};
+pub use options::{Outcome, SweepMethod, SweepOptions};
+use report::{Model, Provenance, Report, Row, SweepSettings};
+pub use shard::{ModelsFailed, EXIT_MODELS_FAILED};
 
-use crate::args::{MethodArg, SweepArgs};
-use crate::commands::{load_input, memory_budget, with_threads, InputMesh};
-use crate::output::{print_json, print_text, write_derived_png};
-use crate::progress;
+use crate::files::write_derived_png;
+use crate::input::{load_input, InputMesh};
+
+/// The build memory budget: `max_memory`, else the builder's default (half the physical
+/// memory).
+fn memory_budget(max_memory: Option<u64>) -> Option<u64> {
+    max_memory.or_else(sdf_multioctree::build::default_memory_budget)
+}
+
+/// Runs `f` on a rayon pool of `threads` workers, or on the global pool when `None`.
+fn with_threads<R: Send>(
+    threads: Option<usize>,
+    f: impl FnOnce() -> R + Send,
+) -> anyhow::Result<R> {
+    sdf_multioctree::render::in_pool(threads, f).context("cannot start worker threads")
+}
 
 /// Relative path (from the output directory) of an image of the sweep.
 pub fn image_rel(model: &str, file: &str) -> String {
@@ -52,8 +78,8 @@ pub fn reference_file(view: usize) -> String {
 }
 
 /// The methods of the sweep, each once, in the order given.
-fn unique_methods(args: &SweepArgs) -> Vec<MethodArg> {
-    let mut methods: Vec<MethodArg> = Vec::new();
+fn unique_methods(args: &SweepOptions) -> Vec<SweepMethod> {
+    let mut methods: Vec<SweepMethod> = Vec::new();
     for m in &args.methods {
         if !methods.contains(m) {
             methods.push(*m);
@@ -63,7 +89,7 @@ fn unique_methods(args: &SweepArgs) -> Vec<MethodArg> {
 }
 
 /// The settings a sweep records.
-fn sweep_settings(args: &SweepArgs) -> SweepSettings {
+fn sweep_settings(args: &SweepOptions) -> SweepSettings {
     SweepSettings {
         depths: args.depths.clone().collect(),
         methods: unique_methods(args)
@@ -78,8 +104,14 @@ fn sweep_settings(args: &SweepArgs) -> SweepSettings {
     }
 }
 
-/// Runs the sweep.
-pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
+/// Runs the sweep `args` asks for (see [`SweepOptions`] for which) and returns what to print.
+///
+/// # Errors
+///
+/// Bad input (a mesh, manifest, shard folder or extra-rows file; the error names it), a build
+/// over the memory budget, or a file that cannot be written. A shard whose models failed is
+/// not an error: [`Outcome::failed`] says so.
+pub fn run(args: &SweepOptions) -> anyhow::Result<Outcome> {
     if !args.merge.is_empty() {
         return merge::run(args);
     }
@@ -166,7 +198,7 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
     bar.finish_and_clear();
 
     if args.json {
-        return print_json(&json!({
+        return Outcome::json(&json!({
             "output": out.display().to_string(),
             "settings": settings,
             "models": report.models,
@@ -180,11 +212,11 @@ pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
         files.join(", "),
         out.join("index.html").display()
     ));
-    print_text(&s)
+    Ok(Outcome::text(s))
 }
 
 /// The settings of one build of the sweep.
-fn build_settings(args: &SweepArgs, method: MethodArg, depth: u8) -> BuildSettings {
+fn build_settings(args: &SweepOptions, method: SweepMethod, depth: u8) -> BuildSettings {
     BuildSettings {
         depth,
         method: method.method(args.max_voxels),
@@ -202,7 +234,7 @@ type ReportOf<'a> = dyn Fn(&[Model], &[Row]) -> Report + 'a;
 
 /// The configurations a sweep runs and the memory budget its builds were checked against.
 struct Plan {
-    methods: Vec<MethodArg>,
+    methods: Vec<SweepMethod>,
     depths: Vec<u8>,
     budget: Option<u64>,
 }
@@ -210,7 +242,7 @@ struct Plan {
 impl Plan {
     /// The plan of `args`, with the deepest build of each method on each of `inputs` checked
     /// against the memory budget.
-    fn checked(args: &SweepArgs, inputs: &[InputMesh]) -> anyhow::Result<Plan> {
+    fn checked(args: &SweepOptions, inputs: &[InputMesh]) -> anyhow::Result<Plan> {
         let plan = Plan {
             methods: unique_methods(args),
             depths: args.depths.clone().collect(),
@@ -231,7 +263,7 @@ impl Plan {
 /// plan and the progress bar.
 #[derive(Clone, Copy)]
 struct Sweep<'a> {
-    args: &'a SweepArgs,
+    args: &'a SweepOptions,
     plan: &'a Plan,
     bar: &'a indicatif::ProgressBar,
     /// The report of the models and rows so far (with the extra rows), rewritten after each
@@ -241,7 +273,7 @@ struct Sweep<'a> {
 
 /// A shard's model process (`--isolated-model NAME`): sweeps its one mesh under `name`, writes
 /// its images into the output folder and prints `{"model", "rows"}` as one JSON line.
-fn run_isolated(args: &SweepArgs, name: &str) -> anyhow::Result<()> {
+fn run_isolated(args: &SweepOptions, name: &str) -> anyhow::Result<Outcome> {
     let [path] = args.meshes.as_slice() else {
         anyhow::bail!("--isolated-model takes exactly one mesh");
     };
@@ -258,7 +290,7 @@ fn run_isolated(args: &SweepArgs, name: &str) -> anyhow::Result<()> {
     };
     let mut rows = Vec::new();
     let model = sweep_model(&sweep, &input, &[], &mut rows)?;
-    print_json(&serde_json::to_value(shard::ModelOutput { model, rows })?)
+    Outcome::json(&serde_json::to_value(shard::ModelOutput { model, rows })?)
 }
 
 /// Renders the reference of one model, then builds, renders and compares every configuration;
@@ -369,7 +401,7 @@ fn sweep_model(
 
 /// One model being swept: what scoring an octree of it needs.
 struct ModelRun<'a> {
-    args: &'a SweepArgs,
+    args: &'a SweepOptions,
     protocol: &'a PaperProtocol,
     img_dir: &'a Path,
     name: &'a str,
@@ -381,7 +413,7 @@ impl ModelRun<'_> {
     /// with levels.
     fn score(
         &self,
-        method: MethodArg,
+        method: SweepMethod,
         octree: &PackedOctree,
         stats: &BuildStats,
         bytes_read: Option<u64>,

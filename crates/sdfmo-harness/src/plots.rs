@@ -10,7 +10,7 @@ use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
 use super::Row;
-use crate::output::write_derived_png;
+use crate::files::write_derived_png;
 
 /// Plot size in pixels, legend included.
 const WIDTH: u32 = 1100;

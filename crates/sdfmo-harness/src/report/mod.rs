@@ -17,7 +17,7 @@ pub use html::write_html;
 pub use markdown::table_md;
 pub use model::{Model, Provenance, Report, Row, SweepSettings};
 
-use crate::output::write_derived;
+use crate::files::write_derived;
 
 /// results.json's text: the report, pretty-printed, with a final newline. Through a
 /// `serde_json::Value`, whose maps sort their keys: every object's keys in alphabetical order,

@@ -10,7 +10,7 @@ use sdf_multioctree::metrics::{self, most_different_window, FlipResult, Window};
 
 use super::model::Report;
 use super::tables::label;
-use crate::commands::sweep::{image_rel, reference_file, view_file};
+use crate::{image_rel, reference_file, view_file};
 
 /// An image on the page, linked to itself, with a caption under it.
 #[derive(Clone, Debug)]
@@ -129,7 +129,7 @@ fn make(out: &Path, report: &Report, model: &str) -> anyhow::Result<Crops> {
             let crop =
                 image::imageops::crop_imm(&img, window.x, window.y, window.size, window.size)
                     .to_image();
-            crate::output::write_derived_png(&out.join(image_rel(model, &file)), &crop)?;
+            crate::files::write_derived_png(&out.join(image_rel(model, &file)), &crop)?;
             cells.push(ImageCell {
                 src: image_rel(model, &file),
                 caption,
