@@ -31,7 +31,7 @@ pub enum Command {
     /// PSNR and FLIP between a reference and a test image, optionally a FLIP heat map.
     Compare(CompareArgs),
     /// Build, render and compare over meshes, methods and depths: tables, plots and a web page.
-    Sweep(SweepArgs),
+    Sweep(Box<SweepArgs>),
     /// Writes seeded CAD-like parts (plates with holes and slots, bosses, fins, fillets, stacked
     /// blocks, open sheets) as OBJ files, with a manifest for `sweep --manifest`.
     GenerateParts(GeneratePartsArgs),
@@ -330,11 +330,121 @@ pub struct CompareArgs {
     pub json: bool,
 }
 
-/// `sdfmo sweep`.
+/// `sdfmo sweep`: without a step, a sweep of the meshes given (the same as `sweep run`); the
+/// flag forms `--manifest` and `--merge` are the steps `shard` and `merge`, kept for scripts.
 #[derive(Debug, Args)]
+#[command(args_conflicts_with_subcommands = true)]
 pub struct SweepArgs {
+    /// The step to run, named for what it does.
+    #[command(subcommand)]
+    pub step: Option<SweepStep>,
     /// Mesh files; without any, the built-in demo part.
     pub meshes: Vec<PathBuf>,
+    /// Depths, methods, sizes, threads, frames.
+    #[command(flatten)]
+    pub settings: SweepSettingsArgs,
+    /// Build each model with each method once, with levels of detail from the first depth to
+    /// the last (`build --lod`), and score every level of that one file: the rows are those of
+    /// separate builds (a level is, byte for byte, that depth's build) plus the bytes a reader
+    /// needs for each level (`bytes_read`); the report gains a "levels of one file" table and
+    /// a plot of PSNR against bytes read.
+    #[arg(long, conflicts_with = "merge")]
+    pub levels: bool,
+    /// Rows from another producer (a results.json, or a JSON array of rows in its row schema;
+    /// docs/cli.md), merged into the tables, plots and page; repeatable. Checked before any
+    /// work: a bad file or a row repeating one of this sweep's configurations is an error.
+    #[arg(long = "extra-rows", value_name = "FILE")]
+    pub extra_rows: Vec<PathBuf>,
+    /// Output folder and format.
+    #[command(flatten)]
+    pub out: SweepOutputArgs,
+    /// The step `shard`: sweep the models a manifest lists (one path per line, or CSV
+    /// `id,path`; relative to the manifest's folder), each in its own process with a ledger in
+    /// the output folder (docs/scale.md).
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["meshes", "merge"])]
+    pub manifest: Option<PathBuf>,
+    /// Which models of the manifest, with --manifest.
+    #[command(flatten)]
+    pub dataset: SweepDatasetArgs,
+    /// The step `merge`: merge the output folders of shards (or of one manifest sweep) into
+    /// one dataset report in -o.
+    #[arg(long, value_name = "DIR", num_args = 1.., conflicts_with = "meshes")]
+    pub merge: Vec<PathBuf>,
+    /// Internal: sweep one mesh as a shard's child process under this model name, print one
+    /// JSON line (its rows) and write its images, nothing else.
+    #[arg(long, value_name = "NAME", hide = true, conflicts_with_all = ["manifest", "merge"])]
+    pub isolated_model: Option<String>,
+}
+
+/// The steps of `sdfmo sweep`.
+#[derive(Debug, Subcommand)]
+pub enum SweepStep {
+    /// Sweep the meshes given (the built-in demo part without any): build, render and compare
+    /// each method and depth; tables, plots and a page in -o. The same as `sweep [MESH…]`.
+    Run(SweepRunArgs),
+    /// Run one shard of a dataset manifest: each model in its own process, one ledger line per
+    /// model, resumable (docs/scale.md). The same as `sweep --manifest FILE`.
+    Shard(SweepShardArgs),
+    /// Merge the output folders of a manifest's shards into one dataset report in -o. The same
+    /// as `sweep --merge DIR…`.
+    Merge(SweepMergeArgs),
+}
+
+/// `sdfmo sweep run`.
+#[derive(Debug, Args)]
+pub struct SweepRunArgs {
+    /// Mesh files; without any, the built-in demo part.
+    pub meshes: Vec<PathBuf>,
+    /// Depths, methods, sizes, threads, frames.
+    #[command(flatten)]
+    pub settings: SweepSettingsArgs,
+    /// Score every level of one build with levels of detail per model and method (as
+    /// `sweep --levels`).
+    #[arg(long)]
+    pub levels: bool,
+    /// Rows from another producer merged into the tables, plots and page (as
+    /// `sweep --extra-rows`); repeatable.
+    #[arg(long = "extra-rows", value_name = "FILE")]
+    pub extra_rows: Vec<PathBuf>,
+    /// Output folder and format.
+    #[command(flatten)]
+    pub out: SweepOutputArgs,
+}
+
+/// `sdfmo sweep shard`.
+#[derive(Debug, Args)]
+pub struct SweepShardArgs {
+    /// The manifest: one mesh path per line, or CSV `id,path`; relative to its folder.
+    #[arg(value_name = "MANIFEST")]
+    pub manifest: PathBuf,
+    /// Depths, methods, sizes, threads, frames.
+    #[command(flatten)]
+    pub settings: SweepSettingsArgs,
+    /// Score every level of one build with levels of detail (as `sweep --levels`).
+    #[arg(long)]
+    pub levels: bool,
+    /// Which models, with what limits.
+    #[command(flatten)]
+    pub dataset: SweepDatasetArgs,
+    /// Output folder and format.
+    #[command(flatten)]
+    pub out: SweepOutputArgs,
+}
+
+/// `sdfmo sweep merge`.
+#[derive(Debug, Args)]
+pub struct SweepMergeArgs {
+    /// The output folders of the shards (or of one manifest sweep).
+    #[arg(value_name = "DIR", required = true, num_args = 1..)]
+    pub shards: Vec<PathBuf>,
+    /// Output folder and format.
+    #[command(flatten)]
+    pub out: SweepOutputArgs,
+}
+
+/// The settings every sweep of meshes runs with.
+#[derive(Debug, Args)]
+pub struct SweepSettingsArgs {
     /// Depths, inclusive, within 1..=16: `A..B` (or `A..=B`, or one depth `A`).
     #[arg(long, value_name = "A..B", value_parser = parse_depths, default_value = "6..9")]
     pub depths: RangeInclusive<u8>,
@@ -355,54 +465,43 @@ pub struct SweepArgs {
     #[arg(long, value_name = "N", value_parser = parse_threads)]
     pub threads: Option<usize>,
     /// Renders of each view per configuration; the render time is their median, 1..=100.
-    #[arg(long, value_name = "N", default_value_t = 5, value_parser = clap::value_parser!(u16).range(1..=100))]
+    #[arg(long, value_name = "N", default_value_t = SWEEP_FRAMES, value_parser = clap::value_parser!(u16).range(1..=100))]
     pub frames: u16,
-    /// Build each model with each method once, with levels of detail from the first depth to
-    /// the last (`build --lod`), and score every level of that one file: the rows are those of
-    /// separate builds (a level is, byte for byte, that depth's build) plus the bytes a reader
-    /// needs for each level (`bytes_read`); the report gains a "levels of one file" table and
-    /// a plot of PSNR against bytes read.
-    #[arg(long, conflicts_with = "merge")]
-    pub levels: bool,
-    /// Rows from another producer (a results.json, or a JSON array of rows in its row schema;
-    /// docs/cli.md), merged into the tables, plots and page; repeatable. Checked before any
-    /// work: a bad file or a row repeating one of this sweep's configurations is an error.
-    #[arg(long = "extra-rows", value_name = "FILE")]
-    pub extra_rows: Vec<PathBuf>,
+}
+
+/// Renders of each view per configuration unless `--frames` says otherwise (also the frames a
+/// merge records in its provenance).
+pub const SWEEP_FRAMES: u16 = 5;
+
+/// Where a sweep writes.
+#[derive(Debug, Args)]
+pub struct SweepOutputArgs {
     /// Output directory (created if missing).
     #[arg(short, long, value_name = "DIR", default_value = "sweep")]
     pub output: PathBuf,
     /// Print one JSON object on stdout (the rows) instead of the human summary.
     #[arg(long)]
     pub json: bool,
-    /// Sweep the models a manifest lists (one path per line, or CSV `id,path`; relative to the
-    /// manifest's folder), each in its own process with a ledger in the output folder
-    /// (docs/scale.md).
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["meshes", "merge"])]
-    pub manifest: Option<PathBuf>,
-    /// With --manifest: refuse paths outside the manifest's folder (absolute, `..`, links).
+}
+
+/// Which models of a manifest a shard runs, and its limits.
+#[derive(Debug, Args)]
+pub struct SweepDatasetArgs {
+    /// Refuse manifest paths outside the manifest's folder (absolute, `..`, links).
     #[arg(long, requires = "manifest")]
     pub confine: bool,
-    /// With --manifest: run shard K of N (0-based): the models at positions K, K + N, … Default:
-    /// from SLURM_ARRAY_TASK_ID/SLURM_ARRAY_TASK_COUNT, or JOB_COMPLETION_INDEX and
+    /// Run shard K of N (0-based): the models at positions K, K + N, … Default: from
+    /// SLURM_ARRAY_TASK_ID/SLURM_ARRAY_TASK_COUNT, or JOB_COMPLETION_INDEX and
     /// SDFMO_SHARD_COUNT, else the whole manifest.
     #[arg(long, value_name = "K/N", requires = "manifest", value_parser = sdfmo_harness::parse_shard)]
     pub shard: Option<sdfmo_harness::Shard>,
-    /// With --manifest: wall-time limit of each model in seconds; a model over it is killed and
-    /// recorded as failed.
+    /// Wall-time limit of each model in seconds; a model over it is killed and recorded as
+    /// failed.
     #[arg(long, value_name = "SECONDS", requires = "manifest", value_parser = parse_timeout)]
     pub model_timeout: Option<f64>,
-    /// With --manifest: run again the models the ledger holds as failed.
+    /// Run again the models the ledger holds as failed.
     #[arg(long, requires = "manifest")]
     pub retry_failed: bool,
-    /// Merge the output folders of shards (or of one manifest sweep) into one dataset report
-    /// in -o: distributions of the gain per depth, failures, provenance.
-    #[arg(long, value_name = "DIR", num_args = 1.., conflicts_with = "meshes")]
-    pub merge: Vec<PathBuf>,
-    /// Internal: sweep one mesh as a shard's child process under this model name, print one
-    /// JSON line (its rows) and write its images, nothing else.
-    #[arg(long, value_name = "NAME", hide = true, conflicts_with_all = ["manifest", "merge"])]
-    pub isolated_model: Option<String>,
 }
 
 /// Parses a timeout in seconds (positive, at most a week).
@@ -618,7 +717,9 @@ mod tests {
     fn sweep_methods_are_a_comma_list() {
         let cli = Cli::try_parse_from(["sdfmo", "sweep", "--methods", "multi,svo"]).unwrap();
         match cli.command {
-            Command::Sweep(a) => assert_eq!(a.methods, vec![MethodArg::Multi, MethodArg::Svo]),
+            Command::Sweep(a) => {
+                assert_eq!(a.settings.methods, vec![MethodArg::Multi, MethodArg::Svo])
+            }
             other => panic!("parsed as {other:?}"),
         }
     }
