@@ -110,7 +110,7 @@ fn sweep_settings(args: &SweepOptions) -> SweepSettings {
 ///
 /// Bad input (a mesh, manifest, shard folder or extra-rows file; the error names it), a build
 /// over the memory budget, or a file that cannot be written. A shard whose models failed is
-/// not an error: [`Outcome::failed`] says so.
+/// not an error: [`Outcome::error`] says so.
 pub fn run(args: &SweepOptions) -> anyhow::Result<Outcome> {
     if !args.merge.is_empty() {
         return merge::run(args);
