@@ -350,7 +350,7 @@ pub fn render_mesh(mesh: &TriMesh, camera: &Camera, mode: Mode) -> Result<Render
 /// mesh it was built from): negative inside, `|F| ≥ 0` in a surface (thin) voxel, which has no
 /// inside. It is the field the renderer intersects: within a leaf cell of the surface it is
 /// the trilinear interpolant of the leaf's voxels (their minimum in a multi-voxel leaf), whose
-/// error against the mesh's exact distance is bounded in [`trace::distance`].
+/// error against the mesh's exact distance is bounded in [`trace::distance_at`].
 ///
 /// **Away from the surface it is `f32::NAN`**: outside the root cube, and in every cell the
 /// builder stored no leaf for. The file holds no field there (only cells the surface passes
@@ -523,7 +523,7 @@ mod tests {
     }
 
     /// A 20-unit box away from the origin: the distance comes back in the box's units, signed,
-    /// within the SVO bound of `trace::distance` (a plane: quantisation alone, under 1 % of
+    /// within the SVO bound of `trace::distance_at` (a plane: quantisation alone, under 1 % of
     /// the leaf edge of 20/0.95/32 units), and NaN where no leaf is stored.
     #[test]
     fn octree_distance_is_in_model_units_and_nan_away_from_the_surface() {

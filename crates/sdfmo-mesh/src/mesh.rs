@@ -3,7 +3,6 @@
 use glam::{DVec3, Vec3};
 
 use crate::error::{MeshError, Result};
-use crate::topology::Topology;
 
 /// File name used in errors about meshes built in memory.
 pub(crate) const MEMORY: &str = "<memory>";
@@ -258,12 +257,6 @@ impl TriMesh {
     pub fn normalized(&self, margin: f32) -> (TriMesh, Normalization) {
         let n = Normalization::for_bounds(&self.bounds(), margin);
         (self.transformed(|p| n.to_normalized(p)), n)
-    }
-
-    /// Connectivity through shared (welded) edges: components, boundary and non-manifold edge
-    /// counts, watertightness.
-    pub fn topology(&self) -> Topology {
-        Topology::of(self)
     }
 
     /// A copy with every position mapped by `f` (triangles and parts unchanged).

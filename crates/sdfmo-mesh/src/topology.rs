@@ -213,6 +213,16 @@ impl EdgeAdjacency {
     }
 }
 
+// The topology of a mesh is this module's concept, so the method lives here: `mesh` itself
+// knows nothing of edges (no module cycle).
+impl TriMesh {
+    /// Connectivity through shared (welded) edges: components, boundary and non-manifold edge
+    /// counts, watertightness.
+    pub fn topology(&self) -> Topology {
+        Topology::of(self)
+    }
+}
+
 impl Topology {
     /// Computes the topology of `mesh` (see [`TriMesh::topology`]).
     pub fn of(mesh: &TriMesh) -> Topology {

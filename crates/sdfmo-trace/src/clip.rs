@@ -1,4 +1,5 @@
-//! The clip rule: ray hits and distances in leaves with clip voxels (format 1.1).
+//! The clip rule: ray hits in leaves with clip voxels (format 1.1), and the leaf's clip voxels
+//! that the distance query (`distance.rs`) applies the same rule with.
 //!
 //! A voxel with the clip bit clips the other voxels of its leaf (`FORMAT.md` in sdfmo-format,
 //! section `clip`, is the specification):
@@ -22,12 +23,13 @@
 //!
 //! # Kernel
 //!
-//! [`intersect_voxel_where`] walks one voxel's candidates front to back: the segment's cubic is
-//! split at its critical points ([`RayCubic::critical_points`](crate::ray_voxel::RayCubic::critical_points)) into at most three monotone
-//! pieces, each of which holds at most one root, polished with the plain kernel's safeguarded
-//! Newton iteration; the first candidate the caller's predicate accepts is the voxel's hit.
-//! With a predicate that accepts everything it returns exactly what
-//! [`intersect_voxel`](crate::intersect_voxel) returns.
+//! [`intersect_voxel_where`] (in `ray_voxel.rs`) walks one voxel's candidates front to back:
+//! the segment's cubic is split at its critical points
+//! ([`RayCubic::critical_points`](crate::ray_voxel::RayCubic::critical_points)) into at most
+//! three monotone pieces, each of which holds at most one root, polished with the plain
+//! kernel's safeguarded Newton iteration; the first candidate the caller's predicate accepts is
+//! the voxel's hit. With a predicate that accepts everything it is
+//! [`intersect_voxel`](crate::intersect_voxel).
 
 use core::ops::Range;
 
@@ -36,13 +38,12 @@ use sdfmo_format::{trilinear, Octree};
 
 use sdfmo_format::MAX_CLIP_VOXELS_PER_LEAF;
 
-use crate::distance::{voxel_sample, DistanceSample};
-use crate::ray_voxel::{intersect_prepared, min_max, prepare_voxel};
+use crate::ray_voxel::{intersect_voxel_where, min_max};
 
-/// Slack of the clip test at a crossing, relative to the clip voxel's largest |corner| (the
-/// format's value, shared with the WGSL kernel; its documentation says why it is needed and why
-/// the span start has none).
-pub use sdfmo_format::kernel::CLIP_TOLERANCE;
+// Slack of the clip test at a crossing, relative to the clip voxel's largest |corner| (the
+// format's value, shared with the WGSL kernel; its documentation says why it is needed and why
+// the span start has none).
+use sdfmo_format::kernel::CLIP_TOLERANCE;
 
 /// Whether the point `p` (local frame of the leaf) is on the kept side of the clip voxel
 /// `corners`: `f ≤ CLIP_TOLERANCE · max|corner|` at a polished root (`slack`), `f ≤ 0` at the
@@ -56,37 +57,6 @@ pub fn inside_clip(corners: &[f32; 8], p: Vec3, slack: bool) -> bool {
     } else {
         f <= 0.0
     }
-}
-
-/// The first candidate hit of one voxel in `[t0, t1]` that `accept` accepts (it gets the
-/// candidate's `t` and whether it is a polished root, `false` for the span start `t0` of a
-/// segment that starts inside a volume voxel or on a surface voxel), in the voxel's local
-/// frame `[0,1]³`, the candidates taken front to back
-/// (see the [module docs](self)): for a volume voxel every crossing from `f ≥ 0` to `f < 0`
-/// and `t0` when `f(t0) < 0` (or `f` is zero along the whole segment); for a surface voxel
-/// every sign change and `t0` when `f(t0) = 0`.
-///
-/// With `accept` always true this is [`intersect_voxel`](crate::intersect_voxel), bit for bit.
-/// `None` for an empty or NaN segment.
-#[inline]
-pub fn intersect_voxel_where(
-    corners: &[f32; 8],
-    origin: Vec3,
-    dir: Vec3,
-    t0: f32,
-    t1: f32,
-    surface: bool,
-    accept: impl FnMut(f32, bool) -> bool,
-) -> Option<f32> {
-    // The plain kernel's early-outs, normalisation and polish, `accept` choosing the candidate.
-    intersect_prepared(
-        &prepare_voxel(corners),
-        origin,
-        dir,
-        (t0, t1),
-        surface,
-        accept,
-    )
 }
 
 /// The clip voxels of one leaf (index and corners), gathered once per leaf so the clip test of
@@ -176,41 +146,6 @@ pub(crate) fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(
         }
     }
     best.map(|(voxel, surface)| (best_s, voxel, surface))
-}
-
-/// The stored field of a leaf with clip voxels at `local` (the leaf's frame), the counterpart
-/// of the hit rule: for every voxel `i` that is hit itself, its value `g_i` (`f_i`, or `|f_i|`
-/// for a surface voxel) raised to the largest `f_j` of the other clip voxels `j`
-/// (`max(g_i, max_j f_j)`, the intersection), then the minimum over those `i` (the union). For
-/// two intersect voxels this is `max(f_A, f_B)`; for a sheet with a clip-only voxel it is
-/// `max(|f_S|, f_K)`. The sample's voxel is the *active* one (the one whose value it is, a clip
-/// voxel where the clip dominates, whose value is then signed even if it is a clip-only
-/// voxel), its gradient that voxel's (flipped with the sign for `|f_i|`).
-pub(crate) fn distance_in_leaf<B: AsRef<[u8]>>(
-    octree: &Octree<B>,
-    voxels: Range<u32>,
-    local: Vec3,
-    cell_min: Vec3,
-    cell_size: f32,
-) -> Option<DistanceSample> {
-    let clips = LeafClips::gather(octree, voxels.clone());
-    let mut best: Option<DistanceSample> = None;
-    for i in voxels {
-        if octree.voxel_is_surface(i) && octree.voxel_is_clip(i) {
-            continue;
-        }
-        let mut active = voxel_sample(octree, i, local, cell_min, cell_size, false);
-        for &(j, _) in clips.as_slice() {
-            if j != i {
-                let clip = voxel_sample(octree, j, local, cell_min, cell_size, true);
-                if clip.distance > active.distance {
-                    active = clip;
-                }
-            }
-        }
-        active.keep_if_nearer(&mut best);
-    }
-    best
 }
 
 #[cfg(test)]

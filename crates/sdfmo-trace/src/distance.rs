@@ -3,38 +3,13 @@
 //! [`distance_at`] finds the leaf cell that holds the point (one descent from the root, a
 //! child lookup per level, no allocation) and evaluates the trilinear interpolant of its
 //! voxels — the same field the tracer intersects — and the analytic gradient of it.
-//!
-//! # Accuracy
-//!
-//! For an SVO leaf (one volumetric voxel whose corners are the exact signed distance `f` of a
-//! closed mesh, quantised), the value differs from `f(p)` by at most
-//!
-//! ```text
-//! |distance_at(p) − f(p)| ≤ δ + h · √(u(1−u) + v(1−v) + w(1−w))       (≤ δ + h·√3/2)
-//! ```
-//!
-//! where `h` is the leaf edge, `(u, v, w)` the point's local coordinates in the leaf, and
-//! `δ = dmax / (2Q)` the quantisation half step (`dmax` = leaf diagonal, `Q` = 127 or 32767, see
-//! [`sdfmo_format::quant`]). Derivation: the interpolant is a convex combination
-//! `Σ wᵢ·qᵢ` of the stored corners with tensor-product weights `wᵢ ≥ 0`, `Σ wᵢ = 1`, so
-//! quantisation adds at most `δ`; and since a signed distance is 1-Lipschitz,
-//! `|Σ wᵢ f(cᵢ) − f(p)| ≤ Σ wᵢ |cᵢ − p| ≤ √(Σ wᵢ |cᵢ − p|²)` (Jensen), where
-//! `Σ wᵢ |cᵢ − p|² = h²·(u(1−u) + v(1−v) + w(1−w))` (per axis, the variance of a Bernoulli
-//! corner choice). Where `f` is linear over the whole cell (near the middle of a planar face)
-//! the interpolation term vanishes and only `δ` remains. The gradient there differs from the
-//! face normal by at most `2δ/h` per component. Near a smooth surface the interpolation term is
-//! second order instead: for a mesh within `s` of a sphere of radius `R`,
-//! `δ + 2s + (h²/2)·(u(1−u) + v(1−v) + w(1−w)) / r` with `r ≈ R` the cell's distance from the
-//! centre (`tests/distance.rs` checks both bounds against `sdfmo-distance`; on an icosphere at
-//! depths 5–7 the worst error uses 2–3 % of the first and 32–57 % of the second).
-//!
-//! In a multi-octree leaf each voxel stores the distance to one connected component; the value
-//! returned is their union (the minimum), so the bound holds per component.
-use glam::Vec3;
-use sdfmo_format::Octree;
 
-use crate::normal::trilinear_gradient;
-use crate::ray_voxel::trilinear;
+use core::ops::Range;
+
+use glam::Vec3;
+use sdfmo_format::{trilinear, trilinear_gradient, Octree};
+
+use crate::clip::LeafClips;
 
 /// The stored field at a point: see [`distance_at`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -119,7 +94,34 @@ pub(crate) fn voxel_sample<B: AsRef<[u8]>>(
 /// holding `p` is not stored: the builder stores only the cells the surface passes through, so
 /// `None` means the stored field has no zero in that cell (no contact there). Its sign and
 /// magnitude are then unknown; `occupied_bounds` and the ray functions answer coarser
-/// questions. Accuracy where it answers: see the [module docs](self).
+/// questions.
+///
+/// # Accuracy
+///
+/// For an SVO leaf (one volumetric voxel whose corners are the exact signed distance `f` of a
+/// closed mesh, quantised), the value differs from `f(p)` by at most
+///
+/// ```text
+/// |distance_at(p) − f(p)| ≤ δ + h · √(u(1−u) + v(1−v) + w(1−w))       (≤ δ + h·√3/2)
+/// ```
+///
+/// where `h` is the leaf edge, `(u, v, w)` the point's local coordinates in the leaf, and
+/// `δ = dmax / (2Q)` the quantisation half step (`dmax` = leaf diagonal, `Q` = 127 or 32767, see
+/// [`sdfmo_format::quant`]). Derivation: the interpolant is a convex combination
+/// `Σ wᵢ·qᵢ` of the stored corners with tensor-product weights `wᵢ ≥ 0`, `Σ wᵢ = 1`, so
+/// quantisation adds at most `δ`; and since a signed distance is 1-Lipschitz,
+/// `|Σ wᵢ f(cᵢ) − f(p)| ≤ Σ wᵢ |cᵢ − p| ≤ √(Σ wᵢ |cᵢ − p|²)` (Jensen), where
+/// `Σ wᵢ |cᵢ − p|² = h²·(u(1−u) + v(1−v) + w(1−w))` (per axis, the variance of a Bernoulli
+/// corner choice). Where `f` is linear over the whole cell (near the middle of a planar face)
+/// the interpolation term vanishes and only `δ` remains. The gradient there differs from the
+/// face normal by at most `2δ/h` per component. Near a smooth surface the interpolation term is
+/// second order instead: for a mesh within `s` of a sphere of radius `R`,
+/// `δ + 2s + (h²/2)·(u(1−u) + v(1−v) + w(1−w)) / r` with `r ≈ R` the cell's distance from the
+/// centre (`tests/distance.rs` checks both bounds against `sdfmo-distance`; on an icosphere at
+/// depths 5–7 the worst error uses 2–3 % of the first and 32–57 % of the second).
+///
+/// In a multi-octree leaf each voxel stores the distance to one connected component; the value
+/// returned is their union (the minimum), so the bound holds per component.
 pub fn distance_at<B: AsRef<[u8]>>(octree: &Octree<B>, p: Vec3) -> Option<DistanceSample> {
     if !p.is_finite() || p.abs().max_element() > 1.0 {
         return None;
@@ -149,11 +151,46 @@ pub fn distance_at<B: AsRef<[u8]>>(octree: &Octree<B>, p: Vec3) -> Option<Distan
     let local = ((p - min) / size).clamp(Vec3::ZERO, Vec3::ONE);
     let voxels = octree.leaf_voxels(node);
     if octree.any_clip_voxel(voxels.clone()) {
-        return crate::clip::distance_in_leaf(octree, voxels, local, min, size);
+        return distance_in_leaf(octree, voxels, local, min, size);
     }
     let mut best: Option<DistanceSample> = None;
     for voxel in voxels {
         voxel_sample(octree, voxel, local, min, size, false).keep_if_nearer(&mut best);
+    }
+    best
+}
+
+/// The stored field of a leaf with clip voxels at `local` (the leaf's frame), the counterpart
+/// of the hit rule: for every voxel `i` that is hit itself, its value `g_i` (`f_i`, or `|f_i|`
+/// for a surface voxel) raised to the largest `f_j` of the other clip voxels `j`
+/// (`max(g_i, max_j f_j)`, the intersection), then the minimum over those `i` (the union). For
+/// two intersect voxels this is `max(f_A, f_B)`; for a sheet with a clip-only voxel it is
+/// `max(|f_S|, f_K)`. The sample's voxel is the *active* one (the one whose value it is, a clip
+/// voxel where the clip dominates, whose value is then signed even if it is a clip-only
+/// voxel), its gradient that voxel's (flipped with the sign for `|f_i|`).
+fn distance_in_leaf<B: AsRef<[u8]>>(
+    octree: &Octree<B>,
+    voxels: Range<u32>,
+    local: Vec3,
+    cell_min: Vec3,
+    cell_size: f32,
+) -> Option<DistanceSample> {
+    let clips = LeafClips::gather(octree, voxels.clone());
+    let mut best: Option<DistanceSample> = None;
+    for i in voxels {
+        if octree.voxel_is_surface(i) && octree.voxel_is_clip(i) {
+            continue;
+        }
+        let mut active = voxel_sample(octree, i, local, cell_min, cell_size, false);
+        for &(j, _) in clips.as_slice() {
+            if j != i {
+                let clip = voxel_sample(octree, j, local, cell_min, cell_size, true);
+                if clip.distance > active.distance {
+                    active = clip;
+                }
+            }
+        }
+        active.keep_if_nearer(&mut best);
     }
     best
 }

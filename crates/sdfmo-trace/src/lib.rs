@@ -5,7 +5,8 @@
 //! trilinear-voxel kernel ([`intersect_voxel`]), analytic normals ([`hit_normal`]), and the
 //! stored signed distance and its gradient at a point ([`distance_at`], for collision queries).
 //! Leaves with clip voxels (format 1.1: intersect and clip-only voxels) follow the clip rule
-//! ([`clip`]): a hit counts only inside the leaf's other clip voxels.
+//! (`FORMAT.md` in sdfmo-format, section `clip`): a hit counts only inside the leaf's other
+//! clip voxels, and the distance there is the intersection of their fields.
 //!
 //! Depends on `sdfmo-format` and glam only, so an engine that loads and renders octrees embeds
 //! these two crates and nothing else. Nothing here allocates: the traversal keeps a fixed-size
@@ -30,20 +31,22 @@
 
 #![deny(missing_docs)]
 
-pub mod clip;
-pub mod distance;
-pub mod lod;
-pub mod normal;
-pub mod packet;
-pub mod ray_voxel;
-pub mod traversal;
+// Private modules: every public item has one path, the crate root's.
+mod clip;
+mod distance;
+mod lod;
+mod normal;
+mod packet;
+mod ray_voxel;
+mod traversal;
 
+pub use clip::inside_clip;
 pub use distance::{distance_at, DistanceSample};
 pub use lod::{
     eye_levels, intersect_lod, intersect_lod_packet, level_for_distance, pixel_angle, LevelChoice,
     LodHit,
 };
-pub use normal::{hit_normal, trilinear_gradient};
+pub use normal::hit_normal;
 pub use packet::{intersect_packet, RayPacket, PACKET_SIZE};
-pub use ray_voxel::{intersect_voxel, unit_cube_span};
+pub use ray_voxel::{intersect_voxel, intersect_voxel_where, unit_cube_span};
 pub use traversal::{intersect, occluded, occupied_bounds, ray_meets_box, Hit, Ray};

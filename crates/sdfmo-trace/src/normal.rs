@@ -1,9 +1,7 @@
 //! The normal at a hit: the analytic gradient of the voxel's trilinear interpolant.
 
 use glam::Vec3;
-/// The interpolant's gradient (owned by the format, re-exported here).
-pub use sdfmo_format::trilinear_gradient;
-use sdfmo_format::Octree;
+use sdfmo_format::{trilinear_gradient, Octree};
 
 use crate::traversal::{Hit, Ray};
 

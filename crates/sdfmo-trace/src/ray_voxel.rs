@@ -28,8 +28,7 @@
 
 use glam::Vec3;
 
-/// The interpolant a voxel is (owned by the format, re-exported here for the kernel's users).
-pub use sdfmo_format::trilinear;
+use sdfmo_format::trilinear;
 
 // Newton/bisection steps at most, and the tolerance of a polished root as a fraction of the
 // segment length: shared with the WGSL kernel (`sdfmo_format::kernel`).
@@ -38,7 +37,7 @@ pub(crate) use sdfmo_format::kernel::ROOT_REL_TOLERANCE as REL_TOLERANCE;
 
 /// A cubic `a s³ + b s² + c s + d` in the segment parameter `s = t − t0`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RayCubic {
+pub(crate) struct RayCubic {
     /// Coefficient of `s³`.
     pub a: f32,
     /// Coefficient of `s²`.
@@ -165,13 +164,37 @@ pub fn intersect_voxel(
     t1: f32,
     surface: bool,
 ) -> Option<f32> {
+    intersect_voxel_where(corners, origin, dir, t0, t1, surface, |_, _| true)
+}
+
+/// The first candidate hit of one voxel in `[t0, t1]` that `accept` accepts (it gets the
+/// candidate's `t` and whether it is a polished root, `false` for the span start `t0` of a
+/// segment that starts inside a volume voxel or on a surface voxel), in the voxel's local
+/// frame `[0,1]³`, the candidates taken front to back (those of the clip rule, `FORMAT.md` in
+/// sdfmo-format, section `clip`): for a volume voxel every crossing from `f ≥ 0` to `f < 0`
+/// and `t0` when `f(t0) < 0` (or `f` is zero along the whole segment); for a surface voxel
+/// every sign change and `t0` when `f(t0) = 0`.
+///
+/// [`intersect_voxel`] is this with an `accept` that takes every candidate. `None` for an
+/// empty or NaN segment.
+#[inline]
+pub fn intersect_voxel_where(
+    corners: &[f32; 8],
+    origin: Vec3,
+    dir: Vec3,
+    t0: f32,
+    t1: f32,
+    surface: bool,
+    accept: impl FnMut(f32, bool) -> bool,
+) -> Option<f32> {
+    // The plain kernel's early-outs, normalisation and polish, `accept` choosing the candidate.
     intersect_prepared(
         &prepare_voxel(corners),
         origin,
         dir,
         (t0, t1),
         surface,
-        |_, _| true,
+        accept,
     )
 }
 
@@ -245,21 +268,14 @@ pub(crate) fn intersect_prepared(
     }
 }
 
-/// Like [`intersect_voxel`] for a segment `s ∈ [0, len]` whose cubic is already known: the
-/// first root in parameter units of the cubic. Polishes to `1e-6 · len`.
-#[inline]
-pub fn first_root(cubic: &RayCubic, len: f32, surface: bool) -> Option<f32> {
-    roots_where(cubic, len, surface, |_, _| true)
-}
-
 /// The candidates of a cubic on `[0, len]` in order, the first one `accept` takes (it gets the
 /// candidate's parameter and whether it is a polished root, `false` for the segment start):
 /// for a volume voxel the segment start when it starts inside (or the cubic is zero along the
 /// whole segment, a ray in the zero set of touching shells: on the surface, not a leak), then
 /// every crossing from `g ≥ 0` to `g < 0`; for a surface voxel the start when `g = 0` there,
 /// then every sign change. Each monotone piece between the cubic's critical points holds one
-/// root at most, polished to `1e-6 · len`. [`first_root`] accepts everything; the clip rule
-/// (`crate::clip`) goes on past rejected candidates.
+/// root at most, polished to `1e-6 · len`. [`intersect_voxel`] accepts everything; the clip
+/// rule (`crate::clip`) goes on past rejected candidates.
 #[inline(always)]
 pub(crate) fn roots_where(
     cubic: &RayCubic,

@@ -1,7 +1,7 @@
 //! `distance_at` against the builder's exact signed distance (`sdfmo-distance`), within the
-//! bound derived in `sdfmo_trace::distance`: the quantisation half step `δ` plus the trilinear
-//! interpolation term `h·√(u(1−u) + v(1−v) + w(1−w))` of a 1-Lipschitz field, and `δ` alone
-//! where the field is linear over the cell.
+//! bound derived in its docs (`sdfmo_trace::distance_at`, "Accuracy"): the quantisation half
+//! step `δ` plus the trilinear interpolation term `h·√(u(1−u) + v(1−v) + w(1−w))` of a
+//! 1-Lipschitz field, and `δ` alone where the field is linear over the cell.
 
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
