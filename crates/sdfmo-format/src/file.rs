@@ -67,7 +67,9 @@ impl<B: AsRef<[u8]>> Octree<B> {
         }
     }
 
-    /// Header flags: [`FLAG_MULTI_VOXEL`], [`FLAG_SURFACE_VOXELS`], [`FLAG_CLIP_VOXELS`].
+    /// Header flags: [`FLAG_MULTI_VOXEL`](crate::FLAG_MULTI_VOXEL),
+    /// [`FLAG_SURFACE_VOXELS`](crate::FLAG_SURFACE_VOXELS),
+    /// [`FLAG_CLIP_VOXELS`](crate::FLAG_CLIP_VOXELS).
     pub fn flags(&self) -> u32 {
         self.counts.flags()
     }
