@@ -18,6 +18,7 @@
 //! | [`format`](mod@format) | `sdfmo-format` | the packed octree and its `.smo` file |
 //! | [`trace`] | `sdfmo-trace` | ray vs packed octree |
 //! | [`render`] | `sdfmo-render` | cameras, render modes, PNG/EXR, mesh reference images |
+//! | `gpu` | `sdfmo-gpu` | the same kernel in WGSL, rendering on a GPU (a backend of [`render`]; feature `gpu`) |
 //! | [`metrics`] | `sdfmo-metrics` | PSNR and FLIP |
 //!
 //! `glam`, whose types appear in the signatures, is re-exported as `sdf_multioctree::glam` (and [`Vec3`]
@@ -108,6 +109,13 @@ pub mod render {
     #[doc(inline)]
     pub use sdfmo_render::*;
 }
+/// Crate `sdfmo-gpu`: the tracing kernel in WGSL and wgpu renders, a backend of [`render`]
+/// (its camera, settings and image); [`Renderer`] chooses the device. Feature `gpu`.
+#[cfg(feature = "gpu")]
+pub mod gpu {
+    #[doc(inline)]
+    pub use sdfmo_gpu::*;
+}
 /// Crate `sdfmo-trace`: ray vs packed octree, distance queries.
 pub mod trace {
     #[doc(inline)]
@@ -145,18 +153,18 @@ pub use render::{save_png, Camera, LevelRequest, Mode, Rendered};
 /// `Display`, `source` (the layer error's own source: the layer's message is already shown)
 /// and a `From` per layer error.
 macro_rules! layer_errors {
-    ($($(#[doc = $doc:literal])* $variant:ident($ty:ty) => $prefix:literal,)*) => {
+    ($($(#[doc = $doc:literal])* $(#[cfg($cfg:meta)])* $variant:ident($ty:ty) => $prefix:literal,)*) => {
         /// An error of the high-level API: the layer's own error, one variant per layer.
         #[derive(Debug)]
         #[non_exhaustive]
         pub enum Error {
-            $($(#[doc = $doc])* $variant($ty),)*
+            $($(#[doc = $doc])* $(#[cfg($cfg)])* $variant($ty),)*
         }
 
         impl fmt::Display for Error {
             fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
                 match self {
-                    $(Error::$variant(e) => write!(f, concat!($prefix, ": {}"), e),)*
+                    $($(#[cfg($cfg)])* Error::$variant(e) => write!(f, concat!($prefix, ": {}"), e),)*
                 }
             }
         }
@@ -164,12 +172,12 @@ macro_rules! layer_errors {
         impl std::error::Error for Error {
             fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
                 match self {
-                    $(Error::$variant(e) => e.source(),)*
+                    $($(#[cfg($cfg)])* Error::$variant(e) => e.source(),)*
                 }
             }
         }
 
-        $(impl From<$ty> for Error {
+        $($(#[cfg($cfg)])* impl From<$ty> for Error {
             fn from(e: $ty) -> Error {
                 Error::$variant(e)
             }
@@ -187,6 +195,10 @@ layer_errors!(
     Format(format::FormatError) => "octree file",
     /// Rendering or writing an image.
     Render(render::RenderError) => "render",
+    /// Opening a GPU or rendering on it ([`Device::Gpu`]): no adapter, a file over the
+    /// adapter's limits, a device error. Feature `gpu`.
+    #[cfg(feature = "gpu")]
+    Gpu(gpu::GpuError) => "GPU",
     /// Comparing images.
     Metrics(metrics::MetricsError) => "metrics",
 );
@@ -284,7 +296,8 @@ pub fn load_levels(path: impl AsRef<Path>) -> Result<SmoPrefix> {
 /// picks what is drawn ([`LevelRequest`]: the finest level held, one level, or each ray's level
 /// by pixel error), the rule `sdfmo render --lod`/`--pixel-error` and Python's `lod=` and
 /// `pixel_error=` follow. The camera is in the normalised frame (see [`camera_from_model`]
-/// with `octree_frame(file.finest())` for one in model units). Example: [`load_levels`].
+/// with `octree_frame(file.finest())` for one in model units). Example: [`load_levels`]; on a
+/// GPU, or with more settings: [`Renderer`].
 ///
 /// # Errors
 /// [`Error::Render`] for an invalid camera, a level the file does not hold (naming those it
@@ -295,11 +308,237 @@ pub fn render_levels(
     mode: Mode,
     level: LevelRequest,
 ) -> Result<Rendered> {
-    let settings = RenderSettings::new(mode);
-    Ok(match level.scene(file, camera)? {
-        render::LevelScene::Level(s) => render::render(&s, camera, &settings)?,
-        render::LevelScene::PixelError(s) => render::render(&s, camera, &settings)?,
-    })
+    Renderer::new(Device::Cpu)?
+        .prepare(file, level)?
+        .render(camera, &RenderSettings::new(mode))
+}
+
+/// Where a [`Renderer`] traces its rays.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Device {
+    /// The CPU kernel (`sdfmo-trace`) on rayon's threads: every mode, shadows and occlusion.
+    #[default]
+    Cpu,
+    /// The WGSL kernel (crate `sdfmo-gpu`, feature `gpu`) on the first GPU adapter wgpu finds
+    /// (`WGPU_ADAPTER_NAME` picks one): primary rays only (shadows, occlusion and a thread
+    /// count are refused). Its images agree with the CPU's to a few ulps of the hit distance,
+    /// not bit for bit (`crates/sdfmo-gpu/tests/match_cpu.rs` states the tolerances).
+    Gpu,
+}
+
+impl Device {
+    /// `"cpu"` or `"gpu"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Device::Cpu => "cpu",
+            Device::Gpu => "gpu",
+        }
+    }
+}
+
+/// The render entry of `.smo` files on either device: the CPU renderer, or a GPU opened once
+/// (adapter and compiled kernel) for any number of files and views. The same camera, settings,
+/// level request and image type ([`render`]'s) on both; the command line's `sdfmo render
+/// --device` and Python's `Octree.render(device=...)` go through it.
+///
+/// ```
+/// use sdf_multioctree::{build_octree, demo_mesh, paper_views, Device, LevelRequest};
+/// use sdf_multioctree::{Method, Mode, Renderer, SmoFile};
+/// use sdf_multioctree::render::RenderSettings;
+///
+/// let (octree, _) = build_octree(&demo_mesh(), 5, Method::Multi { max_voxels: 8 })?;
+/// let file = SmoFile::Octree(octree);
+/// let camera = &paper_views(32)[0];
+/// let settings = RenderSettings::new(Mode::Depth);
+/// let cpu = Renderer::new(Device::Cpu)?.prepare(&file, LevelRequest::Finest)?.render(camera, &settings)?;
+/// // A typed error, never a panic, without an adapter (or without the `gpu` feature).
+/// match Renderer::new(Device::Gpu) {
+///     Ok(mut gpu) => {
+///         let image = gpu.prepare(&file, LevelRequest::Finest)?.render(camera, &settings)?;
+///         assert!(image.kernel_ms.is_some() && image.counters.rays == cpu.counters.rays);
+///     }
+///     Err(e) => eprintln!("no GPU: {e}"),
+/// }
+/// # Ok::<(), sdf_multioctree::Error>(())
+/// ```
+#[derive(Debug)]
+pub struct Renderer {
+    /// The GPU, for [`Device::Gpu`].
+    #[cfg(feature = "gpu")]
+    gpu: Option<gpu::GpuRenderer>,
+}
+
+impl Renderer {
+    /// A renderer on `device`: for [`Device::Gpu`] opens the adapter and compiles the kernel.
+    ///
+    /// # Errors
+    /// For [`Device::Gpu`]: `Error::Gpu` (`GpuError::NoAdapter`) when there is no GPU adapter
+    /// or it refuses a device; [`Error::Render`] when this build has no GPU backend (the
+    /// `gpu` feature is off).
+    pub fn new(device: Device) -> Result<Renderer> {
+        #[cfg(feature = "gpu")]
+        let gpu = match device {
+            Device::Cpu => None,
+            Device::Gpu => Some(gpu::GpuRenderer::new()?),
+        };
+        #[cfg(not(feature = "gpu"))]
+        if device == Device::Gpu {
+            return Err(Error::Render(render::RenderError::InvalidSettings(
+                "no GPU backend: sdf-multioctree was built without its `gpu` feature".into(),
+            )));
+        }
+        Ok(Renderer {
+            #[cfg(feature = "gpu")]
+            gpu,
+        })
+    }
+
+    /// The device it renders on.
+    pub fn device(&self) -> Device {
+        #[cfg(feature = "gpu")]
+        if self.gpu.is_some() {
+            return Device::Gpu;
+        }
+        Device::Cpu
+    }
+
+    /// `"cpu"`, or the GPU adapter's name.
+    pub fn device_name(&self) -> &str {
+        #[cfg(feature = "gpu")]
+        if let Some(g) = &self.gpu {
+            return g.adapter_name();
+        }
+        "cpu"
+    }
+
+    /// The GPU, for [`Device::Gpu`]: its adapter, timing ([`gpu::GpuRenderer::timing`]),
+    /// limits.
+    #[cfg(feature = "gpu")]
+    pub fn gpu(&self) -> Option<&gpu::GpuRenderer> {
+        self.gpu.as_ref()
+    }
+
+    /// The longest `.smo` file this device renders: [`format::MAX_FILE_SIZE`] on the CPU, the
+    /// adapter's limit on a GPU (`GpuRenderer::max_file_bytes`). Check a file's length against
+    /// it before reading it.
+    pub fn max_file_bytes(&self) -> u64 {
+        #[cfg(feature = "gpu")]
+        if let Some(g) = &self.gpu {
+            return g.max_file_bytes();
+        }
+        format::MAX_FILE_SIZE
+    }
+
+    /// Prepares `file` drawn as `level` asks ([`LevelRequest`]) for renders: checks the
+    /// request, and on a GPU uploads what it draws (the level's octree, or every level for a
+    /// pixel error) once for every view.
+    ///
+    /// # Errors
+    /// [`Error::Render`] for a level the file does not hold or a pixel error it cannot draw
+    /// ([`LevelRequest::scene`]); on a GPU, `Error::Gpu` when the upload fails (a file over
+    /// the adapter's limits).
+    pub fn prepare<'a>(
+        &'a mut self,
+        file: &'a SmoFile,
+        level: LevelRequest,
+    ) -> Result<Prepared<'a>> {
+        // Which level is drawn does not depend on the camera (only a pixel's angle does).
+        let _scene = level.scene(file, &Camera::default())?;
+        #[cfg(feature = "gpu")]
+        let gpu = match self.gpu.as_mut() {
+            None => None,
+            Some(g) => {
+                let upload = match _scene {
+                    render::LevelScene::Level(s) => Upload::Octree(g.upload(s.0)?),
+                    render::LevelScene::PixelError(s) => Upload::Levels(g.upload_lod(s.lod)?),
+                };
+                Some((g, upload))
+            }
+        };
+        Ok(Prepared {
+            file,
+            level,
+            #[cfg(feature = "gpu")]
+            gpu,
+            _renderer: std::marker::PhantomData,
+        })
+    }
+}
+
+/// What a GPU holds of a prepared file.
+#[cfg(feature = "gpu")]
+#[derive(Debug)]
+enum Upload {
+    /// The level drawn.
+    Octree(gpu::GpuOctree),
+    /// Every level, for a pixel error.
+    Levels(gpu::GpuLodOctree),
+}
+
+/// A file prepared for renders on a [`Renderer`]'s device ([`Renderer::prepare`]).
+#[derive(Debug)]
+pub struct Prepared<'a> {
+    file: &'a SmoFile,
+    level: LevelRequest,
+    /// The GPU and what it holds of the file (`None` on the CPU).
+    #[cfg(feature = "gpu")]
+    gpu: Option<(&'a mut gpu::GpuRenderer, Upload)>,
+    /// Borrows the renderer with or without the `gpu` feature.
+    _renderer: std::marker::PhantomData<&'a mut Renderer>,
+}
+
+impl Prepared<'_> {
+    /// Renders the prepared file seen by `camera` with `settings` ([`render::render`]'s
+    /// camera, settings and image, on either device).
+    ///
+    /// # Errors
+    /// [`Error::Render`] for an invalid camera or settings; on a GPU, `Error::Gpu` for
+    /// settings it does not render (shadows, occlusion, a thread count), a device error or a
+    /// time-out.
+    pub fn render(&mut self, camera: &Camera, settings: &RenderSettings) -> Result<Rendered> {
+        self.render_with(camera, settings, None, None)
+    }
+
+    /// [`Prepared::render`] reporting its progress (the fraction of tiles done, from the
+    /// worker threads; see [`render::render_with_progress`]) and stopping with
+    /// [`render::RenderError::Cancelled`] when `cancel` returns true (asked before each tile).
+    /// A GPU frame is one dispatch: neither is called there.
+    ///
+    /// # Errors
+    /// Those of [`Prepared::render`], and [`render::RenderError::Cancelled`].
+    pub fn render_with(
+        &mut self,
+        camera: &Camera,
+        settings: &RenderSettings,
+        progress: Option<&(dyn Fn(f32) + Sync)>,
+        cancel: Option<&(dyn Fn() -> bool + Sync)>,
+    ) -> Result<Rendered> {
+        let scene = self.level.scene(self.file, camera)?;
+        #[cfg(feature = "gpu")]
+        if let Some((g, upload)) = self.gpu.as_mut() {
+            return Ok(match upload {
+                Upload::Octree(o) => g.render(o, camera, settings)?,
+                Upload::Levels(l) => {
+                    // `prepare` uploaded every level for a pixel error: this camera's choice.
+                    let render::LevelScene::PixelError(s) = scene else {
+                        return Err(render::RenderError::InvalidSettings(
+                            "a pixel-error request drew one level".into(),
+                        )
+                        .into());
+                    };
+                    g.render_lod(l, s.choice, camera, settings)?
+                }
+            });
+        }
+        Ok(match scene {
+            render::LevelScene::Level(s) => {
+                render::render_observed(&s, camera, settings, progress, cancel)?
+            }
+            render::LevelScene::PixelError(s) => {
+                render::render_observed(&s, camera, settings, progress, cancel)?
+            }
+        })
+    }
 }
 
 /// Saves an octree as a `.smo` file, atomically.

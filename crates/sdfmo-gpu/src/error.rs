@@ -45,12 +45,12 @@ pub enum GpuError {
         /// [`crate::MAX_GPU_FILE_BYTES`].
         limit: u64,
     },
-    /// The camera or image size cannot be rendered (empty image, non-finite frame).
-    #[error("invalid camera: {0}")]
-    InvalidCamera(String),
-    /// The pixel error or pixel angle of a pixel-error render is not a finite number > 0.
-    #[error("invalid pixel error: {0}")]
-    InvalidPixelError(String),
+    /// The camera or the settings cannot be rendered: the renderer's own checks
+    /// ([`sdfmo_render::Camera::frame`], [`sdfmo_render::RenderPlan::new`]), settings the
+    /// kernel does not render (shadows, occlusion, threads), a pixel error that is not finite
+    /// and > 0, an image over the adapter's dispatch limit.
+    #[error(transparent)]
+    Render(#[from] sdfmo_render::RenderError),
     /// The octree was uploaded through another [`crate::GpuRenderer`] (another device).
     #[error("the octree was uploaded to another GPU renderer")]
     ForeignOctree,

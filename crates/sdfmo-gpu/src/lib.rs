@@ -28,7 +28,7 @@
 //! | 1 | uniform | `params: SmoRenderParams` | eye, image size, mode, shading, dequantisation factor, pixel error (64 bytes) |
 //! | 2 | storage, read_write | `pixels: array<SmoPixel>` | per pixel: viewer-facing normal (vec3) and t (`3e38` for the background) |
 //! | 3 | storage, read_write | `colors: array<u32>` | per pixel: `0x00BBGGRR` |
-//! | 4 | storage, read | `rays: array<vec4<f32>>` | the camera's column and row terms as double-float pairs ([`GpuCamera::ray_terms`]) |
+//! | 4 | storage, read | `rays: array<vec4<f32>>` | the camera's column and row terms ([`sdfmo_render::CameraFrame::column`], [`row`](sdfmo_render::CameraFrame::row)) as double-float pairs: every column's (hi.xyz, 0), (lo.xyz, 0), then every row's |
 //!
 //! Only binding 0 belongs to the library ([`trace_wgsl`]); 1–4 are [`render_wgsl`]'s. The kernel
 //! reads the header's counts and section offsets itself; the one value the host passes is
@@ -48,18 +48,24 @@
 //!
 //! [`GpuRenderer::new`] opens an adapter (a typed [`GpuError::NoAdapter`] without one),
 //! [`GpuRenderer::upload`] puts an octree on it, [`GpuRenderer::render`] renders and reads back
-//! a [`GpuImage`] whose buffers are laid out as `sdfmo_render::Rendered`'s. See
-//! [`GpuRenderer`].
+//! an image. The GPU is a backend of `sdfmo-render`: it takes the CPU renderer's
+//! [`Camera`](sdfmo_render::Camera), [`RenderSettings`](sdfmo_render::RenderSettings) (its
+//! [`Mode`](sdfmo_render::Mode); shadows and occlusion are CPU settings) and shading
+//! constants, and returns its [`Rendered`](sdfmo_render::Rendered), with the kernel's time in
+//! [`Rendered::kernel_ms`](sdfmo_render::Rendered::kernel_ms). The facade
+//! `sdf-multioctree` chooses between the two devices (`Device`). See [`GpuRenderer`].
 //!
 //! # Levels of detail
 //!
 //! A level of a `.smo` 2.0 file is a 1.x octree: [`GpuRenderer::upload`] it and render it as
 //! any. [`GpuRenderer::upload_lod`] puts the whole 2.0 file on the GPU as saved, and
-//! [`GpuRenderer::render_pixel_error`] lets each ray stop at the coarsest level whose voxels
-//! project to at most a number of pixels at its hit distance: `smo_intersect_lod` in the WGSL,
-//! the rule of `sdfmo_trace::intersect_lod` (the same levels, traced in the same order).
+//! [`GpuRenderer::render_lod`] lets each ray stop at the coarsest level whose voxels
+//! project to at most a number of pixels at its hit distance (the tracer's
+//! `LevelChoice::PixelError`): `smo_intersect_lod` in the WGSL, the rule of
+//! `sdfmo_trace::intersect_lod` (the same levels, traced in the same order).
 //!
-//! Depends on `sdfmo-format` and wgpu only; no CPU crate depends on this one.
+//! Depends on `sdfmo-format`, `sdfmo-trace` (its level choice), `sdfmo-render` without its
+//! mesh reference (the vocabulary) and wgpu; no CPU crate depends on this one.
 
 #![deny(missing_docs)]
 
@@ -69,8 +75,7 @@ mod shared_struct;
 
 pub use error::{GpuError, Result};
 pub use renderer::{
-    GpuCamera, GpuImage, GpuLodOctree, GpuMode, GpuOctree, GpuRenderer, GpuTiming, PixelError,
-    Shading, DEFAULT_GPU_TIMEOUT, MAX_GPU_FILE_BYTES,
+    GpuLodOctree, GpuOctree, GpuRenderer, GpuTiming, DEFAULT_GPU_TIMEOUT, MAX_GPU_FILE_BYTES,
 };
 
 /// `src/sdfmo.wgsl` as written: the library without the constants it shares with the CPU

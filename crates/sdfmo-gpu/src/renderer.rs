@@ -4,126 +4,48 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use glam::{DVec3, Vec3};
 use sdfmo_format::quant::dequant_scale;
 use sdfmo_format::{LodOctree, PackedOctree, PackedOctreeView};
+use sdfmo_render::shading::{light_dir, DepthRange, AMBIENT, LIGHT_INTENSITY};
+use sdfmo_render::{
+    Camera, CameraFrame, Counters, Mode, RenderError, RenderPlan, RenderSettings, Rendered,
+};
+use sdfmo_trace::LevelChoice;
 use wgpu::util::DeviceExt;
 
 use crate::shared_struct::shared_struct;
 use crate::{shader_source, GpuError, Result, ENTRY_POINT, SMO_FAR, WORKGROUP_SIZE};
 
-/// What each pixel shows (the modes of `sdfmo-render`, without shadows or occlusion).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum GpuMode {
-    /// 255 where a ray hits, 0 elsewhere.
-    Mask,
-    /// Grey from the ray distance over [`Shading::depth_near`, `Shading::depth_far`].
-    Depth,
-    /// The viewer-facing unit normal as colour, `n·0.5 + 0.5`.
-    Normal,
-    /// Ambient plus one directional light on a white two-sided surface (the paper protocol).
-    #[default]
-    Lambert,
-}
-
-impl GpuMode {
-    /// The value of `SmoRenderParams::mode` in `render.wgsl`.
-    pub fn code(self) -> u32 {
-        match self {
-            GpuMode::Mask => 0,
-            GpuMode::Depth => 1,
-            GpuMode::Normal => 2,
-            GpuMode::Lambert => 3,
-        }
+/// The `mode` code of `SmoRenderParams` in `render.wgsl` (the renderer's [`Mode`]s; shadows
+/// and occlusion are CPU options).
+fn mode_code(mode: Mode) -> u32 {
+    match mode {
+        Mode::Mask => 0,
+        Mode::Depth => 1,
+        Mode::Normal => 2,
+        Mode::Lambert => 3,
     }
 }
 
-/// A pinhole camera as its orthonormal frame, in the octree's normalised coordinates, in f64 as
-/// `sdfmo_render::CameraFrame` holds it (which computes these vectors from eye, target, up hint
-/// and field of view; this crate takes them as they are, so those rules live in one place).
-/// The primary ray of pixel (`px`, `py`), `py` from the top, starts at `eye` (rounded to f32)
-/// with the direction `normalize(column + row)` rounded to f32, where
-/// `column = fwd + u·right`, `u = (2(px + 0.5)/width − 1)·tan_half·width/height` and
-/// `row = v·up`, `v = (1 − 2(py + 0.5)/height)·tan_half`, all in f64 (the Conventions of
-/// docs/architecture.md): the CPU renderer's rays exactly.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct GpuCamera {
-    /// Eye position.
-    pub eye: [f64; 3],
-    /// Unit view direction.
-    pub fwd: [f64; 3],
-    /// Unit right vector.
-    pub right: [f64; 3],
-    /// Unit up vector (`right × fwd`).
-    pub up: [f64; 3],
-    /// tan(vertical field of view / 2).
-    pub tan_half: f64,
-    /// Image width in pixels.
-    pub width: u32,
-    /// Image height in pixels.
-    pub height: u32,
+/// The `rays` binding of `render.wgsl` for a camera's frame: every column term
+/// ([`CameraFrame::column`]), then every row term ([`CameraFrame::row`]), each as a
+/// double-float pair of vec4 rows (hi.xyz, 0), (lo.xyz, 0). The kernel adds and normalises
+/// them as [`CameraFrame::direction`] does: the CPU renderer's rays exactly.
+fn ray_terms(frame: &CameraFrame) -> Vec<[f32; 4]> {
+    let split = |v: DVec3| {
+        let hi = v.as_vec3();
+        let lo = (v - hi.as_dvec3()).as_vec3();
+        [[hi.x, hi.y, hi.z, 0.0], [lo.x, lo.y, lo.z, 0.0]]
+    };
+    (0..frame.width)
+        .flat_map(|px| split(frame.column(px)))
+        .chain((0..frame.height).flat_map(|py| split(frame.row(py))))
+        .collect()
 }
 
-impl GpuCamera {
-    /// The column term `fwd + u·right` of pixel column `px`.
-    pub fn column(&self, px: u32) -> [f64; 3] {
-        let (w, h) = (f64::from(self.width), f64::from(self.height));
-        let u = (2.0 * (f64::from(px) + 0.5) / w - 1.0) * self.tan_half * w / h;
-        std::array::from_fn(|k| self.fwd[k] + u * self.right[k])
-    }
-
-    /// The row term `v·up` of pixel row `py`.
-    pub fn row(&self, py: u32) -> [f64; 3] {
-        let h = f64::from(self.height);
-        let v = (1.0 - 2.0 * (f64::from(py) + 0.5) / h) * self.tan_half;
-        self.up.map(|c| v * c)
-    }
-
-    /// The `rays` binding of `render.wgsl`: every column term, then every row term, each as a
-    /// double-float pair of vec4 rows (hi.xyz, 0), (lo.xyz, 0).
-    pub fn ray_terms(&self) -> Vec<[f32; 4]> {
-        let split = |v: [f64; 3]| {
-            let hi = v.map(|x| x as f32);
-            let lo: [f32; 3] = std::array::from_fn(|k| (v[k] - f64::from(hi[k])) as f32);
-            [[hi[0], hi[1], hi[2], 0.0], [lo[0], lo[1], lo[2], 0.0]]
-        };
-        (0..self.width)
-            .flat_map(|px| split(self.column(px)))
-            .chain((0..self.height).flat_map(|py| split(self.row(py))))
-            .collect()
-    }
-}
-
-/// Shading constants and the depth range (the values of `sdfmo_render::shading`; the default is
-/// the paper protocol's, with the depth range of a camera 3 units from the root cube's centre).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Shading {
-    /// Unit direction toward the light.
-    pub light: [f32; 3],
-    /// Intensity of the directional light.
-    pub light_intensity: f32,
-    /// Ambient term.
-    pub ambient: f32,
-    /// Depth mode: the distance shown as 255.
-    pub depth_near: f32,
-    /// Depth mode: the distance shown as the darkest grey.
-    pub depth_far: f32,
-}
-
-impl Default for Shading {
-    fn default() -> Self {
-        let l = 1.0 / 3f32.sqrt();
-        let r = 3f32.sqrt();
-        Shading {
-            light: [l; 3],
-            light_intensity: 2.0 / 3.0,
-            ambient: 0.25,
-            depth_near: 3.0 - r,
-            depth_far: 3.0 + r,
-        }
-    }
-}
-
-/// How [`GpuImage::gpu_ms`] was measured.
+/// How the kernel time of a GPU render ([`sdfmo_render::Rendered::kernel_ms`]) is measured
+/// ([`GpuRenderer::timing`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum GpuTiming {
     /// Timestamp queries at the start and end of the compute pass: the kernel alone.
@@ -140,30 +62,6 @@ impl GpuTiming {
             GpuTiming::WallClock => "wall",
         }
     }
-}
-
-/// One rendered image, read back to the host, laid out as `sdfmo_render::Rendered`'s buffers.
-#[derive(Clone, Debug, PartialEq)]
-pub struct GpuImage {
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
-    /// 8-bit RGB, row-major from the top-left (3 bytes per pixel).
-    pub rgb: Vec<u8>,
-    /// Ray distance per pixel, `+∞` for the background.
-    pub depth: Vec<f32>,
-    /// Viewer-facing unit normal per pixel (normal and lambert modes; zero for the background
-    /// and in the other modes).
-    pub normals: Vec<[f32; 3]>,
-    /// Pixels whose ray hit the octree.
-    pub hits: u64,
-    /// Kernel time in milliseconds, measured as [`GpuImage::timing`] says.
-    pub gpu_ms: f64,
-    /// How `gpu_ms` was measured.
-    pub timing: GpuTiming,
-    /// Wall time from submission until the result was on the host, milliseconds.
-    pub wall_ms: f64,
 }
 
 /// An octree uploaded to the GPU: the `.smo` file's bytes, unchanged, in one storage buffer.
@@ -195,7 +93,7 @@ impl GpuOctree {
 
 /// A file with levels of detail uploaded to the GPU: the `.smo` 2.0 file's bytes as saved
 /// ([`LodOctree::to_bytes`]: the 2.0 header, its level table, every level's 1.x file), in one
-/// storage buffer, so one dispatch can trace any level ([`GpuRenderer::render_pixel_error`]).
+/// storage buffer, so one dispatch can trace any level ([`GpuRenderer::render_lod`]).
 #[derive(Debug)]
 pub struct GpuLodOctree {
     octree: GpuOctree,
@@ -223,18 +121,6 @@ impl GpuLodOctree {
     pub fn levels(&self) -> (u8, u8) {
         (self.coarsest, self.depth)
     }
-}
-
-/// How [`GpuRenderer::render_pixel_error`] picks each ray's level: the coarsest whose voxel edge
-/// `2 / 2^k` projects to at most `pixels` pixels at the hit distance, with `pixel_angle` the
-/// radians one pixel subtends (`sdfmo_trace::LevelChoice::PixelError`, whose fields these are;
-/// `sdfmo_trace::pixel_angle(fov, height)` gives the CPU renderer's value).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PixelError {
-    /// The largest projected voxel edge allowed, in pixels (finite, > 0).
-    pub pixels: f32,
-    /// Radians per pixel (finite, > 0).
-    pub pixel_angle: f32,
 }
 
 shared_struct! {
@@ -311,16 +197,20 @@ struct Timer {
 ///
 /// ```no_run
 /// # fn main() -> Result<(), sdfmo_gpu::GpuError> {
-/// use sdfmo_gpu::{GpuCamera, GpuMode, GpuRenderer, Shading};
+/// use sdfmo_gpu::GpuRenderer;
+/// use sdfmo_render::{Camera, Mode, RenderSettings};
 /// let octree = sdfmo_format::PackedOctree::load(std::path::Path::new("part.smo"))?;
 /// let mut gpu = GpuRenderer::new()?; // a typed error without an adapter
 /// let on_gpu = gpu.upload(&octree)?;
-/// let camera = GpuCamera {
-///     eye: [0.0, 0.0, 3.0], fwd: [0.0, 0.0, -1.0], right: [1.0, 0.0, 0.0], up: [0.0, 1.0, 0.0],
-///     tan_half: 30f64.to_radians().tan(), width: 256, height: 256,
-/// };
-/// let image = gpu.render(&on_gpu, &camera, GpuMode::Lambert, &Shading::default())?;
-/// println!("{}: {} hits in {:.2} ms", gpu.adapter_name(), image.hits, image.gpu_ms);
+/// // The CPU renderer's camera, settings and image type.
+/// let camera = Camera::paper_view(0, 256, 256);
+/// let image = gpu.render(&on_gpu, &camera, &RenderSettings::new(Mode::Lambert))?;
+/// println!(
+///     "{}: {} hits in {:.2} ms",
+///     gpu.adapter_name(),
+///     image.counters.hits,
+///     image.kernel_ms.unwrap_or_default()
+/// );
 /// # Ok(()) }
 /// ```
 pub struct GpuRenderer {
@@ -521,9 +411,14 @@ impl GpuRenderer {
         &self.info
     }
 
-    /// Whether kernel times come from timestamp queries ([`GpuTiming::Timestamps`]).
-    pub fn has_timestamps(&self) -> bool {
-        self.timer.is_some()
+    /// How this adapter's kernel times ([`Rendered::kernel_ms`]) are measured: timestamp
+    /// queries where the adapter has them, else the wall time of the frame.
+    pub fn timing(&self) -> GpuTiming {
+        if self.timer.is_some() {
+            GpuTiming::Timestamps
+        } else {
+            GpuTiming::WallClock
+        }
     }
 
     /// How long [`GpuRenderer::render`] waits for one frame (and each read-back) before it
@@ -570,7 +465,7 @@ impl GpuRenderer {
 
     /// Uploads a file with levels of detail: its `.smo` 2.0 bytes ([`LodOctree::to_bytes`],
     /// every level, coarsest first) into one storage buffer, for
-    /// [`GpuRenderer::render_pixel_error`]. The size is checked first
+    /// [`GpuRenderer::render_lod`]. The size is checked first
     /// ([`GpuRenderer::max_file_bytes`]).
     pub fn upload_lod(&self, lod: &LodOctree) -> Result<GpuLodOctree> {
         self.check_file_size(lod.byte_size())?;
@@ -625,58 +520,92 @@ impl GpuRenderer {
         })
     }
 
-    /// Renders one image of `octree` and reads it back.
+    /// Renders one image of `octree` with the CPU renderer's camera, settings and shading
+    /// ([`sdfmo_render::render`] of an [`sdfmo_render::OctreeScene`]), and reads it back as the
+    /// CPU renderer returns it: [`Rendered::depth`] and [`Rendered::normals`] as the plan keeps
+    /// them, the primary-ray [`Rendered::counters`], the kernel's time in
+    /// [`Rendered::kernel_ms`].
+    ///
+    /// # Errors
+    /// [`GpuError::Render`] for an invalid camera, or settings the kernel does not render
+    /// (shadows, ambient occlusion, a thread count: it traces primary rays only); the
+    /// adapter's errors and limits otherwise.
     pub fn render(
         &mut self,
         octree: &GpuOctree,
-        camera: &GpuCamera,
-        mode: GpuMode,
-        shading: &Shading,
-    ) -> Result<GpuImage> {
-        self.render_file(octree, camera, mode, shading, None)
+        camera: &Camera,
+        settings: &RenderSettings,
+    ) -> Result<Rendered> {
+        self.render_file(octree, camera, settings, None)
     }
 
-    /// Renders one image of a file with levels, each ray at the coarsest level whose voxels
-    /// project to at most `error.pixels` pixels at its hit distance (the rule, the levels and
-    /// the order of the re-traces of `sdfmo_trace::intersect_lod`), and reads it back.
-    pub fn render_pixel_error(
+    /// Renders one image of a file with levels ([`GpuRenderer::upload_lod`]), each ray at the
+    /// level `choice` picks: [`LevelChoice::PixelError`], the coarsest level whose voxels
+    /// project to at most `pixels` pixels at its hit distance (the rule, the levels and the
+    /// order of the re-traces of `sdfmo_trace::intersect_lod`; the choice of a
+    /// [`sdfmo_render::LevelRequest::PixelError`] for this camera is in the
+    /// [`sdfmo_render::LodScene`] that [`sdfmo_render::LevelRequest::scene`] returns). Reads the
+    /// image back as [`GpuRenderer::render`] does.
+    ///
+    /// # Errors
+    /// Those of [`GpuRenderer::render`], and [`GpuError::Render`] for a pixel error or pixel
+    /// angle that is not finite and > 0, or a [`LevelChoice::Level`] (upload that level and
+    /// [`GpuRenderer::render`] it).
+    pub fn render_lod(
         &mut self,
         lod: &GpuLodOctree,
-        camera: &GpuCamera,
-        mode: GpuMode,
-        shading: &Shading,
-        error: PixelError,
-    ) -> Result<GpuImage> {
+        choice: LevelChoice,
+        camera: &Camera,
+        settings: &RenderSettings,
+    ) -> Result<Rendered> {
+        let LevelChoice::PixelError {
+            pixels,
+            pixel_angle,
+        } = choice
+        else {
+            return Err(invalid_settings(format!(
+                "the GPU draws a fixed level of a file as that level's octree: upload it \
+                 (GpuRenderer::upload) instead of choosing {choice:?}"
+            )));
+        };
         let valid = |v: f32| v.is_finite() && v > 0.0;
-        if !valid(error.pixels) || !valid(error.pixel_angle) {
-            return Err(GpuError::InvalidPixelError(format!(
-                "pixels and pixel_angle must be finite and > 0: {error:?}"
+        if !valid(pixels) || !valid(pixel_angle) {
+            return Err(invalid_settings(format!(
+                "the pixel error and the pixel angle must be finite and > 0: {choice:?}"
             )));
         }
-        self.render_file(&lod.octree, camera, mode, shading, Some(error))
+        self.render_file(&lod.octree, camera, settings, Some((pixels, pixel_angle)))
     }
 
-    /// Renders the uploaded file: a 1.x octree (`error` `None`) or a 2.0 file by pixel error.
+    /// Renders the uploaded file: a 1.x octree (`error` `None`) or a 2.0 file by pixel error
+    /// (pixels, pixel angle).
     fn render_file(
         &mut self,
         octree: &GpuOctree,
-        camera: &GpuCamera,
-        mode: GpuMode,
-        shading: &Shading,
-        error: Option<PixelError>,
-    ) -> Result<GpuImage> {
+        camera: &Camera,
+        settings: &RenderSettings,
+        error: Option<(f32, f32)>,
+    ) -> Result<Rendered> {
         if octree.device_id != self.device_id {
             return Err(GpuError::ForeignOctree);
         }
-        let (w, h) = (camera.width, camera.height);
-        check_camera(camera)?;
+        let plan = RenderPlan::new(settings)?;
+        if plan.shadow_rays || plan.ao_samples > 0 || plan.threads.is_some() {
+            return Err(invalid_settings(format!(
+                "the GPU kernel traces primary rays only: shadows ({}), ambient occlusion ({} \
+                 rays) and a thread count ({:?}) are CPU settings",
+                settings.shadows, settings.ao_samples, settings.threads
+            )));
+        }
+        let frame = camera.frame()?;
+        let (w, h) = (frame.width, frame.height);
         let groups = (w.div_ceil(WORKGROUP_SIZE), h.div_ceil(WORKGROUP_SIZE));
         let max_groups = self.limits.max_compute_workgroups_per_dimension;
         if groups.0 > max_groups || groups.1 > max_groups {
-            return Err(GpuError::InvalidCamera(format!(
+            return Err(GpuError::Render(RenderError::InvalidCamera(format!(
                 "{w}x{h} needs {}x{} workgroups, over the adapter's {max_groups} per dimension",
                 groups.0, groups.1
-            )));
+            ))));
         }
         let pixels = u64::from(w) * u64::from(h);
         let limit = self.binding_limit();
@@ -687,21 +616,24 @@ impl GpuRenderer {
                 limit,
             });
         }
+        // The CPU renderer's shading (`sdfmo_render::shading`), with the depth range of the
+        // octree's bounds, the root cube (`OctreeScene` and `LodScene` bounds).
+        let range = DepthRange::new(camera.eye, Vec3::splat(-1.0), Vec3::ONE);
         let params = Params {
-            eye: camera.eye.map(|c| c as f32),
+            eye: frame.eye.as_vec3().to_array(),
             dequant: octree.dequant,
-            light: shading.light,
-            light_intensity: shading.light_intensity,
+            light: light_dir().to_array(),
+            light_intensity: LIGHT_INTENSITY,
             width: w,
             height: h,
-            mode: mode.code(),
-            ambient: shading.ambient,
-            depth_near: shading.depth_near,
-            depth_far: shading.depth_far,
-            pixel_error: error.map_or(0.0, |e| e.pixels),
-            pixel_angle: error.map_or(0.0, |e| e.pixel_angle),
+            mode: mode_code(plan.mode),
+            ambient: AMBIENT,
+            depth_near: range.near,
+            depth_far: range.far,
+            pixel_error: error.map_or(0.0, |e| e.0),
+            pixel_angle: error.map_or(0.0, |e| e.1),
         };
-        let terms = camera.ray_terms();
+        let terms = ray_terms(&frame);
         self.take_uncaptured()?;
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
@@ -783,15 +715,15 @@ impl GpuRenderer {
 
         let pixel_bytes = self.read_back(&t.pixel_read, pixels * PIXEL_BYTES)?;
         let color_bytes = self.read_back(&t.color_read, pixels * COLOR_BYTES)?;
-        let (gpu_ms, timing) = match &self.timer {
+        let kernel_ms = match &self.timer {
             Some(timer) => {
                 let stamps = self.read_back(&timer.read, 16)?;
                 let begin = u64::from_le_bytes(stamps[0..8].try_into().expect("8 bytes"));
                 let end = u64::from_le_bytes(stamps[8..16].try_into().expect("8 bytes"));
                 let ns = end.saturating_sub(begin) as f64 * f64::from(timer.period_ns);
-                (ns * 1e-6, GpuTiming::Timestamps)
+                ns * 1e-6
             }
-            None => (wall_ms, GpuTiming::WallClock),
+            None => wall_ms,
         };
 
         let n = pixels as usize;
@@ -799,30 +731,38 @@ impl GpuRenderer {
         for c in color_bytes.chunks_exact(4) {
             rgb.extend_from_slice(&c[..3]);
         }
-        let mut depth = Vec::with_capacity(n);
-        let mut normals = Vec::with_capacity(n);
+        let mut depth = Vec::with_capacity(if plan.keep_depth { n } else { 0 });
+        let mut normals = Vec::with_capacity(if plan.keep_normals { n } else { 0 });
         let mut hits = 0;
         for p in pixel_bytes.chunks_exact(16) {
             let f = |k: usize| f32::from_le_bytes(p[4 * k..4 * k + 4].try_into().expect("4 bytes"));
             let t = f(3);
-            if t < SMO_FAR {
-                hits += 1;
-                depth.push(t);
-            } else {
-                depth.push(f32::INFINITY);
+            let hit = t < SMO_FAR;
+            hits += u64::from(hit);
+            if plan.keep_depth {
+                depth.push(if hit { t } else { f32::INFINITY });
             }
-            normals.push([f(0), f(1), f(2)]);
+            if plan.keep_normals {
+                normals.push(Vec3::new(f(0), f(1), f(2)));
+            }
         }
-        Ok(GpuImage {
+        // What the CPU renderer counts for the same plan: a ray per pixel, a normal per hit
+        // when the mode shades (the kernel evaluates it at every hit then).
+        let counters = Counters {
+            rays: pixels,
+            hits,
+            normal_evals: if plan.normals { hits } else { 0 },
+            ..Counters::default()
+        };
+        Ok(Rendered {
             width: w,
             height: h,
             rgb,
-            depth,
-            normals,
-            hits,
-            gpu_ms,
-            timing,
-            wall_ms,
+            depth: plan.keep_depth.then_some(depth),
+            normals: plan.keep_normals.then_some(normals),
+            counters,
+            render_ms: wall_ms,
+            kernel_ms: Some(kernel_ms),
         })
     }
 
@@ -905,24 +845,9 @@ impl GpuRenderer {
     }
 }
 
-fn check_camera(c: &GpuCamera) -> Result<()> {
-    if c.width == 0 || c.height == 0 {
-        return Err(GpuError::InvalidCamera(format!(
-            "image size {}x{} is empty",
-            c.width, c.height
-        )));
-    }
-    let finite = [c.eye, c.fwd, c.right, c.up]
-        .iter()
-        .flatten()
-        .chain([&c.tan_half])
-        .all(|v| v.is_finite());
-    if !finite || c.tan_half <= 0.0 {
-        return Err(GpuError::InvalidCamera(format!(
-            "the frame must be finite with tan_half > 0: {c:?}"
-        )));
-    }
-    Ok(())
+/// [`GpuError::Render`] with [`RenderError::InvalidSettings`].
+fn invalid_settings(what: String) -> GpuError {
+    GpuError::Render(RenderError::InvalidSettings(what))
 }
 
 #[cfg(test)]

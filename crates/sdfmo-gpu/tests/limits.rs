@@ -9,25 +9,17 @@ mod common;
 use common::gpu;
 use sdfmo_format::testing::{clip_flood_voxels, leaves_by_cell, sphere_leaves};
 use sdfmo_format::{OctreeMeta, PackedOctree, ValueBits};
-use sdfmo_gpu::{
-    GpuCamera, GpuError, GpuMode, GpuRenderer, Shading, DEFAULT_GPU_TIMEOUT, MAX_GPU_FILE_BYTES,
-};
+use sdfmo_gpu::{GpuError, GpuRenderer, DEFAULT_GPU_TIMEOUT, MAX_GPU_FILE_BYTES};
+use sdfmo_render::{Camera, Mode, RenderSettings};
 
 fn sphere(depth: u8) -> PackedOctree {
     let leaves = sphere_leaves(depth, 0.6);
     PackedOctree::from_leaves(OctreeMeta::unit(depth, ValueBits::Eight), leaves).unwrap()
 }
 
-fn camera(size: u32) -> GpuCamera {
-    GpuCamera {
-        eye: [0.0, 0.0, 3.0],
-        fwd: [0.0, 0.0, -1.0],
-        right: [1.0, 0.0, 0.0],
-        up: [0.0, 1.0, 0.0],
-        tan_half: 30f64.to_radians().tan(),
-        width: size,
-        height: size,
-    }
+/// Paper view 0 at `size`².
+fn camera(size: u32) -> Camera {
+    Camera::paper_view(0, size, size)
 }
 
 /// Issue 19 item 2: `render` waited for the device without a limit (`wait_indefinitely`), so a
@@ -39,16 +31,15 @@ fn a_frame_past_the_time_out_is_an_error() {
     assert_eq!(gpu.timeout(), DEFAULT_GPU_TIMEOUT);
     let octree = sphere(7);
     let on_gpu = gpu.upload(&octree).unwrap();
-    let shading = Shading::default();
     // The default waits long enough.
     let image = gpu
-        .render(&on_gpu, &camera(256), GpuMode::Depth, &shading)
+        .render(&on_gpu, &camera(256), &RenderSettings::new(Mode::Depth))
         .unwrap();
-    assert!(image.hits > 1000);
+    assert!(image.counters.hits > 1000);
     gpu.set_timeout(Duration::from_nanos(1));
     let start = Instant::now();
     let e = gpu
-        .render(&on_gpu, &camera(1024), GpuMode::Lambert, &shading)
+        .render(&on_gpu, &camera(1024), &RenderSettings::new(Mode::Lambert))
         .unwrap_err();
     assert!(matches!(e, GpuError::Timeout { .. }), "{e}");
     assert!(e.to_string().contains("did not finish within"), "{e}");
@@ -58,9 +49,78 @@ fn a_frame_past_the_time_out_is_an_error() {
     let mut fresh = GpuRenderer::new().unwrap();
     let on_fresh = fresh.upload(&octree).unwrap();
     let again = fresh
-        .render(&on_fresh, &camera(256), GpuMode::Depth, &shading)
+        .render(&on_fresh, &camera(256), &RenderSettings::new(Mode::Depth))
         .unwrap();
     assert_eq!(again.depth, image.depth);
+}
+
+/// The GPU takes the CPU renderer's settings and refuses, as typed errors naming what, those
+/// its kernel does not render (shadows, occlusion, a thread count), a camera the renderer
+/// refuses, and a pixel error that is not finite and > 0 or a fixed level in place of one.
+#[test]
+fn settings_the_kernel_does_not_render_are_errors() {
+    use sdfmo_render::RenderError;
+    use sdfmo_trace::LevelChoice;
+    let Some(mut gpu) = gpu() else { return };
+    let on_gpu = gpu.upload(&sphere(4)).unwrap();
+    let lambert = RenderSettings::new(Mode::Lambert);
+    for (settings, what) in [
+        (
+            RenderSettings {
+                shadows: true,
+                ..lambert
+            },
+            "shadows (true)",
+        ),
+        (
+            RenderSettings {
+                ao_samples: 4,
+                ..lambert
+            },
+            "(4 rays)",
+        ),
+        (lambert.with_threads(2), "(Some(2))"),
+    ] {
+        let e = gpu.render(&on_gpu, &camera(16), &settings).unwrap_err();
+        assert!(
+            matches!(&e, GpuError::Render(RenderError::InvalidSettings(m)) if m.contains(what)),
+            "{e}"
+        );
+    }
+    let mut bad = camera(16);
+    bad.fov_y_deg = 0.0;
+    let e = gpu.render(&on_gpu, &bad, &lambert).unwrap_err();
+    assert!(
+        matches!(e, GpuError::Render(RenderError::InvalidCamera(_))),
+        "{e}"
+    );
+    let lod = sdfmo_format::LodOctree::from_levels(vec![sphere(3), sphere(4)]).unwrap();
+    let on_gpu = gpu.upload_lod(&lod).unwrap();
+    for choice in [
+        LevelChoice::PixelError {
+            pixels: 0.0,
+            pixel_angle: 0.01,
+        },
+        LevelChoice::PixelError {
+            pixels: 1.0,
+            pixel_angle: f32::NAN,
+        },
+        LevelChoice::Level(3),
+    ] {
+        let e = gpu
+            .render_lod(&on_gpu, choice, &camera(16), &lambert)
+            .unwrap_err();
+        assert!(
+            matches!(e, GpuError::Render(RenderError::InvalidSettings(_))),
+            "{choice:?}: {e}"
+        );
+    }
+    let ok = LevelChoice::PixelError {
+        pixels: 1.0,
+        pixel_angle: 0.01,
+    };
+    let image = gpu.render_lod(&on_gpu, ok, &camera(16), &lambert).unwrap();
+    assert!(image.counters.hits > 0 && image.kernel_ms.is_some());
 }
 
 /// Issue 19 item 5: `upload` copied the octree (`to_bytes`) and validated it again before it
@@ -112,12 +172,7 @@ fn a_runaway_frame_is_reported_and_left_behind() {
     gpu.set_timeout(limit);
     let start = Instant::now();
     let e = gpu
-        .render(
-            &on_gpu,
-            &camera(2048),
-            GpuMode::Lambert,
-            &Shading::default(),
-        )
+        .render(&on_gpu, &camera(2048), &RenderSettings::new(Mode::Lambert))
         .unwrap_err();
     let waited = start.elapsed();
     assert!(matches!(e, GpuError::Timeout { .. }), "{e}");

@@ -58,9 +58,8 @@ use sdfmo_format::testing::{convex_cell_voxels, cube_planes, leaves_by_cell};
 use sdfmo_format::{
     cell_corners, cell_size, LodOctree, OctreeMeta, PackedOctree, ValueBits, Voxel,
 };
-use sdfmo_gpu::{GpuCamera, GpuImage, GpuMode, GpuRenderer, PixelError, Shading};
+use sdfmo_gpu::GpuRenderer;
 use sdfmo_mesh::TriMesh;
-use sdfmo_render::shading::{light_dir, DepthRange, AMBIENT, LIGHT_INTENSITY};
 use sdfmo_render::{render, Camera, LodScene, Mode, OctreeScene, RenderSettings, Rendered};
 use sdfmo_trace::{intersect, intersect_lod, pixel_angle, LevelChoice, Ray};
 
@@ -79,32 +78,6 @@ const MIN_PSNR: f64 = 45.0;
 const MAX_ILL_CONDITIONED: f64 = 0.002;
 /// Lambert pixels excused on sharp edges (see the module docs), as a fraction of the hits.
 const MAX_EDGE_EXCUSED: f64 = 0.005;
-
-/// The GPU camera of a CPU camera: its f64 frame.
-fn gpu_camera(cam: &Camera) -> GpuCamera {
-    let f = cam.frame().expect("valid camera");
-    GpuCamera {
-        eye: f.eye.to_array(),
-        fwd: f.fwd.to_array(),
-        right: f.right.to_array(),
-        up: f.up.to_array(),
-        tan_half: f.tan_half,
-        width: f.width,
-        height: f.height,
-    }
-}
-
-/// The CPU renderer's shading for this camera (octree bounds: the root cube).
-fn shading(cam: &Camera) -> Shading {
-    let range = DepthRange::new(cam.eye, Vec3::splat(-1.0), Vec3::ONE);
-    Shading {
-        light: light_dir().to_array(),
-        light_intensity: LIGHT_INTENSITY,
-        ambient: AMBIENT,
-        depth_near: range.near,
-        depth_far: range.far,
-    }
-}
 
 fn cpu(octree: &PackedOctree, cam: &Camera, mode: Mode) -> Rendered {
     let settings = RenderSettings {
@@ -271,8 +244,8 @@ struct Stats {
 /// An octree's GPU image against its CPU image on the paper views ([`compare_views`]).
 fn compare(gpu: &mut GpuRenderer, octree: &PackedOctree, label: &str) -> Stats {
     let on_gpu = gpu.upload(octree).expect("upload");
-    let mut draw = |gpu: &mut GpuRenderer, cam: &Camera, mode: GpuMode| {
-        gpu.render(&on_gpu, &gpu_camera(cam), mode, &shading(cam))
+    let mut draw = |gpu: &mut GpuRenderer, cam: &Camera, mode: Mode| {
+        gpu.render(&on_gpu, cam, &RenderSettings::new(mode))
             .expect("GPU render")
     };
     compare_views(
@@ -289,7 +262,7 @@ fn compare(gpu: &mut GpuRenderer, octree: &PackedOctree, label: &str) -> Stats {
 /// octree (the level) the CPU's hit lies in.
 fn compare_views(
     gpu: &mut GpuRenderer,
-    draw: &mut dyn FnMut(&mut GpuRenderer, &Camera, GpuMode) -> GpuImage,
+    draw: &mut dyn FnMut(&mut GpuRenderer, &Camera, Mode) -> Rendered,
     cpu_side: &dyn CpuSide,
     cams: &[Camera],
     label: &str,
@@ -302,9 +275,10 @@ fn compare_views(
     for (view, cam) in cams.iter().enumerate() {
         assert_eq!((cam.width, cam.height), (SIZE, SIZE));
         let c: Rendered = cpu_side.render(cam, Mode::Depth);
-        let g: GpuImage = draw(gpu, cam, GpuMode::Depth);
+        let g: Rendered = draw(gpu, cam, Mode::Depth);
         let cd = c.depth.as_ref().expect("depth mode keeps depth");
-        for (i, (&tc, &tg)) in cd.iter().zip(&g.depth).enumerate() {
+        let gd = g.depth.as_ref().expect("depth mode keeps depth");
+        for (i, (&tc, &tg)) in cd.iter().zip(gd).enumerate() {
             let (px, py) = (i as u32 % SIZE, i as u32 / SIZE);
             let (o, d) = cam.primary_ray(px, py);
             stats.hits += u64::from(tc.is_finite());
@@ -359,7 +333,7 @@ fn compare_views(
         }
         assert_eq!(c.rgb.len(), g.rgb.len());
         let cl = cpu_side.render(cam, Mode::Lambert);
-        let gl = draw(gpu, cam, GpuMode::Lambert);
+        let gl = draw(gpu, cam, Mode::Lambert);
         // Lambert pixels whose CPU hit changes voxel under a one-ulp change of the ray (a hit on
         // a sharp edge of intersect voxels, where either face's normal is right) are excused:
         // compared as the CPU's.
@@ -480,7 +454,7 @@ fn levels_of_one_file_match_cpu() {
     }
 }
 
-/// Levels of detail by pixel error: the GPU's `render_pixel_error` (`smo_intersect_lod`, one
+/// Levels of detail by pixel error: the GPU's `render_lod` (`smo_intersect_lod`, one
 /// dispatch over the whole 2.0 file) matches the CPU's `intersect_lod` on the file of
 /// [`levels_of_one_file_match_cpu`], with the tolerances above in the voxel size of the level
 /// the CPU's hit lies in. Paper views (hits at t ≈ 2.5–3.8: levels 7 and 8 in one image) and a
@@ -529,12 +503,10 @@ fn pixel_error_matches_cpu() {
                     "paper views: {levels:?}"
                 );
             }
-            let error = |cam: &Camera| PixelError {
-                pixels,
-                pixel_angle: pixel_angle(cam.fov_y_deg, cam.height),
-            };
-            let mut draw = |gpu: &mut GpuRenderer, cam: &Camera, mode: GpuMode| {
-                gpu.render_pixel_error(&on_gpu, &gpu_camera(cam), mode, &shading(cam), error(cam))
+            // The tracer's level choice, the CPU side's own for this camera.
+            let mut draw = |gpu: &mut GpuRenderer, cam: &Camera, mode: Mode| {
+                let choice = cpu_side.choice(cam);
+                gpu.render_lod(&on_gpu, choice, cam, &RenderSettings::new(mode))
                     .expect("GPU render")
             };
             compare_views(
@@ -653,10 +625,15 @@ fn all_zero_voxels_are_never_hit() {
             .iter()
             .map(|cam| {
                 let g = gpu
-                    .render(&on_gpu, &gpu_camera(cam), GpuMode::Lambert, &shading(cam))
+                    .render(&on_gpu, cam, &RenderSettings::new(Mode::Lambert))
                     .expect("GPU render");
+                let g_depth = gpu
+                    .render(&on_gpu, cam, &RenderSettings::new(Mode::Depth))
+                    .expect("GPU render")
+                    .depth
+                    .expect("depth mode keeps depth");
                 let c = cpu(o, cam, Mode::Lambert);
-                (c.rgb, g.rgb, g.depth)
+                (c.rgb, g.rgb, g_depth)
             })
             .collect::<Vec<_>>()
     };

@@ -8,7 +8,7 @@
 //! | `sdfmo.FormatError` (a `ValueError`) | a `.smo` file that is truncated, corrupt (checksum), of an unknown version, or hostile |
 //! | `MemoryError` | a build whose predicted memory exceeds the budget; any allocation sized by the input that fails (`sample_sdf`'s points, a mesh's or a file's arrays, e.g. under an address-space limit): allocated fallibly, never an abort |
 //! | `KeyboardInterrupt` | Ctrl-C during a long call |
-//! | `RuntimeError` | what should never happen (a thread pool that cannot start; an internal panic) |
+//! | `RuntimeError` | no GPU for `Octree.render(device="gpu")` (no adapter, a refused device, a device error or time-out); what should never happen (a thread pool that cannot start; an internal panic) |
 
 use std::io::ErrorKind;
 
@@ -162,6 +162,22 @@ pub fn render_error(e: &RenderError) -> PyErr {
         RenderError::ThreadPool { .. } => PyRuntimeError::new_err(chain(e)),
         RenderError::Io(io) => io_error(io),
         _ => PyValueError::new_err(chain(e)),
+    }
+}
+
+/// An error of the facade's `Renderer`: a render error as [`render_error`], a GPU that cannot
+/// be opened or fails (no adapter, a refused device, a device error, a time-out) as
+/// `RuntimeError`, an octree over the adapter's limits as `ValueError`.
+pub fn facade_error(e: &sdf_multioctree::Error) -> PyErr {
+    use sdf_multioctree::gpu::GpuError;
+    match e {
+        sdf_multioctree::Error::Render(r) | sdf_multioctree::Error::Gpu(GpuError::Render(r)) => {
+            render_error(r)
+        }
+        sdf_multioctree::Error::Gpu(
+            GpuError::TooLarge { .. } | GpuError::FileTooLarge { .. } | GpuError::Format(_),
+        ) => PyValueError::new_err(chain(e)),
+        _ => PyRuntimeError::new_err(chain(e)),
     }
 }
 

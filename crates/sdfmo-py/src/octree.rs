@@ -14,8 +14,9 @@ use sdf_multioctree::format::{
     MAX_FILE_SIZE,
 };
 use sdf_multioctree::io::Naming;
-use sdf_multioctree::render::{render_cancellable, LevelRequest, LevelScene};
+use sdf_multioctree::render::LevelRequest;
 use sdf_multioctree::trace::distance_at;
+use sdf_multioctree::{Device, Renderer};
 
 use crate::arrays;
 use crate::errors;
@@ -70,9 +71,8 @@ fn level_list((coarsest, finest): (u8, u8)) -> Vec<u32> {
     (coarsest..=finest).map(u32::from).collect()
 }
 
-/// `lod=` and `pixel_error=` of `Octree.render`, taken out of its keywords (the rest are
-/// `RenderOptions`, shared with `Mesh.render`, which has no levels): the `LevelRequest` of
-/// `sdfmo render --lod` / `--pixel-error`.
+/// `lod=` and `pixel_error=` of `Octree.render` (the options `Mesh.render` lacks): the
+/// `LevelRequest` of `sdfmo render --lod` / `--pixel-error`.
 fn level_request(lod: Option<i64>, pixel_error: Option<f64>) -> PyResult<LevelRequest> {
     match (lod, pixel_error) {
         (Some(_), Some(_)) => Err(PyValueError::new_err(
@@ -89,6 +89,11 @@ fn level_request(lod: Option<i64>, pixel_error: Option<f64>) -> PyResult<LevelRe
         (None, None) => Ok(LevelRequest::Finest),
     }
 }
+
+/// The GPU renderer of `Octree.render(device="gpu")`, opened at the first such call and kept
+/// (an adapter and a compiled kernel take far longer than a small frame); a failed opening is
+/// not kept, so a later call tries again.
+static GPU: std::sync::Mutex<Option<Renderer>> = std::sync::Mutex::new(None);
 
 #[pymethods]
 impl Octree {
@@ -346,10 +351,15 @@ impl Octree {
     /// naming those held); ``pixel_error`` (pixels, > 0; a file with levels only) traces each
     /// ray at the coarsest level held whose voxels project to at most that many pixels at its
     /// hit distance, for this camera's field of view and height. Not both.
+    ///
+    /// ``device="gpu"``: the same image traced by the GPU kernel, as ``sdfmo render --device
+    /// gpu`` (the first adapter wgpu finds; ``RuntimeError`` naming the cause when there is
+    /// none): primary rays only (``shadows``, ``ao`` and ``threads`` are a ``ValueError``),
+    /// hits within a few ulps of the CPU's, levels and ``pixel_error`` included.
     #[pyo3(signature = (
         width = 1024, height = None, *, mode = "lambert", view = 0, eye = None, target = None,
         fov = None, frame = "model", shadows = false, ao = 0, threads = None, lod = None,
-        pixel_error = None
+        pixel_error = None, device = "cpu"
     ))]
     fn render<'py>(
         &self,
@@ -367,8 +377,18 @@ impl Octree {
         threads: Option<i64>,
         lod: Option<i64>,
         pixel_error: Option<f64>,
+        device: &str,
     ) -> PyResult<Bound<'py, PyAny>> {
         let request = level_request(lod, pixel_error)?;
+        let device = match device {
+            "cpu" => Device::Cpu,
+            "gpu" => Device::Gpu,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "device must be \"cpu\" or \"gpu\", got {other:?}"
+                )))
+            }
+        };
         let options = RenderOptions {
             mode,
             view,
@@ -386,13 +406,36 @@ impl Octree {
             options,
             &sdf_multioctree::octree_frame(self.finest()),
         )?;
+        if device == Device::Gpu && args.threads().is_some() {
+            return Err(PyValueError::new_err(
+                "threads applies to device=\"cpu\" only (the GPU renders a frame in one dispatch)",
+            ));
+        }
         let file = &self.data.file;
         args.render(py, |settings, camera, cancel| {
-            Ok(match request.scene(file, camera) {
-                Ok(LevelScene::Level(s)) => render_cancellable(&s, camera, settings, cancel),
-                Ok(LevelScene::PixelError(s)) => render_cancellable(&s, camera, settings, cancel),
-                Err(e) => Err(e),
-            })
+            let render = |renderer: &mut Renderer| {
+                renderer
+                    .prepare(file, request)?
+                    .render_with(camera, settings, None, Some(cancel))
+            };
+            let result = match device {
+                Device::Cpu => Renderer::new(Device::Cpu).and_then(|mut r| render(&mut r)),
+                Device::Gpu => {
+                    let mut slot = GPU.lock().unwrap_or_else(|e| e.into_inner());
+                    let mut renderer = match slot.take() {
+                        Some(r) => r,
+                        None => Renderer::new(Device::Gpu).map_err(|e| errors::facade_error(&e))?,
+                    };
+                    let result = render(&mut renderer);
+                    *slot = Some(renderer);
+                    result
+                }
+            };
+            match result {
+                Ok(r) => Ok(Ok(r)),
+                Err(sdf_multioctree::Error::Render(e)) => Ok(Err(e)),
+                Err(e) => Err(errors::facade_error(&e)),
+            }
         })
     }
 }

@@ -171,6 +171,11 @@ impl RenderArgs {
         })
     }
 
+    /// The thread count asked for (`threads=`), `None` for all cores.
+    pub fn threads(&self) -> Option<usize> {
+        self.threads
+    }
+
     /// Renders with `f` (given the settings, the camera and the cancellation test to pass to
     /// `sdfmo_render::render_cancellable`) without the GIL and returns the image as uint8
     /// `(h, w, 3)`. Ctrl-C stops the render within about a tile's time

@@ -46,7 +46,8 @@ pub use plan::{Counters, Mode, RenderPlan, RenderSettings, MAX_AO_SAMPLES};
 #[cfg(feature = "mesh-reference")]
 pub use protocol::{PaperProtocol, ProtocolError, Score, ViewScore};
 pub use render::{
-    in_pool, render, render_cancellable, render_with_plan, render_with_progress, Rendered,
+    in_pool, render, render_cancellable, render_observed, render_with_plan, render_with_progress,
+    Rendered,
 };
 pub use scene::{SphereHit, Spheres, Traceable};
 /// The packet of primary rays [`Traceable::first_hits`] takes.

@@ -38,8 +38,11 @@ pub struct Rendered {
     /// Work done.
     pub counters: Counters,
     /// Wall time of the rendering alone (tiles and their assembly; not the pool creation, not
-    /// saving), milliseconds.
+    /// saving), milliseconds. On a GPU: from submission until the image is on the host.
     pub render_ms: f64,
+    /// A GPU render's kernel time in milliseconds (`sdfmo-gpu`: from timestamp queries where
+    /// the adapter has them, else the frame's wall time); `None` on the CPU.
+    pub kernel_ms: Option<f64>,
 }
 
 impl Rendered {
@@ -105,6 +108,19 @@ pub fn render_cancellable<T: Traceable>(
         None,
         Some(cancel),
     )
+}
+
+/// [`render`] with an optional progress callback (see [`render_with_progress`]) and an
+/// optional cancellation test (see [`render_cancellable`]): the one call a front-end that
+/// offers both needs.
+pub fn render_observed<T: Traceable>(
+    scene: &T,
+    camera: &Camera,
+    settings: &RenderSettings,
+    progress: Option<&(dyn Fn(f32) + Sync)>,
+    cancel: Option<&(dyn Fn() -> bool + Sync)>,
+) -> Result<Rendered, RenderError> {
+    render_plan(scene, camera, &RenderPlan::new(settings)?, progress, cancel)
 }
 
 /// Renders with an explicit plan. Tiles of `plan.tile_size` pixels are rendered in parallel
@@ -277,6 +293,7 @@ impl<T: Traceable> Ctx<'_, T> {
             normals: self.plan.keep_normals.then_some(normals),
             counters,
             render_ms: start.elapsed().as_secs_f64() * 1e3,
+            kernel_ms: None,
         }
     }
 

@@ -6,16 +6,14 @@ use std::path::PathBuf;
 use anyhow::Context;
 use glam::Vec3;
 use sdf_multioctree::distance::{reshape_fans, MeshDistance, SignMode};
-use sdf_multioctree::format::{FormatError, SmoFile, SmoPrefix, MAX_FILE_SIZE};
+use sdf_multioctree::format::{FormatError, SmoFile, SmoPrefix};
 use sdf_multioctree::mesh::Normalization;
 use sdf_multioctree::metrics;
-use sdf_multioctree::render::shading::{light_dir, DepthRange, AMBIENT, LIGHT_INTENSITY};
 use sdf_multioctree::render::{
-    self, Camera, Counters, LevelRequest, LevelScene, LodScene, MeshScene, Mode, RenderPlan,
-    RenderSettings, Rendered, Traceable,
+    self, Camera, Counters, LevelRequest, LevelScene, MeshScene, Mode, RenderSettings, Rendered,
+    Traceable,
 };
-use sdf_multioctree::trace::LevelChoice;
-use sdfmo_gpu::{GpuCamera, GpuImage, GpuMode, GpuRenderer, GpuTiming, PixelError, Shading};
+use sdf_multioctree::{Device, Renderer};
 use serde_json::json;
 
 use crate::args::{DeviceArg, ModeArg, RenderArgs, RenderMeshArgs, RenderOptions, ViewsArg};
@@ -29,21 +27,21 @@ use sdf_multioctree::io::Naming;
 /// levels cut where a level ends (a note on stderr says which levels are missing).
 pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
     let outputs = check_options(&args.opts)?;
-    let gpu = match args.device {
-        DeviceArg::Cpu => None,
+    let device = match args.device {
+        DeviceArg::Cpu => Device::Cpu,
         DeviceArg::Gpu => {
             check_gpu_options(&args.opts)?;
-            Some(open_gpu(args)?)
+            Device::Gpu
         }
     };
-    let max_bytes = gpu
-        .as_ref()
-        .map_or(MAX_FILE_SIZE, GpuRenderer::max_file_bytes);
-    let data = SmoFile::load_prefix(&args.octree, max_bytes).map_err(|e| match e {
-        // I/O errors name the file already; format errors do not.
-        FormatError::Io(io) => anyhow::Error::new(io),
-        e => anyhow::Error::new(e).context(format!("cannot load octree {}", args.octree.display())),
-    })?;
+    let mut renderer = open_renderer(args, device)?;
+    let data =
+        SmoFile::load_prefix(&args.octree, renderer.max_file_bytes()).map_err(|e| match e {
+            // I/O errors name the file already; format errors do not.
+            FormatError::Io(io) => anyhow::Error::new(io),
+            e => anyhow::Error::new(e)
+                .context(format!("cannot load octree {}", args.octree.display())),
+        })?;
     let request = match (args.lod, args.pixel_error) {
         (Some(level), _) => LevelRequest::Level(level),
         (None, Some(pixels)) => LevelRequest::PixelError(pixels),
@@ -76,68 +74,29 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
         data: &data,
         request,
     };
-    let Some(mut gpu) = gpu else {
-        let settings = settings(&args.opts);
-        let mut view = |cam: &Camera, progress: &Progress<'_>| -> anyhow::Result<ViewRender> {
-            let r = match request.scene(&data.file, cam)? {
-                LevelScene::Level(s) => render::render_with_progress(&s, cam, &settings, progress),
-                LevelScene::PixelError(s) => {
-                    render::render_with_progress(&s, cam, &settings, progress)
-                }
-            }
-            .with_context(|| format!("cannot render {source}"))?;
-            Ok((r, None))
-        };
-        let by = RenderedBy::cpu(&source).with_levels(levels);
-        return render_all(&mut view, &by, &args.opts, &frame, &outputs);
-    };
-    let (device, timing) = gpu_device(&gpu);
+    let device_name = renderer.device_name().to_owned();
     let by = RenderedBy {
         source: &source,
-        device: &device,
-        timing,
+        device: &device_name,
+        timing: renderer.gpu().map(|g| g.timing().name()),
         levels: Some(levels),
     };
-    let plan = RenderPlan::new(&settings(&args.opts))?;
-    let mode = gpu_mode(args.opts.mode);
-    let cannot_upload = || format!("cannot upload {source} to the GPU");
-    // A GPU frame takes milliseconds: progress moves per view only.
-    match first {
-        LevelScene::Level(s) => {
-            let on_gpu = gpu.upload(s.0).with_context(cannot_upload)?;
-            let mut view = |cam: &Camera, _: &Progress<'_>| -> anyhow::Result<ViewRender> {
-                gpu_view(&mut gpu, cam, &plan, &source, |gpu, gcam, shading| {
-                    gpu.render(&on_gpu, gcam, mode, shading)
-                })
-            };
-            render_all(&mut view, &by, &args.opts, &frame, &outputs)
-        }
-        LevelScene::PixelError(s) => {
-            let on_gpu = gpu.upload_lod(s.lod).with_context(cannot_upload)?;
-            let mut view = |cam: &Camera, _: &Progress<'_>| -> anyhow::Result<ViewRender> {
-                // The CPU's rule, with this camera's pixel (`LevelRequest::scene`).
-                let LevelScene::PixelError(LodScene {
-                    choice:
-                        LevelChoice::PixelError {
-                            pixels,
-                            pixel_angle,
-                        },
-                    ..
-                }) = request.scene(&data.file, cam)?
-                else {
-                    anyhow::bail!("a pixel-error request drew one level");
-                };
-                let error = PixelError {
-                    pixels,
-                    pixel_angle,
-                };
-                gpu_view(&mut gpu, cam, &plan, &source, |gpu, gcam, shading| {
-                    gpu.render_pixel_error(&on_gpu, gcam, mode, shading, error)
-                })
-            };
-            render_all(&mut view, &by, &args.opts, &frame, &outputs)
-        }
-    }
+    // Errors on a GPU name its adapter.
+    let on = match device {
+        Device::Cpu => String::new(),
+        Device::Gpu => format!(" on {device_name}"),
+    };
+    let mut prepared = renderer
+        .prepare(&data.file, request)
+        .with_context(|| format!("cannot render {source}{on}"))?;
+    let settings = settings(&args.opts);
+    // A GPU frame is one dispatch: its progress moves per view only.
+    let mut view = |cam: &Camera, progress: &Progress<'_>| -> anyhow::Result<Rendered> {
+        prepared
+            .render_with(cam, &settings, Some(progress), None)
+            .with_context(|| format!("cannot render {source}{on}"))
+    };
+    render_all(&mut view, &by, &args.opts, &frame, &outputs)
 }
 
 /// "levels 6-8", or "level 8" for one.
@@ -188,13 +147,6 @@ impl<'a> RenderedBy<'a> {
             levels: None,
         }
     }
-
-    fn with_levels(self, levels: FileLevels<'a>) -> RenderedBy<'a> {
-        RenderedBy {
-            levels: Some(levels),
-            ..self
-        }
-    }
 }
 
 /// `"levels"` of `--json`: the levels the file has (`file`), those the data holds (`held`;
@@ -217,12 +169,12 @@ fn levels_json(levels: &FileLevels<'_>, cams: &[Camera]) -> anyhow::Result<serde
     }))
 }
 
-/// A GPU renderer for `sdfmo render --device gpu`, and the file's length checked against the
-/// adapter's limit before the file is read (issue 19: a 2.18 GB file used to be read, copied
-/// and validated, 4.26 GB at the peak, before it was refused).
-fn open_gpu(args: &RenderArgs) -> anyhow::Result<GpuRenderer> {
-    let gpu = GpuRenderer::new().context("cannot render on a GPU")?;
-    if let Ok(meta) = std::fs::metadata(&args.octree) {
+/// The renderer of `sdfmo render --device`; on a GPU, the file's length is checked against the
+/// adapter's limit before the file is read (issue 19: a 2.18 GB file used to be read, copied and
+/// validated, 4.26 GB at the peak, before it was refused).
+fn open_renderer(args: &RenderArgs, device: Device) -> anyhow::Result<Renderer> {
+    let renderer = Renderer::new(device).context("cannot render on a GPU")?;
+    if let (Some(gpu), Ok(meta)) = (renderer.gpu(), std::fs::metadata(&args.octree)) {
         gpu.check_file_size(meta.len()).with_context(|| {
             format!(
                 "cannot render {} on {}",
@@ -231,67 +183,7 @@ fn open_gpu(args: &RenderArgs) -> anyhow::Result<GpuRenderer> {
             )
         })?;
     }
-    Ok(gpu)
-}
-
-/// The adapter's name, and how it times its kernel.
-fn gpu_device(gpu: &GpuRenderer) -> (String, Timing) {
-    let timing = if gpu.has_timestamps() {
-        GpuTiming::Timestamps
-    } else {
-        GpuTiming::WallClock
-    };
-    (gpu.adapter_name().to_owned(), Some(timing.name()))
-}
-
-/// One view on the GPU: `draw` renders the camera's image with the CPU renderer's shading, and
-/// the image becomes what the CPU renderer returns.
-fn gpu_view(
-    gpu: &mut GpuRenderer,
-    cam: &Camera,
-    plan: &RenderPlan,
-    source: &str,
-    draw: impl FnOnce(&mut GpuRenderer, &GpuCamera, &Shading) -> sdfmo_gpu::Result<GpuImage>,
-) -> anyhow::Result<ViewRender> {
-    let frame = cam.frame()?;
-    let gcam = GpuCamera {
-        eye: frame.eye.to_array(),
-        fwd: frame.fwd.to_array(),
-        right: frame.right.to_array(),
-        up: frame.up.to_array(),
-        tan_half: frame.tan_half,
-        width: frame.width,
-        height: frame.height,
-    };
-    // The octree's bounds are the root cube (as `OctreeScene::bounds`).
-    let range = DepthRange::new(cam.eye, Vec3::splat(-1.0), Vec3::ONE);
-    let shading = Shading {
-        light: light_dir().to_array(),
-        light_intensity: LIGHT_INTENSITY,
-        ambient: AMBIENT,
-        depth_near: range.near,
-        depth_far: range.far,
-    };
-    let img = draw(gpu, &gcam, &shading)
-        .with_context(|| format!("cannot render {source} on {}", gpu.adapter_name()))?;
-    let counters = Counters {
-        rays: u64::from(img.width) * u64::from(img.height),
-        hits: img.hits,
-        normal_evals: if plan.normals { img.hits } else { 0 },
-        ..Counters::default()
-    };
-    let r = Rendered {
-        width: img.width,
-        height: img.height,
-        rgb: img.rgb,
-        depth: plan.keep_depth.then_some(img.depth),
-        normals: plan
-            .keep_normals
-            .then(|| img.normals.into_iter().map(Vec3::from_array).collect()),
-        counters,
-        render_ms: img.wall_ms,
-    };
-    Ok((r, Some(img.gpu_ms)))
+    Ok(renderer)
 }
 
 /// The GPU kernel renders the primary rays only: shadows, occlusion and a thread count are
@@ -306,15 +198,6 @@ fn check_gpu_options(opts: &RenderOptions) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn gpu_mode(mode: ModeArg) -> GpuMode {
-    match mode {
-        ModeArg::Mask => GpuMode::Mask,
-        ModeArg::Depth => GpuMode::Depth,
-        ModeArg::Normal => GpuMode::Normal,
-        ModeArg::Lambert => GpuMode::Lambert,
-    }
-}
-
 /// What a view's render reports its progress to: the fraction of the view done.
 type Progress<'a> = dyn Fn(f32) + Sync + 'a;
 
@@ -323,12 +206,11 @@ fn cpu_views<'a, T: Traceable>(
     scene: &'a T,
     opts: &'a RenderOptions,
     source: &'a str,
-) -> impl FnMut(&Camera, &Progress<'_>) -> anyhow::Result<ViewRender> + 'a {
+) -> impl FnMut(&Camera, &Progress<'_>) -> anyhow::Result<Rendered> + 'a {
     let settings = settings(opts);
     move |cam, progress| {
-        let r = render::render_with_progress(scene, cam, &settings, progress)
-            .with_context(|| format!("cannot render {source}"))?;
-        Ok((r, None))
+        render::render_with_progress(scene, cam, &settings, progress)
+            .with_context(|| format!("cannot render {source}"))
     }
 }
 
@@ -348,9 +230,6 @@ pub fn run_mesh(args: &RenderMeshArgs) -> anyhow::Result<()> {
     let by = RenderedBy::cpu(&input.source);
     render_all(&mut view, &by, &args.opts, &frame, &outputs)
 }
-
-/// One view's image and, on a GPU, the kernel's time in milliseconds.
-type ViewRender = (Rendered, Option<f64>);
 
 /// How a GPU measured its kernel time (`timestamps` or `wall`); `None` on the CPU.
 type Timing = Option<&'static str>;
@@ -477,11 +356,11 @@ pub fn counters_json(c: &Counters) -> serde_json::Value {
     })
 }
 
-/// Renders every camera with `render_view` (the image and, on a GPU, the kernel's time), writes
+/// Renders every camera with `render_view` (the image, on a GPU with the kernel's time), writes
 /// the PNGs (and EXRs) all or none, prints times and counters. `by` says where the images come
 /// from, `frame` is the source's normalisation (for `--eye`/`--target` in model units).
 fn render_all(
-    render_view: &mut dyn FnMut(&Camera, &Progress<'_>) -> anyhow::Result<ViewRender>,
+    render_view: &mut dyn FnMut(&Camera, &Progress<'_>) -> anyhow::Result<Rendered>,
     by: &RenderedBy<'_>,
     opts: &RenderOptions,
     frame: &Normalization,
@@ -528,12 +407,13 @@ fn render_all(
                 let f = (frame as f32 + f) / frames as f32;
                 progress::set_fraction(&bar, (k + f) / views_n)
             };
-            let (r, gpu_ms) = render_view(cam, &on_progress)?;
+            let r = render_view(cam, &on_progress)?;
             frame_ms.push(r.render_ms);
-            frame_gpu_ms.extend(gpu_ms);
-            last = Some((r, gpu_ms));
+            frame_gpu_ms.extend(r.kernel_ms);
+            last = Some(r);
         }
-        let (mut r, mut gpu_ms) = last.expect("at least one frame");
+        let mut r = last.expect("at least one frame");
+        let mut gpu_ms = r.kernel_ms;
         r.render_ms = metrics::median(frame_ms).unwrap_or(r.render_ms);
         gpu_ms = gpu_ms.and(metrics::median(frame_gpu_ms));
         batch.stage_as(png, &render::encode_png(&r, png)?, naming)?;

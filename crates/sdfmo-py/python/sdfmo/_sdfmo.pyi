@@ -207,8 +207,10 @@ class Octree:
         threads: Optional[int] = None,
         lod: Optional[int] = None,
         pixel_error: Optional[float] = None,
+        device: Literal["cpu", "gpu"] = "cpu",
     ) -> _U8:
-        """Ray traces the octree (a level, or by pixel error), uint8 of shape
+        """Ray traces the octree (a level, or by pixel error) on the CPU or, ``device="gpu"``,
+        the GPU (primary rays only; ``RuntimeError`` without an adapter), uint8 of shape
         ``(height, width, 3)``: ``render(640, 480).shape == (480, 640, 3)``."""
 
 def sample_sdf(

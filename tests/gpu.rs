@@ -1,0 +1,146 @@
+//! The facade's one render entry on both devices: `Renderer` on the GPU draws what it draws on
+//! the CPU (the same camera, settings, level request and image type), for a whole file with
+//! levels and for a prefix of it cut where a level ends, by level and by pixel error.
+//!
+//! The kernels agree to a few ulps of the hit distance, not bit for bit
+//! (`crates/sdfmo-gpu/tests/match_cpu.rs` holds them to tight per-pixel tolerances); here the
+//! images are held to what a user sees: masks identical but for a few pixels, depth greys
+//! within one level, lambert PSNR over 35 dB. Without an adapter the test prints why and
+//! passes, unless `SDFMO_REQUIRE_GPU=1`.
+#![cfg(feature = "gpu")]
+
+use sdf_multioctree::build::{build_lod, BuildSettings};
+use sdf_multioctree::gpu::GpuError;
+use sdf_multioctree::render::{RenderError, RenderSettings};
+use sdf_multioctree::{
+    demo_mesh, load_levels, paper_views, Device, Error, LevelRequest, Mode, Rendered, Renderer,
+};
+
+/// The GPU renderer, or `None` (with a message) when there is no adapter and none is required.
+fn gpu() -> Option<Renderer> {
+    match Renderer::new(Device::Gpu) {
+        Ok(r) => Some(r),
+        Err(e) if std::env::var("SDFMO_REQUIRE_GPU").as_deref() == Ok("1") => {
+            panic!("SDFMO_REQUIRE_GPU=1 but no GPU renderer: {e}")
+        }
+        Err(e) => {
+            eprintln!("skipped: no GPU adapter ({e}); set SDFMO_REQUIRE_GPU=1 to fail instead");
+            None
+        }
+    }
+}
+
+/// Holds the GPU's image of `mode` to the CPU's (see the module docs).
+fn agree(cpu: &Rendered, gpu: &Rendered, mode: Mode, label: &str) {
+    assert_eq!((cpu.width, cpu.height), (gpu.width, gpu.height), "{label}");
+    assert_eq!(cpu.counters.rays, gpu.counters.rays, "{label}");
+    assert!(
+        cpu.kernel_ms.is_none() && gpu.kernel_ms.is_some(),
+        "{label}"
+    );
+    let pixels = cpu.rgb.len() / 3;
+    let hit = |rgb: &[u8]| rgb.iter().any(|&c| c != 0);
+    let (mut mask_diffs, mut worst, mut sq) = (0usize, 0u8, 0f64);
+    for (c, g) in cpu.rgb.chunks_exact(3).zip(gpu.rgb.chunks_exact(3)) {
+        if hit(c) != hit(g) {
+            mask_diffs += 1;
+            continue;
+        }
+        for (a, b) in c.iter().zip(g) {
+            worst = worst.max(a.abs_diff(*b));
+            sq += f64::from(a.abs_diff(*b)).powi(2);
+        }
+    }
+    assert!(
+        mask_diffs * 500 <= pixels,
+        "{label}: {mask_diffs} of {pixels} pixels hit on one device only"
+    );
+    let hits = cpu.counters.hits.abs_diff(gpu.counters.hits) as usize;
+    assert!(hits <= mask_diffs, "{label}: hits {cpu:?} vs {gpu:?}");
+    match mode {
+        Mode::Mask => assert_eq!(worst, 0, "{label}"),
+        Mode::Depth => assert!(worst <= 1, "{label}: a depth grey differs by {worst}"),
+        _ => {
+            let mse = sq / (3 * pixels) as f64;
+            let psnr = 10.0 * (255.0f64.powi(2) / mse).log10();
+            assert!(psnr >= 35.0, "{label}: PSNR {psnr:.1} dB");
+        }
+    }
+    assert!(cpu.counters.hits > 100, "{label}: the comparison is empty");
+}
+
+#[test]
+fn gpu_renders_levels_and_prefixes_as_the_cpu_does() {
+    let Some(mut gpu) = gpu() else { return };
+    assert_eq!(gpu.device(), Device::Gpu);
+    let settings = BuildSettings {
+        depth: 6,
+        coarsest_level: Some(3),
+        ..BuildSettings::default()
+    };
+    let (lod, _) = build_lod(&demo_mesh(), &settings, None, None, &|| false).unwrap();
+    let bytes = lod.to_bytes();
+    let dir = std::env::temp_dir().join(format!("sdfmo-facade-gpu-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut cpu = Renderer::new(Device::Cpu).unwrap();
+    let cameras = &paper_views(96)[..2];
+    // The whole file (levels 3..=6) and the prefix that ends with level 5.
+    for end_level in [6, 5] {
+        let entries = lod.entries();
+        let entry = entries.iter().find(|e| e.level == end_level).unwrap();
+        let path = dir.join(format!("to{end_level}.smo"));
+        std::fs::write(&path, &bytes[..entry.end() as usize]).unwrap();
+        let data = load_levels(&path).unwrap();
+        assert_eq!(data.held(), (3, end_level));
+        for request in [
+            LevelRequest::Finest,
+            LevelRequest::Level(4),
+            LevelRequest::PixelError(1.0),
+            LevelRequest::PixelError(3.0),
+        ] {
+            let mut on_cpu = cpu.prepare(&data.file, request).unwrap();
+            let mut on_gpu = gpu.prepare(&data.file, request).unwrap();
+            for (view, camera) in cameras.iter().enumerate() {
+                for mode in Mode::ALL {
+                    let s = RenderSettings::new(mode);
+                    let c = on_cpu.render(camera, &s).unwrap();
+                    let g = on_gpu.render(camera, &s).unwrap();
+                    let label = format!("to level {end_level}, {request:?}, view {view}, {mode}");
+                    agree(&c, &g, mode, &label);
+                    // The image keeps what the plan keeps, on either device.
+                    assert_eq!(g.depth.is_some(), mode == Mode::Depth, "{label}");
+                    assert_eq!(g.normals.is_some(), mode == Mode::Normal, "{label}");
+                }
+            }
+        }
+        // What the data does not hold is refused on the GPU as on the CPU, naming the levels.
+        for device in [&mut cpu, &mut gpu] {
+            let e = device
+                .prepare(&data.file, LevelRequest::Level(7))
+                .unwrap_err();
+            assert!(
+                matches!(e, Error::Render(RenderError::LevelNotHeld { level: 7, .. })),
+                "{e}"
+            );
+        }
+    }
+    // Shadows are a CPU setting: a typed error on the GPU.
+    let data = load_levels(dir.join("to6.smo")).unwrap();
+    let shadows = RenderSettings {
+        shadows: true,
+        ..RenderSettings::new(Mode::Lambert)
+    };
+    let e = gpu
+        .prepare(&data.file, LevelRequest::Finest)
+        .unwrap()
+        .render(&cameras[0], &shadows)
+        .unwrap_err();
+    assert!(
+        matches!(
+            e,
+            Error::Gpu(GpuError::Render(RenderError::InvalidSettings(_)))
+        ),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
