@@ -5,8 +5,9 @@
 //! The kernels agree to a few ulps of the hit distance, not bit for bit
 //! (`crates/sdfmo-gpu/tests/match_cpu.rs` holds them to tight per-pixel tolerances); here the
 //! images are held to what a user sees: masks identical but for a few pixels, depth greys
-//! within one level, lambert PSNR over 35 dB. Without an adapter the test prints why and
-//! passes, unless `SDFMO_REQUIRE_GPU=1`.
+//! within one level, shaded pixels within 4 levels but for 5 % of the hits (a hit on a sharp
+//! edge, where either face's normal is right, may take either). Without an adapter the test
+//! prints why and passes, unless `SDFMO_REQUIRE_GPU=1`.
 #![cfg(feature = "gpu")]
 
 use sdf_multioctree::build::{build_lod, BuildSettings};
@@ -40,16 +41,20 @@ fn agree(cpu: &Rendered, gpu: &Rendered, mode: Mode, label: &str) {
     );
     let pixels = cpu.rgb.len() / 3;
     let hit = |rgb: &[u8]| rgb.iter().any(|&c| c != 0);
-    let (mut mask_diffs, mut worst, mut sq) = (0usize, 0u8, 0f64);
+    let (mut mask_diffs, mut worst, mut shaded_off) = (0usize, 0u8, 0usize);
     for (c, g) in cpu.rgb.chunks_exact(3).zip(gpu.rgb.chunks_exact(3)) {
         if hit(c) != hit(g) {
             mask_diffs += 1;
             continue;
         }
-        for (a, b) in c.iter().zip(g) {
-            worst = worst.max(a.abs_diff(*b));
-            sq += f64::from(a.abs_diff(*b)).powi(2);
-        }
+        let off = c
+            .iter()
+            .zip(g)
+            .map(|(a, b)| a.abs_diff(*b))
+            .max()
+            .unwrap_or(0);
+        worst = worst.max(off);
+        shaded_off += usize::from(off > 4);
     }
     assert!(
         mask_diffs * 500 <= pixels,
@@ -60,11 +65,11 @@ fn agree(cpu: &Rendered, gpu: &Rendered, mode: Mode, label: &str) {
     match mode {
         Mode::Mask => assert_eq!(worst, 0, "{label}"),
         Mode::Depth => assert!(worst <= 1, "{label}: a depth grey differs by {worst}"),
-        _ => {
-            let mse = sq / (3 * pixels) as f64;
-            let psnr = 10.0 * (255.0f64.powi(2) / mse).log10();
-            assert!(psnr >= 35.0, "{label}: PSNR {psnr:.1} dB");
-        }
+        _ => assert!(
+            shaded_off as u64 * 20 <= cpu.counters.hits,
+            "{label}: {shaded_off} pixels off by more than 4 of {} hits",
+            cpu.counters.hits
+        ),
     }
     assert!(cpu.counters.hits > 100, "{label}: the comparison is empty");
 }

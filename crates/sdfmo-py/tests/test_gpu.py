@@ -1,8 +1,9 @@
 """``Octree.render(device="gpu")`` (issue 36): the GPU through the library's one render entry,
 levels and pixel error included. Its images are ``sdfmo render --device gpu``'s pixel for pixel
-(the same kernel on the same adapter) and agree with the CPU's as the facade's test holds them
-(masks but for a few pixels, depth greys within one level: the kernels agree to a few ulps of
-the hit distance). Without an adapter the tests skip, unless ``SDFMO_REQUIRE_GPU=1``."""
+(the same kernel on the same adapter) and agree with the CPU's as the facade's test holds them:
+masks but for a few pixels, depth greys within one level, shaded pixels within 4 levels but for
+5 % of the hits (sharp edges of coarse levels; the kernels agree to a few ulps of the hit
+distance). Without an adapter the tests skip, unless ``SDFMO_REQUIRE_GPU=1``."""
 
 import json
 import os
@@ -77,7 +78,8 @@ def test_gpu_images_are_the_clis_and_agree_with_the_cpu(cli, lod_file, gpu, tmp_
     if options.get("mode") == "depth":
         assert diff.max() <= 1
     else:
-        assert sdfmo.psnr(on_cpu, on_gpu) >= 35.0
+        # A hit on a sharp edge may take either face's normal: 5 % of the hits.
+        assert (diff.max(axis=1) > 4).sum() <= max(1, hit_cpu.sum() // 20)
 
 
 def test_gpu_options_are_checked(lod_file, gpu):
