@@ -173,7 +173,8 @@ fn levels_json(levels: &FileLevels<'_>, cams: &[Camera]) -> anyhow::Result<serde
 /// adapter's limit before the file is read (issue 19: a 2.18 GB file used to be read, copied and
 /// validated, 4.26 GB at the peak, before it was refused).
 fn open_renderer(args: &RenderArgs, device: Device) -> anyhow::Result<Renderer> {
-    let renderer = Renderer::new(device).context("cannot render on a GPU")?;
+    // The facade's error says "GPU: …" already.
+    let renderer = Renderer::new(device).context("cannot render")?;
     if let (Some(gpu), Ok(meta)) = (renderer.gpu(), std::fs::metadata(&args.octree)) {
         gpu.check_file_size(meta.len()).with_context(|| {
             format!(
