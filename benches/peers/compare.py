@@ -237,16 +237,16 @@ def rows():
               prose("results/python.md", "measured 2026-12-03, load 1.4–2.4")))
 
     # ---- FCPW
-    quote("results/python.md", "| abc1.stl | 0.148 M/s | libigl pseudonormal 0.030 M/s | 4.9× | 0.117 M/s | 1.26× |")
-    quote("results/python.md", "| abc5.stl | 0.834 M/s | libigl pseudonormal 0.175 M/s | 4.8× | 0.699 M/s | 1.19× |")
-    quote("results/python.md", "| teapot.obj | 0.611 M/s | libigl pseudonormal 0.221 M/s | 2.8× | 0.429 M/s | 1.42× |")
-    quote("results/python.md", "| stanford-bunny.obj | 0.355 M/s | libigl pseudonormal 0.072 M/s | 4.9× | 0.167 M/s | 2.13× |")
-    quote("results/python.md", "| 0.048 M/s | libigl fast winding 0.196 M/s | 0.24× | 1.326 M/s | 0.036× |")
+    quote("results/python.md", "| abc1.stl | 0.203 / 0.214 | 0.147 / 0.147 | **1.38× / 1.46×** | 1.06× |")
+    quote("results/python.md", "| abc5.stl | 1.309 / 1.360 | 0.729 / 0.752 | **1.80× / 1.81×** | 0.83× |")
+    quote("results/python.md", "| teapot.obj | 0.729 / 0.794 | 0.454 / 0.506 | **1.61× / 1.57×** | 1.69× |")
+    quote("results/python.md", "| stanford-bunny.obj | 0.442 / 0.435 | 0.194 / 0.191 | **2.28× / 2.28×** | 2.17× |")
+    quote("results/python.md", "| double-wall cubes (soup) | 0.061 / 0.062 | 1.601 / 1.659 | 0.04× / 0.04× | |")
     R.append(("FCPW 1.2 (vectorised BVH; unsigned closest point only)",
               "our signed distance against its unsigned closest point, points per core, same points",
-              "ours ÷ FCPW **1.19–2.13×** on the six shared meshes, close on abc1 (1.26×), abc5 (1.19×) and the "
-              "teapot (1.42×); **a loss** on the double-walled soup (0.036×)", "P",
-              prose("results/python.md", "measured 2026-12-03, load 1.4–2.4")))
+              "ours ÷ FCPW **1.38–2.28×** on abc1, abc5, the teapot and the bunny (two runs), closest on abc1 "
+              "(1.38–1.46×); **a loss** on the double-walled soup (0.04×)", "P",
+              prose("results/python.md", "measured 2026-12-04, quiet machine")))
 
     # ---- point-cloud-utils and trimesh
     quote("results/python.md", "| abc1.stl | sdfmo (auto sign) | 0.149 M | 0.734 | 5.8e-08 |")
@@ -289,8 +289,8 @@ def page() -> str:
       "Open surfaces, thin parts and gaps narrower than a voxel survive, where a level set loses them.")
     w("")
     w("**Where peers win**: OpenVDB's `meshToLevelSet` builds faster; the SVO builds faster; NGLOD is "
-      "smaller at low quality; FCPW's unsigned closest point is about as fast as our signed distance on "
-      "some meshes; on double-walled triangle soups libigl's winding number is faster. The rows marked "
+      "smaller at low quality; on double-walled triangle soups libigl's winding number and FCPW's unsigned "
+      "closest point are faster than our signed distance. The rows marked "
       "**a loss** give the numbers.")
     w("")
     w("| peer | what is compared | headline (ours against the peer) | command | data |")
