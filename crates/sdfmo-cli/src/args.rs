@@ -514,9 +514,6 @@ pub fn parse_timeout(s: &str) -> Result<f64, String> {
     }
 }
 
-/// Largest image edge accepted (a 16384² RGB image is 800 MB).
-const MAX_IMAGE_EDGE: u32 = 16384;
-
 /// Parses `x,y,z` into three finite numbers.
 pub fn parse_vec3(s: &str) -> Result<[f32; 3], String> {
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();
@@ -546,23 +543,22 @@ pub fn parse_fov(s: &str) -> Result<f32, String> {
     Ok(f)
 }
 
-/// Parses `WxH` (or `N` for N×N).
+/// Parses `WxH` (or `N` for N×N), within the renderer's one image-size limit
+/// ([`sdf_multioctree::render::check_image_size`]).
 pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = match s.split_once(['x', 'X']) {
         Some((w, h)) => (w, h),
         None => (s, s),
     };
     let parse = |t: &str| -> Result<u32, String> {
-        let v: u32 = t
-            .trim()
+        t.trim()
             .parse()
-            .map_err(|_| format!("expected WxH (e.g. 1024x768), got {s:?}"))?;
-        if v == 0 || v > MAX_IMAGE_EDGE {
-            return Err(format!("image edge {v} must be in 1..={MAX_IMAGE_EDGE}"));
-        }
-        Ok(v)
+            .map_err(|_| format!("expected WxH (e.g. 1024x768), got {s:?}"))
     };
-    Ok((parse(w)?, parse(h)?))
+    let (w, h) = (parse(w)?, parse(h)?);
+    sdf_multioctree::render::check_image_size(u64::from(w), u64::from(h))
+        .map_err(|e| e.to_string())?;
+    Ok((w, h))
 }
 
 /// Parses a thread count (at least 1).
@@ -665,6 +661,12 @@ mod tests {
         assert_eq!(parse_size("32").unwrap(), (32, 32));
         assert!(parse_size("0x10").is_err());
         assert!(parse_size("100000x10").is_err());
+        // The renderer's one limit: 32768 per side, 2^28 pixels.
+        assert_eq!(parse_size("32768x8192").unwrap(), (32768, 8192));
+        assert!(parse_size("32769x1").is_err());
+        assert!(parse_size("16384x16385")
+            .unwrap_err()
+            .contains("at most 32768 per side and 268435456 pixels"));
         assert!(parse_size("ax b").is_err());
     }
 

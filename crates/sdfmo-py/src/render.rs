@@ -54,9 +54,6 @@ fn point_option(v: Option<Vec<f32>>, name: &'static str) -> PyResult<Option<[f32
     }
 }
 
-/// Largest image edge (the command-line tool's `--size` limit).
-const MAX_IMAGE_EDGE: i64 = 16384;
-
 /// A checked render request.
 pub struct RenderArgs {
     camera: Camera,
@@ -79,12 +76,15 @@ impl RenderArgs {
         let target = point_option(o.target, "target")?;
         let height = height.unwrap_or(width);
         for (name, v) in [("width", width), ("height", height)] {
-            if !(1..=MAX_IMAGE_EDGE).contains(&v) {
+            if v < 1 {
                 return Err(PyValueError::new_err(format!(
-                    "{name} must be in 1..={MAX_IMAGE_EDGE}, got {v}"
+                    "{name} must be at least 1, got {v}"
                 )));
             }
         }
+        // Both ≥ 1 here: the renderer's one image-size limit (as the CLI's `--size`).
+        sdf_multioctree::render::check_image_size(width as u64, height as u64)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let mode = match mode {
             "lambert" => Mode::Lambert,
             "mask" => Mode::Mask,

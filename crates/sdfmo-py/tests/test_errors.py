@@ -59,6 +59,7 @@ BAD_INPUTS = [
     ("bits 12", lambda: MESH.build(4, bits=12), ValueError, "bits"),
     ("max_memory too small", lambda: MESH.build(9, max_memory=1000), MemoryError, "budget"),
     ("render width 0", lambda: MESH.render(0), ValueError, "width"),
+    ("render too large", lambda: MESH.render(32768, 8193), ValueError, "at most 32768 per side and 268435456 pixels"),
     ("unknown render mode", lambda: MESH.render(8, mode="phong"), ValueError, "mode"),
     ("view 4", lambda: MESH.render(8, view=4), ValueError, "view"),
     ("shadows in mask mode", lambda: MESH.render(8, mode="mask", shadows=True), ValueError, "lambert"),

@@ -24,6 +24,30 @@ pub const MAX_IMAGE_SIDE: u32 = 32_768;
 /// Largest accepted pixel count (so a hostile size cannot ask for a huge allocation).
 pub const MAX_PIXELS: u64 = 1 << 28;
 
+/// Checks an image size against the one limit of every front-end (the CLI's `--size`, Python's
+/// `render`, the facade, the GPU): at least 1 × 1, at most [`MAX_IMAGE_SIDE`] per side and
+/// [`MAX_PIXELS`] in all. Takes `u64` so that a front-end can check what its user typed before
+/// narrowing it.
+///
+/// # Errors
+/// [`RenderError::InvalidCamera`] naming the size and the limit.
+pub fn check_image_size(width: u64, height: u64) -> Result<(), RenderError> {
+    if width == 0 || height == 0 {
+        return Err(RenderError::InvalidCamera(format!(
+            "image size {width}x{height} is empty"
+        )));
+    }
+    if width > u64::from(MAX_IMAGE_SIDE)
+        || height > u64::from(MAX_IMAGE_SIDE)
+        || width * height > MAX_PIXELS
+    {
+        return Err(RenderError::InvalidCamera(format!(
+            "image size {width}x{height} is too large (at most {MAX_IMAGE_SIDE} per side and {MAX_PIXELS} pixels)"
+        )));
+    }
+    Ok(())
+}
+
 /// A pinhole camera (see the module docs): eye, target, up hint, vertical field of view, image size.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
@@ -87,21 +111,7 @@ impl Camera {
                 self.eye, self.target, self.up
             ));
         }
-        if self.width == 0 || self.height == 0 {
-            return bad(format!(
-                "image size {}x{} is empty",
-                self.width, self.height
-            ));
-        }
-        if self.width > MAX_IMAGE_SIDE
-            || self.height > MAX_IMAGE_SIDE
-            || u64::from(self.width) * u64::from(self.height) > MAX_PIXELS
-        {
-            return bad(format!(
-                "image size {}x{} is too large (at most {MAX_IMAGE_SIDE} per side and {MAX_PIXELS} pixels)",
-                self.width, self.height
-            ));
-        }
+        check_image_size(u64::from(self.width), u64::from(self.height))?;
         if !(self.fov_y_deg > 0.0 && self.fov_y_deg < 180.0) {
             return bad(format!(
                 "vertical field of view {}° must lie in (0, 180)",
@@ -214,6 +224,23 @@ impl CameraFrame {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn one_image_size_limit() {
+        for (w, h) in [(1, 1), (16_384, 16_384), (32_768, 8_192), (8_192, 32_768)] {
+            assert!(check_image_size(w, h).is_ok(), "{w}x{h}");
+        }
+        for (w, h) in [
+            (0, 5),
+            (5, 0),
+            (32_769, 1),
+            (16_384, 16_385),
+            (u64::MAX, u64::MAX),
+        ] {
+            let e = check_image_size(w, h).unwrap_err().to_string();
+            assert!(e.contains(&format!("image size {w}x{h}")), "{e}");
+        }
+    }
+
     use super::*;
 
     fn close(a: Vec3, b: Vec3, eps: f32) -> bool {

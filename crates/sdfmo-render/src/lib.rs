@@ -36,7 +36,7 @@ pub mod shading;
 
 use std::path::PathBuf;
 
-pub use camera::{Camera, CameraFrame};
+pub use camera::{check_image_size, Camera, CameraFrame, MAX_IMAGE_SIDE, MAX_PIXELS};
 pub use levels::{LevelRequest, LevelScene};
 #[cfg(feature = "mesh-reference")]
 pub use mesh::{apply_normalization, mesh_in_octree_frame, octree_normalization, MeshScene};
