@@ -3,6 +3,7 @@ relative to the workspace root, as the Rust tests resolve it) and the CLI binary
 
 import os
 import shutil
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -50,3 +51,11 @@ def cli():
     if found and not value:
         return Path(found)
     missing(f"no sdfmo binary ({', '.join(map(str, candidates))}): set SDFMO_CLI")
+
+
+def run_cli(cli, *args):
+    """Runs the `sdfmo` binary with `args` (paths allowed) and asserts it succeeded; the
+    completed process (its stdout holds `--json` output)."""
+    r = subprocess.run([str(cli), *map(str, args)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    return r

@@ -3,18 +3,12 @@
 the CLI reads back the same."""
 
 import json
-import subprocess
 
 import numpy as np
 import pytest
 
 import sdfmo
-
-
-def run(cli, *args):
-    r = subprocess.run([str(cli), *map(str, args)], capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr
-    return r
+from conftest import run_cli as run
 
 
 @pytest.mark.parametrize("lod", [False, True])

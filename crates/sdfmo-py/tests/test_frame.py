@@ -4,12 +4,12 @@ the same number and the same eye the same image. (The facade's side is
 crates/sdfmo-cli/tests/frame.rs.)"""
 
 import json
-import subprocess
 
 import numpy as np
 import pytest
 
 import sdfmo
+from conftest import run_cli as run
 
 # A box far from the origin with a non-trivial scale: [10, 14] x [-3, -1] x [5, 6].
 LO, HI = np.array([10.0, -3.0, 5.0]), np.array([14.0, -1.0, 6.0])
@@ -30,19 +30,13 @@ def write_obj(mesh, path):
             fh.write("f {} {} {}\n".format(*(int(i) + 1 for i in t)))
 
 
-def run(cli, *args):
-    r = subprocess.run([str(cli), *map(str, args)], capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr
-    return r.stdout
-
-
 def test_cli_distance_equals_signed_distance(cli, tmp_path):
     mesh = box_mesh()
     obj = tmp_path / "box.obj"
     write_obj(mesh, obj)
     pts = np.array([[12.0, -2.0, 5.5], [12.0, 0.25, 5.5], [9.1, -2.5, 5.25], [13.99, -1.01, 5.999]])
     (tmp_path / "p.xyz").write_text("".join("{!r} {!r} {!r}\n".format(*p) for p in pts.tolist()))
-    out = json.loads(run(cli, "distance", obj, "--points", tmp_path / "p.xyz", "--json"))
+    out = json.loads(run(cli, "distance", obj, "--points", tmp_path / "p.xyz", "--json").stdout)
     assert out["frame"] == "model"
     ours = sdfmo.Mesh.load(str(obj)).signed_distance(pts)
     np.testing.assert_array_equal(np.array(out["distances"], np.float32), ours)

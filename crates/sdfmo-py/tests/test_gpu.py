@@ -14,14 +14,9 @@ import numpy as np
 import pytest
 
 import sdfmo
+from conftest import run_cli as run
 
 REQUIRE_GPU = os.environ.get("SDFMO_REQUIRE_GPU") == "1"
-
-
-def run(cli, *args):
-    r = subprocess.run([str(cli), *map(str, args)], capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr
-    return r
 
 
 @pytest.fixture(scope="module")

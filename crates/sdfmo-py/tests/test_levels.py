@@ -4,18 +4,12 @@ cut where a level ends, reports them (``levels``, ``file_levels``) and renders t
 pixels. (The facade's side is crates/sdfmo-cli/tests/levels.rs.)"""
 
 import json
-import subprocess
 
 import numpy as np
 import pytest
 
 import sdfmo
-
-
-def run(cli, *args):
-    r = subprocess.run([str(cli), *map(str, args)], capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr
-    return r
+from conftest import run_cli as run
 
 
 @pytest.fixture(scope="module")
