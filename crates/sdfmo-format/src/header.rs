@@ -61,13 +61,34 @@ const fn field(name: &'static str, offset: usize, size: usize) -> HeaderField {
     HeaderField { name, offset, size }
 }
 
-/// The version-1.0 header, field by field, in order (contiguous, 128 bytes).
-pub const HEADER_FIELDS: [HeaderField; 25] = [
+/// The fields every `.smo` header starts with, 1.x and 2.0 alike: a reader tells the versions
+/// apart by them.
+const PREAMBLE: [HeaderField; 5] = [
     field("magic", 0, 8),
     field("version_major", 8, 2),
     field("version_minor", 10, 2),
     field("header_size", 12, 4),
     field("flags", 16, 4),
+];
+
+/// [`PREAMBLE`] followed by `rest`, as one table of `N` fields (compile time).
+const fn after_preamble<const N: usize>(rest: &[HeaderField]) -> [HeaderField; N] {
+    assert!(PREAMBLE.len() + rest.len() == N);
+    let mut table = [field("", 0, 0); N];
+    let mut i = 0;
+    while i < N {
+        table[i] = if i < PREAMBLE.len() {
+            PREAMBLE[i]
+        } else {
+            rest[i - PREAMBLE.len()]
+        };
+        i += 1;
+    }
+    table
+}
+
+/// The version-1.0 header, field by field, in order (contiguous, 128 bytes).
+pub const HEADER_FIELDS: [HeaderField; 25] = after_preamble(&[
     field("depth", 20, 1),
     field("value_bits", 21, 1),
     field("reserved", 22, 2),
@@ -88,7 +109,7 @@ pub const HEADER_FIELDS: [HeaderField; 25] = [
     field("surface_size", 104, 8),
     field("corners_offset", 112, 8),
     field("corners_size", 120, 8),
-];
+]);
 
 /// Major version of a file with levels of detail (the 1.x layout is one octree; 2.0 is a
 /// header, a level table and one 1.x octree per level).
@@ -104,12 +125,7 @@ pub const LOD_HEADER_TRAILER: usize = 8;
 
 /// The fixed part of the version-2.0 header (a file with levels), field by field, in order
 /// (contiguous, [`LOD_HEADER_FIXED`] bytes); the level table follows at byte 64.
-pub const LOD_HEADER_FIELDS: [HeaderField; 15] = [
-    field("magic", 0, 8),
-    field("version_major", 8, 2),
-    field("version_minor", 10, 2),
-    field("header_size", 12, 4),
-    field("flags", 16, 4),
+pub const LOD_HEADER_FIELDS: [HeaderField; 15] = after_preamble(&[
     field("depth", 20, 1),
     field("coarsest", 21, 1),
     field("level_count", 22, 1),
@@ -120,7 +136,7 @@ pub const LOD_HEADER_FIELDS: [HeaderField; 15] = [
     field("scale", 36, 4),
     field("file_size", 40, 8),
     field("reserved", 48, 16),
-];
+]);
 
 /// One entry of the 2.0 level table: offsets from the entry's start, which is byte
 /// `LOD_HEADER_FIXED + LOD_LEVEL_ENTRY · i` for level `coarsest + i`.
