@@ -29,6 +29,27 @@ def atomic_write(path: str, data: bytes | str) -> None:
         raise
 
 
+def pyplot():
+    """matplotlib.pyplot on the file-only Agg backend (no display needed), imported on first use
+    so that scripts that draw nothing do not need matplotlib."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save_figure(fig, path: str, dpi: int) -> None:
+    """Saves `fig` as a PNG at `path` atomically (see `atomic_write`) and closes it."""
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    pyplot().close(fig)
+    atomic_write(path, buf.getvalue())
+
+
 def load(path: str):
     """A JSON file."""
     with open(path) as f:

@@ -10,8 +10,20 @@
 # Nothing in these files is evaluated by the shell: they are read back as plain words, and the
 # numbers are checked again (check_settings) before any use.
 
+set -euo pipefail
 # A failed sbatch inside $(submit_array …) must stop the script, not record an empty job id.
 shopt -s inherit_errexit
+
+# need_args MIN USAGE "$@": exits 2 with `usage: SCRIPT USAGE` when fewer than MIN arguments
+# were given.
+need_args() {
+    local min=$1 usage=$2
+    shift 2
+    if [ $# -lt "$min" ]; then
+        echo "usage: $0 $usage" >&2
+        exit 2
+    fi
+}
 
 # Checks the globals `shards`, `cpus` and `mem`. SHARDS goes into an arithmetic expansion, where
 # bash would evaluate a crafted value (`a[$(command)]` runs the command): plain decimal digits

@@ -12,14 +12,10 @@
 # shards with models left unfinished (exit 2, naming the entries), so resubmit those as well.
 # SBATCH_* variables (partition, time limit) are read by sbatch now, as on the first submission.
 # Prints the new array and merge job ids.
-set -euo pipefail
-if [ $# -lt 2 ]; then
-    echo "usage: $0 OUTROOT SHARD [SHARD...]" >&2
-    exit 2
-fi
-here=$(cd "$(dirname "$0")" && pwd)
+here=$(cd "$(dirname "$0")" && pwd) || exit 2
 # shellcheck source=common.sh source-path=SCRIPTDIR
-. "$here/common.sh"
+. "$here/common.sh" || exit 2
+need_args 2 "OUTROOT SHARD [SHARD...]" "$@"
 root=$(realpath -m "$1")
 shift
 read_submission

@@ -15,14 +15,10 @@
 #                        SBATCH_TIMELIMIT, SBATCH_ACCOUNT, …)
 # What was submitted is recorded in OUTROOT (submit.args, submit.jobs), so that resubmit.sh can
 # rerun a shard with the same settings and replace the merge job.
-set -euo pipefail
-if [ $# -lt 3 ]; then
-    echo "usage: $0 MANIFEST OUTROOT SHARDS [sweep flags...]" >&2
-    exit 2
-fi
-here=$(cd "$(dirname "$0")" && pwd)
+here=$(cd "$(dirname "$0")" && pwd) || exit 2
 # shellcheck source=common.sh source-path=SCRIPTDIR
-. "$here/common.sh"
+. "$here/common.sh" || exit 2
+need_args 3 "MANIFEST OUTROOT SHARDS [sweep flags...]" "$@"
 manifest=$(realpath "$1")
 root=$(realpath -m "$2")
 shards=$3

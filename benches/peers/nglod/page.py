@@ -25,7 +25,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # benches/peers
-from peerio import atomic_write, load  # noqa: E402
+from peerio import atomic_write, load, pyplot, save_figure  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.abspath(os.path.join(HERE, "../../.."))
@@ -177,9 +177,7 @@ def spread(xs):
 
 
 def plot_psnr_vs_size(models, main, short, sr, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     fig, axes = plt.subplots(1, len(models), figsize=(3.3 * len(models), 3.4), sharey=True)
     for ax, stem in zip(axes, models):
         for meth, style in (("svo", "s-"), ("multi", "o-")):
@@ -195,15 +193,11 @@ def plot_psnr_vs_size(models, main, short, sr, path):
     axes[0].set_ylabel("PSNR (dB), 4 views 1024²")
     axes[0].legend(fontsize=7)
     fig.tight_layout()
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp, dpi=80)
-    os.replace(tmp, path)
+    save_figure(fig, path, dpi=80)
 
 
 def plot_curves(runs, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     fig, ax = plt.subplots(1, 2, figsize=(10, 3.6))
     for r in runs:
         label = f"{r['model']} seed {r['seed']}"
@@ -217,9 +211,7 @@ def plot_curves(runs, path):
     ax[1].set_ylabel("PSNR LOD 5, view 0 at 256²")
     ax[0].legend(fontsize=7)
     fig.tight_layout()
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp, dpi=80)
-    os.replace(tmp, path)
+    save_figure(fig, path, dpi=80)
 
 
 def cmd_page(a) -> None:

@@ -18,7 +18,7 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # benches/peers
-from peerio import atomic_write, load  # noqa: E402
+from peerio import atomic_write, load, pyplot, save_figure  # noqa: E402
 
 LODS = [2, 3, 4, 5]
 
@@ -102,9 +102,7 @@ def not_smaller(m: dict, target: int):
 
 
 def plot_curve(m: dict, stem: str, path: str) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     ep = m["train"]["epochs"]
     fig, ax = plt.subplots(1, 2, figsize=(10, 3.6))
     x = [e["epoch"] for e in ep]
@@ -122,9 +120,7 @@ def plot_curve(m: dict, stem: str, path: str) -> None:
     ax[1].legend(fontsize=8)
     ax[1].set_title(f"{stem}: PSNR vs epoch")
     fig.tight_layout()
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp, dpi=90)
-    os.replace(tmp, path)
+    save_figure(fig, path, dpi=90)
 
 
 def samples_per_epoch(sched: dict) -> int:
@@ -133,9 +129,7 @@ def samples_per_epoch(sched: dict) -> int:
 
 def plot_gap(m: dict, stem: str, path: str) -> None:
     """PSNR (view 0, 256²) per LOD against samples seen: the short run and the gap run."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.0))
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for run, style, label in ((m["gap"], "-", "long run"), (m["train"], "--", "short run")):
@@ -154,9 +148,7 @@ def plot_gap(m: dict, stem: str, path: str) -> None:
     ax.set_title(f"{stem}: training length against quality")
     ax.legend(fontsize=7, ncol=2)
     fig.tight_layout()
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp, dpi=90)
-    os.replace(tmp, path)
+    save_figure(fig, path, dpi=90)
 
 
 def montage(out: str, reference: str, stem: str, path: str) -> None:

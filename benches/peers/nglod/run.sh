@@ -27,11 +27,8 @@
 set -euo pipefail
 
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
-ROOT="$(cd "$HERE/../../.." && pwd)"
-cd "$ROOT"
-
 . "$HERE/../models.sh"
-peer_models "$@"
+peer_start "$@"
 
 THREADS="${NGLOD_THREADS:-2}"
 NICE="${NGLOD_NICE:-19}"

@@ -20,7 +20,7 @@ import tempfile
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # benches/peers
-from peerio import atomic_write, load, stem_of  # noqa: E402
+from peerio import atomic_write, load, pyplot, save_figure, stem_of  # noqa: E402
 
 VARIANTS = ["float", "fp16", "fp8", "fp4", "fpn"]
 BANDS = [1, 2, 3]
@@ -113,9 +113,7 @@ def at_equal_psnr(curve: list[tuple[float, float]], p: float):
 
 
 def plot_model(stem, ours, theirs, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.2, 4.4))
     for name, pts, style in ours + theirs:
         pts = [(b, p) for b, p, _ in pts if p is not None]
@@ -128,9 +126,7 @@ def plot_model(stem, ours, theirs, path):
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
     fig.tight_layout()
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp, dpi=90)
-    os.replace(tmp, path)
+    save_figure(fig, path, dpi=90)
 
 
 def montage(images: list[str], path: str, crop=None) -> None:

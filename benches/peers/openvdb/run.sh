@@ -28,10 +28,8 @@
 #   VDB_RERUN_SWEEP=1 (rerun the combined sweep although OUT/combined covers the models)
 set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
-ROOT="$(cd "$HERE/../../.." && pwd)"
-cd "$ROOT"
 . "$HERE/../models.sh"
-peer_models "$@"
+peer_start "$@"
 THREADS="${VDB_THREADS:-2}"
 NICE="${VDB_NICE:-10}"
 OUT="${VDB_OUT:-$HERE/out}"
