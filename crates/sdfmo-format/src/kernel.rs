@@ -9,8 +9,10 @@
 
 use crate::MAX_DEPTH;
 
-/// Traversal stack capacity: a node pushes at most four children and pops one, so a descent
-/// to depth `d` holds at most `3d + 1` entries; [`MAX_DEPTH`] bounds `d` (50 entries).
+/// Traversal stack capacity of the CPU kernel: a node pushes at most four children and pops
+/// one, so a descent to depth `d` holds at most `3d + 1` entries; [`MAX_DEPTH`] bounds `d` (50
+/// entries). The WGSL kernel visits the same cells with one entry per level instead (its
+/// `SMO_MAX_DEPTH`, see `sdfmo-gpu`'s `sdfmo.wgsl`).
 pub const TRAVERSAL_STACK_SIZE: usize = 3 * MAX_DEPTH as usize + 2;
 
 /// Replacement for a zero (or tinier) ray direction component in the plane crossing times, with

@@ -94,19 +94,18 @@ fn wgsl_f32(v: f32) -> String {
 
 /// The `const` declarations the WGSL kernel shares with the CPU kernel, generated from the Rust
 /// values so the two cannot drift apart (issue 20): the kernel constants of
-/// [`sdfmo_format::kernel`], the clip bound [`sdfmo_format::MAX_CLIP_VOXELS_PER_LEAF`],
-/// [`SMO_FAR`], and the f32 limits. [`trace_wgsl`] is this followed by the library.
+/// [`sdfmo_format::kernel`], the clip bound [`sdfmo_format::MAX_CLIP_VOXELS_PER_LEAF`], the
+/// depth bound [`sdfmo_format::MAX_DEPTH`] (the traversal stack's levels), [`SMO_FAR`], and the
+/// f32 limits. [`trace_wgsl`] is this followed by the library.
 pub fn kernel_constants_wgsl() -> String {
-    use sdfmo_format::kernel::{
-        CLIP_TOLERANCE, MAX_POLISH_STEPS, ROOT_REL_TOLERANCE, TINY_DIR, TRAVERSAL_STACK_SIZE,
-    };
+    use sdfmo_format::kernel::{CLIP_TOLERANCE, MAX_POLISH_STEPS, ROOT_REL_TOLERANCE, TINY_DIR};
     let f = wgsl_f32;
     [
         format!("const SMO_FAR: f32 = {};", f(SMO_FAR)),
         format!("const SMO_MAX_FINITE: f32 = {};", f(f32::MAX)),
         format!("const SMO_MIN_POSITIVE: f32 = {};", f(f32::MIN_POSITIVE)),
         format!("const SMO_TINY_DIR: f32 = {};", f(TINY_DIR)),
-        format!("const SMO_STACK_SIZE: u32 = {TRAVERSAL_STACK_SIZE}u;"),
+        format!("const SMO_MAX_DEPTH: u32 = {}u;", sdfmo_format::MAX_DEPTH),
         format!("const SMO_MAX_POLISH_STEPS: u32 = {MAX_POLISH_STEPS}u;"),
         format!("const SMO_REL_TOLERANCE: f32 = {};", f(ROOT_REL_TOLERANCE)),
         format!("const SMO_CLIP_TOLERANCE: f32 = {};", f(CLIP_TOLERANCE)),

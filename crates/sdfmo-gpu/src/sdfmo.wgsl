@@ -65,7 +65,7 @@
 //   SMO_MAX_FINITE        f32  largest finite f32
 //   SMO_MIN_POSITIVE      f32  smallest normal f32
 //   SMO_TINY_DIR          f32  direction components smaller than this are treated as this
-//   SMO_STACK_SIZE        u32  traversal stack entries (3 per level, 16 levels, plus slack)
+//   SMO_MAX_DEPTH         u32  deepest octree a file holds: the traversal stack's levels
 //   SMO_MAX_POLISH_STEPS  u32  Newton/bisection steps at most when polishing a root
 //   SMO_REL_TOLERANCE     f32  root tolerance as a fraction of the segment
 //   SMO_CLIP_TOLERANCE    f32  slack of the clip test at a polished root, relative to the clip
@@ -643,6 +643,78 @@ fn smo_root_span(ray: SmoRay, t_min: f32, t_max: f32) -> vec2<f32> {
     return vec2<f32>(t_enter, t_exit);
 }
 
+// Traversal stack. The walk visits the cells of sdfmo_trace::intersect in the same order with
+// the same spans, but keeps one entry per level instead of one per pending cell: the node and
+// span of each ancestor of the current cell (12 bytes; at most MAX_DEPTH of them, as a validated
+// file's leaves all sit at its depth). A cell's next sibling in ray order is derived again from
+// its parent when the cell is done (`smo_next_child`, the same arithmetic as on the way down,
+// so the same octants and spans bit for bit), as ESVO's "advance" does (Laine & Karras 2010),
+// instead of pushing up to three siblings of 48 bytes per level as the CPU does (50 entries,
+// 2400 bytes). Why it matters: WGSL zero-initialises every function variable, and lavapipe does
+// so per invocation, reached or not; a real GPU keeps the smaller stack closer to registers.
+
+/// `smo_next_child`'s `after` for a node just entered: its nearest present child.
+const SMO_FIRST_CHILD: u32 = 8u;
+
+/// The present child of the inner node `cell` that follows, in ray order, its child of octant
+/// `after` (the nearest present child for SMO_FIRST_CHILD): that child's cell, or a cell of node
+/// 0 (the root, never a child) when none follows. The node's span is split at its mid-planes as
+/// sdfmo_trace's split_span and inner_step split it (entry octant from the planes behind the
+/// entry point, the planes crossed inside the span flipping their bit in crossing order, equal
+/// times in axis order x, y, z), so a child's span is the same whenever it is derived.
+fn smo_next_child(info: SmoInfo, cell: SmoCell, o: vec3<f32>, inv: vec3<f32>, negative: u32, after: u32) -> SmoCell {
+    let half = 0.5 * cell.size;
+    let mid = cell.min + vec3<f32>(half);
+    let tm = (mid - o) * inv;
+    let te = cell.t_enter;
+    let tx = cell.t_exit;
+    let behind = select(0u, 4u, tm.x <= te) | select(0u, 2u, tm.y <= te) | select(0u, 1u, tm.z <= te);
+    // Sort keys: a plane crossed inside (te, tx) has its time, the others tx and bit 0, which
+    // sort after every crossing; a three-comparator network with strict comparisons.
+    let crossed = (tm > vec3<f32>(te)) & (tm < vec3<f32>(tx));
+    var k = select(vec3<f32>(tx), tm, crossed);
+    var b = select(vec3<u32>(0u), vec3<u32>(4u, 2u, 1u), crossed);
+    if k.y < k.x {
+        k = k.yxz;
+        b = b.yxz;
+    }
+    if k.z < k.y {
+        k = k.xzy;
+        b = b.xzy;
+    }
+    if k.y < k.x {
+        k = k.yxz;
+        b = b.yxz;
+    }
+    // Child i of the ray order: octant octants[i], span [starts[i], ends[i]]; it exists for
+    // i = 0 and where the crossing before it does (b[i - 1] != 0).
+    let o0 = behind ^ negative;
+    let octants = vec4<u32>(o0, o0 ^ b.x, o0 ^ b.x ^ b.y, o0 ^ b.x ^ b.y ^ b.z);
+    let starts = vec4<f32>(te, k);
+    let ends = vec4<f32>(k, tx);
+    let valid = vec4<bool>(true, b != vec3<u32>(0u));
+    // Start after `after`: the octants along the ray are distinct, and a position past the last
+    // valid one repeats its octant, so the last match is `after` itself or lies past the end.
+    var i = 0u;
+    for (var j = 0u; j < 4u; j++) {
+        if octants[j] == after {
+            i = j + 1u;
+        }
+    }
+    let mask = smo_child_mask(info, cell.node);
+    for (; i < 4u; i++) {
+        let oct = octants[i];
+        if valid[i] && ((mask >> oct) & 1u) != 0u {
+            let node = smo_first_child(info, cell.node) + countOneBits(mask & ((1u << oct) - 1u));
+            // `min + half` is `mid`, so selecting is exact (as sdfmo_trace's child_at).
+            let upper = (vec3<u32>(oct) >> vec3<u32>(2u, 1u, 0u)) & vec3<u32>(1u);
+            let min = select(cell.min, mid, upper != vec3<u32>(0u));
+            return SmoCell(node, min, half, starts[i], ends[i]);
+        }
+    }
+    return SmoCell(0u, cell.min, half, te, tx);
+}
+
 /// The first hit along the ray in [t_min, t_max] (sdfmo_trace::intersect). Pass SMO_FAR for
 /// an unbounded ray.
 fn smo_intersect(info: SmoInfo, ray: SmoRay, t_min: f32, t_max: f32) -> SmoHit {
@@ -660,108 +732,55 @@ fn smo_intersect(info: SmoInfo, ray: SmoRay, t_min: f32, t_max: f32) -> SmoHit {
     if !(t_enter <= t_exit) {
         return none;
     }
-    let positive = inv > vec3<f32>(0.0);
+    // Axes along which the ray moves towards − (bit 4 = x, 2 = y, 1 = z, as in octants).
+    let negative = select(0u, 4u, inv.x < 0.0) | select(0u, 2u, inv.y < 0.0) | select(0u, 1u, inv.z < 0.0);
 
-    var stack: array<SmoCell, SMO_STACK_SIZE>;
-    var sp = 0u;
+    // The ancestors of `cell`, one per level (see "Traversal stack" above): node and span.
+    var nodes: array<u32, SMO_MAX_DEPTH>;
+    var spans: array<vec2<f32>, SMO_MAX_DEPTH>;
+    var level = 0u;
     var cell = SmoCell(0u, vec3<f32>(-1.0), 2.0, t_enter, t_exit);
     loop {
-        var has_next = false;
-        var next: SmoCell;
+        // Down to the first leaf along the ray (a loop of its own: lavapipe runs every branch of
+        // a loop's body for its whole SIMD group, so the leaf test stays out of this one).
+        loop {
+            if cell.node >= info.inner_count {
+                break;
+            }
+            let child = smo_next_child(info, cell, o, inv, negative, SMO_FIRST_CHILD);
+            if child.node == 0u {
+                break;
+            }
+            nodes[level] = cell.node;
+            spans[level] = vec2<f32>(cell.t_enter, cell.t_exit);
+            level += 1u;
+            cell = child;
+        }
         if cell.node >= info.inner_count {
             let hit = smo_leaf_hit(info, cell, o, d);
             if hit.hit {
                 return hit;
             }
-        } else {
-            let half = 0.5 * cell.size;
-            let mid = cell.min + vec3<f32>(half);
-            let tm = (mid - o) * inv;
-            let te = cell.t_enter;
-            let tx = cell.t_exit;
-            // The octant the ray enters first, and the mid-planes it crosses inside the cell.
-            var octant = 0u;
-            var pt = vec3<f32>(SMO_MAX_FINITE);
-            var pb = vec3<u32>(0u);
-            for (var k = 0u; k < 3u; k++) {
-                let bit = 4u >> k;
-                let t = tm[k];
-                var upper = t > te;
-                if positive[k] {
-                    upper = t <= te;
-                }
-                if upper {
-                    octant |= bit;
-                }
-                if t > te && t < tx {
-                    pt[k] = t;
-                    pb[k] = bit;
-                }
-            }
-            // Sort the three planes by t (a 3-element network, as the CPU version).
-            if pt.y < pt.x {
-                pt = pt.yxz;
-                pb = pb.yxz;
-            }
-            if pt.z < pt.y {
-                pt = pt.xzy;
-                pb = pb.xzy;
-            }
-            if pt.y < pt.x {
-                pt = pt.yxz;
-                pb = pb.yxz;
-            }
-            let mask = smo_child_mask(info, cell.node);
-            var ch_oct: array<u32, 4>;
-            var ch_a: array<f32, 4>;
-            var ch_b: array<f32, 4>;
-            var n = 0u;
-            var t_a = te;
-            for (var i = 0u; i < 3u; i++) {
-                if pb[i] == 0u {
-                    break;
-                }
-                if ((mask >> octant) & 1u) != 0u {
-                    ch_oct[n] = octant;
-                    ch_a[n] = t_a;
-                    ch_b[n] = pt[i];
-                    n += 1u;
-                }
-                octant ^= pb[i];
-                t_a = pt[i];
-            }
-            if ((mask >> octant) & 1u) != 0u {
-                ch_oct[n] = octant;
-                ch_a[n] = t_a;
-                ch_b[n] = tx;
-                n += 1u;
-            }
-            var first = 0u;
-            if n > 0u {
-                first = smo_first_child(info, cell.node);
-            }
-            // Push the later children (farthest first), continue with the nearest.
-            for (var j = i32(n) - 1; j >= 0; j--) {
-                let oct = ch_oct[j];
-                let child = first + countOneBits(mask & ((1u << oct) - 1u));
-                let offset = vec3<f32>(f32(oct >> 2u), f32((oct >> 1u) & 1u), f32(oct & 1u));
-                let c = SmoCell(child, cell.min + offset * half, half, ch_a[j], ch_b[j]);
-                if j == 0 {
-                    next = c;
-                    has_next = true;
-                } else if sp < SMO_STACK_SIZE {
-                    stack[sp] = c;
-                    sp += 1u;
-                }
-            }
         }
-        if has_next {
-            cell = next;
-        } else if sp > 0u {
-            sp -= 1u;
-            cell = stack[sp];
-        } else {
-            return none;
+        // The cell is done: the next present sibling in ray order, else its parent's, and so on
+        // up. The parent's box comes back exactly from the child's (edges are powers of two and
+        // corners multiples of them, exact in f32 down to MAX_DEPTH).
+        loop {
+            if level == 0u {
+                return none;
+            }
+            level -= 1u;
+            let upper = vec3<u32>((cell.min + vec3<f32>(1.0)) * smo_inv_pow2(cell.size)) & vec3<u32>(1u);
+            let parent_min = select(cell.min, cell.min - vec3<f32>(cell.size), upper != vec3<u32>(0u));
+            let parent = SmoCell(nodes[level], parent_min, 2.0 * cell.size, spans[level].x, spans[level].y);
+            let octant = (upper.x << 2u) | (upper.y << 1u) | upper.z;
+            let sibling = smo_next_child(info, parent, o, inv, negative, octant);
+            if sibling.node != 0u {
+                level += 1u;
+                cell = sibling;
+                break;
+            }
+            cell = parent;
         }
     }
     return none;

@@ -81,9 +81,7 @@ fn const_value(m: &naga::Module, name: &str) -> u64 {
 /// (so images are unchanged).
 #[test]
 fn shared_constants_have_the_rust_values() {
-    use sdfmo_format::kernel::{
-        CLIP_TOLERANCE, MAX_POLISH_STEPS, ROOT_REL_TOLERANCE, TINY_DIR, TRAVERSAL_STACK_SIZE,
-    };
+    use sdfmo_format::kernel::{CLIP_TOLERANCE, MAX_POLISH_STEPS, ROOT_REL_TOLERANCE, TINY_DIR};
     let m = module(&sdfmo_gpu::shader_source());
     let f = |v: f32| u64::from(v.to_bits());
     let expected = [
@@ -91,7 +89,8 @@ fn shared_constants_have_the_rust_values() {
         ("SMO_MAX_FINITE", f(f32::MAX), "3.40282347e38"),
         ("SMO_MIN_POSITIVE", f(f32::MIN_POSITIVE), "1.17549435e-38"),
         ("SMO_TINY_DIR", f(TINY_DIR), "1e-30"),
-        ("SMO_STACK_SIZE", TRAVERSAL_STACK_SIZE as u64, "50u"),
+        // The traversal stack's levels (issue 35; it replaced SMO_STACK_SIZE, 50 cells).
+        ("SMO_MAX_DEPTH", u64::from(sdfmo_format::MAX_DEPTH), "16u"),
         ("SMO_MAX_POLISH_STEPS", u64::from(MAX_POLISH_STEPS), "32u"),
         ("SMO_REL_TOLERANCE", f(ROOT_REL_TOLERANCE), "1e-6"),
         ("SMO_CLIP_TOLERANCE", f(CLIP_TOLERANCE), "1e-5"),
