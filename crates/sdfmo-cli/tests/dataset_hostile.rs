@@ -71,6 +71,17 @@ fn write_dataset(dir: &Path) -> PathBuf {
     m
 }
 
+/// The dataset in a fresh folder's `data/`, with a manifest `name` holding `text`; returns the
+/// folder and the manifest's path.
+fn dataset_with_manifest(name: &str, text: &str) -> (tempfile::TempDir, PathBuf) {
+    let t = tempfile::tempdir().unwrap();
+    let data = t.path().join("data");
+    write_dataset(&data);
+    let m = data.join(name);
+    std::fs::write(&m, text).unwrap();
+    (t, m)
+}
+
 /// Runs shard `k` of 2 of `manifest` into `out`.
 fn run_shard(manifest: &Path, k: usize, out: &Path) -> Output {
     let shard = format!("{k}/2");
@@ -426,11 +437,7 @@ fn merging_into_an_input_folder_is_refused() {
 /// A record counts only for the entry it ran (position, id, name and path) now.
 #[test]
 fn a_stale_record_of_an_edited_manifest_does_not_count() {
-    let t = tempfile::tempdir().unwrap();
-    let data = t.path().join("data");
-    write_dataset(&data);
-    let m = data.join("manifest.csv");
-    std::fs::write(&m, "id,path\na,a.obj\nb,b.obj\n").unwrap();
+    let (t, m) = dataset_with_manifest("manifest.csv", "id,path\na,a.obj\nb,b.obj\n");
     let shard = |k: usize| t.path().join(format!("shard-{k}"));
     for k in 0..2 {
         assert!(run_shard(&m, k, &shard(k)).status.success());
@@ -515,11 +522,7 @@ fn a_reordered_manifest_after_a_resume_merges() {
 /// record per id) then dropped. It is an error of the manifest now, naming the id and lines.
 #[test]
 fn a_duplicate_id_in_the_manifest_is_named() {
-    let t = tempfile::tempdir().unwrap();
-    let data = t.path().join("data");
-    write_dataset(&data);
-    let m = data.join("dup.csv");
-    std::fs::write(&m, "id,path\nx,a.obj\ny,b.obj\nx,c.obj\n").unwrap();
+    let (t, m) = dataset_with_manifest("dup.csv", "id,path\nx,a.obj\ny,b.obj\nx,c.obj\n");
     let o = run_shard(&m, 0, &t.path().join("out"));
     refused(
         &o,
@@ -560,11 +563,7 @@ fn generate_parts_refuses_indices_past_the_last() {
 #[test]
 fn shards_run_under_a_lower_inherited_address_space_limit() {
     use std::os::unix::process::CommandExt;
-    let t = tempfile::tempdir().unwrap();
-    let data = t.path().join("data");
-    write_dataset(&data);
-    let m = data.join("one.txt");
-    std::fs::write(&m, "a.obj\n").unwrap();
+    let (t, m) = dataset_with_manifest("one.txt", "a.obj\n");
     // 8 GiB: below the default cap on any machine with more than 7 GiB.
     let limit: u64 = 8 << 30;
     let mut cmd = Command::new(SDFMO);
@@ -574,19 +573,13 @@ fn shards_run_under_a_lower_inherited_address_space_limit() {
         .args(["--json", "-o"])
         .arg(t.path().join("out"))
         .stdin(Stdio::null());
-    // SAFETY: prctl and setrlimit are async-signal-safe and allocate nothing.
+    // SAFETY: prctl and `limit_address_space` (setrlimit) are async-signal-safe and allocate
+    // nothing.
     unsafe {
         cmd.pre_exec(move || {
             // CAP_SYS_RESOURCE is 24; failing to drop it (not root) is fine.
             libc::prctl(libc::PR_CAPBSET_DROP, 24, 0, 0, 0);
-            let lim = libc::rlimit {
-                rlim_cur: limit as libc::rlim_t,
-                rlim_max: limit as libc::rlim_t,
-            };
-            if libc::setrlimit(libc::RLIMIT_AS, &lim) != 0 {
-                return Err(std::io::Error::last_os_error());
-            }
-            Ok(())
+            sdfmo_harness::limit_address_space(limit)
         });
     }
     let o = cmd.output().unwrap();

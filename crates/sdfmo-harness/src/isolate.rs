@@ -98,6 +98,26 @@ pub fn inherited_address_space() -> Option<u64> {
     None
 }
 
+/// Sets this process's address-space limit (`RLIMIT_AS`, soft and hard) to `bytes`. Calls only
+/// `setrlimit` and allocates nothing, so it may run between fork and exec
+/// (`CommandExt::pre_exec`): the cap of a model's process, and the tests' lower inherited limit.
+///
+/// # Errors
+///
+/// The operating system's error (a limit above the hard limit without the right to raise it).
+#[cfg(unix)]
+pub fn limit_address_space(bytes: u64) -> std::io::Result<()> {
+    let lim = libc::rlimit {
+        rlim_cur: bytes as libc::rlim_t,
+        rlim_max: bytes as libc::rlim_t,
+    };
+    // SAFETY: setrlimit reads the one valid struct passed.
+    if unsafe { libc::setrlimit(libc::RLIMIT_AS, &lim) } != 0 {
+        return Err(std::io::Error::last_os_error());
+    }
+    Ok(())
+}
+
 /// Limits of one child.
 #[derive(Clone, Copy, Debug)]
 pub struct Limits {
@@ -127,16 +147,10 @@ pub fn run_child(args: &[OsString], limits: Limits) -> anyhow::Result<ChildRun> 
                 if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL, 0, 0, 0) != 0 {
                     return Err(std::io::Error::last_os_error());
                 }
-                if let Some(bytes) = address_space {
-                    let lim = libc::rlimit {
-                        rlim_cur: bytes as libc::rlim_t,
-                        rlim_max: bytes as libc::rlim_t,
-                    };
-                    if libc::setrlimit(libc::RLIMIT_AS, &lim) != 0 {
-                        return Err(std::io::Error::last_os_error());
-                    }
+                match address_space {
+                    Some(bytes) => limit_address_space(bytes),
+                    None => Ok(()),
                 }
-                Ok(())
             });
         }
     }

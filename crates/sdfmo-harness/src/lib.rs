@@ -35,6 +35,8 @@ use sdf_multioctree::metrics;
 use sdf_multioctree::render::{Camera, OctreeScene, PaperProtocol};
 use serde_json::json;
 
+#[cfg(unix)]
+pub use isolate::limit_address_space;
 pub use manifest::{parse_shard, Shard};
 pub use options::{Outcome, SweepMethod, SweepOptions};
 use report::{Model, Provenance, Report, Row, SweepSettings};
