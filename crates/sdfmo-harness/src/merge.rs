@@ -17,37 +17,34 @@
 //! extra rows get); and `OUT` may not be one of the shard folders or inside one. A bad value is
 //! an error naming the file, the record and the value.
 //!
-//! From the ledgers `OUT` gets:
-//! - `results.json`: the single run's schema (`settings`, `provenance`, `models`, `rows`) plus
-//!   `failures` and `dataset` (the statistics below) and `shards`;
-//! - `results.csv` (the rows), `failures.csv`, `dataset.md`, `index.html` and the plots
-//!   `dataset_psnr_gain_cdf.png`, `dataset_size_ratio_cdf.png`, `dataset_time_vs_triangles.png`;
+//! From the ledgers the merge makes one typed [`DatasetReport`] (the single run's report of the
+//! models that succeeded, plus the failures, the shards and the statistics of
+//! [`super::report::dataset`]) and `OUT` gets:
+//! - `results.json`: that report (the single run's schema, `settings`, `provenance`, `models`,
+//!   `rows`, `summary`, plus `failures`, `dataset`, `shards`, `manifest`, `settings_hash`);
+//! - `results.csv` (the rows), `failures.csv`, and the report through the templates:
+//!   `dataset.md` and `index.html`; the plots `dataset_psnr_gain_cdf.png`,
+//!   `dataset_size_ratio_cdf.png`, `dataset_time_vs_triangles.png`;
 //! - `images/` with the reference, both methods' first view and FLIP maps of the worst models.
-//!
-//! Statistics per depth d, over the models with both methods at d: the distribution
-//! (quantiles) of ΔPSNR = PSNR(multi) − PSNR(SVO), ΔFLIP = FLIP(multi) − FLIP(SVO) and the
-//! size ratio bytes(multi) / bytes(SVO); the share of models where the multi-octree's PSNR is
-//! higher; and the share where the multi-octree at d beats the SVO at d + 1.
 
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
-use serde::Serialize;
 
 use super::ledger::{self, Record};
 use super::manifest::{self, Shard};
+use super::report::dataset::{
+    depth_stats, time_fit, DatasetReport, DatasetStats, Failure, ShardSummary,
+};
 use super::report::extra::{row_problem, MAX_DEPTH};
-use super::shard::{Failure, ShardInfo, MAX_SHARD_FILE_BYTES, SHARD_FILE};
+use super::report::{dataset_page, results_json, Provenance, Report};
+use super::shard::{ShardInfo, MAX_SHARD_FILE_BYTES, SHARD_FILE};
 use super::{heatmap_file, image_rel, reference_file, view_file, Model, Row, SweepSettings};
 use crate::files::write_derived;
 use crate::{Outcome, SweepMethod, SweepOptions};
 
-mod page;
 mod plots;
-
-/// Models shown with their images in the "worst models" table.
-const WORST: usize = 6;
 
 /// Largest image copied from a shard folder (a 8192² PNG of noise is about 200 MB).
 const MAX_IMAGE_BYTES: u64 = 256 << 20;
@@ -94,205 +91,6 @@ pub enum MergeError {
         /// What is wrong.
         reason: String,
     },
-}
-
-/// Quantiles reported: the minimum, the deciles 10 and 90, the quartiles, the median, the
-/// maximum.
-pub const QUANTILES: [f64; 7] = [0.0, 0.1, 0.25, 0.5, 0.75, 0.9, 1.0];
-
-/// A distribution summarised by [`QUANTILES`] (nearest rank), `null` for an infinite value.
-#[derive(Clone, Debug, Serialize, PartialEq)]
-pub struct Distribution {
-    /// Values counted.
-    pub n: usize,
-    /// Value at each of [`QUANTILES`].
-    pub quantiles: Vec<Option<f64>>,
-    /// Mean of the finite values.
-    pub mean: Option<f64>,
-}
-
-impl Distribution {
-    /// Of `values` (infinite ones sort to the ends).
-    pub fn of(mut values: Vec<f64>) -> Distribution {
-        values.retain(|v| !v.is_nan());
-        values.sort_by(f64::total_cmp);
-        let n = values.len();
-        let finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
-        Distribution {
-            n,
-            quantiles: QUANTILES
-                .iter()
-                .map(|&q| {
-                    (n > 0)
-                        .then(|| values[nearest_rank(q, n)])
-                        .filter(|v| v.is_finite())
-                })
-                .collect(),
-            mean: (!finite.is_empty()).then(|| finite.iter().sum::<f64>() / finite.len() as f64),
-        }
-    }
-
-    /// The median.
-    pub fn median(&self) -> Option<f64> {
-        self.quantiles[3]
-    }
-}
-
-/// Index of quantile `q` of `n` sorted values, nearest rank.
-fn nearest_rank(q: f64, n: usize) -> usize {
-    ((q * n as f64).ceil() as usize).clamp(1, n) - 1
-}
-
-/// One depth's comparison of the two methods over the dataset.
-#[derive(Clone, Debug, Serialize)]
-pub struct DepthStats {
-    /// The depth.
-    pub depth: u8,
-    /// Models with both methods at this depth.
-    pub models: usize,
-    /// ΔPSNR (dB): multi − SVO.
-    pub psnr_gain: Distribution,
-    /// ΔFLIP: multi − SVO (negative is better).
-    pub flip_change: Distribution,
-    /// bytes(multi) / bytes(SVO).
-    pub size_ratio: Distribution,
-    /// Share of the models where the multi-octree's PSNR is higher than the SVO's.
-    pub multi_beats_svo: f64,
-    /// Share where the multi-octree's FLIP is lower.
-    pub multi_beats_svo_flip: f64,
-    /// Share where the multi-octree at this depth has a higher PSNR than the SVO one level
-    /// deeper (`None` at the deepest depth).
-    pub multi_beats_deeper_svo: Option<f64>,
-    /// The models with the lowest ΔPSNR, worst first: (model, ΔPSNR).
-    pub worst: Vec<(String, Option<f64>)>,
-}
-
-/// A least-squares line `ms = intercept + slope · triangles` of time per model.
-#[derive(Clone, Debug, Serialize)]
-pub struct TimeFit {
-    /// Models fitted.
-    pub models: usize,
-    /// ms per model at zero triangles.
-    pub intercept_ms: f64,
-    /// ms per triangle.
-    pub slope_ms_per_triangle: f64,
-    /// Mean wall time per model (ms).
-    pub mean_ms: f64,
-    /// Total wall time of the models (ms), summed over the shards.
-    pub total_ms: f64,
-}
-
-/// What the merge adds to the single run's results.
-#[derive(Clone, Debug, Serialize)]
-pub struct DatasetStats {
-    /// Models in the manifest.
-    pub manifest_models: usize,
-    /// Models with rows.
-    pub done: usize,
-    /// Models that failed.
-    pub failed: usize,
-    /// Per depth.
-    pub depths: Vec<DepthStats>,
-    /// Wall time per model (its process, load to last image) against its triangles.
-    pub time_per_model: Option<TimeFit>,
-}
-
-/// PSNR with `None` (identical images) as +∞.
-fn psnr(r: &Row) -> f64 {
-    r.psnr.unwrap_or(f64::INFINITY)
-}
-
-/// Difference of two PSNRs that may be infinite (∞ − ∞ = 0).
-fn gain(multi: f64, svo: f64) -> f64 {
-    if multi == svo {
-        0.0
-    } else {
-        multi - svo
-    }
-}
-
-/// The statistics of `rows` for `settings`' depths.
-pub fn depth_stats(settings: &SweepSettings, models: &[Model], rows: &[Row]) -> Vec<DepthStats> {
-    let find: HashMap<(&str, &str, u8), &Row> = rows
-        .iter()
-        .map(|r| ((r.model.as_str(), r.method.as_str(), r.depth), r))
-        .collect();
-    let deepest = settings.depths.iter().copied().max().unwrap_or(0);
-    settings
-        .depths
-        .iter()
-        .map(|&d| {
-            let mut gains = Vec::new();
-            let mut flips = Vec::new();
-            let mut ratios = Vec::new();
-            let (mut beats, mut beats_flip, mut deeper, mut deeper_n) = (0, 0, 0, 0);
-            let mut worst: Vec<(String, f64)> = Vec::new();
-            for m in models {
-                let name = m.model.as_str();
-                let (Some(s), Some(mu)) =
-                    (find.get(&(name, "svo", d)), find.get(&(name, "multi", d)))
-                else {
-                    continue;
-                };
-                let g = gain(psnr(mu), psnr(s));
-                gains.push(g);
-                worst.push((name.to_owned(), g));
-                flips.push(mu.flip - s.flip);
-                ratios.push(mu.bytes as f64 / s.bytes.max(1) as f64);
-                beats += usize::from(g > 0.0);
-                beats_flip += usize::from(mu.flip < s.flip);
-                if let Some(s1) = find.get(&(name, "svo", d + 1)) {
-                    deeper_n += 1;
-                    deeper += usize::from(gain(psnr(mu), psnr(s1)) > 0.0);
-                }
-            }
-            worst.sort_by(|a, b| a.1.total_cmp(&b.1).then_with(|| a.0.cmp(&b.0)));
-            worst.truncate(WORST);
-            let n = gains.len();
-            let share = |k: usize, of: usize| if of == 0 { 0.0 } else { k as f64 / of as f64 };
-            DepthStats {
-                depth: d,
-                models: n,
-                psnr_gain: Distribution::of(gains),
-                flip_change: Distribution::of(flips),
-                size_ratio: Distribution::of(ratios),
-                multi_beats_svo: share(beats, n),
-                multi_beats_svo_flip: share(beats_flip, n),
-                multi_beats_deeper_svo: (d < deepest && deeper_n > 0)
-                    .then(|| share(deeper, deeper_n)),
-                worst: worst
-                    .into_iter()
-                    .map(|(m, g)| (m, g.is_finite().then_some(g)))
-                    .collect(),
-            }
-        })
-        .collect()
-}
-
-/// The least-squares line of the records' wall time against their triangles.
-pub fn time_fit(records: &[&Record]) -> Option<TimeFit> {
-    let pts: Vec<(f64, f64)> = records
-        .iter()
-        .filter_map(|r| r.model.as_ref().map(|m| (m.triangles as f64, r.wall_ms)))
-        .collect();
-    let n = pts.len() as f64;
-    if pts.is_empty() {
-        return None;
-    }
-    let (mx, my) = (
-        pts.iter().map(|p| p.0).sum::<f64>() / n,
-        pts.iter().map(|p| p.1).sum::<f64>() / n,
-    );
-    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
-    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-    let slope = if sxx > 0.0 { sxy / sxx } else { 0.0 };
-    Some(TimeFit {
-        models: pts.len(),
-        intercept_ms: my - slope * mx,
-        slope_ms_per_triangle: slope,
-        mean_ms: my,
-        total_ms: pts.iter().map(|p| p.1).sum(),
-    })
 }
 
 /// One shard folder, read.
@@ -631,33 +429,45 @@ pub fn run(args: &SweepOptions) -> anyhow::Result<Outcome> {
             (_, f) => failures.extend(f),
         }
     }
-    // Every index is below manifest_entries and counted once (above): no underflow.
-    let unfinished = info.manifest_entries - entries.len();
-    let records: Vec<&Record> = all.iter().map(|(_, r)| *r).collect();
-    let stats = DatasetStats {
+    let points: Vec<(usize, f64)> = all
+        .iter()
+        .filter_map(|(_, r)| r.model.as_ref().map(|m| (m.triangles, r.wall_ms)))
+        .collect();
+    let dataset = DatasetStats {
         manifest_models: info.manifest_entries,
         done: models.len(),
         failed: failures.len(),
         depths: depth_stats(&settings, &models, &rows),
-        time_per_model: time_fit(&records),
+        time_per_model: time_fit(&points),
     };
+    let provenance = Provenance::current(&settings, usize::from(args.frames));
+    let report = DatasetReport {
+        dataset,
+        failures,
+        manifest: info.manifest.clone(),
+        report: Report::new(settings, provenance, models, rows, Vec::new()),
+        settings_hash: info.settings_hash.clone(),
+        shards: shards
+            .iter()
+            .map(|s| ShardSummary {
+                folder: s.dir.display().to_string(),
+                shard: s.info.shard,
+                models: s.info.models,
+                wall_ms: s.info.wall_ms,
+            })
+            .collect(),
+    };
+    let stats = &report.dataset;
+    let settings = &report.report.settings;
 
     // The worst models' images, copied from their shard's folder.
     let dir_of: HashMap<&str, &Path> = all
         .iter()
         .map(|(s, r)| (r.name.as_str(), s.dir.as_path()))
         .collect();
-    let mut shown: Vec<String> = Vec::new();
-    for d in &stats.depths {
-        for (m, _) in &d.worst {
-            if !shown.contains(m) {
-                shown.push(m.clone());
-            }
-        }
-    }
     let mut files: Vec<String> = Vec::new();
-    for m in &shown {
-        let Some(src) = dir_of.get(m.as_str()) else {
+    for m in stats.shown() {
+        let Some(src) = dir_of.get(m) else {
             continue;
         };
         sdf_multioctree::io::create_derived_dir(out, &Path::new("images").join(m))?;
@@ -679,67 +489,29 @@ pub fn run(args: &SweepOptions) -> anyhow::Result<Outcome> {
         }
     }
 
-    let shard_list: Vec<serde_json::Value> = shards
-        .iter()
-        .map(|s| {
-            serde_json::json!({
-                "folder": s.dir.display().to_string(),
-                "shard": s.info.shard,
-                "models": s.info.models,
-                "wall_ms": s.info.wall_ms,
-            })
-        })
-        .collect();
-    let provenance = super::report::Provenance::current(&settings, usize::from(args.frames));
-    // The single run's model (its summary and CSV), the dataset's additions beside it.
-    let report = super::report::Report::new(
-        settings.clone(),
-        provenance.clone(),
-        models.clone(),
-        rows.clone(),
-        Vec::new(),
-    );
-    let results = serde_json::json!({
-        "settings": settings,
-        "provenance": provenance,
-        "models": models,
-        "rows": rows,
-        "summary": report.summary,
-        "failures": failures,
-        "dataset": stats,
-        "shards": shard_list,
-        "manifest": info.manifest,
-        "settings_hash": info.settings_hash,
-    });
-    let mut text = serde_json::to_string_pretty(&results)?;
-    text.push('\n');
-    write_derived(&out.join("results.json"), text.as_bytes())?;
+    write_derived(&out.join("results.json"), results_json(&report)?.as_bytes())?;
     write_derived(
         &out.join("results.csv"),
-        super::report::csv::csv(&report)?.as_bytes(),
+        super::report::csv::csv(&report.report)?.as_bytes(),
     )?;
     write_derived(
         &out.join("failures.csv"),
-        failures_csv(&failures)?.as_bytes(),
+        failures_csv(&report.failures)?.as_bytes(),
     )?;
     files.extend(["results.json", "results.csv", "failures.csv"].map(String::from));
-    files.extend(plots::write(out, &settings, &stats, &models, &rows)?);
-    let md = page::markdown(&settings, &stats, &failures, &models, &rows, unfinished);
+    files.extend(plots::write(
+        out,
+        settings,
+        &report.report.models,
+        &report.report.rows,
+    )?);
+    let md = dataset_page::markdown(&report)?;
     write_derived(&out.join("dataset.md"), md.as_bytes())?;
     files.push("dataset.md".into());
-    let html = page::html(&page::Page {
-        settings: &settings,
-        stats: &stats,
-        failures: &failures,
-        models: &models,
-        rows: &rows,
-        shown: &shown,
-        provenance: &provenance,
-        shards: shards.len(),
-        unfinished,
-        manifest: &info.manifest,
-    });
-    write_derived(&out.join("index.html"), html.as_bytes())?;
+    write_derived(
+        &out.join("index.html"),
+        dataset_page::html(&report)?.as_bytes(),
+    )?;
     files.push("index.html".into());
 
     let outcome = if args.json {
@@ -758,6 +530,7 @@ pub fn run(args: &SweepOptions) -> anyhow::Result<Outcome> {
             out.join("index.html").display()
         ))
     };
+    let unfinished = stats.unfinished();
     if unfinished > 0 {
         let first: Vec<String> = (0..info.manifest_entries)
             .filter(|i| !entries.contains(i))
@@ -794,99 +567,4 @@ fn failures_csv(failures: &[Failure]) -> anyhow::Result<String> {
         ])?;
     }
     Ok(String::from_utf8(w.into_inner()?)?)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn row(model: &str, method: &str, depth: u8, psnr: Option<f64>, bytes: usize) -> Row {
-        Row {
-            model: model.into(),
-            method: method.into(),
-            depth,
-            psnr,
-            flip: if method == "multi" { 0.1 } else { 0.2 },
-            bytes,
-            ..Row::default()
-        }
-    }
-
-    fn model(name: &str) -> Model {
-        Model {
-            model: name.into(),
-            source: name.into(),
-            triangles: 100,
-            reference_render_ms: 1.0,
-        }
-    }
-
-    #[test]
-    fn quantiles_are_nearest_rank_and_infinities_are_null() {
-        let d = Distribution::of(vec![3.0, 1.0, 2.0, 4.0, f64::NAN]);
-        assert_eq!(d.n, 4);
-        assert_eq!(
-            d.quantiles,
-            [1.0, 1.0, 1.0, 2.0, 3.0, 4.0, 4.0].map(Some).to_vec()
-        );
-        assert_eq!(d.mean, Some(2.5));
-        let d = Distribution::of(vec![f64::INFINITY, 1.0]);
-        assert_eq!(d.quantiles[6], None);
-        assert_eq!(d.median(), Some(1.0));
-        assert_eq!(Distribution::of(Vec::new()).median(), None);
-    }
-
-    #[test]
-    fn depth_stats_compare_the_methods_per_model() {
-        let settings = SweepSettings::for_tests(vec![5, 6], 64);
-        let rows = vec![
-            row("a", "svo", 5, Some(20.0), 100),
-            row("a", "multi", 5, Some(26.0), 120),
-            row("a", "svo", 6, Some(25.0), 400),
-            row("a", "multi", 6, Some(30.0), 440),
-            row("b", "svo", 5, Some(22.0), 100),
-            row("b", "multi", 5, Some(21.0), 100),
-            row("b", "svo", 6, None, 400),
-            row("b", "multi", 6, None, 400),
-        ];
-        let s = depth_stats(&settings, &[model("a"), model("b")], &rows);
-        assert_eq!(s[0].models, 2);
-        assert_eq!(s[0].psnr_gain.quantiles[0], Some(-1.0));
-        assert_eq!(s[0].psnr_gain.quantiles[6], Some(6.0));
-        assert_eq!(s[0].multi_beats_svo, 0.5);
-        assert_eq!(s[0].multi_beats_svo_flip, 1.0);
-        // a: multi d5 26 > svo d6 25; b: 21 < ∞.
-        assert_eq!(s[0].multi_beats_deeper_svo, Some(0.5));
-        assert_eq!(s[1].multi_beats_deeper_svo, None);
-        assert_eq!(s[0].worst[0], ("b".to_owned(), Some(-1.0)));
-        assert_eq!(s[0].size_ratio.quantiles[6], Some(1.2));
-        // ∞ − ∞ counts as no gain.
-        assert_eq!(s[1].psnr_gain.quantiles[0], Some(0.0));
-    }
-
-    #[test]
-    fn the_time_fit_is_a_least_squares_line() {
-        let rec = |tri: usize, ms: f64| Record {
-            ledger: 1,
-            settings: String::new(),
-            index: 0,
-            id: String::new(),
-            entry: String::new(),
-            name: String::new(),
-            source: String::new(),
-            model: Some(Model {
-                triangles: tri,
-                ..model("x")
-            }),
-            rows: Vec::new(),
-            error: None,
-            wall_ms: ms,
-            peak_rss_bytes: None,
-        };
-        let rs = [rec(0, 10.0), rec(100, 30.0), rec(200, 50.0)];
-        let f = time_fit(&rs.iter().collect::<Vec<_>>()).unwrap();
-        assert!((f.slope_ms_per_triangle - 0.2).abs() < 1e-12);
-        assert!((f.intercept_ms - 10.0).abs() < 1e-9);
-        assert_eq!(f.total_ms, 90.0);
-    }
 }

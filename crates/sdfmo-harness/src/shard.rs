@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 use super::isolate::{self, Limits};
 use super::ledger::{self, Ledger, Record};
 use super::manifest::{self, Entry, Manifest, Shard};
+use super::report::dataset::Failure;
 use super::{report, Model, Row, SweepSettings};
 use crate::files::write_derived;
 use crate::progress;
@@ -84,21 +85,6 @@ pub struct ShardInfo {
     pub wall_ms: f64,
     /// Models this invocation ran (the others were in the ledger already).
     pub ran: usize,
-}
-
-/// A model that failed.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
-pub struct Failure {
-    /// Position in the manifest.
-    pub index: usize,
-    /// Manifest id.
-    pub id: String,
-    /// Model name.
-    pub model: String,
-    /// Path (empty when the manifest line named none).
-    pub source: String,
-    /// The error line.
-    pub error: String,
 }
 
 impl Failure {

@@ -7,7 +7,6 @@ use anyhow::anyhow;
 use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::prelude::*;
 
-use super::DatasetStats;
 use crate::files::write_derived_png;
 use crate::plots::{axis_label, log_ticks, PALETTE};
 use crate::{Model, Row, SweepSettings};
@@ -28,7 +27,6 @@ const COLORS: [RGBColor; 6] = {
 pub fn write(
     out: &Path,
     settings: &SweepSettings,
-    _stats: &DatasetStats,
     models: &[Model],
     rows: &[Row],
 ) -> anyhow::Result<Vec<String>> {

@@ -5,19 +5,8 @@ use std::fmt::Write as _;
 
 use super::model::Report;
 use super::tables::{
-    levels_table, model_heading, model_table, protocol, shallower_table, summary_table, Table,
+    levels_table, model_heading, model_table, protocol, shallower_table, summary_table,
 };
-
-/// A table as GitHub Markdown, numbers right-aligned. Cells hold no `|` or newline: they are
-/// numbers and the headings above, and model names are sanitised (letters, digits, `-_.`).
-fn markdown(t: &Table) -> String {
-    let mut s = format!("| {} |\n", t.header.join(" | "));
-    let _ = writeln!(s, "|{}", "---:|".repeat(t.header.len()));
-    for r in &t.rows {
-        let _ = writeln!(s, "| {} |", r.join(" | "));
-    }
-    s
-}
 
 /// What the levels table shows, for table.md and the page.
 pub const LEVELS_NOTE: &str = "Levels of one file (sweep --levels): one build writes every \
@@ -42,24 +31,24 @@ pub fn table_md(report: &Report) -> String {
             s,
             "\n## {}\n\n{}",
             model_heading(report, name),
-            markdown(&model_table(report, name))
+            model_table(report, name).markdown()
         );
         if let Some(t) = shallower_table(report, name) {
             let _ = write!(
                 s,
                 "\nMulti-octree at depth d against the SVO at depth d + 1:\n\n{}",
-                markdown(&t)
+                t.markdown()
             );
         }
         if let Some(t) = levels_table(report, name) {
-            let _ = write!(s, "\n{LEVELS_NOTE}\n\n{}", markdown(&t));
+            let _ = write!(s, "\n{LEVELS_NOTE}\n\n{}", t.markdown());
         }
     }
     if let Some(t) = summary_table(report) {
         let _ = write!(
             s,
             "\n## Summary over the models (multi-octree against SVO)\n\n{}",
-            markdown(&t)
+            t.markdown()
         );
     }
     s

@@ -5,6 +5,8 @@
 
 pub mod crops;
 pub mod csv;
+pub mod dataset;
+pub mod dataset_page;
 pub mod extra;
 pub mod html;
 pub mod markdown;
@@ -19,10 +21,11 @@ pub use model::{Model, Provenance, Report, Row, SweepSettings};
 
 use crate::files::write_derived;
 
-/// results.json's text: the report, pretty-printed, with a final newline. Through a
+/// results.json's text: the report (a sweep's [`Report`] or a merge's
+/// [`dataset::DatasetReport`]), pretty-printed, with a final newline. Through a
 /// `serde_json::Value`, whose maps sort their keys: every object's keys in alphabetical order,
 /// as results.json has always had them (scripts diff these files).
-pub fn results_json(report: &Report) -> anyhow::Result<String> {
+pub fn results_json(report: &impl serde::Serialize) -> anyhow::Result<String> {
     let mut text = serde_json::to_string_pretty(&serde_json::to_value(report)?)?;
     text.push('\n');
     Ok(text)

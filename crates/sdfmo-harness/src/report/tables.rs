@@ -15,6 +15,26 @@ pub struct Table {
     pub rows: Vec<Vec<String>>,
 }
 
+impl Table {
+    /// The table as GitHub Markdown, numbers right-aligned; a `|` in a cell is escaped and a
+    /// line break becomes a space (a failure's error line read from a ledger may hold either).
+    pub fn markdown(&self) -> String {
+        let cell = |c: &String| c.replace('|', "\\|").replace(['\n', '\r'], " ");
+        let line = |cells: &[String]| {
+            let cells: Vec<String> = cells.iter().map(cell).collect();
+            format!("| {} |\n", cells.join(" | "))
+        };
+        let mut s = line(&self.header);
+        s.push('|');
+        s.push_str(&"---:|".repeat(self.header.len()));
+        s.push('\n');
+        for r in &self.rows {
+            s.push_str(&line(r));
+        }
+        s
+    }
+}
+
 /// PSNR in dB to two decimals, `∞` for identical images.
 pub fn fmt_psnr(p: Option<f64>) -> String {
     p.map_or("∞".to_owned(), |p| format!("{p:.2}"))
