@@ -25,7 +25,7 @@ pub struct InputMesh {
 /// # Errors
 ///
 /// The mesh layer's error (it names the file) when the file cannot be read or parsed.
-pub fn load_input(path: Option<&Path>) -> anyhow::Result<InputMesh> {
+pub fn load_input(path: Option<&Path>) -> Result<InputMesh, mesh::MeshError> {
     match path {
         Some(p) => {
             // Every mesh error names the file already.

@@ -17,6 +17,8 @@ use std::io::Read;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+use crate::error::{HarnessError, Result};
+
 /// Most bytes of a child's stdout kept (its one JSON line).
 const MAX_STDOUT: u64 = 64 << 20;
 /// Most bytes of a child's stderr kept (its tail: the error line is the last).
@@ -26,7 +28,7 @@ const STDERR_TAIL: usize = 16 << 10;
 #[derive(Debug)]
 pub struct ChildRun {
     /// Its stdout when it exited with 0; else its error line.
-    pub result: Result<Vec<u8>, String>,
+    pub result: std::result::Result<Vec<u8>, String>,
     /// Wall time from spawn to exit (ms).
     pub wall_ms: f64,
     /// Peak resident set size the kernel measured (bytes).
@@ -128,9 +130,8 @@ pub struct Limits {
 }
 
 /// Runs this binary with `args` under `limits`.
-pub fn run_child(args: &[OsString], limits: Limits) -> anyhow::Result<ChildRun> {
-    let exe = std::env::current_exe()
-        .map_err(|e| anyhow::anyhow!("cannot find the sdfmo binary to run a model in: {e}"))?;
+pub fn run_child(args: &[OsString], limits: Limits) -> Result<ChildRun> {
+    let exe = std::env::current_exe().map_err(HarnessError::NoExecutable)?;
     let mut cmd = Command::new(exe);
     cmd.args(args)
         .stdin(Stdio::null())
@@ -155,9 +156,7 @@ pub fn run_child(args: &[OsString], limits: Limits) -> anyhow::Result<ChildRun> 
         }
     }
     let start = Instant::now();
-    let mut child = cmd
-        .spawn()
-        .map_err(|e| anyhow::anyhow!("cannot start a model's process: {e}"))?;
+    let mut child = cmd.spawn().map_err(HarnessError::Spawn)?;
     let pid = child.id();
     let mut stdout = child.stdout.take().expect("piped stdout");
     let mut stderr = child.stderr.take().expect("piped stderr");

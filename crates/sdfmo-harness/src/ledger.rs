@@ -14,10 +14,10 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use serde::{Deserialize, Serialize};
 
 use super::{Model, Row, SweepSettings};
+use crate::error::{HarnessError, Result};
 
 /// The ledger's file name inside a shard's output folder.
 pub const LEDGER_FILE: &str = "ledger.jsonl";
@@ -96,7 +96,7 @@ pub struct Ledger {
 impl Ledger {
     /// Opens (or creates) `dir/ledger.jsonl` and reads the records written with `hash` that
     /// `current` accepts.
-    pub fn open(dir: &Path, hash: &str, current: &Current) -> anyhow::Result<Ledger> {
+    pub fn open(dir: &Path, hash: &str, current: &Current) -> Result<Ledger> {
         let path = ledger_path(dir);
         let (log, bytes) = sdf_multioctree::io::AppendLog::open(&path, MAX_LEDGER_BYTES)?;
         let (records, ignored) = parse(&bytes, hash, current);
@@ -114,10 +114,13 @@ impl Ledger {
     }
 
     /// Appends `record` (stamped with the current settings' hash) and keeps it.
-    pub fn append(&mut self, mut record: Record) -> anyhow::Result<()> {
+    pub fn append(&mut self, mut record: Record) -> Result<()> {
         record.settings.clone_from(&self.hash);
         record.ledger = LEDGER_VERSION;
-        let line = serde_json::to_string(&record).context("cannot serialise a ledger record")?;
+        let line = serde_json::to_string(&record).map_err(|source| HarnessError::Serialise {
+            what: "a ledger record",
+            source,
+        })?;
         self.log.append(line.as_bytes())?;
         self.records.insert(record.id.clone(), record);
         Ok(())
@@ -140,12 +143,7 @@ pub fn ledger_path(dir: &Path) -> PathBuf {
 /// `--merge`), in manifest order, with the count of lines ignored. The folder is someone
 /// else's: the ledger is read without following a link ([`sdf_multioctree::io::read_beneath`])
 /// and its size checked against `limit` before reading.
-pub fn read(
-    dir: &Path,
-    hash: &str,
-    current: &Current,
-    limit: u64,
-) -> anyhow::Result<(Vec<Record>, usize)> {
+pub fn read(dir: &Path, hash: &str, current: &Current, limit: u64) -> Result<(Vec<Record>, usize)> {
     let bytes = sdf_multioctree::io::read_beneath(dir, Path::new(LEDGER_FILE), limit)?;
     let complete = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
     let (records, ignored) = parse(&bytes[..complete], hash, current);

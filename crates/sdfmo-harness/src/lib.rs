@@ -12,6 +12,7 @@
 //! `sdfmo` binary of sdfmo-cli).
 #![deny(missing_docs)]
 
+pub mod error;
 pub mod files;
 pub mod input;
 mod isolate;
@@ -26,7 +27,6 @@ mod shard;
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use rayon::prelude::*;
 use sdf_multioctree::build::{self, BuildSettings, BuildStats};
 use sdf_multioctree::distance::SignMode;
@@ -35,12 +35,13 @@ use sdf_multioctree::metrics;
 use sdf_multioctree::render::{Camera, OctreeScene, PaperProtocol};
 use serde_json::json;
 
+pub use error::{HarnessError, ModelsFailed, Result};
 #[cfg(unix)]
 pub use isolate::limit_address_space;
 pub use manifest::{parse_shard, Shard};
 pub use options::{Outcome, SweepMethod, SweepOptions};
 use report::{Model, Provenance, Report, Row, SweepSettings};
-pub use shard::{ModelsFailed, EXIT_MODELS_FAILED};
+pub use shard::EXIT_MODELS_FAILED;
 
 use crate::files::write_derived_png;
 use crate::input::{load_input, InputMesh};
@@ -52,11 +53,8 @@ fn memory_budget(max_memory: Option<u64>) -> Option<u64> {
 }
 
 /// Runs `f` on a rayon pool of `threads` workers, or on the global pool when `None`.
-fn with_threads<R: Send>(
-    threads: Option<usize>,
-    f: impl FnOnce() -> R + Send,
-) -> anyhow::Result<R> {
-    sdf_multioctree::render::in_pool(threads, f).context("cannot start worker threads")
+fn with_threads<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -> Result<R> {
+    sdf_multioctree::render::in_pool(threads, f).map_err(HarnessError::Threads)
 }
 
 /// Relative path (from the output directory) of an image of the sweep.
@@ -110,10 +108,10 @@ fn sweep_settings(args: &SweepOptions) -> SweepSettings {
 ///
 /// # Errors
 ///
-/// Bad input (a mesh, manifest, shard folder or extra-rows file; the error names it), a build
-/// over the memory budget, or a file that cannot be written. A shard whose models failed is
-/// not an error: [`Outcome::error`] says so.
-pub fn run(args: &SweepOptions) -> anyhow::Result<Outcome> {
+/// [`HarnessError`]: bad input (a mesh, manifest, shard folder or extra-rows file; the error
+/// names it), a build over the memory budget, or a file that cannot be written. A shard whose
+/// models failed is not an error: [`Outcome::error`] says so.
+pub fn run(args: &SweepOptions) -> Result<Outcome> {
     if !args.merge.is_empty() {
         return merge::run(args);
     }
@@ -133,7 +131,7 @@ pub fn run(args: &SweepOptions) -> anyhow::Result<Outcome> {
     let inputs = paths
         .iter()
         .map(|p| load_input(*p))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+        .collect::<std::result::Result<Vec<_>, _>>()?;
     let plan = Plan::checked(args, &inputs)?;
     let (methods, depths) = (&plan.methods, &plan.depths);
     // The models' names are settled before any work, so that a row of `--extra-rows` that
@@ -244,7 +242,7 @@ struct Plan {
 impl Plan {
     /// The plan of `args`, with the deepest build of each method on each of `inputs` checked
     /// against the memory budget.
-    fn checked(args: &SweepOptions, inputs: &[InputMesh]) -> anyhow::Result<Plan> {
+    fn checked(args: &SweepOptions, inputs: &[InputMesh]) -> Result<Plan> {
         let plan = Plan {
             methods: unique_methods(args),
             depths: args.depths.clone().collect(),
@@ -253,8 +251,13 @@ impl Plan {
         for input in inputs {
             for &method in &plan.methods {
                 let deepest = build_settings(args, method, *args.depths.end());
-                build::check_memory(&input.mesh, &deepest, plan.budget)
-                    .with_context(|| format!("cannot sweep {} {}", method.name(), input.source))?;
+                build::check_memory(&input.mesh, &deepest, plan.budget).map_err(|source| {
+                    HarnessError::OverBudget {
+                        method: method.name(),
+                        mesh: input.source.clone(),
+                        source: Box::new(source),
+                    }
+                })?;
             }
         }
         Ok(plan)
@@ -275,9 +278,11 @@ struct Sweep<'a> {
 
 /// A shard's model process (`--isolated-model NAME`): sweeps its one mesh under `name`, writes
 /// its images into the output folder and prints `{"model", "rows"}` as one JSON line.
-fn run_isolated(args: &SweepOptions, name: &str) -> anyhow::Result<Outcome> {
+fn run_isolated(args: &SweepOptions, name: &str) -> Result<Outcome> {
     let [path] = args.meshes.as_slice() else {
-        anyhow::bail!("--isolated-model takes exactly one mesh");
+        return Err(HarnessError::IsolatedMeshes {
+            given: args.meshes.len(),
+        });
     };
     let mut input = load_input(Some(path))?;
     input.name = sanitize(name);
@@ -292,7 +297,13 @@ fn run_isolated(args: &SweepOptions, name: &str) -> anyhow::Result<Outcome> {
     };
     let mut rows = Vec::new();
     let model = sweep_model(&sweep, &input, &[], &mut rows)?;
-    Outcome::json(&serde_json::to_value(shard::ModelOutput { model, rows })?)
+    let output = serde_json::to_value(shard::ModelOutput { model, rows }).map_err(|source| {
+        HarnessError::Serialise {
+            what: "a model's rows",
+            source,
+        }
+    })?;
+    Outcome::json(&output)
 }
 
 /// Renders the reference of one model, then builds, renders and compares every configuration;
@@ -302,7 +313,7 @@ fn sweep_model(
     input: &InputMesh,
     models: &[Model],
     rows: &mut Vec<Row>,
-) -> anyhow::Result<Model> {
+) -> Result<Model> {
     let Sweep {
         args,
         plan,
@@ -320,7 +331,10 @@ fn sweep_model(
         args.size,
         args.threads,
     )
-    .with_context(|| format!("cannot render the reference of {}", input.source))?
+    .map_err(|source| HarnessError::Reference {
+        mesh: input.source.clone(),
+        source: Box::new(source),
+    })?
     .with_frames(usize::from(args.frames));
     for (k, reference) in protocol.references().iter().enumerate() {
         write_derived_png(&img_dir.join(reference_file(k)), reference)?;
@@ -333,7 +347,7 @@ fn sweep_model(
         img_dir: &img_dir,
         name,
     };
-    let mut add_row = |row: Row| -> anyhow::Result<()> {
+    let mut add_row = |row: Row| -> Result<()> {
         rows.push(row);
         // Keep the files current after every row: a long sweep that is stopped keeps its
         // results so far.
@@ -358,12 +372,11 @@ fn sweep_model(
                 build::build_lod(&input.mesh, &settings, budget, Some(&on_progress), &|| {
                     false
                 })
-                .with_context(|| {
-                    format!(
-                        "cannot build {} with levels {first}..={last} of {}",
-                        method.name(),
-                        input.source
-                    )
+                .map_err(|source| HarnessError::Build {
+                    method: method.name(),
+                    depths: format!("with levels {first}..={last}"),
+                    mesh: input.source.clone(),
+                    source: Box::new(source),
                 })?;
             for ((octree, stats), entry) in lod.levels().iter().zip(&stats).zip(lod.entries()) {
                 bar.set_message(format!("{name}: {} level {}", method.name(), entry.level));
@@ -381,12 +394,11 @@ fn sweep_model(
                     budget,
                     Some(&on_progress),
                 )
-                .with_context(|| {
-                    format!(
-                        "cannot build {} depth {depth} of {}",
-                        method.name(),
-                        input.source
-                    )
+                .map_err(|source| HarnessError::Build {
+                    method: method.name(),
+                    depths: format!("depth {depth}"),
+                    mesh: input.source.clone(),
+                    source: Box::new(source),
                 })?;
                 bar.set_message(format!("{name}: {} depth {depth}: render", method.name()));
                 add_row(run.score(method, &octree, &stats, None)?)?;
@@ -419,12 +431,16 @@ impl ModelRun<'_> {
         octree: &PackedOctree,
         stats: &BuildStats,
         bytes_read: Option<u64>,
-    ) -> anyhow::Result<Row> {
+    ) -> Result<Row> {
         let depth = octree.depth();
         let score = self
             .protocol
             .score(&OctreeScene(octree))
-            .with_context(|| format!("cannot render {} depth {depth}", method.name()))?;
+            .map_err(|source| HarnessError::Score {
+                method: method.name(),
+                depth,
+                source: Box::new(source),
+            })?;
         // PNG encoding is single-threaded: the views and heat maps in parallel.
         with_threads(self.args.threads, || {
             score

@@ -31,7 +31,7 @@
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context};
+use crate::error::{error_line, ManifestError, ShardError};
 
 /// Largest manifest read (64 MiB, about a million ABC paths).
 pub const MAX_MANIFEST_BYTES: u64 = 64 << 20;
@@ -117,7 +117,7 @@ impl Shard {
     /// `--shard K/N` if given; else `SLURM_ARRAY_TASK_ID − SLURM_ARRAY_TASK_MIN` of
     /// `SLURM_ARRAY_TASK_COUNT` in a Slurm array job; else `JOB_COMPLETION_INDEX` of
     /// `SDFMO_SHARD_COUNT` in a Kubernetes indexed Job; else the whole manifest.
-    pub fn resolve(given: Option<Shard>) -> anyhow::Result<Shard> {
+    pub fn resolve(given: Option<Shard>) -> Result<Shard, ShardError> {
         Self::resolve_from(given, |k| std::env::var(k).ok())
     }
 
@@ -125,49 +125,52 @@ impl Shard {
     pub fn resolve_from(
         given: Option<Shard>,
         env: impl Fn(&str) -> Option<String>,
-    ) -> anyhow::Result<Shard> {
+    ) -> Result<Shard, ShardError> {
         if let Some(s) = given {
             return Ok(s);
         }
-        let num = |k: &str| -> anyhow::Result<Option<usize>> {
-            env(k)
-                .map(|v| {
-                    v.trim()
+        let num = |var: &'static str| -> Result<Option<usize>, ShardError> {
+            env(var)
+                .map(|value| {
+                    value
+                        .trim()
                         .parse::<usize>()
-                        .with_context(|| format!("{k}={v:?} is not a count"))
+                        .map_err(|source| ShardError::NotACount { var, value, source })
                 })
                 .transpose()
         };
         if let Some(id) = num("SLURM_ARRAY_TASK_ID")? {
-            let count = num("SLURM_ARRAY_TASK_COUNT")?
-                .context("SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not")?;
+            let count = num("SLURM_ARRAY_TASK_COUNT")?.ok_or(ShardError::Unpaired {
+                set: "SLURM_ARRAY_TASK_ID",
+                missing: "SLURM_ARRAY_TASK_COUNT",
+                hint: "",
+            })?;
             let min = num("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
             let index = id
                 .checked_sub(min)
                 .filter(|&i| i < count)
-                .with_context(|| {
-                    format!(
-                    "array task {id} (first {min}, {count} tasks) is not one of {count} contiguous \
-                     shards: submit the array as --array=0-{} (or give --shard K/N)",
-                    count.saturating_sub(1)
-                )
-                })?;
+                .ok_or(ShardError::ArrayTask { id, min, count })?;
             return Shard::new(index, count);
         }
         if let Some(index) = num("JOB_COMPLETION_INDEX")? {
-            let count = num("SDFMO_SHARD_COUNT")?.context(
-                "JOB_COMPLETION_INDEX is set but SDFMO_SHARD_COUNT is not (set it to the Job's \
-                 completions)",
-            )?;
+            let count = num("SDFMO_SHARD_COUNT")?.ok_or(ShardError::Unpaired {
+                set: "JOB_COMPLETION_INDEX",
+                missing: "SDFMO_SHARD_COUNT",
+                hint: " (set it to the Job's completions)",
+            })?;
             return Shard::new(index, count);
         }
         Ok(Shard::ALL)
     }
 
     /// A checked shard: `count ≥ 1`, `index < count`.
-    pub fn new(index: usize, count: usize) -> anyhow::Result<Shard> {
+    pub fn new(index: usize, count: usize) -> Result<Shard, ShardError> {
         if count == 0 || index >= count || count > MAX_ENTRIES {
-            bail!("shard {index}/{count}: need 0 <= K < N <= {MAX_ENTRIES}");
+            return Err(ShardError::OutOfRange {
+                index,
+                count,
+                max: MAX_ENTRIES,
+            });
         }
         Ok(Shard { index, count })
     }
@@ -185,13 +188,13 @@ pub fn parse_shard(s: &str) -> Result<Shard, String> {
 impl Manifest {
     /// Reads and parses `file` (see the module documentation); `confine` keeps every path in
     /// the manifest's folder.
-    pub fn read(file: &Path, confine: bool) -> anyhow::Result<Manifest> {
-        let text = sdf_multioctree::io::read_regular_to_string(file, MAX_MANIFEST_BYTES)
-            .with_context(|| {
-                format!(
-                    "cannot read the manifest (split manifests over {MAX_MANIFEST_BYTES} bytes)"
-                )
-            })?;
+    pub fn read(file: &Path, confine: bool) -> Result<Manifest, ManifestError> {
+        let text = sdf_multioctree::io::read_regular_to_string(file, MAX_MANIFEST_BYTES).map_err(
+            |source| ManifestError::Read {
+                limit: MAX_MANIFEST_BYTES,
+                source,
+            },
+        )?;
         let folder = file
             .parent()
             .filter(|p| !p.as_os_str().is_empty())
@@ -200,7 +203,10 @@ impl Manifest {
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
         let raw = if csv {
-            csv_lines(&text).with_context(|| format!("{}: not a CSV manifest", file.display()))?
+            csv_lines(&text).map_err(|source| ManifestError::Csv {
+                path: file.to_path_buf(),
+                source,
+            })?
         } else {
             text.lines()
                 .enumerate()
@@ -214,27 +220,28 @@ impl Manifest {
                 .collect()
         };
         if raw.len() > MAX_ENTRIES {
-            bail!(
-                "{}: {} entries, more than {MAX_ENTRIES}: split the manifest",
-                file.display(),
-                raw.len()
-            );
+            return Err(ManifestError::TooManyEntries {
+                path: file.to_path_buf(),
+                entries: raw.len(),
+                max: MAX_ENTRIES,
+            });
         }
         if raw.is_empty() {
-            bail!("{}: the manifest lists no model", file.display());
+            return Err(ManifestError::Empty {
+                path: file.to_path_buf(),
+            });
         }
         let mut entries = Vec::with_capacity(raw.len());
         let mut seen_id: HashMap<String, usize> = HashMap::new();
         for raw in &raw {
             let id = raw.id.as_deref().unwrap_or(&raw.path);
             if let Some(first) = seen_id.insert(id.to_owned(), raw.line) {
-                bail!(
-                    "{}: line {}: the id {:?} is given twice (first on line {first}); ids must be \
-                     unique, the ledgers know a model by its id",
-                    file.display(),
-                    raw.line,
-                    id.chars().take(120).collect::<String>()
-                );
+                return Err(ManifestError::DuplicateId {
+                    path: file.to_path_buf(),
+                    line: raw.line,
+                    id: id.chars().take(120).collect(),
+                    first,
+                });
             }
         }
         let mut seen_path: HashMap<PathBuf, usize> = HashMap::new();
@@ -345,8 +352,7 @@ fn resolve(folder: &Path, path: &str, confine: bool) -> Result<PathBuf, String> 
         return Err("the path is empty".to_owned());
     }
     if confine {
-        return sdf_multioctree::io::resolve_in_folder(folder, path)
-            .map_err(|e| format!("{:#}", anyhow::Error::from(e)));
+        return sdf_multioctree::io::resolve_in_folder(folder, path).map_err(|e| error_line(&e));
     }
     Ok(folder.join(path))
 }
@@ -364,7 +370,7 @@ struct Raw {
 }
 
 /// The data lines of a CSV manifest, header and comments skipped.
-fn csv_lines(text: &str) -> anyhow::Result<Vec<Raw>> {
+fn csv_lines(text: &str) -> Result<Vec<Raw>, csv::Error> {
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
         .flexible(true)
@@ -453,7 +459,7 @@ mod tests {
             ("m.csv", "id,path\nx,a.obj\ny,b.obj\nx,c.obj\n", 4),
         ] {
             let e = Manifest::read(&write(dir.path(), name, text), false).unwrap_err();
-            let e = format!("{e:#}");
+            let e = error_line(&e);
             assert!(e.contains(&format!("line {line}: the id")), "{e}");
             assert!(e.contains("given twice"), "{e}");
         }
@@ -538,9 +544,7 @@ mod tests {
     fn bad_manifests_are_one_clear_error() {
         let dir = tempfile::tempdir().unwrap();
         let empty = write(dir.path(), "e.txt", "\n# nothing\n\n");
-        assert!(
-            format!("{:#}", Manifest::read(&empty, false).unwrap_err()).contains("lists no model")
-        );
+        assert!(error_line(&Manifest::read(&empty, false).unwrap_err()).contains("lists no model"));
         let missing = dir.path().join("none.txt");
         assert!(Manifest::read(&missing, false).is_err());
         // A file over the limit is refused from its size, before reading (a sparse 1 GB file).
@@ -549,7 +553,7 @@ mod tests {
             .unwrap()
             .set_len(1 << 30)
             .unwrap();
-        let e = format!("{:#}", Manifest::read(&big, false).unwrap_err());
+        let e = error_line(&Manifest::read(&big, false).unwrap_err());
         assert!(e.contains("more than the limit"), "{e}");
         let binary = write(dir.path(), "b.txt", "a.obj\n");
         std::fs::write(&binary, [b'a', 0xff, b'\n']).unwrap();

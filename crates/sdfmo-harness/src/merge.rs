@@ -30,8 +30,6 @@
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context};
-
 use super::ledger::{self, Record};
 use super::manifest::{self, Shard};
 use super::report::dataset::{
@@ -41,6 +39,7 @@ use super::report::extra::{row_problem, MAX_DEPTH};
 use super::report::{dataset_page, results_json, Provenance, Report};
 use super::shard::{ShardInfo, MAX_SHARD_FILE_BYTES, SHARD_FILE};
 use super::{heatmap_file, image_rel, reference_file, view_file, Model, Row, SweepSettings};
+use crate::error::{HarnessError, MergeError, Result};
 use crate::files::write_derived;
 use crate::{Outcome, SweepMethod, SweepOptions};
 
@@ -48,50 +47,6 @@ mod plots;
 
 /// Largest image copied from a shard folder (a 8192² PNG of noise is about 200 MB).
 const MAX_IMAGE_BYTES: u64 = 256 << 20;
-
-/// Why shard folders cannot be merged into `OUT`. Each names the file and what is wrong.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum MergeError {
-    /// `OUT` is one of the shard folders, or inside one: the merge would overwrite its input.
-    #[error(
-        "-o {} is inside the shard folder {}: merge into a folder of its own",
-        out.display(),
-        shard.display()
-    )]
-    OutputInsideInput {
-        /// The output folder as given.
-        out: PathBuf,
-        /// The shard folder it is in.
-        shard: PathBuf,
-    },
-    /// `OUT` cannot be placed: `..` after a folder that does not exist yet.
-    #[error("-o {}: cannot tell where it lands (`..` after a folder that does not exist)", out.display())]
-    OutputUnresolved {
-        /// The output folder as given.
-        out: PathBuf,
-    },
-    /// `shard.json` says what no sweep writes.
-    #[error("{}: {reason}", path.display())]
-    BadShardFile {
-        /// The file.
-        path: PathBuf,
-        /// What is wrong.
-        reason: String,
-    },
-    /// A current ledger record says what no sweep writes.
-    #[error("{}: the record of {id:?} (manifest entry {index}): {reason}", path.display())]
-    BadRecord {
-        /// The ledger.
-        path: PathBuf,
-        /// The record's manifest position.
-        index: usize,
-        /// Its id (shortened to 120 characters).
-        id: String,
-        /// What is wrong.
-        reason: String,
-    },
-}
 
 /// One shard folder, read.
 struct ShardDir {
@@ -214,20 +169,21 @@ fn record_problem(r: &Record, settings: &SweepSettings) -> Option<String> {
 }
 
 /// Reads the shards' folders and checks they make one whole run.
-fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<Vec<ShardDir>> {
+fn read_shards(dirs: &[PathBuf]) -> Result<Vec<ShardDir>> {
     let mut out: Vec<ShardDir> = Vec::new();
     for dir in dirs {
         let path = dir.join(SHARD_FILE);
         let bytes =
             sdf_multioctree::io::read_beneath(dir, Path::new(SHARD_FILE), MAX_SHARD_FILE_BYTES)
-                .with_context(|| {
-                    format!(
-                        "{} is not the output folder of a manifest sweep",
-                        dir.display()
-                    )
+                .map_err(|source| MergeError::NotShardFolder {
+                    dir: dir.clone(),
+                    source,
                 })?;
-        let info: ShardInfo = serde_json::from_slice(&bytes)
-            .with_context(|| format!("{} is not a shard description", path.display()))?;
+        let info: ShardInfo =
+            serde_json::from_slice(&bytes).map_err(|source| HarnessError::NotShardDescription {
+                path: path.clone(),
+                source,
+            })?;
         if let Some(reason) = info_problem(&info) {
             return Err(MergeError::BadShardFile { path, reason }.into());
         }
@@ -259,48 +215,47 @@ fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<Vec<ShardDir>> {
     let first = &out[0].info;
     for s in &out[1..] {
         if s.info.settings_hash != first.settings_hash || s.info.settings != first.settings {
-            bail!(
-                "{} ran with other settings than {} (settings {} against {}): merge shards of one run",
-                s.dir.display(),
-                out[0].dir.display(),
-                s.info.settings_hash,
-                first.settings_hash
-            );
+            return Err(MergeError::OtherSettings {
+                dir: s.dir.clone(),
+                first: out[0].dir.clone(),
+                hash: s.info.settings_hash.clone(),
+                first_hash: first.settings_hash.clone(),
+            }
+            .into());
         }
         if s.info.manifest_entries != first.manifest_entries
             || s.info.shard.count != first.shard.count
         {
-            bail!(
-                "{} is shard {} of a manifest of {} models, {} is shard {} of {}: merge shards of one run",
-                s.dir.display(),
-                s.info.shard,
-                s.info.manifest_entries,
-                out[0].dir.display(),
-                first.shard,
-                first.manifest_entries
-            );
+            return Err(MergeError::OtherRun {
+                dir: s.dir.clone(),
+                shard: s.info.shard,
+                entries: s.info.manifest_entries,
+                first: out[0].dir.clone(),
+                first_shard: first.shard,
+                first_entries: first.manifest_entries,
+            }
+            .into());
         }
         if s.info.manifest_hash != first.manifest_hash {
-            bail!(
-                "{} and {} ran on different versions of the manifest (fingerprints {} and {}): \
-                 rerun the older shard with the current manifest",
-                s.dir.display(),
-                out[0].dir.display(),
-                s.info.manifest_hash,
-                first.manifest_hash
-            );
+            return Err(MergeError::ManifestVersions {
+                dir: s.dir.clone(),
+                first: out[0].dir.clone(),
+                hash: s.info.manifest_hash.clone(),
+                first_hash: first.manifest_hash.clone(),
+            }
+            .into());
         }
     }
     let count = first.shard.count;
     let mut seen: HashMap<usize, &Path> = HashMap::new();
     for s in &out {
         if let Some(other) = seen.insert(s.info.shard.index, &s.dir) {
-            bail!(
-                "shard {} is given twice ({} and {})",
-                s.info.shard,
-                other.display(),
-                s.dir.display()
-            );
+            return Err(MergeError::ShardTwice {
+                shard: s.info.shard,
+                first: other.to_path_buf(),
+                second: s.dir.clone(),
+            }
+            .into());
         }
     }
     let missing: Vec<String> = (0..count)
@@ -308,10 +263,7 @@ fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<Vec<ShardDir>> {
         .map(|k| Shard { index: k, count }.to_string())
         .collect();
     if !missing.is_empty() {
-        bail!(
-            "shards {} are missing: give every shard's folder",
-            missing.join(", ")
-        );
+        return Err(MergeError::ShardsMissing { missing }.into());
     }
     // The shards' fingerprints, interleaved back into manifest order, must be the manifest the
     // shards name: shards of two versions of a manifest of the same length do not mix.
@@ -323,18 +275,18 @@ fn read_shards(dirs: &[PathBuf]) -> anyhow::Result<Vec<ShardDir>> {
     });
     let whole = manifest::manifest_fingerprint(fingerprints);
     if whole != first.manifest_hash {
-        bail!(
-            "the shards' entry fingerprints make the manifest {whole}, not the {} their shard.json \
-             files name: merge shards of one run",
-            first.manifest_hash
-        );
+        return Err(MergeError::Fingerprints {
+            whole,
+            named: first.manifest_hash.clone(),
+        }
+        .into());
     }
     Ok(out)
 }
 
 /// `path` made absolute with every existing part's links resolved (what it will be once
 /// created), for comparing folders.
-fn resolved(path: &Path) -> Result<PathBuf, MergeError> {
+fn resolved(path: &Path) -> std::result::Result<PathBuf, MergeError> {
     let unresolved = || MergeError::OutputUnresolved {
         out: path.to_path_buf(),
     };
@@ -361,25 +313,27 @@ fn resolved(path: &Path) -> Result<PathBuf, MergeError> {
 }
 
 /// Refuses an `out` that is one of `dirs` or inside one.
-fn check_output_apart(out: &Path, dirs: &[PathBuf]) -> anyhow::Result<()> {
+fn check_output_apart(out: &Path, dirs: &[PathBuf]) -> std::result::Result<(), MergeError> {
     let target = resolved(out)?;
     for d in dirs {
         let d_real = d
             .canonicalize()
-            .with_context(|| format!("cannot resolve {}", d.display()))?;
+            .map_err(|source| MergeError::Unresolvable {
+                dir: d.clone(),
+                source,
+            })?;
         if target.starts_with(&d_real) {
             return Err(MergeError::OutputInsideInput {
                 out: out.to_path_buf(),
                 shard: d.clone(),
-            }
-            .into());
+            });
         }
     }
     Ok(())
 }
 
 /// Runs the merge.
-pub fn run(args: &SweepOptions) -> anyhow::Result<Outcome> {
+pub fn run(args: &SweepOptions) -> Result<Outcome> {
     let shards = read_shards(&args.merge)?;
     let out = &args.output;
     check_output_apart(out, &args.merge)?;
@@ -532,29 +486,24 @@ pub fn run(args: &SweepOptions) -> anyhow::Result<Outcome> {
     };
     let unfinished = stats.unfinished();
     if unfinished > 0 {
-        let first: Vec<String> = (0..info.manifest_entries)
+        let first = (0..info.manifest_entries)
             .filter(|i| !entries.contains(i))
             .take(5)
-            .map(|i| i.to_string())
             .collect();
-        return Ok(outcome.then_fail(anyhow::anyhow!(
-            "{unfinished} of {} models have no current ledger record (manifest entries {}{}): a \
-             shard did not finish, or ran before the manifest was edited (rerun it, then merge \
-             again)",
-            stats.manifest_models,
-            first.join(", "),
-            if unfinished > first.len() {
-                ", …"
-            } else {
-                ""
+        return Ok(outcome.then_fail(
+            MergeError::Unfinished {
+                unfinished,
+                total: stats.manifest_models,
+                first,
             }
-        )));
+            .into(),
+        ));
     }
     Ok(outcome)
 }
 
 /// The failures as CSV.
-fn failures_csv(failures: &[Failure]) -> anyhow::Result<String> {
+fn failures_csv(failures: &[Failure]) -> Result<String> {
     let mut w = csv::Writer::from_writer(Vec::new());
     w.write_record(["index", "id", "model", "source", "error"])?;
     for f in failures {
@@ -566,5 +515,5 @@ fn failures_csv(failures: &[Failure]) -> anyhow::Result<String> {
             &f.error,
         ])?;
     }
-    Ok(String::from_utf8(w.into_inner()?)?)
+    Ok(super::report::csv::text(w)?)
 }

@@ -4,12 +4,12 @@
 use std::ops::RangeInclusive;
 use std::path::PathBuf;
 
-use anyhow::Context;
 use sdf_multioctree::build::Method;
 
+use crate::error::{HarnessError, Result};
 use crate::manifest::Shard;
 #[cfg(doc)]
-use crate::shard::ModelsFailed;
+use crate::{error::MergeError, ModelsFailed};
 
 /// A construction method the sweep compares.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -95,9 +95,10 @@ pub struct Outcome {
     /// What to print on stdout: the human summary, or one JSON object and a newline.
     pub stdout: String,
     /// The error the command ends with once `stdout` is printed and every file is written: a
-    /// shard whose models failed ([`ModelsFailed`], which asks for exit code
-    /// [`crate::EXIT_MODELS_FAILED`]), or a merge with unfinished models.
-    pub error: Option<anyhow::Error>,
+    /// shard whose models failed ([`HarnessError::ModelsFailed`] of a [`ModelsFailed`], which
+    /// asks for exit code [`crate::EXIT_MODELS_FAILED`]), or a merge with unfinished models
+    /// ([`MergeError::Unfinished`]).
+    pub error: Option<HarnessError>,
 }
 
 impl Outcome {
@@ -110,14 +111,17 @@ impl Outcome {
     }
 
     /// One JSON object on one line.
-    pub(crate) fn json(value: &serde_json::Value) -> anyhow::Result<Outcome> {
-        let mut line = serde_json::to_string(value).context("cannot serialise the JSON output")?;
+    pub(crate) fn json(value: &serde_json::Value) -> Result<Outcome> {
+        let mut line = serde_json::to_string(value).map_err(|source| HarnessError::Serialise {
+            what: "the JSON output",
+            source,
+        })?;
         line.push('\n');
         Ok(Outcome::text(line))
     }
 
     /// This outcome, ending with `error` after its output.
-    pub(crate) fn then_fail(self, error: anyhow::Error) -> Outcome {
+    pub(crate) fn then_fail(self, error: HarnessError) -> Outcome {
         Outcome {
             error: Some(error),
             ..self

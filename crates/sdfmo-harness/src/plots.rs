@@ -4,13 +4,17 @@
 use std::path::Path;
 use std::sync::OnceLock;
 
-use anyhow::{anyhow, Context};
 use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
 use super::Row;
+use crate::error::{HarnessError, Result};
 use crate::files::write_derived_png;
+
+/// A drawing's result: the plotting library's error as text (its error type is generic over
+/// the backend), which the caller names the plot in ([`HarnessError::Plot`]).
+pub(crate) type Drawn<T> = std::result::Result<T, String>;
 
 /// Plot size in pixels, legend included.
 const WIDTH: u32 = 1100;
@@ -85,7 +89,7 @@ macro_rules! draw_mark {
 }
 
 /// Registers the embedded font under plotters' default family name, once.
-pub(super) fn register_font() -> anyhow::Result<()> {
+pub(super) fn register_font() -> Result<()> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     let ok = *REGISTERED.get_or_init(|| {
         plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
@@ -94,7 +98,7 @@ pub(super) fn register_font() -> anyhow::Result<()> {
     if ok {
         Ok(())
     } else {
-        Err(anyhow!("the embedded plot font cannot be parsed"))
+        Err(HarnessError::PlotFont)
     }
 }
 
@@ -206,7 +210,7 @@ const LEVELS_PLOT: (&str, &str, Axis<'static>, Axis<'static>, Extract) = (
 /// Writes every plot into `dir` (the levels plot only when rows have `bytes_read`); returns the
 /// file names. `frames`: the renders of each view whose median is a row's `render_ms`, said on
 /// the render-time axis.
-pub fn write_plots(dir: &Path, rows: &[Row], frames: usize) -> anyhow::Result<Vec<String>> {
+pub fn write_plots(dir: &Path, rows: &[Row], frames: usize) -> Result<Vec<String>> {
     let time_label = render_time_label(frames);
     register_font()?;
     let mut models: Vec<&str> = Vec::new();
@@ -265,7 +269,10 @@ pub fn write_plots(dir: &Path, rows: &[Row], frames: usize) -> anyhow::Result<Ve
             },
             ..*x
         };
-        let img = plot(title, x, y, &series).with_context(|| format!("cannot draw {file}"))?;
+        let img = plot(title, x, y, &series).map_err(|reason| HarnessError::Plot {
+            plot: (*file).to_owned(),
+            reason,
+        })?;
         write_derived_png(&dir.join(file), &img)?;
         files.push((*file).to_owned());
     }
@@ -372,7 +379,7 @@ pub(super) fn axis_label(v: f64, integer: bool) -> String {
 }
 
 /// Draws one plot into an RGB image.
-fn plot(title: &str, x: &Axis, y: &Axis, series: &[Series]) -> anyhow::Result<image::RgbImage> {
+fn plot(title: &str, x: &Axis, y: &Axis, series: &[Series]) -> Drawn<image::RgbImage> {
     let xs = || series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
     let ys = || series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
     let x = &Axis {
@@ -432,7 +439,7 @@ fn plot(title: &str, x: &Axis, y: &Axis, series: &[Series]) -> anyhow::Result<im
             series,
         ),
     }?;
-    image::RgbImage::from_raw(WIDTH, HEIGHT, buf).ok_or_else(|| anyhow!("plot buffer size"))
+    image::RgbImage::from_raw(WIDTH, HEIGHT, buf).ok_or_else(|| "plot buffer size".to_owned())
 }
 
 fn draw<X, Y>(
@@ -443,14 +450,14 @@ fn draw<X, Y>(
     xr: X,
     yr: Y,
     series: &[Series],
-) -> anyhow::Result<()>
+) -> Drawn<()>
 where
     X: AsRangedCoord<Value = f64>,
     Y: AsRangedCoord<Value = f64>,
     X::CoordDescType: ValueFormatter<f64>,
     Y::CoordDescType: ValueFormatter<f64>,
 {
-    let err = |e: &dyn std::fmt::Display| anyhow!("{e}");
+    let err = |e: &dyn std::fmt::Display| e.to_string();
     let x_fmt = |v: &f64| axis_label(*v, x.integer);
     let y_fmt = |v: &f64| axis_label(*v, y.integer);
     let root = BitMapBackend::with_buffer(buf, (WIDTH, HEIGHT)).into_drawing_area();

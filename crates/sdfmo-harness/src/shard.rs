@@ -9,7 +9,6 @@ use std::ffi::OsString;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use anyhow::{bail, Context};
 use serde::{Deserialize, Serialize};
 
 use super::isolate::{self, Limits};
@@ -17,6 +16,7 @@ use super::ledger::{self, Ledger, Record};
 use super::manifest::{self, Entry, Manifest, Shard};
 use super::report::dataset::Failure;
 use super::{report, Model, Row, SweepSettings};
+use crate::error::{HarnessError, ModelsFailed, Result, ShardError};
 use crate::files::write_derived;
 use crate::progress;
 use crate::{Outcome, SweepOptions};
@@ -30,29 +30,6 @@ pub const MAX_SHARD_FILE_BYTES: u64 = 64 << 20;
 
 /// Exit code of a shard (or merge) that finished but recorded failed models.
 pub const EXIT_MODELS_FAILED: u8 = 3;
-
-/// The error a shard ends with when some of its models failed: every model was tried and
-/// recorded, the outputs are written, and the exit code ([`EXIT_MODELS_FAILED`]) tells a job
-/// scheduler apart from an error of the shard itself (exit code 2).
-#[derive(Debug)]
-pub struct ModelsFailed {
-    /// Failed models.
-    pub failed: usize,
-    /// Models of the shard.
-    pub total: usize,
-}
-
-impl std::fmt::Display for ModelsFailed {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "{} of {} models failed (recorded in the ledger and shard.json)",
-            self.failed, self.total
-        )
-    }
-}
-
-impl std::error::Error for ModelsFailed {}
 
 /// What `shard.json` says.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -110,11 +87,7 @@ pub struct ModelOutput {
 }
 
 /// Runs this process's shard of `manifest_path`.
-pub fn run(
-    args: &SweepOptions,
-    manifest_path: &Path,
-    settings: &SweepSettings,
-) -> anyhow::Result<Outcome> {
+pub fn run(args: &SweepOptions, manifest_path: &Path, settings: &SweepSettings) -> Result<Outcome> {
     let start = Instant::now();
     let manifest = Manifest::read(manifest_path, args.confine)?;
     let shard = Shard::resolve(args.shard)?;
@@ -126,17 +99,20 @@ pub fn run(
     if std::fs::symlink_metadata(&info_path).is_ok() {
         let bytes =
             sdf_multioctree::io::read_beneath(out, Path::new(SHARD_FILE), MAX_SHARD_FILE_BYTES)?;
-        let old: ShardInfo = serde_json::from_slice(&bytes)
-            .with_context(|| format!("{} is not a shard description", info_path.display()))?;
+        let old: ShardInfo =
+            serde_json::from_slice(&bytes).map_err(|source| HarnessError::NotShardDescription {
+                path: info_path.clone(),
+                source,
+            })?;
         if old.shard != shard || old.manifest_entries != manifest.entries.len() {
-            bail!(
-                "{} holds shard {} of a manifest of {} models; this is shard {shard} of {} models: \
-                 give each shard its own -o folder",
-                out.display(),
-                old.shard,
-                old.manifest_entries,
-                manifest.entries.len()
-            );
+            return Err(ShardError::OtherShardsFolder {
+                out: out.clone(),
+                held: old.shard,
+                held_entries: old.manifest_entries,
+                shard,
+                entries: manifest.entries.len(),
+            }
+            .into());
         }
     }
     // A record counts only for the entry it ran: same position, id and fingerprint.
@@ -227,7 +203,10 @@ pub fn run(
         wall_ms: start.elapsed().as_secs_f64() * 1e3,
         ran: todo.len(),
     };
-    let bytes = serde_json::to_vec_pretty(&info).context("cannot serialise shard.json")?;
+    let bytes = serde_json::to_vec_pretty(&info).map_err(|source| HarnessError::Serialise {
+        what: "shard.json",
+        source,
+    })?;
     write_derived(&info_path, &bytes)?;
     let outcome = if args.json {
         Outcome::json(&serde_json::json!({
@@ -266,7 +245,7 @@ pub fn run(
 }
 
 /// Runs one manifest entry in its own process and returns its ledger record.
-fn run_entry(args: &SweepOptions, e: &Entry, limits: Limits) -> anyhow::Result<Record> {
+fn run_entry(args: &SweepOptions, e: &Entry, limits: Limits) -> Result<Record> {
     let mut record = Record {
         ledger: ledger::LEDGER_VERSION,
         settings: String::new(),

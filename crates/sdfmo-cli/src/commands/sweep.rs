@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use sdfmo_harness::{SweepMethod, SweepOptions};
+use sdfmo_harness::{HarnessError, SweepMethod, SweepOptions};
 
 use crate::args::{
     MethodArg, SweepArgs, SweepDatasetArgs, SweepOutputArgs, SweepSettingsArgs, SweepStep,
@@ -114,7 +114,12 @@ fn merge_settings() -> SweepSettingsArgs {
 pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
     let outcome = sdfmo_harness::run(&options(args))?;
     print_text(&outcome.stdout)?;
-    outcome.error.map_or(Ok(()), Err)
+    match outcome.error {
+        None => Ok(()),
+        // `main` tells failed models (exit 3) from an error of the command by this type.
+        Some(HarnessError::ModelsFailed(failed)) => Err(failed.into()),
+        Some(e) => Err(e.into()),
+    }
 }
 
 #[cfg(test)]

@@ -3,12 +3,12 @@
 
 use std::path::Path;
 
-use anyhow::anyhow;
 use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::prelude::*;
 
+use crate::error::{HarnessError, Result};
 use crate::files::write_derived_png;
-use crate::plots::{axis_label, log_ticks, PALETTE};
+use crate::plots::{axis_label, log_ticks, Drawn, PALETTE};
 use crate::{Model, Row, SweepSettings};
 
 const WIDTH: u32 = 1100;
@@ -29,7 +29,7 @@ pub fn write(
     settings: &SweepSettings,
     models: &[Model],
     rows: &[Row],
-) -> anyhow::Result<Vec<String>> {
+) -> Result<Vec<String>> {
     crate::plots::register_font()?;
     let mut files = Vec::new();
     let per_depth = |f: &dyn Fn(&Row, &Row) -> f64| -> Vec<(String, Vec<f64>)> {
@@ -71,7 +71,10 @@ pub fn write(
             ratios,
         ),
     ] {
-        let img = cdf(title, xlabel, &series)?;
+        let img = cdf(title, xlabel, &series).map_err(|reason| HarnessError::Plot {
+            plot: file.to_owned(),
+            reason,
+        })?;
         write_derived_png(&out.join(file), &img)?;
         files.push(file.to_owned());
     }
@@ -95,12 +98,17 @@ pub fn write(
             points.push((format!("{method} {what}, depth {deepest}"), v));
         }
     }
+    let file = "dataset_time_vs_triangles.png";
     let img = scatter(
         "Build time and render time per view against triangles",
         &points,
-    )?;
-    write_derived_png(&out.join("dataset_time_vs_triangles.png"), &img)?;
-    files.push("dataset_time_vs_triangles.png".to_owned());
+    )
+    .map_err(|reason| HarnessError::Plot {
+        plot: file.to_owned(),
+        reason,
+    })?;
+    write_derived_png(&out.join(file), &img)?;
+    files.push(file.to_owned());
     Ok(files)
 }
 
@@ -117,11 +125,7 @@ fn padded(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
 }
 
 /// Empirical CDFs, one line per series.
-fn cdf(
-    title: &str,
-    xlabel: &str,
-    series: &[(String, Vec<f64>)],
-) -> anyhow::Result<image::RgbImage> {
+fn cdf(title: &str, xlabel: &str, series: &[(String, Vec<f64>)]) -> Drawn<image::RgbImage> {
     let xr = padded(series.iter().flat_map(|s| s.1.iter().copied()));
     let frame = Frame {
         title,
@@ -143,7 +147,7 @@ fn cdf(
                 .collect();
             chart
                 .draw_series(LineSeries::new(pts, color.stroke_width(3)))
-                .map_err(|e| anyhow!("{e}"))?
+                .map_err(|e| e.to_string())?
                 .label(format!("{label} ({} models)", v.len()))
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(3))
@@ -156,7 +160,7 @@ fn cdf(
 /// A log–log scatter plot, one colour per series, ticks at 1, 2 and 5 times the powers of ten
 /// (the powers alone over a wide range, [`log_ticks`]) with short labels, the legend in a
 /// column of its own.
-fn scatter(title: &str, series: &[(String, Vec<(f64, f64)>)]) -> anyhow::Result<image::RgbImage> {
+fn scatter(title: &str, series: &[(String, Vec<(f64, f64)>)]) -> Drawn<image::RgbImage> {
     let all = || series.iter().flat_map(|s| s.1.iter().copied());
     let log_range = |v: &mut dyn Iterator<Item = f64>| {
         let (lo, hi) = v.fold((f64::INFINITY, 0.0f64), |(lo, hi), x| {
@@ -191,7 +195,7 @@ fn scatter(title: &str, series: &[(String, Vec<(f64, f64)>)]) -> anyhow::Result<
                 let color = COLORS[k % COLORS.len()];
                 chart
                     .draw_series(pts.iter().map(|&p| Circle::new(p, 3, color.filled())))
-                    .map_err(|e| anyhow!("{e}"))?;
+                    .map_err(|e| e.to_string())?;
             }
             Ok(())
         },
@@ -230,8 +234,8 @@ impl Frame<'_> {
                 BitMapBackend<'_>,
                 Cartesian2d<X::CoordDescType, Y::CoordDescType>,
             >,
-        ) -> anyhow::Result<()>,
-    ) -> anyhow::Result<image::RgbImage>
+        ) -> Drawn<()>,
+    ) -> Drawn<image::RgbImage>
     where
         X: AsRangedCoord<Value = f64>,
         Y: AsRangedCoord<Value = f64>,
@@ -241,7 +245,7 @@ impl Frame<'_> {
         let mut buf = vec![0u8; (WIDTH * HEIGHT * 3) as usize];
         {
             let root = BitMapBackend::with_buffer(&mut buf, (WIDTH, HEIGHT)).into_drawing_area();
-            root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
+            root.fill(&WHITE).map_err(|e| e.to_string())?;
             let (area, column) = match self.legend {
                 Legend::Column(_) => {
                     let (area, column) = root.split_horizontally(WIDTH - LEGEND_WIDTH);
@@ -260,7 +264,7 @@ impl Frame<'_> {
                 .x_label_area_size(48)
                 .y_label_area_size(self.y_label_area)
                 .build_cartesian_2d(xr, yr)
-                .map_err(|e| anyhow!("{e}"))?;
+                .map_err(|e| e.to_string())?;
             chart
                 .configure_mesh()
                 .x_desc(self.x_desc)
@@ -270,7 +274,7 @@ impl Frame<'_> {
                 .label_style(("sans-serif", 16))
                 .axis_desc_style(("sans-serif", 18))
                 .draw()
-                .map_err(|e| anyhow!("{e}"))?;
+                .map_err(|e| e.to_string())?;
             series(&mut chart)?;
             match self.legend {
                 Legend::Inside(position) => chart
@@ -280,26 +284,26 @@ impl Frame<'_> {
                     .background_style(WHITE.mix(0.9))
                     .border_style(BLACK)
                     .draw()
-                    .map_err(|e| anyhow!("{e}"))?,
+                    .map_err(|e| e.to_string())?,
                 Legend::Column(entries) => {
                     let column = column.expect("split for the column");
                     for (i, (text, color)) in entries.iter().enumerate() {
                         let y = 60 + 28 * i as i32;
                         column
                             .draw(&Circle::new((14, y), 5, color.filled()))
-                            .map_err(|e| anyhow!("{e}"))?;
+                            .map_err(|e| e.to_string())?;
                         column
                             .draw(&Text::new(
                                 text.to_string(),
                                 (28, y - 9),
                                 ("sans-serif", 16).into_font(),
                             ))
-                            .map_err(|e| anyhow!("{e}"))?;
+                            .map_err(|e| e.to_string())?;
                     }
                 }
             }
-            root.present().map_err(|e| anyhow!("{e}"))?;
+            root.present().map_err(|e| e.to_string())?;
         }
-        image::RgbImage::from_raw(WIDTH, HEIGHT, buf).ok_or_else(|| anyhow!("plot buffer size"))
+        image::RgbImage::from_raw(WIDTH, HEIGHT, buf).ok_or_else(|| "plot buffer size".to_owned())
     }
 }

@@ -10,6 +10,7 @@ use sdf_multioctree::metrics::{self, most_different_window, FlipResult, Window};
 
 use super::model::Report;
 use super::tables::label;
+use crate::error::{error_line, Result};
 use crate::{image_rel, reference_file, view_file};
 
 /// An image on the page, linked to itself, with a caption under it.
@@ -76,11 +77,11 @@ pub enum Crops {
 pub fn crops(out: &Path, report: &Report, model: &str) -> Crops {
     match make(out, report, model) {
         Ok(c) => c,
-        Err(e) => Crops::Unavailable(format!("{e:#}")),
+        Err(e) => Crops::Unavailable(error_line(&e)),
     }
 }
 
-fn make(out: &Path, report: &Report, model: &str) -> anyhow::Result<Crops> {
+fn make(out: &Path, report: &Report, model: &str) -> Result<Crops> {
     let settings = &report.settings;
     let [a, b] = match settings.methods.as_slice() {
         [a, b, ..] => [a, b],

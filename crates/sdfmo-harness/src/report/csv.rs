@@ -4,6 +4,7 @@
 //! a value another producer does not have.
 
 use super::model::Report;
+use crate::error::Result;
 
 /// The columns every results.csv has (the header the hand-written writer wrote); `lod` and
 /// `bytes_read` follow when a row has one.
@@ -11,7 +12,7 @@ const HEADER: &str = "model,method,depth,psnr,flip,bytes,build_ms,render_ms,node
                       surface_voxels,cap_hits";
 
 /// The rows of `report` as CSV text.
-pub fn csv(report: &Report) -> anyhow::Result<String> {
+pub fn csv(report: &Report) -> Result<String> {
     let with_lod = report.rows.iter().any(|r| r.lod.is_some());
     let with_read = report.rows.iter().any(|r| r.bytes_read.is_some());
     let mut w = csv::WriterBuilder::new().from_writer(Vec::new());
@@ -48,5 +49,14 @@ pub fn csv(report: &Report) -> anyhow::Result<String> {
         }
         w.write_record(&record)?;
     }
-    Ok(String::from_utf8(w.into_inner()?)?)
+    Ok(text(w)?)
+}
+
+/// The text a CSV writer wrote (flushed into its buffer). Every field written is a `str`, so
+/// the bytes are UTF-8 and the lossy conversion is exact.
+pub fn text(w: csv::Writer<Vec<u8>>) -> std::result::Result<String, csv::Error> {
+    let bytes = w
+        .into_inner()
+        .map_err(|e| csv::Error::from(e.into_error()))?;
+    Ok(String::from_utf8_lossy(&bytes).into_owned())
 }

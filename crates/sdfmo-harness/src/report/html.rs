@@ -15,6 +15,7 @@ use super::tables::{
     fmt_psnr, label, levels_table, model_heading, model_table, protocol, shallower_table,
     summary_table, Table,
 };
+use crate::error::Result;
 use crate::files::write_derived;
 use crate::{heatmap_file, image_rel, reference_file, view_file};
 
@@ -139,7 +140,7 @@ fn grid(report: &Report, model: &str, view: usize) -> Grid {
 }
 
 /// The page's HTML for `report`, whose files (data, then plots) are `files`; writes the crops.
-pub fn page(out: &Path, report: &Report, files: &[String]) -> anyhow::Result<String> {
+pub fn page(out: &Path, report: &Report, files: &[String]) -> Result<String> {
     let sections = report
         .model_names()
         .into_iter()
@@ -174,7 +175,7 @@ pub fn page(out: &Path, report: &Report, files: &[String]) -> anyhow::Result<Str
 }
 
 /// Writes index.html; returns its name.
-pub fn write_html(out: &Path, report: &Report, files: &[String]) -> anyhow::Result<String> {
+pub fn write_html(out: &Path, report: &Report, files: &[String]) -> Result<String> {
     write_derived(
         &out.join("index.html"),
         page(out, report, files)?.as_bytes(),

@@ -19,20 +19,26 @@ pub use html::write_html;
 pub use markdown::table_md;
 pub use model::{Model, Provenance, Report, Row, SweepSettings};
 
+use crate::error::{HarnessError, Result};
 use crate::files::write_derived;
 
 /// results.json's text: the report (a sweep's [`Report`] or a merge's
 /// [`dataset::DatasetReport`]), pretty-printed, with a final newline. Through a
 /// `serde_json::Value`, whose maps sort their keys: every object's keys in alphabetical order,
 /// as results.json has always had them (scripts diff these files).
-pub fn results_json(report: &impl serde::Serialize) -> anyhow::Result<String> {
-    let mut text = serde_json::to_string_pretty(&serde_json::to_value(report)?)?;
+pub fn results_json(report: &impl serde::Serialize) -> Result<String> {
+    let serialise = |source| HarnessError::Serialise {
+        what: "results.json",
+        source,
+    };
+    let value = serde_json::to_value(report).map_err(serialise)?;
+    let mut text = serde_json::to_string_pretty(&value).map_err(serialise)?;
     text.push('\n');
     Ok(text)
 }
 
 /// Writes results.json, results.csv and table.md; returns their names.
-pub fn write_tables(out: &Path, report: &Report) -> anyhow::Result<Vec<String>> {
+pub fn write_tables(out: &Path, report: &Report) -> Result<Vec<String>> {
     write_derived(&out.join("results.json"), results_json(report)?.as_bytes())?;
     write_derived(&out.join("results.csv"), csv::csv(report)?.as_bytes())?;
     write_derived(&out.join("table.md"), table_md(report).as_bytes())?;
@@ -120,7 +126,7 @@ mod tests {
         );
         let back: Vec<csv_record::Rec> = ::csv::Reader::from_reader(c.as_bytes())
             .deserialize()
-            .collect::<Result<_, _>>()
+            .collect::<std::result::Result<_, _>>()
             .unwrap();
         assert_eq!(back[0].model, "a,\"b");
         assert_eq!(back.len(), 4);
