@@ -88,6 +88,15 @@ pub enum FormatError {
         /// How many there were.
         count: u64,
     },
+    /// The octree cannot be written in the format asked for (a 3.0 brick file needs depth ≥ 2
+    /// and its residual section under 1 GiB).
+    #[error("cannot write a version {major}.x .smo file: {reason}")]
+    Unrepresentable {
+        /// The major version asked for.
+        major: u16,
+        /// Why not.
+        reason: String,
+    },
     /// The bytes are shorter than the header or than the size the header declares.
     #[error("truncated .smo data: {len} bytes, need {needed}")]
     Truncated {

@@ -146,8 +146,99 @@ pub const LOD_LEVEL_FIELDS: [HeaderField; 2] = [field("offset", 0, 8), field("si
 pub const LOD_TRAILER_FIELDS: [HeaderField; 2] =
     [field("header_crc", 0, 4), field("trailer_zero", 4, 4)];
 
+/// Major version of a brick file (format 3.0: `FORMAT.md`, section "Bricks"): the leaves of
+/// a 1.x octree regrouped into bricks of 4³ cells whose volume voxels share their corner codes.
+pub const V3_VERSION_MAJOR: u16 = 3;
+/// Minor version this crate writes for brick files.
+pub const V3_VERSION_MINOR: u16 = 0;
+/// Size of the version-3.0 header in bytes (a 3.x header may be longer; see `header_size`).
+pub const V3_HEADER_SIZE: usize = 176;
+
+/// The version-3.0 header, field by field, in order (contiguous, [`V3_HEADER_SIZE`] bytes).
+pub const V3_HEADER_FIELDS: [HeaderField; 33] = after_preamble(&[
+    field("depth", 20, 1),
+    field("value_bits", 21, 1),
+    field("reserved", 22, 2),
+    field("center_x", 24, 4),
+    field("center_y", 28, 4),
+    field("center_z", 32, 4),
+    field("scale", 36, 4),
+    field("upper_node_count", 40, 4),
+    field("brick_count", 44, 4),
+    field("leaf_count", 48, 4),
+    field("voxel_count", 52, 4),
+    field("surface_voxel_count", 56, 4),
+    field("clip_voxel_count", 60, 4),
+    field("private_leaf_count", 64, 4),
+    field("private_voxel_count", 68, 4),
+    field("file_size", 72, 8),
+    field("nodes_offset", 80, 8),
+    field("nodes_size", 88, 8),
+    field("bricks_offset", 96, 8),
+    field("bricks_size", 104, 8),
+    field("residuals_offset", 112, 8),
+    field("residuals_size", 120, 8),
+    field("private_leaves_offset", 128, 8),
+    field("private_leaves_size", 136, 8),
+    field("private_flags_offset", 144, 8),
+    field("private_flags_size", 152, 8),
+    field("private_corners_offset", 160, 8),
+    field("private_corners_size", 168, 8),
+]);
+
+/// Bytes of one brick record (section `bricks` of a 3.0 file).
+pub const BRICK_RECORD_SIZE: usize = 32;
+
+/// One brick record of a 3.0 file, field by field (offsets from the record's start, which is
+/// byte `bricks_offset + 32 · b` for brick `b`): the occupancy and private masks (bit `i` = the
+/// brick's cell of Morton index `i`), the plane `a + b·x + c·y + d·z` that predicts its
+/// points' codes (in 1/2^[`plane_fraction_bits`] code units), the residual word (byte offset
+/// of its residuals in bits 0–29, width code in bits 30–31) and the index of its first private
+/// leaf.
+pub const BRICK_RECORD_FIELDS: [HeaderField; 8] = [
+    field("occupancy", 0, 8),
+    field("private", 8, 8),
+    field("plane_a", 16, 2),
+    field("plane_b", 18, 2),
+    field("plane_c", 20, 2),
+    field("plane_d", 22, 2),
+    field("residuals", 24, 4),
+    field("first_private_leaf", 28, 4),
+];
+
+/// Leaf cells per brick edge: a brick is the node at `depth − 2`, 4 × 4 × 4 leaf cells.
+pub const BRICK_EDGE: u32 = 4;
+/// Octree levels a brick spans (`BRICK_EDGE = 2^BRICK_LEVELS`): the shallowest 3.0 depth.
+pub const BRICK_LEVELS: u8 = 2;
+/// Grid points per brick edge (`BRICK_EDGE + 1`): point `(x, y, z)` of a brick has the index
+/// `25x + 5y + z` in its 125-bit point grid.
+pub const BRICK_POINT_EDGE: u32 = BRICK_EDGE + 1;
+/// Bits of the residual word that hold the byte offset (the rest is the width code).
+pub const RESIDUAL_OFFSET_BITS: u32 = 30;
+
+/// The residual widths in bits a brick may use, indexed by its 2-bit width code: 0, 2, 4, 8
+/// for 8-bit codes; 0, 4, 8, 16 for 16-bit ones. The widest is the code width: with it any
+/// code is stored (its residual taken modulo 2^bits), so every brick has a lossless width.
+pub const fn residual_widths(bits: ValueBits) -> [u32; 4] {
+    match bits {
+        ValueBits::Eight => [0, 2, 4, 8],
+        ValueBits::Sixteen => [0, 4, 8, 16],
+    }
+}
+
+/// Fraction bits of the plane terms: 4 for 8-bit codes (1/16 code units: a plane term spans
+/// ±2047 codes, enough for ±127 and its slopes), 0 for 16-bit ones (whole codes, ±32767).
+pub const fn plane_fraction_bits(bits: ValueBits) -> u32 {
+    match bits {
+        ValueBits::Eight => 4,
+        ValueBits::Sixteen => 0,
+    }
+}
+
 const _: () = {
     check_contiguous(&HEADER_FIELDS, 0, HEADER_SIZE);
+    check_contiguous(&V3_HEADER_FIELDS, 0, V3_HEADER_SIZE);
+    check_contiguous(&BRICK_RECORD_FIELDS, 0, BRICK_RECORD_SIZE);
     check_contiguous(&LOD_HEADER_FIELDS, 0, LOD_HEADER_FIXED);
     check_contiguous(&LOD_LEVEL_FIELDS, 0, LOD_LEVEL_ENTRY);
     check_contiguous(&LOD_TRAILER_FIELDS, 0, LOD_HEADER_TRAILER);
@@ -222,7 +313,7 @@ macro_rules! field_value_int {
         }
     )*};
 }
-field_value_int!(u8, u16, u32, u64, f32);
+field_value_int!(u8, u16, i16, u32, u64, f32);
 
 impl<const N: usize> FieldValue for [u8; N] {
     fn read_le(bytes: &[u8]) -> Self {
@@ -328,6 +419,57 @@ header_values! {
     scale: f32,
     file_size: u64,
     reserved: [u8; 16],
+}}
+
+header_values! {
+    /// The values of a 3.0 header, one per [`V3_HEADER_FIELDS`] entry of the same name.
+    V3Header, V3_HEADER_FIELDS, {
+    magic: [u8; 8],
+    version_major: u16,
+    version_minor: u16,
+    header_size: u32,
+    flags: u32,
+    depth: u8,
+    value_bits: u8,
+    reserved: u16,
+    center_x: f32,
+    center_y: f32,
+    center_z: f32,
+    scale: f32,
+    upper_node_count: u32,
+    brick_count: u32,
+    leaf_count: u32,
+    voxel_count: u32,
+    surface_voxel_count: u32,
+    clip_voxel_count: u32,
+    private_leaf_count: u32,
+    private_voxel_count: u32,
+    file_size: u64,
+    nodes_offset: u64,
+    nodes_size: u64,
+    bricks_offset: u64,
+    bricks_size: u64,
+    residuals_offset: u64,
+    residuals_size: u64,
+    private_leaves_offset: u64,
+    private_leaves_size: u64,
+    private_flags_offset: u64,
+    private_flags_size: u64,
+    private_corners_offset: u64,
+    private_corners_size: u64,
+}}
+
+header_values! {
+    /// The values of one brick record ([`BRICK_RECORD_FIELDS`]).
+    BrickRecord, BRICK_RECORD_FIELDS, {
+    occupancy: u64,
+    private: u64,
+    plane_a: i16,
+    plane_b: i16,
+    plane_c: i16,
+    plane_d: i16,
+    residuals: u32,
+    first_private_leaf: u32,
 }}
 
 header_values! {

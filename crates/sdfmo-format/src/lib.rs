@@ -56,6 +56,7 @@
 
 #![deny(missing_docs)]
 
+mod brick;
 pub mod compressed;
 mod crc32;
 mod error;
@@ -73,14 +74,21 @@ mod validate;
 
 use glam::Vec3;
 
+pub use brick::{
+    cell_grid_index, plane_predict, point_mask, BrickLeaf, BrickNode, BrickOctree, BrickOctreeView,
+    CORNER_POINT_OFFSETS,
+};
 pub use crc32::crc32;
 pub use error::{FormatError, Result};
 pub use file::SectionSizes;
 pub use header::{
-    lod_header_size, HeaderField, CHECKSUM_SIZE, FLAG_CLIP_VOXELS, FLAG_MULTI_VOXEL,
-    FLAG_SURFACE_VOXELS, FORMAT_VERSION_MAJOR, FORMAT_VERSION_MINOR, HEADER_FIELDS, HEADER_SIZE,
-    KNOWN_FLAGS, LOD_HEADER_FIELDS, LOD_HEADER_FIXED, LOD_HEADER_TRAILER, LOD_LEVEL_ENTRY,
-    LOD_LEVEL_FIELDS, LOD_TRAILER_FIELDS, LOD_VERSION_MAJOR, LOD_VERSION_MINOR, MAGIC,
+    lod_header_size, plane_fraction_bits, residual_widths, HeaderField, BRICK_EDGE, BRICK_LEVELS,
+    BRICK_POINT_EDGE, BRICK_RECORD_FIELDS, BRICK_RECORD_SIZE, CHECKSUM_SIZE, FLAG_CLIP_VOXELS,
+    FLAG_MULTI_VOXEL, FLAG_SURFACE_VOXELS, FORMAT_VERSION_MAJOR, FORMAT_VERSION_MINOR,
+    HEADER_FIELDS, HEADER_SIZE, KNOWN_FLAGS, LOD_HEADER_FIELDS, LOD_HEADER_FIXED,
+    LOD_HEADER_TRAILER, LOD_LEVEL_ENTRY, LOD_LEVEL_FIELDS, LOD_TRAILER_FIELDS, LOD_VERSION_MAJOR,
+    LOD_VERSION_MINOR, MAGIC, RESIDUAL_OFFSET_BITS, V3_HEADER_FIELDS, V3_HEADER_SIZE,
+    V3_VERSION_MAJOR, V3_VERSION_MINOR,
 };
 pub use interpolant::{
     cell_corners, cell_size, child_coord, corner_offset, trilinear, trilinear_gradient,

@@ -131,7 +131,7 @@ pub(crate) fn bytes_at<const N: usize>(b: &[u8], at: usize) -> [u8; N] {
 
 /// A 12-byte group record at `at`: its u32 base and its eight bytes as one little-endian u64.
 #[inline]
-fn group_at(b: &[u8], at: usize) -> (u32, u64) {
+pub(crate) fn group_at(b: &[u8], at: usize) -> (u32, u64) {
     let r = bytes_at::<12>(b, at);
     let (base, bytes) = r.split_at(4);
     (
@@ -143,9 +143,62 @@ fn group_at(b: &[u8], at: usize) -> (u32, u64) {
 }
 
 /// Writes a 12-byte group record (base, eight bytes) at `at`.
-fn put_group(out: &mut [u8], at: usize, base: u32, bytes: [u8; 8]) {
+pub(crate) fn put_group(out: &mut [u8], at: usize, base: u32, bytes: [u8; 8]) {
     out[at..at + 4].copy_from_slice(&base.to_le_bytes());
     out[at + 4..at + 12].copy_from_slice(&bytes);
+}
+
+/// The child masks of the inner levels above sorted, distinct Morton `codes` of nodes at level
+/// `depth`, level 0 (the root) first: breadth-first order. Empty when `codes` is.
+pub(crate) fn inner_levels(mut codes: Vec<u64>, depth: u8) -> Vec<Vec<u8>> {
+    // Bottom-up: the parents of a sorted level are its codes >> 3, deduplicated.
+    let mut levels: Vec<Vec<u8>> = Vec::with_capacity(depth as usize);
+    if !codes.is_empty() {
+        for _ in 0..depth {
+            let mut parents: Vec<u64> = Vec::with_capacity(codes.len() / 2 + 1);
+            let mut masks: Vec<u8> = Vec::with_capacity(codes.len() / 2 + 1);
+            for &c in &codes {
+                let p = c >> 3;
+                if parents.last() != Some(&p) {
+                    parents.push(p);
+                    masks.push(0);
+                }
+                if let Some(m) = masks.last_mut() {
+                    *m |= 1 << (c & 7);
+                }
+            }
+            levels.push(masks);
+            codes = parents;
+        }
+    }
+    levels.reverse();
+    levels
+}
+
+/// Writes the node groups of `levels` ([`inner_levels`]) at `at`: the base of group `g` is
+/// the first child of node `8g`.
+pub(crate) fn write_node_groups(out: &mut [u8], mut at: usize, levels: &[Vec<u8>]) {
+    let mut next_child = 1u32;
+    let mut masks = [0u8; 8];
+    let mut base = next_child;
+    let mut count = 0usize;
+    for (k, &mask) in levels.iter().flatten().enumerate() {
+        let slot = k % 8;
+        if slot == 0 {
+            base = next_child;
+        }
+        masks[slot] = mask;
+        next_child += mask.count_ones();
+        if slot == 7 {
+            put_group(out, at, base, masks);
+            at += 12;
+            masks = [0; 8];
+        }
+        count = k + 1;
+    }
+    if !count.is_multiple_of(8) {
+        put_group(out, at, base, masks);
+    }
 }
 
 impl PackedOctree {
@@ -221,28 +274,7 @@ impl PackedOctree {
             });
         }
 
-        // Inner levels bottom-up: the parents of a sorted level are its codes >> 3, deduplicated.
-        let mut levels: Vec<Vec<u8>> = Vec::with_capacity(depth as usize);
-        let mut codes: Vec<u64> = keyed.iter().map(|&(c, _)| c).collect();
-        if !codes.is_empty() {
-            for _ in 0..depth {
-                let mut parents: Vec<u64> = Vec::with_capacity(codes.len() / 2 + 1);
-                let mut masks: Vec<u8> = Vec::with_capacity(codes.len() / 2 + 1);
-                for &c in &codes {
-                    let p = c >> 3;
-                    if parents.last() != Some(&p) {
-                        parents.push(p);
-                        masks.push(0);
-                    }
-                    if let Some(m) = masks.last_mut() {
-                        *m |= 1 << (c & 7);
-                    }
-                }
-                levels.push(masks);
-                codes = parents;
-            }
-        }
-        levels.reverse(); // level 0 (the root) first: breadth-first order.
+        let levels = inner_levels(keyed.iter().map(|&(c, _)| c).collect(), depth);
         let inner_total: u64 = levels.iter().map(|l| l.len() as u64).sum();
         let inner_count = to_u32(inner_total, "inner nodes")?;
         to_u32(inner_total + u64::from(leaf_count), "nodes")?;
@@ -266,27 +298,7 @@ impl PackedOctree {
         let mut out = vec![0u8; file_size];
         header.write(&mut out);
 
-        // Node groups: the base of group g is the first child of node 8g.
-        let mut next_child = 1u32;
-        let mut masks = [0u8; 8];
-        let mut base = next_child;
-        let mut at = sections.nodes;
-        for (k, &mask) in levels.iter().flatten().enumerate() {
-            let slot = k % 8;
-            if slot == 0 {
-                base = next_child;
-            }
-            masks[slot] = mask;
-            next_child += mask.count_ones();
-            if slot == 7 {
-                put_group(&mut out, at, base, masks);
-                at += 12;
-                masks = [0; 8];
-            }
-        }
-        if !inner_count.is_multiple_of(8) {
-            put_group(&mut out, at, base, masks);
-        }
+        write_node_groups(&mut out, sections.nodes, &levels);
 
         // Leaf groups, surface bits and corner codes, leaf by leaf in Morton order.
         let dmax = meta.dmax();

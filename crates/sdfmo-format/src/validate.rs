@@ -295,65 +295,13 @@ struct SectionBytes<'a> {
 }
 
 impl SectionBytes<'_> {
-    #[inline]
-    fn mask_at(&self, k: u32) -> u8 {
-        self.nodes[(k as usize >> 3) * 12 + 4 + (k as usize & 7)]
-    }
-
     fn validate_nodes(&self) -> Result<()> {
-        // Bases: group g's first child is 1 + the popcount of every mask before node 8g.
-        walk_groups("nodes", self.nodes, "first_child", 1, |k, m| {
-            if k >= u64::from(self.counts.inner) && m != 0 {
-                return corrupt("nodes", format!("padding mask of slot {k} is {m:#x}"));
-            }
-            Ok(u64::from(m.count_ones()))
-        })?;
-        if self.counts.inner == 0 {
-            return Ok(());
-        }
-        // Breadth-first walk: level ℓ is the node range [start, end); its children are the next
-        // `Σ popcount` nodes. Levels above depth − 1 must stay among the inner nodes; the last
-        // inner level must end exactly at inner_count and have exactly leaf_count children.
-        let depth = self.meta.depth;
-        let (mut start, mut end) = (0u64, 1u64);
-        for level in 0..depth {
-            let mut children = 0u64;
-            for k in start..end {
-                let m = self.mask_at(k as u32);
-                if m == 0 {
-                    return corrupt(
-                        "nodes",
-                        format!("inner node {k} at level {level} has no child"),
-                    );
-                }
-                children += u64::from(m.count_ones());
-            }
-            if level + 1 < depth {
-                if end + children > u64::from(self.counts.inner) {
-                    return corrupt(
-                        "nodes",
-                        format!(
-                            "level {} would end at node {}, past the {} inner nodes",
-                            level + 1,
-                            end + children,
-                            self.counts.inner
-                        ),
-                    );
-                }
-            } else if end != u64::from(self.counts.inner)
-                || children != u64::from(self.counts.leaves)
-            {
-                return corrupt(
-                    "nodes",
-                    format!(
-                        "the tree has {end} inner nodes and {children} leaves, header says {} and {}",
-                        self.counts.inner, self.counts.leaves
-                    ),
-                );
-            }
-            (start, end) = (end, end + children);
-        }
-        Ok(())
+        validate_node_groups(
+            self.nodes,
+            self.meta.depth,
+            self.counts.inner,
+            self.counts.leaves,
+        )
     }
 
     fn validate_leaves(&self) -> Result<()> {
@@ -473,10 +421,67 @@ impl SectionBytes<'_> {
         Ok(())
     }
 }
+/// The node groups `nodes` of a tree whose `inner` inner nodes fill levels `0..depth` and
+/// whose `leaves` nodes sit at level `depth` (the leaves of a 1.x file, the bricks of a 3.0
+/// file): every first-child base, padding mask and level. O(nodes).
+pub(crate) fn validate_node_groups(nodes: &[u8], depth: u8, inner: u32, leaves: u32) -> Result<()> {
+    let mask_at = |k: u32| nodes[(k as usize >> 3) * 12 + 4 + (k as usize & 7)];
+    // Bases: group g's first child is 1 + the popcount of every mask before node 8g.
+    walk_groups("nodes", nodes, "first_child", 1, |k, m| {
+        if k >= u64::from(inner) && m != 0 {
+            return corrupt("nodes", format!("padding mask of slot {k} is {m:#x}"));
+        }
+        Ok(u64::from(m.count_ones()))
+    })?;
+    if inner == 0 {
+        return Ok(());
+    }
+    // Breadth-first walk: level ℓ is the node range [start, end); its children are the next
+    // `Σ popcount` nodes. Levels above depth − 1 must stay among the inner nodes; the last
+    // inner level must end exactly at inner_count and have exactly leaf_count children.
+    let (mut start, mut end) = (0u64, 1u64);
+    for level in 0..depth {
+        let mut children = 0u64;
+        for k in start..end {
+            let m = mask_at(k as u32);
+            if m == 0 {
+                return corrupt(
+                    "nodes",
+                    format!("inner node {k} at level {level} has no child"),
+                );
+            }
+            children += u64::from(m.count_ones());
+        }
+        if level + 1 < depth {
+            if end + children > u64::from(inner) {
+                return corrupt(
+                    "nodes",
+                    format!(
+                        "level {} would end at node {}, past the {} inner nodes",
+                        level + 1,
+                        end + children,
+                        inner
+                    ),
+                );
+            }
+        } else if end != u64::from(inner) || children != u64::from(leaves) {
+            return corrupt(
+                "nodes",
+                format!(
+                    "the tree has {end} inner nodes and {children} leaves, header says {} and {}",
+                    inner, leaves
+                ),
+            );
+        }
+        (start, end) = (end, end + children);
+    }
+    Ok(())
+}
+
 /// Walks the 12-byte group records of `section` (a u32 `base_name`, then 8 one-byte entries,
 /// slot `8g + s`): every base must be `first` plus the sum of what `entry` returned for the
 /// entries before it; `entry(slot, byte)` checks an entry and returns its weight. The total.
-fn walk_groups(
+pub(crate) fn walk_groups(
     section: &'static str,
     bytes: &[u8],
     base_name: &str,
