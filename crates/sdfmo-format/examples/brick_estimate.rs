@@ -21,11 +21,13 @@
 //! ```text
 //! cargo run --release -p sdfmo-format --example brick_estimate -- FILE.smo… > estimate.csv
 //! ```
-//! One CSV row per file (8-bit `.smo` files with one level).
+//! One CSV row per file (8-bit `.smo` files with one level). The last columns are the file
+//! that [`BrickOctree::encode`] writes (format 3.0, the layout built): its bytes and bytes per
+//! voxel, to set beside the estimate.
 
 use std::collections::{HashMap, HashSet};
 
-use sdfmo_format::{NodeRef, PackedOctree};
+use sdfmo_format::{BrickOctree, NodeRef, PackedOctree};
 
 /// Integer grid point (a leaf corner) in `[0, 2^depth]³`.
 type Point = [u32; 3];
@@ -209,18 +211,20 @@ fn estimate(octree: &PackedOctree, traced_bytes: usize) -> Estimate {
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!(
         "file,voxels,traced_bytes,traced_bpv,upper_nodes,bricks,private_leaves,private_voxels,\
-         points,points_per_voxel,bricks_w0,bricks_w2,bricks_w4,bricks_w8,plain_bpv,predicted_bpv"
+         points,points_per_voxel,bricks_w0,bricks_w2,bricks_w4,bricks_w8,plain_bpv,predicted_bpv,\
+         v3_bytes,v3_bpv"
     );
     for path in std::env::args().skip(1) {
         let bytes = std::fs::read(&path)?;
         let traced = bytes.len();
         let octree = PackedOctree::from_vec(bytes)?;
         let e = estimate(&octree, traced);
+        let v3 = BrickOctree::encode(&octree)?.as_bytes().len();
         let name = std::path::Path::new(&path)
             .file_name()
             .map_or(path.clone(), |n| n.to_string_lossy().into_owned());
         println!(
-            "{name},{},{},{:.2},{},{},{},{},{},{:.2},{},{},{},{},{:.2},{:.2}",
+            "{name},{},{},{:.2},{},{},{},{},{},{:.2},{},{},{},{},{:.2},{:.2},{v3},{:.2}",
             e.voxels,
             e.traced_bytes,
             e.traced_bytes as f64 / e.voxels as f64,
@@ -236,6 +240,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             e.widths[3],
             e.plain_bytes_per_voxel(),
             e.predicted_bytes_per_voxel(),
+            v3 as f64 / e.voxels as f64,
         );
     }
     Ok(())

@@ -1,0 +1,90 @@
+//! Format 3.0 (bricks, `sdfmo_format::BrickOctree`) on the builder's real output: the five
+//! shared models, both methods, depths 8 and 9 (10 in release builds, run with
+//! `--ignored`). Every voxel of the 1.x octree equals the 3.0 view's answer, the 3.0 file
+//! decodes to the same 1.x bytes, and its size per voxel is what `docs/format-3.md` measured.
+
+use std::path::PathBuf;
+
+use sdfmo_build::{build, BuildSettings, Method};
+use sdfmo_format::{BrickOctree, BrickOctreeView, NodeRef, PackedOctree};
+
+const MODELS: [&str; 5] = ["abc1.stl", "abc3.stl", "abc5.stl", "abc8.stl", "teapot.obj"];
+const METHODS: [Method; 2] = [Method::Svo, Method::Multi { max_voxels: 8 }];
+
+fn load(name: &str) -> sdfmo_mesh::TriMesh {
+    let path = PathBuf::from(env!("SDFMO_TEST_DATA_DIR")).join(name);
+    sdfmo_mesh::load_mesh(&path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .mesh
+}
+
+/// Every voxel of `o` read back through the 3.0 view: codes and flags equal.
+fn assert_lossless(o: &PackedOctree, v: &BrickOctreeView<'_>, what: &str) {
+    assert_eq!(
+        (v.leaf_count(), v.voxel_count()),
+        (o.leaf_count(), o.voxel_count()),
+        "{what}"
+    );
+    let inner = o.inner_node_count() as u32;
+    for (j, coord) in o.leaf_coords().into_iter().enumerate() {
+        let voxels = o.leaf_voxels(NodeRef::from_index(inner + j as u32));
+        let leaf = v.find_leaf(coord).expect("leaf");
+        assert_eq!(leaf.voxel_count() as usize, voxels.len(), "{what} {coord:?}");
+        for (k, x) in voxels.enumerate() {
+            let k = k as u32;
+            assert_eq!(
+                v.voxel_codes(&leaf, k),
+                o.voxel_codes(x),
+                "{what} {coord:?} {k}"
+            );
+            assert_eq!(v.voxel_is_surface(&leaf, k), o.voxel_is_surface(x));
+            assert_eq!(v.voxel_is_clip(&leaf, k), o.voxel_is_clip(x));
+        }
+    }
+}
+
+/// Builds, encodes and checks every model and method at `depth`; the 3.0 bytes per voxel.
+fn check_depth(depth: u8) -> Vec<(String, f64)> {
+    let mut sizes = Vec::new();
+    for model in MODELS {
+        let mesh = load(model);
+        for method in METHODS {
+            let (o, _) = build(&mesh, &BuildSettings::new(depth, method), None).expect("build");
+            let what = format!("{model} {method:?} depth {depth}");
+            let b = BrickOctree::encode(&o).expect("encode");
+            let v = BrickOctreeView::new(b.as_bytes()).expect("valid 3.0 bytes");
+            assert_lossless(&o, &v, &what);
+            assert_eq!(b.to_octree(), o, "{what}: decodes to the same 1.x file");
+            let bpv = b.as_bytes().len() as f64 / o.voxel_count() as f64;
+            // docs/format-3.md: ≤ 5.0 bytes per voxel but on abc5's multi-octree at depths
+            // 8 and 9 (5.60 and 5.13 measured: a third of its voxels are private).
+            let bar = if model == "abc5.stl" && method != Method::Svo && depth < 10 {
+                5.7
+            } else {
+                5.0
+            };
+            assert!(bpv <= bar, "{what}: {bpv:.2} bytes per voxel");
+            sizes.push((what, bpv));
+        }
+    }
+    sizes
+}
+
+#[test]
+#[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
+fn shared_models_depth_8_are_lossless_in_format_3() {
+    assert_eq!(check_depth(8).len(), 10);
+}
+
+#[test]
+#[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
+fn shared_models_depth_9_are_lossless_in_format_3() {
+    assert_eq!(check_depth(9).len(), 10);
+}
+
+/// Depth 10 (3.3 M voxels per model at most): `cargo test --release -- --ignored`.
+#[test]
+#[ignore = "release only: cargo test --release -p sdfmo-build --test format_v3 -- --ignored"]
+fn shared_models_depth_10_are_lossless_in_format_3() {
+    assert_eq!(check_depth(10).len(), 10);
+}
