@@ -29,7 +29,11 @@ fn assert_lossless(o: &PackedOctree, v: &BrickOctreeView<'_>, what: &str) {
     for (j, coord) in o.leaf_coords().into_iter().enumerate() {
         let voxels = o.leaf_voxels(NodeRef::from_index(inner + j as u32));
         let leaf = v.find_leaf(coord).expect("leaf");
-        assert_eq!(leaf.voxel_count() as usize, voxels.len(), "{what} {coord:?}");
+        assert_eq!(
+            leaf.voxel_count() as usize,
+            voxels.len(),
+            "{what} {coord:?}"
+        );
         for (k, x) in voxels.enumerate() {
             let k = k as u32;
             assert_eq!(

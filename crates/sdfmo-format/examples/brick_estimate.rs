@@ -219,7 +219,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let traced = bytes.len();
         let octree = PackedOctree::from_vec(bytes)?;
         let e = estimate(&octree, traced);
-        let v3 = BrickOctree::encode(&octree)?.as_bytes().len();
+        let brick = BrickOctree::encode(&octree)?;
+        // Lossless, or no row: the 3.0 file decodes to the same 1.x bytes.
+        if brick.to_octree() != octree {
+            return Err(format!("{path}: the 3.0 encoding does not decode to the file").into());
+        }
+        let v3 = brick.as_bytes().len();
         let name = std::path::Path::new(&path)
             .file_name()
             .map_or(path.clone(), |n| n.to_string_lossy().into_owned());

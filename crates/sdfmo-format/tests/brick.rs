@@ -3,8 +3,7 @@
 
 mod common;
 
-use common::{clipped_shell_leaves, meta, shell_leaves};
-use sdfmo_format::testing::sphere_leaves;
+use common::{clipped_shell_leaves, meta, shape_leaves, shell_leaves};
 use sdfmo_format::{
     crc32, BrickLeaf, BrickNode, BrickOctree, BrickOctreeView, FormatError, LeafInput, NodeRef,
     OctreeMeta, PackedOctree, ValueBits, Voxel, BRICK_RECORD_SIZE, CHECKSUM_SIZE, V3_HEADER_FIELDS,
@@ -22,7 +21,7 @@ fn cases() -> Vec<PackedOctree> {
         for depth in [2, 3, 5, 6] {
             out.push(octree(depth, bits, shell_leaves(depth)));
             out.push(octree(depth, bits, clipped_shell_leaves(depth)));
-            out.push(octree(depth, bits, sphere_leaves(depth, 0.7)));
+            out.push(octree(depth, bits, shape_leaves(depth, false)));
         }
     }
     out
@@ -82,7 +81,7 @@ fn shells_share_most_leaves_and_keep_multi_and_surface_leaves_private() {
     }
     assert!(b.as_bytes().len() < o.as_bytes().len());
     // An SVO (every leaf one volume voxel) shares every leaf: under half the 1.x bytes.
-    let o = octree(6, ValueBits::Eight, sphere_leaves(6, 0.7));
+    let o = octree(6, ValueBits::Eight, shape_leaves(6, false));
     let b = BrickOctree::encode(&o).unwrap();
     assert_eq!(b.private_leaf_count(), 0);
     assert!(
@@ -186,7 +185,7 @@ fn empty_and_shallow_octrees() {
         ));
     }
     // Depth 2: the root is the one brick.
-    let o = octree(2, ValueBits::Eight, sphere_leaves(2, 0.7));
+    let o = octree(2, ValueBits::Eight, shape_leaves(2, false));
     let b = BrickOctree::encode(&o).unwrap();
     assert_eq!(b.root(), Some(BrickNode::Brick(0)));
     assert_eq!(b.upper_node_count(), 0);
@@ -210,7 +209,7 @@ fn extreme_codes_round_trip() {
                             y + (k as u32 >> 1 & 1),
                             z + (k as u32 & 1),
                         ];
-                        if (p[0] + p[1] + p[2]) % 2 == 0 {
+                        if (p[0] + p[1] + p[2]).is_multiple_of(2) {
                             big
                         } else {
                             -big
@@ -445,7 +444,7 @@ fn codes_outside_the_range_are_refused() {
     );
     // A plane that predicts +127 with a residual of +1 wraps to −128 at full width: find a
     // brick with 8-bit residuals and push its first point's residual to what decodes to −128.
-    let o = octree(5, ValueBits::Eight, sphere_leaves(5, 0.7));
+    let o = octree(5, ValueBits::Eight, shape_leaves(5, false));
     let bytes = BrickOctree::encode(&o).unwrap().into_bytes();
     let bricks = read_u64(&bytes, "bricks_offset") as usize;
     let res = read_u64(&bytes, "residuals_offset") as usize;

@@ -3,9 +3,10 @@
 
 use glam::Vec3;
 use sdfmo_format::{
-    FormatError, HeaderField, LeafInput, LodOctree, OctreeMeta, PackedOctree, ValueBits, Voxel,
+    plane_predict, point_mask, BrickNode, BrickOctree, BrickOctreeView, FormatError, HeaderField,
+    LeafInput, LodOctree, OctreeMeta, PackedOctree, ValueBits, Voxel, BRICK_RECORD_FIELDS,
     HEADER_FIELDS, HEADER_SIZE, LOD_HEADER_FIELDS, LOD_HEADER_FIXED, LOD_LEVEL_ENTRY,
-    LOD_LEVEL_FIELDS, LOD_TRAILER_FIELDS,
+    LOD_LEVEL_FIELDS, LOD_TRAILER_FIELDS, V3_HEADER_FIELDS, V3_HEADER_SIZE,
 };
 
 fn format_md() -> String {
@@ -194,4 +195,84 @@ fn docs_lod_example_matches_writer() {
         ));
     }
     assert_eq!(LodOctree::from_prefix(&bytes).unwrap().octree, lod);
+}
+
+/// The input of the 3.0 worked example (FORMAT.md, section "Bricks"): a depth-2 octree (one
+/// brick, the root) of two shared leaves and one private leaf of two voxels, its corners given
+/// as codes (`value = code · dmax / 127`).
+fn brick_example() -> PackedOctree {
+    let meta = OctreeMeta {
+        depth: 2,
+        bits: ValueBits::Eight,
+        center: Vec3::new(1.0, 0.0, -2.0),
+        scale: 0.5,
+    };
+    let v = |codes: [i8; 8], surface: bool| Voxel {
+        corners: codes.map(|c| f32::from(c) * meta.dmax() / 127.0),
+        surface,
+        clip: false,
+    };
+    let leaves = vec![
+        LeafInput {
+            coord: [0, 0, 0],
+            voxels: vec![v([10, 10, 6, 6, 30, 30, 26, 26], false)],
+        },
+        LeafInput {
+            coord: [1, 0, 0],
+            voxels: vec![v([30, 30, 26, 26, 50, 50, 46, 47], false)],
+        },
+        LeafInput {
+            coord: [0, 1, 1],
+            voxels: vec![
+                v([-5, 1, 7, 9, -3, 2, 8, 10], false),
+                v([4, 4, -4, -4, 4, 4, -4, -4], true),
+            ],
+        },
+    ];
+    PackedOctree::from_leaves(meta, leaves).unwrap()
+}
+
+/// The 3.0 header's table and the brick record's, row for row.
+#[test]
+fn docs_v3_tables_match_code() {
+    let md = format_md();
+    let header = documented_rows(&md, "## Bricks (version 3.0)");
+    assert_eq!(header, code_rows(&V3_HEADER_FIELDS, |o| o.to_string()));
+    let last = V3_HEADER_FIELDS.last().unwrap();
+    assert_eq!(last.offset + last.size, V3_HEADER_SIZE);
+    let record = documented_rows(&md, "## Bricks: records");
+    assert_eq!(record, code_rows(&BRICK_RECORD_FIELDS, |o| o.to_string()));
+}
+
+/// The 3.0 worked example: the encoder's bytes equal the dump, and the reading walked through
+/// in the text.
+#[test]
+fn docs_brick_example_matches_writer() {
+    let o = brick_example();
+    let b = BrickOctree::encode(&o).unwrap();
+    let bytes = b.as_bytes();
+    assert_eq!(bytes, documented_hex(&format_md(), "brick-example-hex"));
+    assert_eq!(bytes.len(), 260);
+    let v = BrickOctreeView::new(bytes).unwrap();
+    assert_eq!(v.to_octree(), o);
+    let root = v.root().unwrap();
+    assert_eq!(root, BrickNode::Brick(0));
+    assert_eq!(v.child_mask(root), 0x01);
+    let half = v.child(root, 0).unwrap();
+    assert_eq!(v.child_mask(half), 0x19);
+    let node = v.child(half, 4).unwrap();
+    assert_eq!(node, BrickNode::Leaf { brick: 0, cell: 4 });
+    let leaf = v.leaf(node).unwrap();
+    assert!(leaf.is_shared());
+    assert_eq!(v.voxel_codes(&leaf, 0), [30, 30, 26, 26, 50, 50, 46, 47]);
+    assert_eq!(v.find_leaf([1, 0, 0]), Some(leaf));
+    assert_eq!(point_mask(0x11).count_ones(), 12);
+    assert_eq!(
+        plane_predict([157, 322, -61, 3], [2, 1, 1], ValueBits::Eight),
+        46
+    );
+    let private = v.find_leaf([0, 1, 1]).unwrap();
+    assert_eq!(private.first_private_voxel(), Some(0));
+    assert_eq!(v.voxel_codes(&private, 0), [-5, 1, 7, 9, -3, 2, 8, 10]);
+    assert!(v.voxel_is_surface(&private, 1) && !v.voxel_is_surface(&private, 0));
 }
