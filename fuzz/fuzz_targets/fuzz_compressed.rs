@@ -16,9 +16,12 @@
 //! -o fuzz/corpus/fuzz_compressed/d4.smo` (`*.smo` is git-ignored), and the `fuzz_smo` seeds.
 #![no_main]
 
+mod smo_common;
+
 use libfuzzer_sys::fuzz_target;
 use sdfmo_format::compressed::{compress_with_level, decompress, is_compressed};
-use sdfmo_format::{crc32, SmoFile};
+use sdfmo_format::SmoFile;
+use smo_common::with_resealed;
 
 /// A bound on what one input may decode to (the container also caps it at 1024× its size).
 const MAX_DECODED: u64 = 64 << 20;
@@ -49,14 +52,7 @@ fn check_round_trip(smo: &[u8]) {
 }
 
 fuzz_target!(|data: &[u8]| {
-    check_container(data);
-    if data.len() >= 4 {
-        let mut sealed = data.to_vec();
-        let n = sealed.len();
-        let crc = crc32(&sealed[..n - 4]);
-        sealed[n - 4..].copy_from_slice(&crc.to_le_bytes());
-        check_container(&sealed);
-    }
+    with_resealed(data, check_container);
     // (`SmoFile::from_bytes` also reads containers: only a plain `.smo` is compressed here.)
     if !is_compressed(data) && data.len() as u64 <= MAX_DECODED && SmoFile::from_bytes(data).is_ok()
     {

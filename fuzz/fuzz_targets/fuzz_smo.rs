@@ -17,8 +17,11 @@
 //! `cargo run -p sdfmo-format --example smo_sizes -- --max-depth 4 --write fuzz/corpus/fuzz_smo`.
 #![no_main]
 
+mod smo_common;
+
 use libfuzzer_sys::fuzz_target;
-use sdfmo_format::{crc32, LeafInput, PackedOctree, PackedOctreeView, MAX_CLIP_VOXELS_PER_LEAF};
+use sdfmo_format::{LeafInput, PackedOctree, PackedOctreeView, MAX_CLIP_VOXELS_PER_LEAF};
+use smo_common::with_resealed;
 
 fn check(bytes: &[u8]) {
     let owned = PackedOctree::from_bytes(bytes);
@@ -88,12 +91,5 @@ fn check(bytes: &[u8]) {
 }
 
 fuzz_target!(|data: &[u8]| {
-    check(data);
-    if data.len() >= 4 {
-        let mut sealed = data.to_vec();
-        let n = sealed.len();
-        let crc = crc32(&sealed[..n - 4]);
-        sealed[n - 4..].copy_from_slice(&crc.to_le_bytes());
-        check(&sealed);
-    }
+    with_resealed(data, check);
 });

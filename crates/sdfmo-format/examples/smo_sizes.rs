@@ -8,7 +8,8 @@
 //! ```text
 //! cargo run -p sdfmo-format --example smo_sizes -- [--max-depth 8] [--write DIR]
 //! ```
-//! `--write DIR` also saves each octree as `DIR/<shape>_d<depth>_<bits>.smo`; `--time` also
+//! `--write DIR` also saves each octree as `DIR/<shape>_d<depth>_<bits>.smo` (and, of depth
+//! ≥ 2, its format-3.0 encoding as `….v3.smo`: seeds for `fuzz_v3`); `--time` also
 //! prints the best of 5 timings of `from_leaves`, `to_bytes`, `from_bytes` (validate + copy)
 //! and `PackedOctreeView::new` (validate only, read in place) — run it with `--release` for that.
 //! `--load FILE…` instead reports the sections and the load time of existing `.smo` files;
@@ -105,6 +106,20 @@ fn compressed_files(paths: Vec<String>, levels: &[i32]) -> Result<(), Box<dyn st
     Ok(())
 }
 
+/// Saves `o` as `DIR/NAME.smo` and, at depth ≥ 2, its 3.0 encoding as `DIR/NAME.v3.smo`.
+fn save(
+    dir: &std::path::Path,
+    name: &str,
+    o: &PackedOctree,
+) -> Result<(), Box<dyn std::error::Error>> {
+    o.save(&dir.join(format!("{name}.smo")))?;
+    if o.depth() >= sdfmo_format::BRICK_LEVELS {
+        let v3 = sdfmo_format::BrickOctree::encode(o)?;
+        std::fs::write(dir.join(format!("{name}.v3.smo")), v3.as_bytes())?;
+    }
+    Ok(())
+}
+
 /// Small files (fuzzing seeds): empty, a lone root leaf, a few leaves at depth 2 and 3, and a
 /// version-1.1 file with clip voxels (an intersect pair, a surface voxel with a clip-only one).
 fn write_tiny(dir: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
@@ -180,7 +195,7 @@ fn write_tiny(dir: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
             center: Vec3::new(1.0, 2.0, 3.0),
             scale: 0.5,
         };
-        PackedOctree::from_leaves(meta, leaves)?.save(&dir.join(format!("{name}.smo")))?;
+        save(dir, name, &PackedOctree::from_leaves(meta, leaves)?)?;
     }
     Ok(())
 }
@@ -264,7 +279,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 }
                 if let Some(dir) = &write {
                     std::fs::create_dir_all(dir)?;
-                    o.save(&dir.join(format!("{shape}_d{depth}_{}.smo", bits.bits())))?;
+                    save(dir, &format!("{shape}_d{depth}_{}", bits.bits()), &o)?;
                 }
             }
         }
