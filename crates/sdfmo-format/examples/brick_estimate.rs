@@ -22,12 +22,13 @@
 //! cargo run --release -p sdfmo-format --example brick_estimate -- FILE.smo… > estimate.csv
 //! ```
 //! One CSV row per file (8-bit `.smo` files with one level). The last columns are the file
-//! that [`BrickOctree::encode`] writes (format 3.0, the layout built): its bytes and bytes per
-//! voxel, to set beside the estimate.
+//! that [`BrickOctree::encode`] writes (format 3.0, the layout built): its bytes, bytes per
+//! voxel, and its residual bytes beside the estimate's (the plane fits differ: see
+//! `docs/format-3.md`).
 
 use std::collections::{HashMap, HashSet};
 
-use sdfmo_format::{BrickOctree, NodeRef, PackedOctree};
+use sdfmo_format::{fit_brick_plane, BrickOctree, NodeRef, PackedOctree, ValueBits};
 
 /// Integer grid point (a leaf corner) in `[0, 2^depth]³`.
 type Point = [u32; 3];
@@ -84,42 +85,14 @@ impl Estimate {
     }
 }
 
-/// Least-squares plane through `(local point, code)` (codes at ±`q` are clamped, left out), in
-/// 1/16 code units as stored.
-fn fit_plane(samples: &[([f64; 3], i32)], q: i32) -> [f64; 4] {
-    let mut ata = [[0f64; 4]; 4];
-    let mut atb = [0f64; 4];
-    for (x, code) in samples.iter().filter(|(_, c)| c.abs() < q) {
-        let row = [1.0, x[0], x[1], x[2]];
-        for i in 0..4 {
-            atb[i] += row[i] * f64::from(*code);
-            for j in 0..4 {
-                ata[i][j] += row[i] * row[j];
-            }
-        }
-    }
-    for (i, r) in ata.iter_mut().enumerate() {
-        r[i] += 1e-6; // a brick whose points are all clamped or collinear still solves
-    }
-    // Gauss-Jordan on the 4×4 normal equations (symmetric positive definite).
-    for i in 0..4 {
-        let pivot = ata[i][i];
-        for v in ata[i].iter_mut() {
-            *v /= pivot;
-        }
-        atb[i] /= pivot;
-        let (pivot_row, pivot_rhs) = (ata[i], atb[i]);
-        for (k, (row, rhs)) in ata.iter_mut().zip(atb.iter_mut()).enumerate() {
-            if k != i {
-                let f = row[i];
-                for (v, p) in row.iter_mut().zip(pivot_row) {
-                    *v -= f * p;
-                }
-                *rhs -= f * pivot_rhs;
-            }
-        }
-    }
-    atb.map(|c| (c * 16.0).round() / 16.0)
+/// The encoder's least-squares plane ([`fit_brick_plane`]) through `(local point, code)`, in
+/// code units.
+fn fit_plane(samples: &[([f64; 3], i32)]) -> [f64; 4] {
+    let points: Vec<([u32; 3], i32)> = samples
+        .iter()
+        .map(|(p, c)| (p.map(|x| x as u32), *c))
+        .collect();
+    fit_brick_plane(&points, ValueBits::Eight).map(|t| f64::from(t) / 16.0)
 }
 
 /// The residual width (0, 2, 4 or 8 bits) that stores every point of the brick losslessly.
@@ -195,7 +168,7 @@ fn estimate(octree: &PackedOctree, traced_bytes: usize) -> Estimate {
             .iter()
             .map(|(p, &c)| ([0, 1, 2].map(|a| f64::from(p[a]) - origin[a]), c))
             .collect();
-        let width = residual_width(&samples, fit_plane(&samples, q), q);
+        let width = residual_width(&samples, fit_plane(&samples), q);
         e.widths[match width {
             0 => 0,
             2 => 1,
@@ -212,7 +185,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!(
         "file,voxels,traced_bytes,traced_bpv,upper_nodes,bricks,private_leaves,private_voxels,\
          points,points_per_voxel,bricks_w0,bricks_w2,bricks_w4,bricks_w8,plain_bpv,predicted_bpv,\
-         v3_bytes,v3_bpv"
+         v3_bytes,v3_bpv,estimated_residual_bytes,v3_residual_bytes"
     );
     for path in std::env::args().skip(1) {
         let bytes = std::fs::read(&path)?;
@@ -225,11 +198,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             return Err(format!("{path}: the 3.0 encoding does not decode to the file").into());
         }
         let v3 = brick.as_bytes().len();
+        let v3_residuals = brick
+            .section_sizes()
+            .iter()
+            .find(|(name, _)| *name == "residuals")
+            .map_or(0, |&(_, size)| size);
         let name = std::path::Path::new(&path)
             .file_name()
             .map_or(path.clone(), |n| n.to_string_lossy().into_owned());
         println!(
-            "{name},{},{},{:.2},{},{},{},{},{},{:.2},{},{},{},{},{:.2},{:.2},{v3},{:.2}",
+            "{name},{},{},{:.2},{},{},{},{},{},{:.2},{},{},{},{},{:.2},{:.2},{v3},{:.2},{},{v3_residuals}",
             e.voxels,
             e.traced_bytes,
             e.traced_bytes as f64 / e.voxels as f64,
@@ -246,6 +224,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             e.plain_bytes_per_voxel(),
             e.predicted_bytes_per_voxel(),
             v3 as f64 / e.voxels as f64,
+            (e.predicted_point_bits - 72 * e.bricks).div_ceil(8),
         );
     }
     Ok(())

@@ -35,7 +35,9 @@ use crate::octree::{
     byte_sum, bytes_at, group_at, inner_levels, low_bits, put_group, to_u32, write_node_groups,
 };
 use crate::quant::{dequant_scale, max_code};
-use crate::validate::{check_magic, validate_node_groups, walk_groups};
+use crate::validate::{
+    check_codes, check_magic, check_major, check_sizes, validate_node_groups, walk_groups,
+};
 use crate::{
     morton, LeafInput, NodeRef, Octree, OctreeMeta, PackedOctree, ValueBits, Voxel,
     MAX_CLIP_VOXELS_PER_LEAF, MAX_DEPTH,
@@ -362,10 +364,12 @@ fn fits(residuals: &[i32], w: u32) -> bool {
     }
 }
 
-/// Least-squares plane through `(brick point, code)` (codes at ±`Q` are clamped and left out),
-/// in 1/2^f code units, rounded and clamped to `i16`. The same fit as the `brick_estimate`
-/// example, over the points in grid order (deterministic).
-fn fit_plane(samples: &[([u32; 3], i32)], bits: ValueBits) -> [i16; 4] {
+/// The least-squares plane through `(brick point, code)` samples (codes at ±`Q` are clamped
+/// and left out) in 1/2^[`plane_fraction_bits`](crate::plane_fraction_bits) code units,
+/// rounded and clamped to `i16`: the plane the encoder starts from (it may then move it by
+/// whole codes, see [`BrickOctree::encode`]). The `brick_estimate` example sized the design
+/// with it.
+pub fn fit_brick_plane(samples: &[([u32; 3], i32)], bits: ValueBits) -> [i16; 4] {
     let q = max_code(bits);
     let mut ata = [[0f64; 4]; 4];
     let mut atb = [0f64; 4];
@@ -422,7 +426,7 @@ fn encode_points(samples: &[([u32; 3], i32)], bits: ValueBits) -> ([i16; 4], u32
         // The last width always fits: its residuals wrap (`wrap`).
         (0..3).find(|&k| fits(r, widths[k])).unwrap_or(3) as u32
     };
-    let plane = fit_plane(samples, bits);
+    let plane = fit_brick_plane(samples, bits);
     let r = residuals(plane);
     let code = width_code(&r);
     if code == 0 {
@@ -1133,39 +1137,16 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, V3Counts, V3Layout)> {
         });
     }
     let h = V3Header::read(bytes);
-    let (major, minor) = (h.version_major, h.version_minor);
-    if major != V3_VERSION_MAJOR {
-        return Err(FormatError::UnsupportedVersion {
-            major,
-            minor,
-            supported: V3_VERSION_MAJOR,
-        });
-    }
+    check_major(h.version_major, h.version_minor, V3_VERSION_MAJOR)?;
     let header_size = u64::from(h.header_size);
-    if header_size < V3_HEADER_SIZE as u64 || header_size % 8 != 0 {
-        return corrupt(
-            "header_size",
-            format!("{header_size} (must be a multiple of 8, at least {V3_HEADER_SIZE})"),
-        );
-    }
-    if h.file_size > len as u64 {
-        return Err(FormatError::Truncated {
-            len,
-            needed: h.file_size,
-        });
-    }
-    if h.file_size < len as u64 {
-        return corrupt(
-            "file_size",
-            format!("{}, but {len} bytes follow", h.file_size),
-        );
-    }
-    if header_size + CHECKSUM_SIZE as u64 > len as u64 {
-        return corrupt(
-            "file_size",
-            format!("{len} is smaller than header + checksum"),
-        );
-    }
+    let min_len = header_size + CHECKSUM_SIZE as u64;
+    check_sizes(
+        header_size,
+        V3_HEADER_SIZE,
+        h.file_size,
+        len as u64,
+        min_len,
+    )?;
     let crc_at = len - CHECKSUM_SIZE;
     let stored = u32::from_le_bytes(bytes_at::<4>(bytes, crc_at));
     let computed = crc32(&bytes[..crc_at]);
@@ -1353,23 +1334,7 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, V3Counts, V3Layout)> {
         );
     }
     validate_flags(section(layout.private_flags), private_leaves, &c)?;
-    let corners = section(layout.private_corners);
-    let bad = match bits {
-        ValueBits::Eight => corners.iter().position(|&b| b as i8 == i8::MIN),
-        ValueBits::Sixteen => corners
-            .chunks_exact(2)
-            .position(|x| i16::from_le_bytes([x[0], x[1]]) == i16::MIN),
-    };
-    if let Some(i) = bad {
-        return corrupt(
-            "private_corners",
-            format!(
-                "code {} at value {i} is outside ±{}",
-                -max_code(bits) - 1,
-                max_code(bits)
-            ),
-        );
-    }
+    check_codes("private_corners", section(layout.private_corners), bits)?;
     Ok((meta, c, layout))
 }
 

@@ -24,6 +24,7 @@ use crate::error::{FormatError, Result};
 use crate::header::lod_header_size;
 use crate::header::{Header, Layout, CHECKSUM_SIZE, FORMAT_VERSION_MAJOR, HEADER_SIZE, MAGIC};
 use crate::lod::{LodOctree, SmoFile};
+use crate::validate::check_major;
 use crate::{PackedOctreeView, ValueBits, MAX_DEPTH};
 
 /// The first eight bytes of a compressed file: `\x89 S M Z \r \n \x1a \n` (the `.smo` magic with
@@ -219,13 +220,7 @@ fn read_container(bytes: &[u8], max_decoded: u64) -> Result<Container> {
         });
     }
     let (major, minor) = (u16_at(bytes, 8), u16_at(bytes, 10));
-    if major != COMPRESSED_VERSION_MAJOR {
-        return Err(FormatError::UnsupportedVersion {
-            major,
-            minor,
-            supported: COMPRESSED_VERSION_MAJOR,
-        });
-    }
+    check_major(major, minor, COMPRESSED_VERSION_MAJOR)?;
     let stored = u32::from_le_bytes(bytes_at(bytes, len - 4));
     let computed = crc32(&bytes[..len - 4]);
     if stored != computed {
@@ -731,25 +726,20 @@ trait Code: Copy {
     fn sub(self, other: Self) -> Self;
 }
 
-impl Code for u8 {
-    const ZERO: u8 = 0;
-    fn add(self, other: u8) -> u8 {
-        self.wrapping_add(other)
-    }
-    fn sub(self, other: u8) -> u8 {
-        self.wrapping_sub(other)
-    }
+macro_rules! code_impl {
+    ($($t:ty),*) => {$(
+        impl Code for $t {
+            const ZERO: $t = 0;
+            fn add(self, other: $t) -> $t {
+                self.wrapping_add(other)
+            }
+            fn sub(self, other: $t) -> $t {
+                self.wrapping_sub(other)
+            }
+        }
+    )*};
 }
-
-impl Code for u16 {
-    const ZERO: u16 = 0;
-    fn add(self, other: u16) -> u16 {
-        self.wrapping_add(other)
-    }
-    fn sub(self, other: u16) -> u16 {
-        self.wrapping_sub(other)
-    }
-}
+code_impl!(u8, u16);
 
 /// Little-endian 16-bit codes as numbers.
 fn words(bytes: &[u8]) -> Vec<u16> {

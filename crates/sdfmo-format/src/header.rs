@@ -61,7 +61,7 @@ const fn field(name: &'static str, offset: usize, size: usize) -> HeaderField {
     HeaderField { name, offset, size }
 }
 
-/// The fields every `.smo` header starts with, 1.x and 2.0 alike: a reader tells the versions
+/// The fields every `.smo` header starts with, 1.x, 2.0 and 3.0 alike: a reader tells the versions
 /// apart by them.
 const PREAMBLE: [HeaderField; 5] = [
     field("magic", 0, 8),
@@ -71,44 +71,58 @@ const PREAMBLE: [HeaderField; 5] = [
     field("flags", 16, 4),
 ];
 
-/// [`PREAMBLE`] followed by `rest`, as one table of `N` fields (compile time).
-const fn after_preamble<const N: usize>(rest: &[HeaderField]) -> [HeaderField; N] {
-    assert!(PREAMBLE.len() + rest.len() == N);
-    let mut table = [field("", 0, 0); N];
-    let mut i = 0;
-    while i < N {
-        table[i] = if i < PREAMBLE.len() {
-            PREAMBLE[i]
-        } else {
-            rest[i - PREAMBLE.len()]
-        };
-        i += 1;
-    }
-    table
-}
-
-/// The version-1.0 header, field by field, in order (contiguous, 128 bytes).
-pub const HEADER_FIELDS: [HeaderField; 25] = after_preamble(&[
+/// Depth, value bits and a reserved u16 at bytes 20–24: the 1.x and 3.0 headers.
+const GRID: [HeaderField; 3] = [
     field("depth", 20, 1),
     field("value_bits", 21, 1),
     field("reserved", 22, 2),
+];
+
+/// The normalisation transform at bytes 24–40: every header (1.x, 2.0, 3.0).
+const TRANSFORM: [HeaderField; 4] = [
     field("center_x", 24, 4),
     field("center_y", 28, 4),
     field("center_z", 32, 4),
     field("scale", 36, 4),
-    field("inner_node_count", 40, 4),
-    field("leaf_count", 44, 4),
-    field("voxel_count", 48, 4),
-    field("surface_voxel_count", 52, 4),
-    field("file_size", 56, 8),
-    field("nodes_offset", 64, 8),
-    field("nodes_size", 72, 8),
-    field("leaves_offset", 80, 8),
-    field("leaves_size", 88, 8),
-    field("surface_offset", 96, 8),
-    field("surface_size", 104, 8),
-    field("corners_offset", 112, 8),
-    field("corners_size", 120, 8),
+];
+
+/// `parts` one after the other, as one table of `N` fields (compile time).
+const fn joined<const N: usize>(parts: &[&[HeaderField]]) -> [HeaderField; N] {
+    let mut table = [field("", 0, 0); N];
+    let (mut n, mut p) = (0, 0);
+    while p < parts.len() {
+        let mut i = 0;
+        while i < parts[p].len() {
+            table[n] = parts[p][i];
+            n += 1;
+            i += 1;
+        }
+        p += 1;
+    }
+    assert!(n == N);
+    table
+}
+
+/// The version-1.0 header, field by field, in order (contiguous, 128 bytes).
+pub const HEADER_FIELDS: [HeaderField; 25] = joined(&[
+    &PREAMBLE,
+    &GRID,
+    &TRANSFORM,
+    &[
+        field("inner_node_count", 40, 4),
+        field("leaf_count", 44, 4),
+        field("voxel_count", 48, 4),
+        field("surface_voxel_count", 52, 4),
+        field("file_size", 56, 8),
+        field("nodes_offset", 64, 8),
+        field("nodes_size", 72, 8),
+        field("leaves_offset", 80, 8),
+        field("leaves_size", 88, 8),
+        field("surface_offset", 96, 8),
+        field("surface_size", 104, 8),
+        field("corners_offset", 112, 8),
+        field("corners_size", 120, 8),
+    ],
 ]);
 
 /// Major version of a file with levels of detail (the 1.x layout is one octree; 2.0 is a
@@ -125,17 +139,16 @@ pub const LOD_HEADER_TRAILER: usize = 8;
 
 /// The fixed part of the version-2.0 header (a file with levels), field by field, in order
 /// (contiguous, [`LOD_HEADER_FIXED`] bytes); the level table follows at byte 64.
-pub const LOD_HEADER_FIELDS: [HeaderField; 15] = after_preamble(&[
-    field("depth", 20, 1),
-    field("coarsest", 21, 1),
-    field("level_count", 22, 1),
-    field("value_bits", 23, 1),
-    field("center_x", 24, 4),
-    field("center_y", 28, 4),
-    field("center_z", 32, 4),
-    field("scale", 36, 4),
-    field("file_size", 40, 8),
-    field("reserved", 48, 16),
+pub const LOD_HEADER_FIELDS: [HeaderField; 15] = joined(&[
+    &PREAMBLE,
+    &[
+        field("depth", 20, 1),
+        field("coarsest", 21, 1),
+        field("level_count", 22, 1),
+        field("value_bits", 23, 1),
+    ],
+    &TRANSFORM,
+    &[field("file_size", 40, 8), field("reserved", 48, 16)],
 ]);
 
 /// One entry of the 2.0 level table: offsets from the entry's start, which is byte
@@ -155,35 +168,33 @@ pub const V3_VERSION_MINOR: u16 = 0;
 pub const V3_HEADER_SIZE: usize = 176;
 
 /// The version-3.0 header, field by field, in order (contiguous, [`V3_HEADER_SIZE`] bytes).
-pub const V3_HEADER_FIELDS: [HeaderField; 33] = after_preamble(&[
-    field("depth", 20, 1),
-    field("value_bits", 21, 1),
-    field("reserved", 22, 2),
-    field("center_x", 24, 4),
-    field("center_y", 28, 4),
-    field("center_z", 32, 4),
-    field("scale", 36, 4),
-    field("upper_node_count", 40, 4),
-    field("brick_count", 44, 4),
-    field("leaf_count", 48, 4),
-    field("voxel_count", 52, 4),
-    field("surface_voxel_count", 56, 4),
-    field("clip_voxel_count", 60, 4),
-    field("private_leaf_count", 64, 4),
-    field("private_voxel_count", 68, 4),
-    field("file_size", 72, 8),
-    field("nodes_offset", 80, 8),
-    field("nodes_size", 88, 8),
-    field("bricks_offset", 96, 8),
-    field("bricks_size", 104, 8),
-    field("residuals_offset", 112, 8),
-    field("residuals_size", 120, 8),
-    field("private_leaves_offset", 128, 8),
-    field("private_leaves_size", 136, 8),
-    field("private_flags_offset", 144, 8),
-    field("private_flags_size", 152, 8),
-    field("private_corners_offset", 160, 8),
-    field("private_corners_size", 168, 8),
+pub const V3_HEADER_FIELDS: [HeaderField; 33] = joined(&[
+    &PREAMBLE,
+    &GRID,
+    &TRANSFORM,
+    &[
+        field("upper_node_count", 40, 4),
+        field("brick_count", 44, 4),
+        field("leaf_count", 48, 4),
+        field("voxel_count", 52, 4),
+        field("surface_voxel_count", 56, 4),
+        field("clip_voxel_count", 60, 4),
+        field("private_leaf_count", 64, 4),
+        field("private_voxel_count", 68, 4),
+        field("file_size", 72, 8),
+        field("nodes_offset", 80, 8),
+        field("nodes_size", 88, 8),
+        field("bricks_offset", 96, 8),
+        field("bricks_size", 104, 8),
+        field("residuals_offset", 112, 8),
+        field("residuals_size", 120, 8),
+        field("private_leaves_offset", 128, 8),
+        field("private_leaves_size", 136, 8),
+        field("private_flags_offset", 144, 8),
+        field("private_flags_size", 152, 8),
+        field("private_corners_offset", 160, 8),
+        field("private_corners_size", 168, 8),
+    ],
 ]);
 
 /// Bytes of one brick record (section `bricks` of a 3.0 file).

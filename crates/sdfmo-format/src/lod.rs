@@ -15,7 +15,7 @@ use crate::header::{
     align8, lod_header_size, LevelValues, LodHeaderValues, TrailerValues, LOD_HEADER_FIXED,
     LOD_HEADER_TRAILER, LOD_LEVEL_ENTRY, LOD_VERSION_MAJOR, LOD_VERSION_MINOR, MAGIC,
 };
-use crate::validate::{check_header_size, check_magic};
+use crate::validate::{check_header_size, check_magic, check_major};
 use crate::{
     OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, FORMAT_VERSION_MAJOR, MAX_DEPTH,
     MAX_FILE_SIZE,
@@ -107,13 +107,7 @@ fn read_header(bytes: &[u8]) -> Result<LodHeader> {
     // Zero-padded: the version is read (and a newer major refused) before the length check.
     let h = fixed_header(bytes);
     let (major, minor) = (h.version_major, h.version_minor);
-    if major != LOD_VERSION_MAJOR {
-        return Err(FormatError::UnsupportedVersion {
-            major,
-            minor,
-            supported: LOD_VERSION_MAJOR,
-        });
-    }
+    check_major(major, minor, LOD_VERSION_MAJOR)?;
     if len < LOD_HEADER_FIXED {
         return Err(FormatError::Truncated {
             len,

@@ -73,37 +73,62 @@ pub(crate) fn check_header_size(head: &[u8], len: u64) -> Result<Header> {
     }
     let h = Header::read(head);
     let (major, minor) = (h.version_major, h.version_minor);
-    if major != FORMAT_VERSION_MAJOR {
+    check_major(major, minor, FORMAT_VERSION_MAJOR)?;
+    check_sizes(
+        u64::from(h.header_size),
+        HEADER_SIZE,
+        h.file_size,
+        len,
+        (HEADER_SIZE + CHECKSUM_SIZE) as u64,
+    )?;
+    Ok(h)
+}
+
+/// A reader of major version `supported` refuses any other: [`FormatError::UnsupportedVersion`].
+pub(crate) fn check_major(major: u16, minor: u16, supported: u16) -> Result<()> {
+    if major != supported {
         return Err(FormatError::UnsupportedVersion {
             major,
             minor,
-            supported: FORMAT_VERSION_MAJOR,
+            supported,
         });
     }
-    let header_size = u64::from(h.header_size);
-    if header_size < HEADER_SIZE as u64 || header_size % 8 != 0 {
+    Ok(())
+}
+
+/// The size checks of a `.smo` header, 1.x and 3.0 alike: `header_size` a multiple of 8 and at
+/// least `min_header`; the declared `file_size` equal to the length `len` (more is
+/// [`FormatError::Truncated`], less is trailing bytes); `len` at least `min_len`.
+pub(crate) fn check_sizes(
+    header_size: u64,
+    min_header: usize,
+    file_size: u64,
+    len: u64,
+    min_len: u64,
+) -> Result<()> {
+    if header_size < min_header as u64 || !header_size.is_multiple_of(8) {
         return corrupt(
             "header_size",
-            format!("{header_size} (must be a multiple of 8, at least {HEADER_SIZE})"),
+            format!("{header_size} (must be a multiple of 8, at least {min_header})"),
         );
     }
-    let file_size = h.file_size;
     if file_size > len {
         return Err(FormatError::Truncated {
-            len: len_usize,
+            // The length as `Truncated` reports it (saturated on 32-bit targets).
+            len: usize::try_from(len).unwrap_or(usize::MAX),
             needed: file_size,
         });
     }
     if file_size < len {
         return corrupt("file_size", format!("{file_size}, but {len} bytes follow"));
     }
-    if len < (HEADER_SIZE + CHECKSUM_SIZE) as u64 {
+    if len < min_len {
         return corrupt(
             "file_size",
             format!("{len} is smaller than header + checksum"),
         );
     }
-    Ok(h)
+    Ok(())
 }
 
 /// The checks of [`Octree::new`], in order; on success the octree's description.
@@ -401,26 +426,32 @@ impl SectionBytes<'_> {
     }
 
     fn validate_corners(&self) -> Result<()> {
-        let bad = match self.meta.bits {
-            ValueBits::Eight => self.corners.iter().position(|&b| b as i8 == i8::MIN),
-            ValueBits::Sixteen => self
-                .corners
-                .chunks_exact(2)
-                .position(|c| i16::from_le_bytes([c[0], c[1]]) == i16::MIN),
-        };
-        if let Some(i) = bad {
-            return corrupt(
-                "corners",
-                format!(
-                    "code {} at value {i} is outside ±{}",
-                    -max_code(self.meta.bits) - 1,
-                    max_code(self.meta.bits)
-                ),
-            );
-        }
-        Ok(())
+        check_codes("corners", self.corners, self.meta.bits)
     }
 }
+
+/// Every code of `corners` (a section of 8- or 16-bit codes) within `−Q..=Q`: the one code
+/// outside (−2^(bits−1)) is refused, naming `section`.
+pub(crate) fn check_codes(section: &'static str, corners: &[u8], bits: ValueBits) -> Result<()> {
+    let bad = match bits {
+        ValueBits::Eight => corners.iter().position(|&b| b as i8 == i8::MIN),
+        ValueBits::Sixteen => corners
+            .chunks_exact(2)
+            .position(|c| i16::from_le_bytes([c[0], c[1]]) == i16::MIN),
+    };
+    if let Some(i) = bad {
+        return corrupt(
+            section,
+            format!(
+                "code {} at value {i} is outside ±{}",
+                -max_code(bits) - 1,
+                max_code(bits)
+            ),
+        );
+    }
+    Ok(())
+}
+
 /// The node groups `nodes` of a tree whose `inner` inner nodes fill levels `0..depth` and
 /// whose `leaves` nodes sit at level `depth` (the leaves of a 1.x file, the bricks of a 3.0
 /// file): every first-child base, padding mask and level. O(nodes).
