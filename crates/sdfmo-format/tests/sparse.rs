@@ -6,41 +6,11 @@
 
 mod common;
 
-use std::path::Path;
 use std::time::{Duration, Instant};
 
 use common::{meta, shell_leaves};
 use sdfmo_format::{read_smo, FormatError, LodOctree, PackedOctree, SmoFile, SmoRead, ValueBits};
-
-/// Peak resident memory of this process in bytes since the last [`reset_peak_rss`] (Linux:
-/// `VmHWM` of `/proc/self/status`), or `None` elsewhere.
-fn peak_rss() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
-}
-
-/// Resets the peak that [`peak_rss`] reports to the current resident memory (Linux >= 4.0).
-fn reset_peak_rss() {
-    let _ = std::fs::write("/proc/self/clear_refs", "5");
-}
-
-const SPARSE_LEN: u64 = 3 << 30;
-
-/// `bytes` written to `name` in `dir`, the file then extended to 3 GiB without writing (a
-/// sparse file: the tail reads as zeros and takes no disk).
-fn sparse_file(dir: &Path, name: &str, bytes: &[u8]) -> std::path::PathBuf {
-    let path = dir.join(name);
-    std::fs::write(&path, bytes).unwrap();
-    std::fs::OpenOptions::new()
-        .write(true)
-        .open(&path)
-        .unwrap()
-        .set_len(SPARSE_LEN)
-        .unwrap();
-    path
-}
+use sdfmo_testdata::sparse::{peak_rss, reset_peak_rss, sparse_file, SPARSE_LEN};
 
 /// Runs `load` and checks it failed within a second and 100 MB of peak memory.
 fn refused_quickly(what: &str, load: impl FnOnce() -> Result<(), FormatError>) -> FormatError {

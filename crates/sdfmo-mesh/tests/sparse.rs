@@ -5,42 +5,14 @@
 //!
 //! This file holds one test so that the process's peak resident memory is this test's alone.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
 use sdfmo_mesh::procedural::box_mesh;
 use sdfmo_mesh::write::{to_glb, to_stl_binary};
 use sdfmo_mesh::{load_mesh, MeshError};
-
-/// Peak resident memory of this process in bytes since the last [`reset_peak_rss`] (Linux:
-/// `VmHWM` of `/proc/self/status`), or `None` elsewhere.
-fn peak_rss() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
-}
-
-/// Resets the peak that [`peak_rss`] reports to the current resident memory (Linux >= 4.0).
-fn reset_peak_rss() {
-    let _ = std::fs::write("/proc/self/clear_refs", "5");
-}
-
-const SPARSE_LEN: u64 = 3 << 30;
-
-/// `bytes` written to `name` in `dir`, the file then extended to 3 GiB without writing.
-fn sparse_file(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
-    let path = dir.join(name);
-    std::fs::write(&path, bytes).unwrap();
-    std::fs::OpenOptions::new()
-        .write(true)
-        .open(&path)
-        .unwrap()
-        .set_len(SPARSE_LEN)
-        .unwrap();
-    path
-}
+use sdfmo_testdata::sparse::{peak_rss, reset_peak_rss, sparse_file};
 
 /// Loads `path`, checks it failed within a second and 100 MB of peak memory.
 fn refused_quickly(path: &Path) -> MeshError {

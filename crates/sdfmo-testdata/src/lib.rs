@@ -34,6 +34,8 @@
 //! `SDFMO_TEST_DATA` once, or `cargo clean -p CRATE`.
 #![deny(missing_docs)]
 
+pub mod sparse;
+
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 
