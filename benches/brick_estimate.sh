@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Traced bytes per voxel of the candidate brick layout (docs/format-3.md), estimated exactly from
-# today's files: the five shared models at depths 8-10, both methods, built by the release CLI,
-# then counted by sdfmo-format's brick_estimate example. Sizes only (no timing).
+# Traced bytes per voxel of the brick layout (format 3.0, docs/format-3.md): estimated from
+# today's files and measured on their 3.0 encoding (checked lossless), the five shared models at
+# depths 8-10, both methods, built by the release CLI, then counted by sdfmo-format's
+# brick_estimate example. Sizes only (no timing).
 #
 #   benches/brick_estimate.sh > docs/results/format/brick-estimate.csv
 set -euo pipefail
