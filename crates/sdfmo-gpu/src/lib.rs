@@ -16,7 +16,8 @@
 //! - [`render_wgsl`] (`src/render.wgsl` after the uniform struct generated from the host's):
 //!   one primary ray per pixel, shaded as `sdfmo-render`
 //!   shades it (mask, depth, normal, lambert; no shadows or occlusion), the entry point
-//!   [`ENTRY_POINT`] with workgroups of [`WORKGROUP_SIZE`]².
+//!   [`ENTRY_POINT`] with workgroups of [`WORKGROUP_SIZE`]², one per listed tile; the tiles
+//!   whose rays all miss the octree's occupied box go to [`BACKGROUND_ENTRY_POINT`] instead.
 //!
 //! # Binding layout
 //!
@@ -29,8 +30,9 @@
 //! | 2 | storage, read_write | `pixels: array<SmoPixel>` | per pixel: viewer-facing normal (vec3) and t (`3e38` for the background) |
 //! | 3 | storage, read_write | `colors: array<u32>` | per pixel: `0x00BBGGRR` |
 //! | 4 | storage, read | `rays: array<vec4<f32>>` | the camera's column and row terms ([`sdfmo_render::CameraFrame::column`], [`row`](sdfmo_render::CameraFrame::row)) as double-float pairs: every column's (hi.xyz, 0), (lo.xyz, 0), then every row's |
+//! | 5 | storage, read | `tiles: array<u32>` | the tiles of [`WORKGROUP_SIZE`]² pixels the dispatch draws, tile (x, y) as `x \| y << 16`: [`ENTRY_POINT`] traces the tiles whose rays may meet the octree's occupied box, [`BACKGROUND_ENTRY_POINT`] fills the others |
 //!
-//! Only binding 0 belongs to the library ([`trace_wgsl`]); 1–4 are [`render_wgsl`]'s. The kernel
+//! Only binding 0 belongs to the library ([`trace_wgsl`]); 1–5 are [`render_wgsl`]'s. The kernel
 //! reads the header's counts and section offsets itself; the one value the host passes is
 //! the dequantisation factor `diagonal / Q` ([`GpuOctree::dequant`], computed in f64 by
 //! `sdfmo_format::quant::dequant_scale` so the corners decode exactly as on the CPU).
@@ -195,10 +197,16 @@ pub fn render_wgsl() -> String {
     format!("{}\n{RENDER_WGSL_BODY}", renderer::params_wgsl())
 }
 
-/// The compute entry point of [`render_wgsl`].
+/// The compute entry point of [`render_wgsl`] that traces: each workgroup draws one listed tile
+/// of [`WORKGROUP_SIZE`]² pixels (binding 5).
 pub const ENTRY_POINT: &str = "smo_render";
 
-/// Workgroup edge of [`ENTRY_POINT`] (`@workgroup_size(8, 8, 1)`).
+/// The entry point of [`render_wgsl`] that fills the listed tiles with background, without
+/// tracing (the tiles no primary ray of which meets the octree's occupied box).
+pub const BACKGROUND_ENTRY_POINT: &str = "smo_background";
+
+/// Workgroup edge of [`ENTRY_POINT`] and [`BACKGROUND_ENTRY_POINT`] (`@workgroup_size(8, 8,
+/// 1)`), the edge of a tile.
 pub const WORKGROUP_SIZE: u32 = 8;
 
 /// The complete shader module: [`trace_wgsl`] followed by [`render_wgsl`].

@@ -13,6 +13,8 @@
 //   binding 2  storage, read_write  pixels: array<SmoPixel>  per pixel: normal, t
 //   binding 3  storage, read_write  colors: array<u32>       per pixel: 0x00BBGGRR, 8 bits each
 //   binding 4  storage, read        rays: array<vec4<f32>>   the camera's ray terms (below)
+//   binding 5  storage, read        tiles: array<u32>        the 8 × 8 pixel tiles the dispatch
+//                                                            draws, tile (x, y) as x | y << 16
 //
 // Ray directions are rounded to f32 from the exact (f64) value, as the CPU renderer rounds its
 // own: the host passes, as double-float pairs (hi = f32(x), lo = f32(x − hi)), the column term
@@ -20,8 +22,16 @@
 // term v·up of every row (entries 2·width + 2·py, + 1). The kernel adds them and normalises in
 // double-float arithmetic (error-free transformations with fma) before rounding once, so a
 // direction matches the CPU's bit for bit except within ~2^-20 ulp of a rounding tie.
-// Pixels are row-major from the top-left, `y · width + x`. Dispatch ⌈width/8⌉ × ⌈height/8⌉
-// workgroups of 8 × 8.
+// Pixels are row-major from the top-left, `y · width + x`.
+//
+// TILES. Each workgroup of 8 × 8 draws the tile `tiles[wg.y · groups.x + wg.x]` (none past the
+// list's end). The host splits the image's tiles into two lists (renderer.rs): those whose
+// rays may meet the octree's occupied box, drawn by `smo_render`, and the others, background
+// by construction, filled by `smo_background`, which holds no traversal code. Why: lavapipe
+// runs every instruction of a shader for a SIMD group even when no lane takes the branch, so
+// a traced tile costs the whole kernel's code once even if all its rays miss (an empty 1024²
+// frame took 440 ms of a ~520 ms frame before this split); on a GPU the culled tiles also
+// cost nothing but their writes.
 
 /// One pixel's hit: the viewer-facing unit normal (0 for the background and in the mask and
 /// depth modes) and the ray parameter (SMO_FAR for the background).
@@ -34,6 +44,7 @@ struct SmoPixel {
 @group(0) @binding(2) var<storage, read_write> pixels: array<SmoPixel>;
 @group(0) @binding(3) var<storage, read_write> colors: array<u32>;
 @group(0) @binding(4) var<storage, read> rays: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read> tiles: array<u32>;
 
 /// a + b exactly, as (sum, error) (Knuth's TwoSum).
 fn smo_two_sum(a: f32, b: f32) -> vec2<f32> {
@@ -97,19 +108,49 @@ fn smo_to_u8(value: f32) -> u32 {
     return u32(floor(clamp(value, 0.0, 1.0) * 255.0 + 0.5));
 }
 
+/// The pixel this invocation draws: (x, y, 1), or (0, 0, 0) past the tile list or the image.
+fn smo_tile_pixel(wg: vec3<u32>, groups: vec3<u32>, local: vec3<u32>) -> vec3<u32> {
+    let k = wg.y * groups.x + wg.x;
+    if k >= arrayLength(&tiles) {
+        return vec3<u32>(0u);
+    }
+    let x = (tiles[k] & 0xffffu) * 8u + local.x;
+    let y = (tiles[k] >> 16u) * 8u + local.y;
+    if x >= params.width || y >= params.height {
+        return vec3<u32>(0u);
+    }
+    return vec3<u32>(x, y, 1u);
+}
+
+/// Background for every pixel of the listed tiles (tiles no primary ray of which meets the
+/// occupied box).
 @compute @workgroup_size(8, 8, 1)
-fn smo_render(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if gid.x >= params.width || gid.y >= params.height {
+fn smo_background(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
+                  @builtin(local_invocation_id) local: vec3<u32>) {
+    let at = smo_tile_pixel(wg, groups, local);
+    if at.z == 0u {
         return;
     }
-    let index = gid.y * params.width + gid.x;
-    let dir = smo_primary_dir(gid.x, gid.y);
+    let index = at.y * params.width + at.x;
+    pixels[index] = SmoPixel(vec3<f32>(0.0), SMO_FAR);
+    colors[index] = 0u;
+}
+
+/// One primary ray per pixel of the listed tiles, traced and shaded.
+@compute @workgroup_size(8, 8, 1)
+fn smo_render(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
+              @builtin(local_invocation_id) local: vec3<u32>) {
+    let at = smo_tile_pixel(wg, groups, local);
+    if at.z == 0u {
+        return;
+    }
+    let index = at.y * params.width + at.x;
+    let dir = smo_primary_dir(at.x, at.y);
     let ray = SmoRay(params.eye, dir);
 
-    // One call of smo_intersect for both kinds of file, reached only by rays that enter the
-    // root cube: lavapipe zeroes an inlined copy's traversal stack for every pixel (an empty
-    // 1024² frame, abc5: 1.1–1.5 s with two copies, 0.44–0.49 s with one behind the root
-    // test, 17 ms with none).
+    // One call of smo_intersect for both kinds of file: lavapipe runs (and zeroes the
+    // variables of) every inlined copy for each SIMD group (an empty 1024² frame, abc5, with
+    // the old 50-cell stack: 1.1–1.5 s with two copies, 0.44–0.49 s with one, 17 ms with none).
     var info: SmoInfo;
     var hit: SmoHit;
     hit.hit = false;

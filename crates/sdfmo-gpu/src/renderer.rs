@@ -7,15 +7,20 @@ use std::time::{Duration, Instant};
 use glam::{DVec3, Vec3};
 use sdfmo_format::quant::dequant_scale;
 use sdfmo_format::{LodOctree, PackedOctree, PackedOctreeView};
+use sdfmo_render::octree::OCCUPIED_LEVELS;
+use sdfmo_render::scene::OCCUPIED_PAD;
 use sdfmo_render::shading::{light_dir, DepthRange, AMBIENT, LIGHT_INTENSITY};
 use sdfmo_render::{
-    Camera, CameraFrame, Counters, Mode, RenderError, RenderPlan, RenderSettings, Rendered,
+    Camera, CameraFrame, Counters, LodScene, Mode, OctreeScene, RenderError, RenderPlan,
+    RenderSettings, Rendered, Traceable,
 };
 use sdfmo_trace::LevelChoice;
 use wgpu::util::DeviceExt;
 
 use crate::shared_struct::shared_struct;
-use crate::{shader_source, GpuError, Result, ENTRY_POINT, SMO_FAR, WORKGROUP_SIZE};
+use crate::{
+    shader_source, GpuError, Result, BACKGROUND_ENTRY_POINT, ENTRY_POINT, SMO_FAR, WORKGROUP_SIZE,
+};
 
 /// The `mode` code of `SmoRenderParams` in `render.wgsl` (the renderer's [`Mode`]s; shadows
 /// and occlusion are CPU options).
@@ -44,6 +49,41 @@ fn ray_terms(frame: &CameraFrame) -> Vec<[f32; 4]> {
         .collect()
 }
 
+/// The image's tiles of [`WORKGROUP_SIZE`]² pixels as `render.wgsl` lists them (tile (x, y)
+/// as `x | y << 16`), row by row: (those to trace, those whose primary rays all miss the
+/// `occupied` box, [`CameraFrame::tile_misses_box`], background without tracing). Every tile
+/// is traced without a box.
+fn tile_lists(frame: &CameraFrame, occupied: Option<(Vec3, Vec3)>) -> (Vec<u32>, Vec<u32>) {
+    let (w, h) = (frame.width, frame.height);
+    let mut traced = Vec::new();
+    let mut culled = Vec::new();
+    for ty in 0..h.div_ceil(WORKGROUP_SIZE) {
+        for tx in 0..w.div_ceil(WORKGROUP_SIZE) {
+            let (x0, y0) = (tx * WORKGROUP_SIZE, ty * WORKGROUP_SIZE);
+            let (tw, th) = (WORKGROUP_SIZE.min(w - x0), WORKGROUP_SIZE.min(h - y0));
+            let misses =
+                occupied.is_some_and(|(lo, hi)| frame.tile_misses_box(x0, y0, tw, th, lo, hi));
+            // At most 32768 / 8 tiles per side (sdfmo_render::MAX_IMAGE_SIDE): 16 bits each.
+            let tile = tx | ty << 16;
+            if misses {
+                culled.push(tile);
+            } else {
+                traced.push(tile);
+            }
+        }
+    }
+    (traced, culled)
+}
+
+/// Workgroups `(x, y)` of a dispatch over `tiles` list entries: rows of at most `max` (the
+/// adapter's limit per dimension); `None` when even `max` rows of `max` are too few.
+fn grid(tiles: usize, max: u32) -> Option<(u32, u32)> {
+    let n = u32::try_from(tiles).ok()?;
+    let x = n.min(max).max(1);
+    let y = n.div_ceil(x);
+    (y <= max).then_some((x, y))
+}
+
 /// How the kernel time of a GPU render ([`sdfmo_render::Rendered::kernel_ms`]) is measured
 /// ([`GpuRenderer::timing`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -70,6 +110,10 @@ pub struct GpuOctree {
     buffer: wgpu::Buffer,
     bytes: u64,
     dequant: f32,
+    /// The box every hit lies in, padded as the CPU renderer pads it (its occupied cells
+    /// [`OCCUPIED_LEVELS`] below the root, grown by [`OCCUPIED_PAD`]): tiles whose rays all
+    /// miss it are not traced. `None`: trace every tile.
+    occupied: Option<(Vec3, Vec3)>,
     device_id: usize,
 }
 
@@ -219,7 +263,10 @@ pub struct GpuRenderer {
     info: wgpu::AdapterInfo,
     limits: wgpu::Limits,
     layout: wgpu::BindGroupLayout,
+    /// [`ENTRY_POINT`]: traces the listed tiles.
     pipeline: wgpu::ComputePipeline,
+    /// [`BACKGROUND_ENTRY_POINT`]: fills the listed tiles with background.
+    background: wgpu::ComputePipeline,
     params: wgpu::Buffer,
     targets: Option<Targets>,
     timer: Option<Timer>,
@@ -340,6 +387,7 @@ impl GpuRenderer {
                 storage(2, false),
                 storage(3, false),
                 storage(4, true),
+                storage(5, true),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -347,14 +395,18 @@ impl GpuRenderer {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("sdfmo render"),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some(ENTRY_POINT),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let compile = |label, entry_point| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: Some(&pipeline_layout),
+                module: &module,
+                entry_point: Some(entry_point),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let pipeline = compile("sdfmo render", ENTRY_POINT);
+        let background = compile("sdfmo background", BACKGROUND_ENTRY_POINT);
         if let Some(e) = scope.pop().await {
             return Err(GpuError::Device(e.to_string()));
         }
@@ -391,6 +443,7 @@ impl GpuRenderer {
             limits,
             layout,
             pipeline,
+            background,
             params,
             targets: None,
             timer,
@@ -451,7 +504,8 @@ impl GpuRenderer {
     /// first ([`GpuRenderer::max_file_bytes`]).
     pub fn upload(&self, octree: &PackedOctree) -> Result<GpuOctree> {
         self.check_file_size(octree.as_bytes().len() as u64)?;
-        self.upload_validated(octree.as_bytes(), octree.meta())
+        let occupied = OctreeScene(octree).occupied_bounds();
+        self.upload_validated(octree.as_bytes(), octree.meta(), occupied)
     }
 
     /// Validates `.smo` file bytes ([`PackedOctreeView::new`]: the kernel trusts what it reads)
@@ -460,7 +514,9 @@ impl GpuRenderer {
     pub fn upload_bytes(&self, bytes: &[u8]) -> Result<GpuOctree> {
         self.check_file_size(bytes.len() as u64)?;
         let view = PackedOctreeView::new(bytes)?;
-        self.upload_validated(bytes, view.meta())
+        // OctreeScene's occupied bounds, of the borrowed bytes.
+        let occupied = sdfmo_trace::occupied_bounds(&view, OCCUPIED_LEVELS);
+        self.upload_validated(bytes, view.meta(), occupied)
     }
 
     /// Uploads a file with levels of detail: its `.smo` 2.0 bytes ([`LodOctree::to_bytes`],
@@ -469,7 +525,13 @@ impl GpuRenderer {
     /// ([`GpuRenderer::max_file_bytes`]).
     pub fn upload_lod(&self, lod: &LodOctree) -> Result<GpuLodOctree> {
         self.check_file_size(lod.byte_size())?;
-        let octree = self.upload_validated(&lod.to_bytes(), &lod.meta())?;
+        // The union of every level's occupied cells (the level choice does not enter it).
+        let scene = LodScene {
+            lod,
+            choice: LevelChoice::Level(lod.depth()),
+        };
+        let octree =
+            self.upload_validated(&lod.to_bytes(), &lod.meta(), scene.occupied_bounds())?;
         Ok(GpuLodOctree {
             octree,
             coarsest: lod.coarsest(),
@@ -498,8 +560,14 @@ impl GpuRenderer {
         Ok(())
     }
 
-    /// Uploads validated bytes (their length already checked).
-    fn upload_validated(&self, bytes: &[u8], meta: &sdfmo_format::OctreeMeta) -> Result<GpuOctree> {
+    /// Uploads validated bytes (their length already checked), with their occupied bounds
+    /// (`Traceable::occupied_bounds`).
+    fn upload_validated(
+        &self,
+        bytes: &[u8],
+        meta: &sdfmo_format::OctreeMeta,
+        occupied: Option<(Vec3, Vec3)>,
+    ) -> Result<GpuOctree> {
         let len = bytes.len() as u64;
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let buffer = self
@@ -516,6 +584,12 @@ impl GpuRenderer {
             buffer,
             bytes: len,
             dequant: dequant_scale(meta.depth, meta.bits),
+            occupied: occupied.map(|(lo, hi)| {
+                (
+                    lo - Vec3::splat(OCCUPIED_PAD),
+                    hi + Vec3::splat(OCCUPIED_PAD),
+                )
+            }),
             device_id: self.device_id,
         })
     }
@@ -599,12 +673,13 @@ impl GpuRenderer {
         }
         let frame = camera.frame()?;
         let (w, h) = (frame.width, frame.height);
-        let groups = (w.div_ceil(WORKGROUP_SIZE), h.div_ceil(WORKGROUP_SIZE));
+        let (traced, culled) = tile_lists(&frame, octree.occupied);
         let max_groups = self.limits.max_compute_workgroups_per_dimension;
-        if groups.0 > max_groups || groups.1 > max_groups {
+        let [traced_groups, culled_groups] = [&traced, &culled].map(|l| grid(l.len(), max_groups));
+        if traced_groups.is_none() || culled_groups.is_none() {
             return Err(GpuError::Render(RenderError::InvalidCamera(format!(
-                "{w}x{h} needs {}x{} workgroups, over the adapter's {max_groups} per dimension",
-                groups.0, groups.1
+                "{w}x{h} needs {} workgroups, over the adapter's {max_groups}²",
+                traced.len().max(culled.len())
             ))));
         }
         let pixels = u64::from(w) * u64::from(h);
@@ -648,32 +723,56 @@ impl GpuRenderer {
                 contents: bytemuck::cast_slice(&terms),
                 usage: wgpu::BufferUsages::STORAGE,
             });
-        let bind = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("sdfmo bind group"),
-            layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: octree.buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: self.params.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: t.pixel_buf.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: t.color_buf.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: rays.as_entire_binding(),
-                },
-            ],
-        });
+        // One bind group per tile list (binding 5), the rest shared.
+        let bind = |tiles: &wgpu::Buffer| {
+            self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("sdfmo bind group"),
+                layout: &self.layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: octree.buffer.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: self.params.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: t.pixel_buf.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: t.color_buf.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 4,
+                        resource: rays.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 5,
+                        resource: tiles.as_entire_binding(),
+                    },
+                ],
+            })
+        };
+        let dispatches = [
+            (&self.pipeline, &traced, traced_groups),
+            (&self.background, &culled, culled_groups),
+        ]
+        .into_iter()
+        .filter(|(_, list, _)| !list.is_empty())
+        .map(|(pipeline, list, groups)| {
+            let tiles = self
+                .device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("sdfmo tiles"),
+                    contents: bytemuck::cast_slice(list),
+                    usage: wgpu::BufferUsages::STORAGE,
+                });
+            (pipeline, bind(&tiles), groups.expect("checked above"))
+        })
+        .collect::<Vec<_>>();
         let mut encoder = self
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -690,9 +789,11 @@ impl GpuRenderer {
                     }
                 }),
             });
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &bind, &[]);
-            pass.dispatch_workgroups(groups.0, groups.1, 1);
+            for (pipeline, bind, (x, y)) in &dispatches {
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, bind, &[]);
+                pass.dispatch_workgroups(*x, *y, 1);
+            }
         }
         if let Some(timer) = &self.timer {
             encoder.resolve_query_set(&timer.queries, 0..2, &timer.resolve, 0);
@@ -874,6 +975,35 @@ mod tests {
             ),
             other => panic!("{name} is {other:?}"),
         }
+    }
+
+    /// Every tile is listed once, in one of the two lists; a camera looking away from the box
+    /// traces none (the empty frame that cost a whole kernel per SIMD group on lavapipe), one
+    /// looking at it traces the tiles around it only.
+    #[test]
+    fn tile_lists_cover_the_image_once_and_trace_only_near_the_box() {
+        let unit = Some((Vec3::splat(-0.5), Vec3::splat(0.5)));
+        let eye = Vec3::new(0.0, 0.0, 3.0);
+        let tiles = |target: Vec3, occupied| {
+            let frame = Camera::new(eye, target, 60.0, 100, 60).frame().unwrap();
+            tile_lists(&frame, occupied)
+        };
+        let all: Vec<u32> = (0..8u32)
+            .flat_map(|y| (0..13u32).map(move |x| x | y << 16))
+            .collect();
+        for (target, occupied) in [(Vec3::ZERO, unit), (Vec3::ZERO, None), (eye * 2.0, unit)] {
+            let (traced, culled) = tiles(target, occupied);
+            let mut both = [traced, culled].concat();
+            both.sort_unstable();
+            assert_eq!(both, all, "{target} {occupied:?}");
+        }
+        assert_eq!(tiles(Vec3::ZERO, None).0.len(), all.len());
+        assert!(tiles(eye * 2.0, unit).0.is_empty());
+        let (traced, culled) = tiles(Vec3::ZERO, unit);
+        assert!(!traced.is_empty() && culled.len() > traced.len());
+        assert_eq!(grid(0, 65535), Some((1, 0)));
+        assert_eq!(grid(70_000, 65535), Some((65535, 2)));
+        assert_eq!(grid(10, 3), None);
     }
 
     /// `smo_lod_level_info` (sdfmo.wgsl) derives level k's dequantisation factor from the

@@ -649,9 +649,10 @@ fn smo_root_span(ray: SmoRay, t_min: f32, t_max: f32) -> vec2<f32> {
 // file's leaves all sit at its depth). A cell's next sibling in ray order is derived again from
 // its parent when the cell is done (`smo_next_child`, the same arithmetic as on the way down,
 // so the same octants and spans bit for bit), as ESVO's "advance" does (Laine & Karras 2010),
-// instead of pushing up to three siblings of 48 bytes per level as the CPU does (50 entries,
-// 2400 bytes). Why it matters: WGSL zero-initialises every function variable, and lavapipe does
-// so per invocation, reached or not; a real GPU keeps the smaller stack closer to registers.
+// instead of pushing up to three siblings per level as the CPU kernel does (here that was 50
+// cells of 48 bytes, 2400 bytes). Why it matters: WGSL zero-initialises every function
+// variable, lavapipe does so for every invocation, reached or not, and writes it through masks;
+// a real GPU keeps a small stack in registers or L1 instead of spilling a large one.
 
 /// `smo_next_child`'s `after` for a node just entered: its nearest present child.
 const SMO_FIRST_CHILD: u32 = 8u;

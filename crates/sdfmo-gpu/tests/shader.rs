@@ -16,11 +16,13 @@ fn render_shader_validates() {
     Validator::new(ValidationFlags::all(), Capabilities::empty())
         .validate(&m)
         .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&source)));
-    assert!(m
-        .entry_points
-        .iter()
-        .any(|e| e.name == sdfmo_gpu::ENTRY_POINT
-            && e.workgroup_size == [sdfmo_gpu::WORKGROUP_SIZE, sdfmo_gpu::WORKGROUP_SIZE, 1]));
+    for name in [sdfmo_gpu::ENTRY_POINT, sdfmo_gpu::BACKGROUND_ENTRY_POINT] {
+        assert!(
+            m.entry_points.iter().any(|e| e.name == name
+                && e.workgroup_size == [sdfmo_gpu::WORKGROUP_SIZE, sdfmo_gpu::WORKGROUP_SIZE, 1]),
+            "{name}"
+        );
+    }
 }
 
 #[test]
@@ -57,7 +59,7 @@ fn render_bindings_match_the_documented_layout() {
     let names: Vec<_> = bindings.iter().map(|(b, n)| format!("{b}:{n}")).collect();
     assert_eq!(
         names,
-        ["0:smo", "1:params", "2:pixels", "3:colors", "4:rays"]
+        ["0:smo", "1:params", "2:pixels", "3:colors", "4:rays", "5:tiles"]
     );
 }
 

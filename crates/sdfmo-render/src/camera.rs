@@ -215,6 +215,41 @@ impl CameraFrame {
         v * self.up
     }
 
+    /// Whether no primary ray of the `tw` × `th` pixels from (`x0`, `y0`) can meet the box
+    /// `[lo, hi]`: the box lies outside one of the four planes through the eye that bound the
+    /// tile's rays (taken a pixel and a half beyond the outermost pixel centres, so rounding
+    /// cannot matter), or wholly behind the eye (every ray moves along `fwd`; the four planes
+    /// alone keep a box behind the eye that their mirror image meets). Conservative: a tile that
+    /// is kept may still miss. The CPU renderer skips such tiles of its occupied box, the GPU
+    /// renderer does not dispatch them.
+    pub fn tile_misses_box(&self, x0: u32, y0: u32, tw: u32, th: u32, lo: Vec3, hi: Vec3) -> bool {
+        let (w, h) = (f64::from(self.width), f64::from(self.height));
+        let dir = |x: f64, y: f64| {
+            let u = (2.0 * x / w - 1.0) * self.tan_half * w / h;
+            let v = (1.0 - 2.0 * y / h) * self.tan_half;
+            self.fwd + u * self.right + v * self.up
+        };
+        let (xa, xb) = (f64::from(x0) - 1.0, f64::from(x0 + tw) + 1.0);
+        let (ya, yb) = (f64::from(y0) - 1.0, f64::from(y0 + th) + 1.0);
+        let corners = [dir(xa, ya), dir(xb, ya), dir(xb, yb), dir(xa, yb)];
+        let centre = corners[0] + corners[1] + corners[2] + corners[3];
+        let (lo, hi) = (lo.as_dvec3() - self.eye, hi.as_dvec3() - self.eye);
+        let box_corner = |k: u32| {
+            DVec3::new(
+                if k & 4 != 0 { hi.x } else { lo.x },
+                if k & 2 != 0 { hi.y } else { lo.y },
+                if k & 1 != 0 { hi.z } else { lo.z },
+            )
+        };
+        let behind = (0..8).all(|k| box_corner(k).dot(self.fwd) < 0.0);
+        behind
+            || (0..4).any(|i| {
+                let normal = corners[i].cross(corners[(i + 1) % 4]);
+                let side = normal.dot(centre);
+                side != 0.0 && (0..8).all(|k| normal.dot(box_corner(k)) * side < 0.0)
+            })
+    }
+
     /// The unit direction from a cached [`column`](Self::column) and [`row`](Self::row).
     #[inline]
     pub fn direction(column: DVec3, row: DVec3) -> Vec3 {
@@ -224,6 +259,87 @@ impl CameraFrame {
 
 #[cfg(test)]
 mod tests {
+    use glam::Vec3;
+
+    use super::Camera;
+
+    /// Tiles of `edge` pixels over the frame: (x0, y0, tw, th).
+    fn tiles(width: u32, height: u32, edge: u32) -> Vec<(u32, u32, u32, u32)> {
+        (0..height)
+            .step_by(edge as usize)
+            .flat_map(|y0| {
+                (0..width)
+                    .step_by(edge as usize)
+                    .map(move |x0| (x0, y0, edge.min(width - x0), edge.min(height - y0)))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn culled_tiles_hold_no_ray_that_meets_the_box() {
+        let boxes = [
+            (Vec3::new(-0.9, -0.19, -0.47), Vec3::new(0.9, 0.19, 0.47)),
+            (Vec3::new(0.2, 0.3, -0.1), Vec3::new(0.25, 0.9, 0.05)),
+            // Around the eye of the first camera, and just behind it.
+            (Vec3::new(-0.2, -0.2, 2.9), Vec3::new(0.2, 0.2, 3.1)),
+            (Vec3::new(-0.5, -0.5, 3.01), Vec3::new(0.5, 0.5, 4.0)),
+        ];
+        let cameras = [
+            Camera::new(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 60.0, 61, 47),
+            Camera::new(Vec3::new(0.3, 1.9, -2.2), Vec3::ZERO, 75.0, 53, 64),
+            Camera::new(
+                Vec3::new(0.0, 0.0, 3.0),
+                Vec3::new(0.0, 0.0, 6.0),
+                60.0,
+                40,
+                40,
+            ),
+        ];
+        let (mut culled, mut kept) = (0, 0);
+        for camera in &cameras {
+            let frame = camera.frame().unwrap();
+            for &(lo, hi) in &boxes {
+                for (x0, y0, tw, th) in tiles(frame.width, frame.height, 5) {
+                    if !frame.tile_misses_box(x0, y0, tw, th, lo, hi) {
+                        kept += 1;
+                        continue;
+                    }
+                    culled += 1;
+                    for py in y0..y0 + th {
+                        for px in x0..x0 + tw {
+                            let (origin, dir) = frame.ray(px, py);
+                            let ray = sdfmo_trace::Ray { origin, dir };
+                            let meets = sdfmo_trace::ray_meets_box(&ray, lo, hi, 0.0, f32::MAX);
+                            assert!(!meets, "{camera:?} {lo} {hi}: ({px},{py})");
+                        }
+                    }
+                }
+            }
+        }
+        assert!(culled > 300 && kept > 300, "{culled} culled, {kept} kept");
+    }
+
+    /// Issue 35: a box wholly behind the eye was kept for the tiles whose four bounding planes
+    /// its mirror image through the eye meets (the centre of the frame, here the root cube
+    /// behind a camera at (0, 0, 3) looking towards +z), so the GPU traced an empty frame.
+    #[test]
+    fn a_box_behind_the_eye_culls_every_tile() {
+        let camera = Camera::new(
+            Vec3::new(0.0, 0.0, 3.0),
+            Vec3::new(0.0, 0.0, 6.0),
+            60.0,
+            64,
+            64,
+        );
+        let frame = camera.frame().unwrap();
+        for (x0, y0, tw, th) in tiles(64, 64, 8) {
+            assert!(frame.tile_misses_box(x0, y0, tw, th, Vec3::splat(-1.0), Vec3::ONE));
+        }
+        // Straddling the eye's plane: kept where its rays can reach it.
+        let near = (Vec3::new(-1.0, -1.0, 2.0), Vec3::new(1.0, 1.0, 3.5));
+        assert!(!frame.tile_misses_box(28, 28, 8, 8, near.0, near.1));
+    }
+
     #[test]
     fn one_image_size_limit() {
         for (w, h) in [(1, 1), (16_384, 16_384), (32_768, 8_192), (8_192, 32_768)] {

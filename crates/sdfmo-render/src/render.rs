@@ -455,39 +455,11 @@ impl<T: Traceable> Ctx<'_, T> {
         tile
     }
 
-    /// Whether no primary ray of the tile can meet the occupied box: the box lies outside one
-    /// of the four planes through the eye that bound the tile's rays (taken a pixel and a half
-    /// beyond the outermost pixel centres, so rounding cannot matter). Conservative: a tile
-    /// that is kept may still miss, its pixels are then rejected one by one.
+    /// Whether no primary ray of the tile can meet the occupied box
+    /// ([`CameraFrame::tile_misses_box`]).
     fn tile_misses_occupied(&self, x0: u32, y0: u32, tw: u32, th: u32) -> bool {
-        let Some((lo, hi)) = self.occupied else {
-            return false;
-        };
-        let f = &self.frame;
-        let (w, h) = (f64::from(f.width), f64::from(f.height));
-        let dir = |x: f64, y: f64| {
-            let u = (2.0 * x / w - 1.0) * f.tan_half * w / h;
-            let v = (1.0 - 2.0 * y / h) * f.tan_half;
-            f.fwd + u * f.right + v * f.up
-        };
-        let (xa, xb) = (f64::from(x0) - 1.0, f64::from(x0 + tw) + 1.0);
-        let (ya, yb) = (f64::from(y0) - 1.0, f64::from(y0 + th) + 1.0);
-        let corners = [dir(xa, ya), dir(xb, ya), dir(xb, yb), dir(xa, yb)];
-        let centre = corners[0] + corners[1] + corners[2] + corners[3];
-        let (lo, hi) = (lo.as_dvec3() - f.eye, hi.as_dvec3() - f.eye);
-        (0..4).any(|i| {
-            let normal = corners[i].cross(corners[(i + 1) % 4]);
-            let side = normal.dot(centre);
-            side != 0.0
-                && (0..8).all(|k| {
-                    let p = DVec3::new(
-                        if k & 4 != 0 { hi.x } else { lo.x },
-                        if k & 2 != 0 { hi.y } else { lo.y },
-                        if k & 1 != 0 { hi.z } else { lo.z },
-                    );
-                    normal.dot(p) * side < 0.0
-                })
-        })
+        self.occupied
+            .is_some_and(|(lo, hi)| self.frame.tile_misses_box(x0, y0, tw, th, lo, hi))
     }
 
     /// Whether the ray `[0, t_max]` touches the occupied box, if any (if not, it hits nothing).
