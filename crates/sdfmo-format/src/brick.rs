@@ -1065,6 +1065,51 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
             })
     }
 
+    /// The first leaf of `o` (a 1.x octree, in its Morton order) whose voxels this octree does
+    /// not answer alike through its random access ([`Self::find_leaf`], then every voxel's
+    /// codes, surface and clip bit), with what differs; `None` when every voxel of `o` reads back
+    /// the same (and the leaf and voxel counts are equal): the encoder's lossless promise,
+    /// checked by the tests, the fuzzer and the `brick_estimate` example.
+    pub fn first_difference<C: AsRef<[u8]>>(&self, o: &Octree<C>) -> Option<String> {
+        if (self.leaf_count(), self.voxel_count()) != (o.leaf_count(), o.voxel_count()) {
+            return Some(format!(
+                "{} leaves and {} voxels, the 1.x octree has {} and {}",
+                self.leaf_count(),
+                self.voxel_count(),
+                o.leaf_count(),
+                o.voxel_count()
+            ));
+        }
+        let inner = o.inner_node_count() as u32;
+        for (j, coord) in o.leaf_coords().into_iter().enumerate() {
+            let voxels = o.leaf_voxels(NodeRef::from_index(inner + j as u32));
+            let Some(leaf) = self.find_leaf(coord) else {
+                return Some(format!("leaf {coord:?} is missing"));
+            };
+            if leaf.voxel_count() as usize != voxels.len() {
+                return Some(format!(
+                    "leaf {coord:?} has {} voxels, not {}",
+                    leaf.voxel_count(),
+                    voxels.len()
+                ));
+            }
+            for (k, v) in (0..leaf.voxel_count()).zip(voxels) {
+                let got = (
+                    self.voxel_codes(&leaf, k),
+                    self.voxel_is_surface(&leaf, k),
+                    self.voxel_is_clip(&leaf, k),
+                );
+                let want = (o.voxel_codes(v), o.voxel_is_surface(v), o.voxel_is_clip(v));
+                if got != want {
+                    return Some(format!(
+                        "leaf {coord:?} voxel {k}: (codes, surface, clip) {got:?}, not {want:?}"
+                    ));
+                }
+            }
+        }
+        None
+    }
+
     /// The 1.x octree with the same leaves, voxels, codes and flags (the canonical 1.x file):
     /// `BrickOctree::encode(&o)?.to_octree() == o` for every 1.x octree `o` of depth ≥ 2.
     pub fn to_octree(&self) -> PackedOctree {
