@@ -206,6 +206,23 @@ layer_errors!(
 /// Result of the high-level API.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
+/// The message of an error and its sources on one line, joined with `: `, a source whose text
+/// the line already holds left out: what the front-ends show (Python's exception messages, the
+/// harness's recorded failures) when they do not print the chain themselves.
+pub fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut source = e.source();
+    while let Some(inner) = source {
+        let text = inner.to_string();
+        if !s.contains(&text) {
+            s.push_str(": ");
+            s.push_str(&text);
+        }
+        source = inner.source();
+    }
+    s
+}
+
 /// Loads a mesh file (OBJ, glTF/GLB, STL), welded and cleaned, in model units.
 ///
 /// # Errors

@@ -44,19 +44,7 @@ pyo3::create_exception!(
 );
 
 /// The message of an error and its sources, joined with `: ` (each source once).
-pub fn chain(e: &dyn std::error::Error) -> String {
-    let mut s = e.to_string();
-    let mut source = e.source();
-    while let Some(inner) = source {
-        let text = inner.to_string();
-        if !s.contains(&text) {
-            s.push_str(": ");
-            s.push_str(&text);
-        }
-        source = inner.source();
-    }
-    s
-}
+pub use sdf_multioctree::error_chain as chain;
 
 /// `OSError(errno, message, filename)` as Python builds it: the subclass follows the errno.
 fn os_error(errno: Option<i32>, message: String, filename: String) -> PyErr {
