@@ -134,12 +134,6 @@ pub enum HarnessError {
         #[source]
         source: serde_json::Error,
     },
-    /// A model's process (`--isolated-model`) was given other than one mesh.
-    #[error("--isolated-model takes exactly one mesh, not {given}")]
-    IsolatedMeshes {
-        /// Meshes given.
-        given: usize,
-    },
     /// The running executable, which a shard runs each model in, cannot be found.
     #[error("cannot find the sdfmo binary to run a model in")]
     NoExecutable(#[source] std::io::Error),
@@ -451,22 +445,10 @@ pub enum MergeError {
     },
 }
 
-/// An error and its sources on one line, `a: b: c` (a cause the message already ends with is
-/// not repeated), for the error texts the harness keeps: a failed model's ledger record, a
-/// manifest line's problem, the crops' note on the page.
-pub fn error_line(e: &dyn std::error::Error) -> String {
-    let mut line = e.to_string();
-    let mut source = e.source();
-    while let Some(s) = source {
-        let text = s.to_string();
-        if !line.ends_with(&text) {
-            line.push_str(": ");
-            line.push_str(&text);
-        }
-        source = s.source();
-    }
-    line
-}
+/// An error and its sources on one line, `a: b: c` (the facade's
+/// [`sdf_multioctree::error_chain`]), for the error texts the harness keeps: a manifest line's
+/// problem, the crops' note on the page.
+pub use sdf_multioctree::error_chain as error_line;
 
 #[cfg(test)]
 mod tests {

@@ -6,10 +6,11 @@
 //! `shard` (run a shard: one process per model, `isolate`; one ledger line per model,
 //! `ledger`) and `merge` (the shards' folders into one dataset report).
 //!
-//! A front-end fills [`SweepOptions`], calls [`run`] and prints the [`Outcome`]. A shard runs
-//! each model in a child process of the running executable, `EXE sweep --isolated-model=NAME
-//! … -- MESH`: the executable must be a front-end that hands those flags back to [`run`] (the
-//! `sdfmo` binary of sdfmo-cli).
+//! A front-end fills [`SweepOptions`] (the [`SweepStep`] to run and the settings), calls [`run`]
+//! and prints the [`Outcome`]. A shard runs each model in a child process of the running
+//! executable, `EXE sweep --isolated-model=NAME … -- MESH`: the executable must be a front-end
+//! that hands those flags back to [`run`] as [`SweepStep::Model`] (the `sdfmo` binary of
+//! sdfmo-cli).
 #![deny(missing_docs)]
 
 pub mod error;
@@ -39,7 +40,7 @@ pub use error::{HarnessError, ModelsFailed, Result};
 #[cfg(unix)]
 pub use isolate::limit_address_space;
 pub use manifest::{parse_shard, Shard};
-pub use options::{Outcome, SweepMethod, SweepOptions};
+pub use options::{Outcome, ShardStep, SweepMethod, SweepOptions, SweepStep};
 use report::{Model, Provenance, Report, Row, SweepSettings};
 pub use shard::EXIT_MODELS_FAILED;
 
@@ -112,19 +113,20 @@ fn sweep_settings(args: &SweepOptions) -> SweepSettings {
 /// names it), a build over the memory budget, or a file that cannot be written. A shard whose
 /// models failed is not an error: [`Outcome::error`] says so.
 pub fn run(args: &SweepOptions) -> Result<Outcome> {
-    if !args.merge.is_empty() {
-        return merge::run(args);
+    match &args.step {
+        SweepStep::Run { meshes, extra_rows } => run_meshes(args, meshes, extra_rows),
+        SweepStep::Shard(step) => shard::run(args, step, &sweep_settings(args)),
+        SweepStep::Merge { shards } => merge::run(args, shards),
+        SweepStep::Model { name, mesh } => run_isolated(args, name, mesh),
     }
-    if let Some(manifest) = &args.manifest {
-        return shard::run(args, manifest, &sweep_settings(args));
-    }
-    if let Some(name) = &args.isolated_model {
-        return run_isolated(args, name);
-    }
-    let paths: Vec<Option<&Path>> = if args.meshes.is_empty() {
+}
+
+/// Sweeps `meshes` (none: the demo part) with the rows of `extra_rows` beside them.
+fn run_meshes(args: &SweepOptions, meshes: &[PathBuf], extra_rows: &[PathBuf]) -> Result<Outcome> {
+    let paths: Vec<Option<&Path>> = if meshes.is_empty() {
         vec![None]
     } else {
-        args.meshes.iter().map(|p| Some(p.as_path())).collect()
+        meshes.iter().map(|p| Some(p.as_path())).collect()
     };
     // Every mesh is loaded, and every build checked against the memory budget, before any
     // work: a bad last mesh or too deep a depth fails in seconds, not after the others.
@@ -153,7 +155,7 @@ pub fn run(args: &SweepOptions) -> Result<Outcome> {
                 .map(|m| (n.clone(), m.name().to_owned(), depths.clone()))
         })
         .collect();
-    let extra = report::extra::load(&args.extra_rows, &swept)?;
+    let extra = report::extra::load(extra_rows, &swept)?;
     let out = &args.output;
     sdf_multioctree::io::create_derived_dir(out, Path::new("images"))?;
     let settings = sweep_settings(args);
@@ -278,13 +280,8 @@ struct Sweep<'a> {
 
 /// A shard's model process (`--isolated-model NAME`): sweeps its one mesh under `name`, writes
 /// its images into the output folder and prints `{"model", "rows"}` as one JSON line.
-fn run_isolated(args: &SweepOptions, name: &str) -> Result<Outcome> {
-    let [path] = args.meshes.as_slice() else {
-        return Err(HarnessError::IsolatedMeshes {
-            given: args.meshes.len(),
-        });
-    };
-    let mut input = load_input(Some(path))?;
+fn run_isolated(args: &SweepOptions, name: &str, mesh: &Path) -> Result<Outcome> {
+    let mut input = load_input(Some(mesh))?;
     input.name = sanitize(name);
     let plan = Plan::checked(args, std::slice::from_ref(&input))?;
     sdf_multioctree::io::create_derived_dir(&args.output, Path::new("images"))?;
@@ -372,12 +369,11 @@ fn sweep_model(
                 build::build_lod(&input.mesh, &settings, budget, Some(&on_progress), &|| {
                     false
                 })
-                .map_err(|source| HarnessError::Build {
-                    method: method.name(),
-                    depths: format!("with levels {first}..={last}"),
-                    mesh: input.source.clone(),
-                    source: Box::new(source),
-                })?;
+                .map_err(build_failed(
+                    method,
+                    format!("with levels {first}..={last}"),
+                    input,
+                ))?;
             for ((octree, stats), entry) in lod.levels().iter().zip(&stats).zip(lod.entries()) {
                 bar.set_message(format!("{name}: {} level {}", method.name(), entry.level));
                 add_row(run.score(method, octree, stats, Some(entry.end()))?)?;
@@ -394,12 +390,7 @@ fn sweep_model(
                     budget,
                     Some(&on_progress),
                 )
-                .map_err(|source| HarnessError::Build {
-                    method: method.name(),
-                    depths: format!("depth {depth}"),
-                    mesh: input.source.clone(),
-                    source: Box::new(source),
-                })?;
+                .map_err(build_failed(method, format!("depth {depth}"), input))?;
                 bar.set_message(format!("{name}: {} depth {depth}: render", method.name()));
                 add_row(run.score(method, &octree, &stats, None)?)?;
             }
@@ -411,6 +402,21 @@ fn sweep_model(
         triangles: input.mesh.triangle_count(),
         reference_render_ms: protocol.reference_ms(),
     })
+}
+
+/// The error of a failed build of `input` with `method` at `depths` (`depth D`, or `with
+/// levels A..=B`).
+fn build_failed(
+    method: SweepMethod,
+    depths: String,
+    input: &InputMesh,
+) -> impl FnOnce(build::BuildError) -> HarnessError + '_ {
+    move |source| HarnessError::Build {
+        method: method.name(),
+        depths,
+        mesh: input.source.clone(),
+        source: Box::new(source),
+    }
 }
 
 /// One model being swept: what scoring an octree of it needs.

@@ -139,12 +139,13 @@ impl Shard {
                 })
                 .transpose()
         };
+        let unpaired = |set, missing, hint| ShardError::Unpaired { set, missing, hint };
         if let Some(id) = num("SLURM_ARRAY_TASK_ID")? {
-            let count = num("SLURM_ARRAY_TASK_COUNT")?.ok_or(ShardError::Unpaired {
-                set: "SLURM_ARRAY_TASK_ID",
-                missing: "SLURM_ARRAY_TASK_COUNT",
-                hint: "",
-            })?;
+            let count = num("SLURM_ARRAY_TASK_COUNT")?.ok_or(unpaired(
+                "SLURM_ARRAY_TASK_ID",
+                "SLURM_ARRAY_TASK_COUNT",
+                "",
+            ))?;
             let min = num("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
             let index = id
                 .checked_sub(min)
@@ -153,11 +154,11 @@ impl Shard {
             return Shard::new(index, count);
         }
         if let Some(index) = num("JOB_COMPLETION_INDEX")? {
-            let count = num("SDFMO_SHARD_COUNT")?.ok_or(ShardError::Unpaired {
-                set: "JOB_COMPLETION_INDEX",
-                missing: "SDFMO_SHARD_COUNT",
-                hint: " (set it to the Job's completions)",
-            })?;
+            let count = num("SDFMO_SHARD_COUNT")?.ok_or(unpaired(
+                "JOB_COMPLETION_INDEX",
+                "SDFMO_SHARD_COUNT",
+                " (set it to the Job's completions)",
+            ))?;
             return Shard::new(index, count);
         }
         Ok(Shard::ALL)

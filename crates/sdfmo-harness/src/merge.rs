@@ -333,10 +333,10 @@ fn check_output_apart(out: &Path, dirs: &[PathBuf]) -> std::result::Result<(), M
 }
 
 /// Runs the merge.
-pub fn run(args: &SweepOptions) -> Result<Outcome> {
-    let shards = read_shards(&args.merge)?;
+pub fn run(args: &SweepOptions, dirs: &[PathBuf]) -> Result<Outcome> {
+    let shards = read_shards(dirs)?;
     let out = &args.output;
-    check_output_apart(out, &args.merge)?;
+    check_output_apart(out, dirs)?;
     sdf_multioctree::io::create_derived_dir(out, Path::new("images"))?;
     let info = &shards[0].info;
     let mut settings = info.settings.clone();

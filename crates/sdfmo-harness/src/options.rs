@@ -41,14 +41,55 @@ impl SweepMethod {
     }
 }
 
-/// Everything one sweep command is given (the `sdfmo sweep` flags of docs/cli.md). Which of
-/// the four runs it is follows from the fields, checked in this order: `merge` not empty (merge
-/// shard folders), `manifest` (run a shard), `isolated_model` (a shard's model process), else a
-/// sweep of `meshes`.
+/// Which step of the sweep to run, with what only that step takes.
+#[derive(Clone, Debug)]
+pub enum SweepStep {
+    /// Sweep meshes in this process and write the tables, plots and page.
+    Run {
+        /// Mesh files; without any, the built-in demo part.
+        meshes: Vec<PathBuf>,
+        /// Rows from another producer merged into the tables, plots and page.
+        extra_rows: Vec<PathBuf>,
+    },
+    /// Run one shard of a dataset manifest: each model in its own process, with a ledger.
+    Shard(ShardStep),
+    /// Merge the output folders of a manifest's shards into one dataset report.
+    Merge {
+        /// The shards' output folders.
+        shards: Vec<PathBuf>,
+    },
+    /// A shard's model process (`EXE sweep --isolated-model=NAME … -- MESH`): sweep one mesh
+    /// under the model name the manifest gave it and print its rows as one JSON line.
+    Model {
+        /// The model name.
+        name: String,
+        /// The mesh file.
+        mesh: PathBuf,
+    },
+}
+
+/// What running a shard of a manifest takes.
+#[derive(Clone, Debug)]
+pub struct ShardStep {
+    /// The manifest (docs/scale.md).
+    pub manifest: PathBuf,
+    /// Refuse paths outside the manifest's folder.
+    pub confine: bool,
+    /// The shard to run (default: from the environment, else the whole manifest).
+    pub shard: Option<Shard>,
+    /// Wall-time limit of each model in seconds.
+    pub model_timeout: Option<f64>,
+    /// Run again the models the ledger holds as failed.
+    pub retry_failed: bool,
+}
+
+/// Everything one sweep command is given (the `sdfmo sweep` flags of docs/cli.md): the step,
+/// and the settings every step shares (a merge reads its settings from the shards' folders and
+/// uses only `frames`, `output` and `json`).
 #[derive(Clone, Debug)]
 pub struct SweepOptions {
-    /// Mesh files; without any, the built-in demo part.
-    pub meshes: Vec<PathBuf>,
+    /// The step to run.
+    pub step: SweepStep,
     /// Depths, inclusive, within 1..=16.
     pub depths: RangeInclusive<u8>,
     /// Methods, in the order given (a repeated one runs once).
@@ -65,27 +106,10 @@ pub struct SweepOptions {
     pub frames: u16,
     /// One build with levels of detail per model and method, every level scored.
     pub levels: bool,
-    /// Rows from another producer merged into the tables, plots and page.
-    pub extra_rows: Vec<PathBuf>,
     /// Output directory (created if missing).
     pub output: PathBuf,
     /// Print one JSON object instead of the human summary.
     pub json: bool,
-    /// Sweep the models this manifest lists, each in its own process, with a ledger.
-    pub manifest: Option<PathBuf>,
-    /// With `manifest`: refuse paths outside the manifest's folder.
-    pub confine: bool,
-    /// With `manifest`: the shard to run (default: from the environment, else the whole).
-    pub shard: Option<Shard>,
-    /// With `manifest`: wall-time limit of each model in seconds.
-    pub model_timeout: Option<f64>,
-    /// With `manifest`: run again the models the ledger holds as failed.
-    pub retry_failed: bool,
-    /// Merge these shard output folders into one dataset report in `output`.
-    pub merge: Vec<PathBuf>,
-    /// A shard's model process: sweep the one mesh under this model name and print its rows as
-    /// one JSON line.
-    pub isolated_model: Option<String>,
 }
 
 /// What a sweep command leaves for its front-end: the text for stdout, and the error to end

@@ -19,7 +19,7 @@ use super::{report, Model, Row, SweepSettings};
 use crate::error::{HarnessError, ModelsFailed, Result, ShardError};
 use crate::files::write_derived;
 use crate::progress;
-use crate::{Outcome, SweepOptions};
+use crate::{Outcome, ShardStep, SweepOptions};
 
 /// File name of a shard's description inside its output folder.
 pub const SHARD_FILE: &str = "shard.json";
@@ -86,11 +86,12 @@ pub struct ModelOutput {
     pub rows: Vec<Row>,
 }
 
-/// Runs this process's shard of `manifest_path`.
-pub fn run(args: &SweepOptions, manifest_path: &Path, settings: &SweepSettings) -> Result<Outcome> {
+/// Runs this process's shard of `step`'s manifest.
+pub fn run(args: &SweepOptions, step: &ShardStep, settings: &SweepSettings) -> Result<Outcome> {
     let start = Instant::now();
-    let manifest = Manifest::read(manifest_path, args.confine)?;
-    let shard = Shard::resolve(args.shard)?;
+    let manifest_path = step.manifest.as_path();
+    let manifest = Manifest::read(manifest_path, step.confine)?;
+    let shard = Shard::resolve(step.shard)?;
     let out = &args.output;
     sdf_multioctree::io::create_derived_dir(out, Path::new("images"))?;
     let hash = ledger::settings_hash(settings);
@@ -133,12 +134,12 @@ pub fn run(args: &SweepOptions, manifest_path: &Path, settings: &SweepSettings) 
         .copied()
         .filter(|e| match ledger.get(&e.id) {
             None => true,
-            Some(r) => args.retry_failed && !r.ok(),
+            Some(r) => step.retry_failed && !r.ok(),
         })
         .collect();
     let skipped = mine.len() - todo.len();
     let limits = Limits {
-        timeout: args.model_timeout.map(Duration::from_secs_f64),
+        timeout: step.model_timeout.map(Duration::from_secs_f64),
         address_space: isolate::address_space_cap(super::memory_budget(args.max_memory)),
     };
     let bar = progress::steps(todo.len() as u64, "starting");

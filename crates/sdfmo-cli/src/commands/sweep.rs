@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use sdfmo_harness::{HarnessError, SweepMethod, SweepOptions};
+use sdfmo_harness::{HarnessError, ShardStep, SweepMethod, SweepOptions, SweepStep as Step};
 
 use crate::args::{
     MethodArg, SweepArgs, SweepDatasetArgs, SweepOutputArgs, SweepSettingsArgs, SweepStep,
@@ -20,15 +20,15 @@ impl From<MethodArg> for SweepMethod {
     }
 }
 
-/// A sweep of `meshes` with these settings into `out`; the other steps start from it.
-fn sweep_of(
-    meshes: &[PathBuf],
+/// `step` with these settings into `out`.
+fn options_of(
+    step: Step,
     settings: &SweepSettingsArgs,
     levels: bool,
     out: &SweepOutputArgs,
 ) -> SweepOptions {
     SweepOptions {
-        meshes: meshes.to_vec(),
+        step,
         depths: settings.depths.clone(),
         methods: settings.methods.iter().map(|&m| m.into()).collect(),
         size: settings.size,
@@ -37,63 +37,84 @@ fn sweep_of(
         threads: settings.threads,
         frames: settings.frames,
         levels,
-        extra_rows: Vec::new(),
         output: out.output.clone(),
         json: out.json,
-        manifest: None,
-        confine: false,
-        shard: None,
-        model_timeout: None,
-        retry_failed: false,
-        merge: Vec::new(),
-        isolated_model: None,
     }
 }
 
-/// `opts` running shard `dataset` of `manifest`.
-fn shard_of(opts: SweepOptions, manifest: PathBuf, dataset: &SweepDatasetArgs) -> SweepOptions {
-    SweepOptions {
-        manifest: Some(manifest),
+/// The shard step of `manifest` with the dataset flags.
+fn shard_step(manifest: PathBuf, dataset: &SweepDatasetArgs) -> Step {
+    Step::Shard(ShardStep {
+        manifest,
         confine: dataset.confine,
         shard: dataset.shard,
         model_timeout: dataset.model_timeout,
         retry_failed: dataset.retry_failed,
-        ..opts
-    }
+    })
 }
 
-/// The harness's options from the flags: a step and the flag form it names give the same.
-fn options(a: &SweepArgs) -> SweepOptions {
-    match &a.step {
+/// The harness's options from the flags: a step and the flag form it names give the same. In
+/// the flag form the step follows from the flags, in this order: `--merge`, `--manifest`,
+/// `--isolated-model` (a shard's model process, which takes exactly one mesh), else a sweep of
+/// the meshes.
+fn options(a: &SweepArgs) -> anyhow::Result<SweepOptions> {
+    let (step, settings, levels, out) = match &a.step {
         None => {
-            let opts = SweepOptions {
-                extra_rows: a.extra_rows.clone(),
-                merge: a.merge.clone(),
-                isolated_model: a.isolated_model.clone(),
-                ..sweep_of(&a.meshes, &a.settings, a.levels, &a.out)
+            let step = if !a.merge.is_empty() {
+                Step::Merge {
+                    shards: a.merge.clone(),
+                }
+            } else if let Some(m) = &a.manifest {
+                shard_step(m.clone(), &a.dataset)
+            } else if let Some(name) = &a.isolated_model {
+                let [mesh] = a.meshes.as_slice() else {
+                    anyhow::bail!(
+                        "--isolated-model takes exactly one mesh, not {}",
+                        a.meshes.len()
+                    );
+                };
+                Step::Model {
+                    name: name.clone(),
+                    mesh: mesh.clone(),
+                }
+            } else {
+                Step::Run {
+                    meshes: a.meshes.clone(),
+                    extra_rows: a.extra_rows.clone(),
+                }
             };
-            match &a.manifest {
-                Some(m) => shard_of(opts, m.clone(), &a.dataset),
-                None => opts,
-            }
+            (step, &a.settings, a.levels, &a.out)
         }
-        Some(SweepStep::Run(r)) => SweepOptions {
-            extra_rows: r.extra_rows.clone(),
-            ..sweep_of(&r.meshes, &r.settings, r.levels, &r.out)
-        },
-        Some(SweepStep::Shard(s)) => shard_of(
-            sweep_of(&[], &s.settings, s.levels, &s.out),
-            s.manifest.clone(),
-            &s.dataset,
+        Some(SweepStep::Run(r)) => (
+            Step::Run {
+                meshes: r.meshes.clone(),
+                extra_rows: r.extra_rows.clone(),
+            },
+            &r.settings,
+            r.levels,
+            &r.out,
+        ),
+        Some(SweepStep::Shard(s)) => (
+            shard_step(s.manifest.clone(), &s.dataset),
+            &s.settings,
+            s.levels,
+            &s.out,
         ),
         // A merge takes the settings from the shards' folders; `frames` is the default the
         // flag form records in its provenance.
-        Some(SweepStep::Merge(m)) => SweepOptions {
-            merge: m.shards.clone(),
-            frames: SWEEP_FRAMES,
-            ..sweep_of(&[], &merge_settings(), false, &m.out)
-        },
-    }
+        Some(SweepStep::Merge(m)) => {
+            let opts = options_of(
+                Step::Merge {
+                    shards: m.shards.clone(),
+                },
+                &merge_settings(),
+                false,
+                &m.out,
+            );
+            return Ok(opts);
+        }
+    };
+    Ok(options_of(step, settings, levels, out))
 }
 
 /// The settings a merge hands on (unused by it except `frames`): the flags' defaults.
@@ -112,7 +133,7 @@ fn merge_settings() -> SweepSettingsArgs {
 /// Runs the sweep, prints its summary, then ends with its error if it has one (a shard's
 /// failed models: exit code 3, `main`).
 pub fn run(args: &SweepArgs) -> anyhow::Result<()> {
-    let outcome = sdfmo_harness::run(&options(args))?;
+    let outcome = sdfmo_harness::run(&options(args)?)?;
     print_text(&outcome.stdout)?;
     match outcome.error {
         None => Ok(()),
@@ -133,7 +154,7 @@ mod tests {
     fn parsed(line: &[&str]) -> String {
         let cli = Cli::try_parse_from(line).unwrap_or_else(|e| panic!("{line:?}: {e}"));
         match cli.command {
-            Command::Sweep(a) => format!("{:?}", options(&a)),
+            Command::Sweep(a) => format!("{:?}", options(&a).unwrap()),
             other => panic!("parsed as {other:?}"),
         }
     }
@@ -180,6 +201,15 @@ mod tests {
 
     #[test]
     fn steps_refuse_what_they_do_not_take() {
+        // A model's process sweeps exactly one mesh.
+        for meshes in [&[][..], &["a.obj", "b.obj"]] {
+            let line = [&["sdfmo", "sweep", "--isolated-model=m"][..], meshes].concat();
+            let Command::Sweep(a) = Cli::try_parse_from(&line).unwrap().command else {
+                panic!("{line:?}");
+            };
+            let e = options(&a).unwrap_err().to_string();
+            assert!(e.contains("takes exactly one mesh"), "{e}");
+        }
         for line in [
             &["sdfmo", "sweep", "merge", "-o", "r"][..],
             &["sdfmo", "sweep", "merge", "s0", "--levels"],
