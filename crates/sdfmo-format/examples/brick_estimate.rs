@@ -202,11 +202,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             return Err(format!("{path}: the 3.0 encoding does not decode to the file").into());
         }
         let v3 = brick.as_bytes().len();
-        let v3_residuals = brick
-            .section_sizes()
-            .iter()
-            .find(|(name, _)| *name == "residuals")
-            .map_or(0, |&(_, size)| size);
+        let v3_residuals = brick.section_sizes().residuals;
         let name = std::path::Path::new(&path)
             .file_name()
             .map_or(path.clone(), |n| n.to_string_lossy().into_owned());

@@ -1131,24 +1131,51 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
         PackedOctree::from_leaves(self.meta, leaves).expect("a valid 3.0 file is a valid octree")
     }
 
-    /// Bytes per section, in file order: header, nodes, bricks, residuals, private leaves,
-    /// private flags, private corners, then padding and checksum together.
-    pub fn section_sizes(&self) -> [(&'static str, usize); 8] {
+    /// Bytes per section of the file.
+    pub fn section_sizes(&self) -> BrickSectionSizes {
         let l = &self.layout;
         let s = |x: (u64, u64)| x.1 as usize;
-        let named: usize = l.sections().iter().map(|x| x.1 as usize).sum();
         let header = l.nodes.0 as usize;
-        [
-            ("header", header),
-            ("nodes", s(l.nodes)),
-            ("bricks", s(l.bricks)),
-            ("residuals", s(l.residuals)),
-            ("private_leaves", s(l.private_leaves)),
-            ("private_flags", s(l.private_flags)),
-            ("private_corners", s(l.private_corners)),
-            ("padding_checksum", self.as_bytes().len() - header - named),
-        ]
+        let named: usize = l.sections().iter().map(|x| x.1 as usize).sum();
+        let total = self.as_bytes().len();
+        BrickSectionSizes {
+            header,
+            nodes: s(l.nodes),
+            bricks: s(l.bricks),
+            residuals: s(l.residuals),
+            private_leaves: s(l.private_leaves),
+            private_flags: s(l.private_flags),
+            private_corners: s(l.private_corners),
+            padding: total - header - named - CHECKSUM_SIZE,
+            checksum: CHECKSUM_SIZE,
+            total,
+        }
     }
+}
+
+/// Bytes per section of a 3.0 file ([`BrickOctree::section_sizes`]), in file order.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BrickSectionSizes {
+    /// The header (176 bytes in 3.0).
+    pub header: usize,
+    /// Node groups above the bricks (12 bytes per 8 nodes).
+    pub nodes: usize,
+    /// Brick records (32 bytes per brick).
+    pub bricks: usize,
+    /// The shared points' residuals.
+    pub residuals: usize,
+    /// Private leaf groups (12 bytes per 8 private leaves).
+    pub private_leaves: usize,
+    /// Two flag bits per private voxel (8 bytes per 32).
+    pub private_flags: usize,
+    /// The private voxels' codes (8 or 16 bytes per voxel).
+    pub private_corners: usize,
+    /// Zero padding that aligns each section to 8 bytes.
+    pub padding: usize,
+    /// The trailing CRC-32.
+    pub checksum: usize,
+    /// The whole file.
+    pub total: usize,
 }
 
 impl<A: AsRef<[u8]>, B: AsRef<[u8]>> PartialEq<BrickOctree<B>> for BrickOctree<A> {

@@ -76,7 +76,7 @@ use glam::Vec3;
 
 pub use brick::{
     cell_grid_index, fit_brick_plane, plane_predict, point_mask, BrickLeaf, BrickNode, BrickOctree,
-    BrickOctreeView, CORNER_POINT_OFFSETS,
+    BrickOctreeView, BrickSectionSizes, CORNER_POINT_OFFSETS,
 };
 pub use crc32::crc32;
 pub use error::{FormatError, Result};

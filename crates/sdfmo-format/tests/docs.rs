@@ -253,6 +253,28 @@ fn docs_brick_example_matches_writer() {
     let bytes = b.as_bytes();
     assert_eq!(bytes, documented_hex(&format_md(), "brick-example-hex"));
     assert_eq!(bytes.len(), 260);
+    // The sections as the table under the dump lists them.
+    let sizes = b.section_sizes();
+    assert_eq!(
+        [
+            sizes.header,
+            sizes.nodes,
+            sizes.bricks,
+            sizes.residuals,
+            sizes.private_leaves
+        ],
+        [176, 0, 32, 3, 12]
+    );
+    assert_eq!(
+        [
+            sizes.private_flags,
+            sizes.private_corners,
+            sizes.padding,
+            sizes.checksum,
+            sizes.total
+        ],
+        [8, 16, 9, 4, 260]
+    );
     let v = BrickOctreeView::new(bytes).unwrap();
     assert_eq!(v.to_octree(), o);
     let root = v.root().unwrap();
