@@ -208,7 +208,7 @@ fn run_meshes(args: &SweepOptions, meshes: &[PathBuf], extra_rows: &[PathBuf]) -
             "files": files,
         }));
     }
-    let mut s = report::table_md(&report);
+    let mut s = report::table_md(&report)?;
     s.push_str(&format!(
         "\nWrote {} (open {} in a browser).\n",
         files.join(", "),

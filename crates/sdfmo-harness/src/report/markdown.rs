@@ -1,12 +1,13 @@
-//! table.md: a table per model laid out like the paper's Tables 1–2, the multi-octree against the
+//! table.md (through the askama template `templates/sweep.md`): a table per model laid out like the paper's Tables 1–2, the multi-octree against the
 //! SVO one level deeper, and a summary across models.
 
-use std::fmt::Write as _;
+use askama::Template;
 
-use super::model::Report;
+use super::model::{ExtraRows, Report};
 use super::tables::{
-    levels_table, model_heading, model_table, protocol, shallower_table, summary_table,
+    levels_table, model_heading, model_table, protocol, shallower_table, summary_table, Table,
 };
+use crate::error::Result;
 
 /// What the levels table shows, for table.md and the page.
 pub const LEVELS_NOTE: &str = "Levels of one file (sweep --levels): one build writes every \
@@ -14,42 +15,42 @@ pub const LEVELS_NOTE: &str = "Levels of one file (sweep --levels): one build wr
      file / leaf-only: the whole file against its finest level alone (the file a build of that \
      depth without levels writes).";
 
+/// A model's tables in table.md.
+struct Section {
+    heading: String,
+    table: Table,
+    shallower: Option<Table>,
+    levels: Option<Table>,
+}
+
+/// What table.md shows.
+#[derive(Template)]
+#[template(path = "sweep.md")]
+struct TableMd<'a> {
+    protocol: String,
+    extra: &'a [ExtraRows],
+    sections: Vec<Section>,
+    levels_note: &'a str,
+    summary: Option<Table>,
+}
+
 /// table.md's text.
-pub fn table_md(report: &Report) -> String {
-    let mut s = format!("# sdfmo sweep\n\n{}\n", protocol(report));
-    for e in &report.extra_rows {
-        let _ = writeln!(
-            s,
-            "\nRows of {} from another producer: {} ({} rows).",
-            e.methods.join(", "),
-            e.file,
-            e.rows
-        );
+pub fn table_md(report: &Report) -> Result<String> {
+    Ok(TableMd {
+        protocol: protocol(report),
+        extra: &report.extra_rows,
+        sections: report
+            .model_names()
+            .iter()
+            .map(|name| Section {
+                heading: model_heading(report, name),
+                table: model_table(report, name),
+                shallower: shallower_table(report, name),
+                levels: levels_table(report, name),
+            })
+            .collect(),
+        levels_note: LEVELS_NOTE,
+        summary: summary_table(report),
     }
-    for name in &report.model_names() {
-        let _ = write!(
-            s,
-            "\n## {}\n\n{}",
-            model_heading(report, name),
-            model_table(report, name).markdown()
-        );
-        if let Some(t) = shallower_table(report, name) {
-            let _ = write!(
-                s,
-                "\nMulti-octree at depth d against the SVO at depth d + 1:\n\n{}",
-                t.markdown()
-            );
-        }
-        if let Some(t) = levels_table(report, name) {
-            let _ = write!(s, "\n{LEVELS_NOTE}\n\n{}", t.markdown());
-        }
-    }
-    if let Some(t) = summary_table(report) {
-        let _ = write!(
-            s,
-            "\n## Summary over the models (multi-octree against SVO)\n\n{}",
-            t.markdown()
-        );
-    }
-    s
+    .render()?)
 }

@@ -41,7 +41,7 @@ pub fn results_json(report: &impl serde::Serialize) -> Result<String> {
 pub fn write_tables(out: &Path, report: &Report) -> Result<Vec<String>> {
     write_derived(&out.join("results.json"), results_json(report)?.as_bytes())?;
     write_derived(&out.join("results.csv"), csv::csv(report)?.as_bytes())?;
-    write_derived(&out.join("table.md"), table_md(report).as_bytes())?;
+    write_derived(&out.join("table.md"), table_md(report)?.as_bytes())?;
     Ok(vec![
         "results.json".into(),
         "results.csv".into(),
@@ -95,7 +95,7 @@ mod tests {
 
     #[test]
     fn table_has_gains_ratios_and_the_deeper_svo() {
-        let md = table_md(&report(rows(), vec![]));
+        let md = table_md(&report(rows(), vec![])).unwrap();
         // depth 4: +2.50 dB, size 1.20×; depth 5: multi identical to the reference (∞).
         assert!(md.contains("| 4 | 20.00 | 22.50 | +2.50 |"), "{md}");
         assert!(md.contains("| 1.20 |"), "{md}");
@@ -104,6 +104,27 @@ mod tests {
         assert!(md.contains("| 4 | 22.50 | 23.00 | -0.50 |"), "{md}");
         assert!(md.contains("median ΔPSNR"), "{md}");
         assert!(md.contains("median over 3 frames"), "{md}");
+    }
+
+    #[test]
+    fn table_md_has_a_levels_table_for_a_file_with_levels() {
+        // table.md's template was checked byte for byte against the hand-written writer it
+        // replaced on seven reports (extra rows, levels, two models, SVO only, no rows).
+        let mut levels = rows();
+        for (k, r) in levels.iter_mut().enumerate() {
+            r.bytes_read = Some(100 * k as u64 + 50);
+        }
+        let md = table_md(&report(levels, vec![])).unwrap();
+        assert!(
+            md.contains(&format!("\n{}\n\n|", markdown::LEVELS_NOTE)),
+            "{md}"
+        );
+        assert!(
+            md.starts_with("# sdfmo sweep\n\n") && md.ends_with(" |\n"),
+            "{md}"
+        );
+        let md = table_md(&report(Vec::new(), vec![])).unwrap();
+        assert!(!md.contains("## "), "{md}");
     }
 
     #[test]
@@ -214,7 +235,7 @@ mod tests {
             methods: vec!["nglod".into()],
         }];
         let r = report(rows, extra);
-        let md = table_md(&r);
+        let md = table_md(&r).unwrap();
         assert!(md.contains("PSNR dB nglod"), "{md}");
         assert!(
             md.contains("| 4 | 20.00 | 22.50 | 18.25 (LOD 2) | +2.50 |"),
