@@ -95,6 +95,24 @@ impl std::fmt::Display for Shard {
     }
 }
 
+/// The job arrays whose task index names a shard, in the order [`Shard::resolve`] tries them:
+/// the index variable, the count variable, the variable of the first index (Slurm numbers its
+/// tasks from `--array`'s start) and what to set a missing count to.
+const JOB_ARRAYS: [(&str, &str, Option<&str>, &str); 2] = [
+    (
+        "SLURM_ARRAY_TASK_ID",
+        "SLURM_ARRAY_TASK_COUNT",
+        Some("SLURM_ARRAY_TASK_MIN"),
+        "",
+    ),
+    (
+        "JOB_COMPLETION_INDEX",
+        "SDFMO_SHARD_COUNT",
+        None,
+        " (set it to the Job's completions)",
+    ),
+];
+
 impl Shard {
     /// The whole manifest in one process.
     pub const ALL: Shard = Shard { index: 0, count: 1 };
@@ -139,26 +157,23 @@ impl Shard {
                 })
                 .transpose()
         };
-        let unpaired = |set, missing, hint| ShardError::Unpaired { set, missing, hint };
-        if let Some(id) = num("SLURM_ARRAY_TASK_ID")? {
-            let count = num("SLURM_ARRAY_TASK_COUNT")?.ok_or(unpaired(
-                "SLURM_ARRAY_TASK_ID",
-                "SLURM_ARRAY_TASK_COUNT",
-                "",
-            ))?;
-            let min = num("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
+        for (index_var, count_var, min_var, hint) in JOB_ARRAYS {
+            let Some(id) = num(index_var)? else {
+                continue;
+            };
+            let count = num(count_var)?.ok_or(ShardError::Unpaired {
+                set: index_var,
+                missing: count_var,
+                hint,
+            })?;
+            let Some(min_var) = min_var else {
+                return Shard::new(id, count);
+            };
+            let min = num(min_var)?.unwrap_or(0);
             let index = id
                 .checked_sub(min)
                 .filter(|&i| i < count)
                 .ok_or(ShardError::ArrayTask { id, min, count })?;
-            return Shard::new(index, count);
-        }
-        if let Some(index) = num("JOB_COMPLETION_INDEX")? {
-            let count = num("SDFMO_SHARD_COUNT")?.ok_or(unpaired(
-                "JOB_COMPLETION_INDEX",
-                "SDFMO_SHARD_COUNT",
-                " (set it to the Job's completions)",
-            ))?;
             return Shard::new(index, count);
         }
         Ok(Shard::ALL)
