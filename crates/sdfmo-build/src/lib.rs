@@ -601,9 +601,9 @@ fn build_level(
 
     // 2. Distance structure.
     let t = Instant::now();
+    // The winding mode's per-leaf data is made by the corners that need it: a coarse level
+    // needs few of the leaves.
     let dist = MeshDistance::new(&norm_mesh, settings.sign)?;
-    // The winding mode's one-time per-triangle data, here rather than in the first corner.
-    dist.prepare_sign();
     phases.push(("distance".to_string(), ms(t)));
     report(0.08)?;
 

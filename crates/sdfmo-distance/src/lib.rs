@@ -50,6 +50,7 @@
 
 mod bvh4;
 mod bvh_build;
+mod clean;
 mod closest;
 mod point_triangle;
 mod pseudo_normals;
@@ -106,27 +107,9 @@ pub const COARSE_WINDING_MARGIN: f32 = 0.3;
 /// Was 1024 while each triangle scanned every edge (O(triangles × edges)).
 pub const MAX_CHAIN_BOUNDARY_EDGES: usize = 1 << 20;
 
-/// A clean leaf's probes must give a winding number within this of 0 in front and 1 behind.
-const CLEAN_PROBE_TOLERANCE: f32 = 0.2;
-
 /// The face-normal shortcut applies to queries closer to the surface than this fraction of the
 /// triangle's clean radius.
 pub const CLEAN_DISTANCE_FRACTION: f32 = 0.1;
-
-/// What the other triangles do around a BVH leaf, for the winding sign's face-normal shortcut.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Surroundings {
-    /// A triangle sharing no vertex with one of the leaf's crosses it (an edge of one through
-    /// the other, watertight segment test): the winding levels change inside the leaf, so its
-    /// probe does not speak for its triangles.
-    Crossed,
-    /// Nothing crosses the leaf, and its box holds triangles of its own component only.
-    Clear,
-    /// Nothing crosses the leaf, but its box holds a triangle of another connected component
-    /// (or its own triangles belong to several): that shell may leave some of the leaf's
-    /// triangles inside it without crossing them.
-    OtherShellNear,
-}
 
 const COARSE_FAR_SCALE: f32 =
     (COARSE_WINDING_BETA / WINDING_BETA) * (COARSE_WINDING_BETA / WINDING_BETA);
@@ -223,10 +206,9 @@ pub struct MeshDistance {
     /// Per leaf slot: the triangle's own far-field data (centroid, (β·r)², area normal), so a
     /// triangle of a near leaf that is itself far enough is taken as one dipole.
     leaf_dipoles: Vec<TriangleDipole>,
-    /// Per triangle (mesh order), winding mode only: the radius of its "clean" neighbourhood
-    /// (see [`MeshDistance::clean_winding_radii`]), 0 where the shortcut does not apply;
-    /// computed on the first signed query that needs it.
-    clean_radius: OnceLock<Vec<f32>>,
+    /// Winding mode only: the radii of the triangles' "clean" neighbourhoods (see
+    /// [`clean`](mod@clean)), each BVH leaf's made by the first signed query that needs them.
+    clean_radius: OnceLock<clean::CleanRadii>,
     depth: usize,
     builder: BvhBuilder,
 }
@@ -346,204 +328,6 @@ impl MeshDistance {
         })
     }
 
-    /// For the winding-number sign near the surface: per triangle, the radius within which a
-    /// query whose closest point lies in the triangle's face interior may take its sign from
-    /// the face normal instead of the winding number (0: never).
-    ///
-    /// The winding number is piecewise constant, jumping by exactly 1 across a sheet, except for
-    /// a smooth part that depends only on the mesh's *chain boundary*: the edges whose
-    /// orientations do not cancel (boundary edges of open meshes, unbalanced non-manifold
-    /// edges). Per BVH leaf, its largest triangle is probed just in front of and just behind
-    /// its centroid with the coarse winding number; the leaf is clean when that gives ≈ 0 in
-    /// front and ≈ 1 behind (a locally closed, outward surface with the usual levels), no
-    /// triangle sharing no vertex with it crosses it (self-intersections change the levels).
-    /// Each triangle of a clean leaf not facing against the probed one (unit normals' dot
-    /// product > −0.25) gets as radius the distance from its centroid to the nearest
-    /// chain-boundary edge minus its own circumradius about the centroid; where another shell
-    /// comes near the leaf ([`Surroundings::OtherShellNear`]) only if its own probe shows the
-    /// usual levels too. Meshes with more than [`MAX_CHAIN_BOUNDARY_EDGES`] such edges get no shortcut.
-    fn clean_winding_radii(&self) -> Vec<f32> {
-        let tris = self.mesh.triangles();
-        let positions = self.mesh.positions();
-        let adjacency = EdgeAdjacency::of(&self.mesh);
-        let (component, _) = adjacency.components(tris.len(), false);
-        let mut chain = Vec::new();
-        for [a, b] in adjacency.chain_boundary(tris) {
-            chain.push((positions[a as usize], positions[b as usize]));
-            if chain.len() > MAX_CHAIN_BOUNDARY_EDGES {
-                return vec![0.0; tris.len()];
-            }
-        }
-        let chain = SegmentTree::new(chain);
-        let leaves: Vec<&Bvh2Node> = self.nodes.iter().filter(|n| n.prim_count > 0).collect();
-        let per_leaf: Vec<Vec<(u32, f32)>> = leaves
-            .par_iter()
-            .map(|node| {
-                let range =
-                    node.first_index as usize..(node.first_index + node.prim_count) as usize;
-                let Some(n) = self.leaf_is_clean(&self.leaf_tris[range.clone()]) else {
-                    return Vec::new();
-                };
-                let other_shell_near = match self.leaf_surroundings(node, range.clone(), &component)
-                {
-                    Surroundings::Crossed => return Vec::new(),
-                    Surroundings::Clear => false,
-                    Surroundings::OtherShellNear => true,
-                };
-                range
-                    .filter_map(|slot| {
-                        let t = &self.leaf_tris[slot];
-                        // Only triangles facing roughly the probed way share its two levels.
-                        // Near another shell each is probed itself: that shell can cross the
-                        // surface between two triangles of the leaf without crossing either
-                        // (through other leaves' triangles), leaving one of them inside it.
-                        if (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero().dot(n) <= -0.25
-                            || other_shell_near && self.has_usual_levels(t).is_none()
-                        {
-                            return None;
-                        }
-                        let c = (t[0] + t[1] + t[2]) / 3.0;
-                        let rad = t.iter().map(|v| (*v - c).length()).fold(0.0f32, f32::max);
-                        let to_chain = chain.nearest_distance(c);
-                        Some((self.leaf_ids[slot], (to_chain - rad).max(0.0)))
-                    })
-                    .collect()
-            })
-            .collect();
-        let mut out = vec![0.0f32; tris.len()];
-        for (id, r) in per_leaf.into_iter().flatten() {
-            out[id as usize] = r;
-        }
-        out
-    }
-
-    /// What the other triangles do around a leaf (slots `range`, box of `leaf`; `component`:
-    /// connected component per triangle), see [`Surroundings`].
-    fn leaf_surroundings(
-        &self,
-        leaf: &Bvh2Node,
-        range: std::ops::Range<usize>,
-        component: &[u32],
-    ) -> Surroundings {
-        let lb = leaf.aabb();
-        let own = component[self.leaf_ids[range.start] as usize];
-        let mut other_shell_near = range
-            .clone()
-            .any(|slot| component[self.leaf_ids[slot] as usize] != own);
-        let overlaps = |n: &Bvh2Node| {
-            let b = n.aabb();
-            b.min.cmple(lb.max).all() && lb.min.cmple(b.max).all()
-        };
-        let crosses = |s: &[Vec3; 3], t: &[Vec3; 3]| {
-            (0..3).any(|k| {
-                let (e0, e1) = (s[k], s[(k + 1) % 3]);
-                WatertightRay::new(e0, e1 - e0)
-                    .and_then(|r| r.intersect(t[0], t[1], t[2], 0.0, 1.0))
-                    .is_some()
-            })
-        };
-        let apart = |t: &[Vec3; 3], o: &[Vec3; 3]| {
-            let n = (t[1] - t[0]).cross(t[2] - t[0]);
-            let d = o.map(|v| n.dot(v - t[0]));
-            d.iter().all(|&x| x > 0.0) || d.iter().all(|&x| x < 0.0)
-        };
-        let mut stack = vec![0usize];
-        while let Some(ni) = stack.pop() {
-            let node = &self.nodes[ni];
-            if !overlaps(node) {
-                continue;
-            }
-            if node.prim_count == 0 {
-                stack.push(node.first_index as usize);
-                stack.push(node.first_index as usize + 1);
-                continue;
-            }
-            let start = node.first_index as usize;
-            for other in start..start + node.prim_count as usize {
-                let oi = self.mesh.triangles()[self.leaf_ids[other] as usize];
-                let ot = &self.leaf_tris[other];
-                if !other_shell_near && component[self.leaf_ids[other] as usize] != own {
-                    let (lo, hi) = (ot[0].min(ot[1]).min(ot[2]), ot[0].max(ot[1]).max(ot[2]));
-                    other_shell_near =
-                        lo.cmple(lb.max.into()).all() && Vec3::from(lb.min).cmple(hi).all();
-                }
-                for slot in range.clone() {
-                    if slot == other {
-                        continue;
-                    }
-                    let li = self.mesh.triangles()[self.leaf_ids[slot] as usize];
-                    if li.iter().any(|v| oi.contains(v)) {
-                        continue;
-                    }
-                    let lt = &self.leaf_tris[slot];
-                    // Early out (Möller 1997): one triangle strictly on one side of the
-                    // other's plane cannot cross it.
-                    if apart(lt, ot) || apart(ot, lt) {
-                        continue;
-                    }
-                    if crosses(ot, lt) || crosses(lt, ot) {
-                        return Surroundings::Crossed;
-                    }
-                }
-            }
-        }
-        if other_shell_near {
-            Surroundings::OtherShellNear
-        } else {
-            Surroundings::Clear
-        }
-    }
-
-    /// Computes the one-time data of the sign now (in winding mode, the per-triangle radii of
-    /// the face-normal shortcut, in parallel) instead of in the first signed query that needs
-    /// it; for timing a build, or before handing the structure to many threads. Idempotent.
-    pub fn prepare_sign(&self) {
-        if self.sign == SignMode::Winding {
-            self.clean_radii();
-        }
-    }
-
-    /// The per-triangle radii of the winding mode's face-normal shortcut, computed on first use.
-    fn clean_radii(&self) -> &[f32] {
-        self.clean_radius.get_or_init(|| self.clean_winding_radii())
-    }
-
-    /// The unit normal of the largest triangle of a leaf if that triangle has the usual levels
-    /// ([`has_usual_levels`](Self::has_usual_levels); the leaf is clean, see
-    /// [`clean_winding_radii`](Self::clean_winding_radii)), else `None`.
-    fn leaf_is_clean(&self, tris: &[[Vec3; 3]]) -> Option<Vec3> {
-        let area = |t: &&[Vec3; 3]| (t[1] - t[0]).cross(t[2] - t[0]).length();
-        let big = tris.iter().max_by(|a, b| area(a).total_cmp(&area(b)))?;
-        self.has_usual_levels(big)
-    }
-
-    /// The unit normal of triangle `t` if the coarse winding number is ≈ 0 just in front of its
-    /// centroid and ≈ 1 just behind (a locally closed, outward surface), else `None`.
-    fn has_usual_levels(&self, t: &[Vec3; 3]) -> Option<Vec3> {
-        let area_normal = (t[1] - t[0]).cross(t[2] - t[0]);
-        let n = area_normal.normalize_or_zero();
-        if n == Vec3::ZERO {
-            return None;
-        }
-        let c = (t[0] + t[1] + t[2]) / 3.0;
-        // 5 % of the triangle's smallest height, at least 1e-5 (far above f32 rounding in the
-        // normalised frame), so the probes lie on either side of the plane.
-        let longest = (t[1] - t[0])
-            .length()
-            .max((t[2] - t[1]).length())
-            .max((t[0] - t[2]).length());
-        let eps = (0.05 * area_normal.length() / longest).max(1e-5);
-        // The back probe only where the front one passes (the same answer, one winding number
-        // fewer on a rejected triangle).
-        let front = self.winding_number_scaled(c + n * eps, COARSE_FAR_SCALE);
-        let front_passes = front.abs() <= CLEAN_PROBE_TOLERANCE; // (false for NaN)
-        if !front_passes {
-            return None;
-        }
-        let back = self.winding_number_scaled(c - n * eps, COARSE_FAR_SCALE);
-        ((back - 1.0).abs() <= CLEAN_PROBE_TOLERANCE).then_some(n)
-    }
-
     /// The mesh the queries run against.
     pub fn mesh(&self) -> &TriMesh {
         &self.mesh
@@ -573,7 +357,6 @@ impl MeshDistance {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sdfmo_mesh::TriMesh;
 
     #[test]
     fn morton_order_is_a_permutation_that_groups_nearby_points() {
@@ -636,7 +419,7 @@ mod tests {
 
     /// A reproducible stream of values `u · scale − offset`, u uniform in [0, 1) (the project's
     /// `SplitMix64`).
-    fn uniform_stream(seed: u64, scale: f32, offset: f32) -> impl FnMut() -> f32 {
+    pub(crate) fn uniform_stream(seed: u64, scale: f32, offset: f32) -> impl FnMut() -> f32 {
         let mut rng = sdfmo_io::SplitMix64::new(seed);
         move || rng.next_f32() * scale - offset
     }
@@ -664,105 +447,6 @@ mod tests {
                 assert_eq!(md.signed_distance(p) < 0.0, full > 0.5, "p {p:?}, w {full}");
             }
             assert!(near_half < 300);
-        }
-    }
-
-    /// The cube [-h, h]³ without its face at `+h` along `axis`.
-    fn open_box(h: f32, axis: usize) -> TriMesh {
-        let (p, mut tris, mut parts) =
-            sdfmo_mesh::procedural::box_mesh(Vec3::splat(-h), Vec3::splat(h)).into_arrays();
-        tris.retain(|t| !t.iter().all(|&i| p[i as usize][axis] > h - 0.01));
-        parts.truncate(tris.len());
-        TriMesh::new(p, tris, parts).unwrap()
-    }
-
-    #[test]
-    fn clean_radii_follow_the_chain_boundary() {
-        // Closed sphere: no chain boundary, every triangle clean with an unbounded radius.
-        let sphere = sdfmo_mesh::procedural::sphere(Vec3::ZERO, 0.5, 3);
-        let md = MeshDistance::new(&sphere, SignMode::Winding).unwrap();
-        assert!(md.clean_winding_radii().iter().all(|r| r.is_infinite()));
-        // Open sheet: w is ±½ on either side, so no leaf is clean.
-        let sheet = sdfmo_mesh::procedural::open_sheet(1.0, 0.8, 24);
-        let md = MeshDistance::new(&sheet, SignMode::Winding).unwrap();
-        assert!(md.clean_winding_radii().iter().all(|&r| r == 0.0));
-        // A box without its top face: triangles far from the rim are clean, with radii no
-        // larger than their distance to the rim (the top edges at y = 0.5).
-        let open_box = open_box(0.5, 1);
-        let p = open_box.positions();
-        assert!(open_box.triangles().len() < 12);
-        let md = MeshDistance::new(&open_box, SignMode::Winding).unwrap();
-        let radii = md.clean_winding_radii();
-        for (t, &r) in open_box.triangles().iter().zip(&radii) {
-            let lowest = t
-                .iter()
-                .map(|&i| p[i as usize].y)
-                .fold(f32::INFINITY, f32::min);
-            assert!(
-                r <= 0.5 - lowest + 1e-5,
-                "radius {r} for a triangle reaching y = {lowest}"
-            );
-        }
-    }
-
-    /// Found in session 7 when the points of the test below came from another generator: a
-    /// leaf passed the probe and the crossing test while one of its triangles lay inside the
-    /// other sphere (the curve where the spheres cross runs through triangles of *other*
-    /// leaves), so a point 0.031 in front of that triangle, inside the other sphere (winding
-    /// number 0.976), took the outside sign from the face normal. Now, near another shell, each
-    /// triangle of a clean leaf is probed itself.
-    #[test]
-    fn shortcut_sign_inside_an_overlapping_shell() {
-        let a = sdfmo_mesh::procedural::sphere(Vec3::new(-0.2, 0.0, 0.0), 0.4, 3);
-        let b = sdfmo_mesh::procedural::sphere(Vec3::new(0.2, 0.05, 0.0), 0.35, 3);
-        let md = MeshDistance::new(&TriMesh::merge(&[a, b]), SignMode::Winding).unwrap();
-        let q = Vec3::new(0.016013017, -0.28269655, -0.0080042);
-        let w = md.winding_number(q);
-        assert!(w > 0.9, "w {w}");
-        assert!(md.signed_distance(q) < 0.0, "w {w}, but signed outside");
-    }
-
-    #[test]
-    fn shortcut_signs_match_the_winding_number_on_overlapping_and_open_shells() {
-        // Self-intersections leave no chain boundary, so only the probes guard the shortcut:
-        // two overlapping spheres (w = 2 in the overlap), a sphere overlapping an open box, and
-        // points within 0.03 of the surface.
-        let a = sdfmo_mesh::procedural::sphere(Vec3::new(-0.2, 0.0, 0.0), 0.4, 3);
-        let b = sdfmo_mesh::procedural::sphere(Vec3::new(0.2, 0.05, 0.0), 0.35, 3);
-        let open_box = open_box(0.3, 0);
-        for mesh in [
-            TriMesh::merge(&[a, b.clone()]),
-            TriMesh::merge(&[b, open_box]),
-        ] {
-            let md = MeshDistance::new(&mesh, SignMode::Winding).unwrap();
-            let mut next = uniform_stream(11, 2.0, 1.0);
-            let radii = md.clean_winding_radii();
-            let (mut compared, mut shortcut) = (0, 0);
-            for t in mesh.triangles().iter().step_by(3) {
-                let c = t
-                    .iter()
-                    .map(|&i| mesh.positions()[i as usize])
-                    .sum::<Vec3>()
-                    / 3.0;
-                let q = c + Vec3::new(next(), next(), next()) * 0.03;
-                let full = md.winding_number(q);
-                if (full - 0.5).abs() < 0.05 {
-                    continue;
-                }
-                compared += 1;
-                let cp = md.closest_point(q);
-                if cp.feature == Feature::Face
-                    && cp.distance < radii[cp.triangle as usize] * CLEAN_DISTANCE_FRACTION
-                {
-                    shortcut += 1;
-                }
-                assert_eq!(md.signed_distance(q) < 0.0, full > 0.5, "q {q:?}, w {full}");
-            }
-            // The shortcut is exercised (not every leaf is crossed or near the rim).
-            assert!(
-                compared > 100 && shortcut > compared / 10,
-                "{compared} {shortcut}"
-            );
         }
     }
 }

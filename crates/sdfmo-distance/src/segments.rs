@@ -1,5 +1,5 @@
 //! Distance from a point to the nearest of a set of segments (the winding sign's chain
-//! boundary, see `MeshDistance::clean_winding_radii`), through a small bounding-box tree.
+//! boundary, see the `clean` module), through a small bounding-box tree.
 //!
 //! The answer is, bit for bit, the minimum of [`point_segment_distance`] over every segment: a
 //! subtree is skipped only when its box is farther than the best distance so far by a margin

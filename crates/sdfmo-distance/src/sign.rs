@@ -21,7 +21,7 @@ impl MeshDistance {
         if self.sign != SignMode::Winding {
             return false;
         }
-        self.clean_radii().get(t as usize).is_some_and(|&r| r > 0.0)
+        self.clean_radius(t).is_some_and(|r| r > 0.0)
     }
 
     /// The winding number's verdict on `p` where it is decisive: `Some(inside)` when the coarse
@@ -56,12 +56,12 @@ impl MeshDistance {
 
     /// Whether the winding number of `p` exceeds ½ for a query whose closest point is `c`:
     /// from the face normal when `c` lies in the interior of a clean triangle (see
-    /// [`clean_winding_radii`](Self::clean_winding_radii)) and `p` is closer to it than
+    /// [`clean`](mod@crate::clean)) and `p` is closer to it than
     /// [`CLEAN_DISTANCE_FRACTION`] of the clean radius, else [`winding_inside`](Self::winding_inside).
     #[inline]
     pub(crate) fn winding_inside_near(&self, p: Vec3, c: &ClosestPoint) -> bool {
         if c.feature == Feature::Face {
-            if let Some(&r) = self.clean_radii().get(c.triangle as usize) {
+            if let Some(r) = self.clean_radius(c.triangle) {
                 if c.distance < r * CLEAN_DISTANCE_FRACTION {
                     let n = self.normals.face[c.triangle as usize];
                     return (p - c.point).dot(n) < 0.0;
