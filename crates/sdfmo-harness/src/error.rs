@@ -101,8 +101,8 @@ pub enum HarnessError {
     /// The CSV writer failed.
     #[error("cannot write CSV")]
     Csv(#[from] csv::Error),
-    /// A page's template failed to render.
-    #[error("cannot render a page")]
+    /// A report template (table.md, dataset.md, a page) failed to render.
+    #[error("cannot render a report template")]
     Template(#[from] askama::Error),
     /// Something the harness writes as JSON could not be serialised.
     #[error("cannot serialise {what}")]
