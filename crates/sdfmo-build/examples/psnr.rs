@@ -1,7 +1,8 @@
 //! Builds a mesh as SVO and multi-octree at some depths, renders the paper's four views of each
 //! and of the mesh reference (lambert), and prints mean PSNR and FLIP, sizes and the gain.
 //!
-//! `cargo run --release -p sdfmo-build --example psnr -- MESH SIZE DEPTH... [--save DIR]`
+//! `cargo run --release -p sdfmo-build --example psnr -- MESH SIZE DEPTH... [--save DIR] [--fit]`
+//! (`--fit`: corners fitted to the surface, `BuildSettings::fit_corners`)
 
 use std::path::Path;
 
@@ -18,9 +19,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .iter()
         .position(|a| a == "--save")
         .map(|i| args[i + 1].clone());
+    let fit = args.iter().any(|a| a == "--fit");
     let depths: Vec<u8> = args[2..]
         .iter()
-        .take_while(|a| *a != "--save")
+        .take_while(|a| !a.starts_with("--"))
         .map(|a| a.parse())
         .collect::<Result<_, _>>()?;
     let mesh = sdfmo_mesh::load_mesh(Path::new(path))?.mesh;
@@ -38,7 +40,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut row = Vec::new();
         let mut svo_imgs: Vec<image::RgbImage> = Vec::new();
         for method in [Method::Svo, Method::Multi { max_voxels: 8 }] {
-            let s = BuildSettings::new(depth, method);
+            let s = BuildSettings {
+                fit_corners: fit,
+                ..BuildSettings::new(depth, method)
+            };
             let (oct, st) = build(&mesh, &s, None)?;
             let score = protocol.score(&OctreeScene(&oct))?;
             let mut imgs = Vec::new();

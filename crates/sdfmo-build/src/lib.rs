@@ -26,7 +26,8 @@
 //!    computed once and shared by the up to eight leaves around it.
 //! 5. **leaves**: the SVO keeps a leaf's single voxel where its *quantised* corners change sign
 //!    (exactly what the tracer can hit); the multi-octree decides per leaf as described in
-//!    `leaf`.
+//!    `leaf`. With [`BuildSettings::fit_corners`], the shared corner values of the leaves that
+//!    keep the global-distance voxel are then fitted to the surface (module `cornerfit`).
 //! 6. **pack**: [`PackedOctree::from_leaves`].
 //!
 //! Every step is a pure function of the input and runs in a fixed order of leaves, so the bytes
@@ -36,6 +37,7 @@
 
 mod budget;
 mod components;
+mod cornerfit;
 mod error;
 mod geom;
 mod leaf;
@@ -104,6 +106,16 @@ pub struct BuildSettings {
     /// every level `c..=depth`, each what a build of that depth makes (`None`: the leaf level
     /// alone). [`build`] makes one level and refuses `Some(c)` with `c < depth`.
     pub coarsest_level: Option<u8>,
+    /// Corners fitted to the surface (off by default): the shared corner values of the leaves
+    /// that keep the global-distance voxel (every SVO leaf, most multi-octree leaves) are a
+    /// least-squares fit of the trilinear interpolant's zero set to the mesh inside those
+    /// leaves, each within six quantisation steps of the exact distance, instead of the exact
+    /// distance itself (depth-9 multi-octree on the five shared models: +1.08 to +1.66 dB;
+    /// abc5 at depth 6 (SVO) and 7 (multi) lose 1.04 and 0.30 dB: `docs/results/sweep.md`). Each grid point keeps one value for every voxel around it;
+    /// private corners (component, surface, plane and clip voxels) and the corners of dropped
+    /// cells keep their exact values. The leaf decisions are those of the exact corners, so
+    /// the octree's leaves and voxels, and its size, are the same as without the fit.
+    pub fit_corners: bool,
 }
 
 impl BuildSettings {
@@ -128,6 +140,7 @@ impl Default for BuildSettings {
             sign: SignMode::Auto,
             leaf: LeafParams::OURS,
             coarsest_level: None,
+            fit_corners: false,
         }
     }
 }
@@ -147,7 +160,8 @@ pub struct BuildStats {
     pub voxels_per_leaf: Vec<usize>,
     /// Leaves whose component split produced more voxels than the cap (reduced by merging).
     pub cap_hits: usize,
-    /// Milliseconds per phase, in order: normalize, distance, subdivide, corners, leaves, pack.
+    /// Milliseconds per phase, in order: normalize, distance, subdivide, corners, leaves, fit
+    /// (only with [`BuildSettings::fit_corners`]), pack.
     pub phases: Vec<(String, f64)>,
     /// Total milliseconds.
     pub build_ms: f64,
@@ -637,7 +651,8 @@ fn build_level(
     let corners: Vec<[f32; 8]> = (0..n)
         .map(|i| std::array::from_fn(|k| values[point_of_slot[i * 8 + k] as usize]))
         .collect();
-    drop((point_of_slot, values));
+    // The fit after the leaves needs the shared points; without it they go now.
+    let shared = settings.fit_corners.then_some((point_of_slot, values));
     phases.push(("corners".to_string(), ms(t)));
     report(0.45)?;
 
@@ -656,6 +671,10 @@ fn build_level(
     let mut leaves: Vec<LeafInput> = Vec::with_capacity(n);
     let mut cap_hits = 0usize;
     let mut histogram = vec![0usize; max_voxels + 1];
+    // For the fit: the cells whose one voxel is the shared one (with its index in `leaves`),
+    // and the dropped cells.
+    let mut fitted: Vec<(u32, usize)> = Vec::new();
+    let mut dropped: Vec<u32> = Vec::new();
     const CHUNK: usize = 1 << 14;
     let mut start = 0;
     while start < n {
@@ -684,6 +703,15 @@ fn build_level(
         };
         for (i, r) in (start..end).zip(results) {
             cap_hits += r.cap_hit as usize;
+            if shared.is_some() {
+                match r.voxels.as_slice() {
+                    [] => dropped.push(i as u32),
+                    [v] if !v.clip && v.corners == corners[i] => {
+                        fitted.push((i as u32, leaves.len()));
+                    }
+                    _ => {}
+                }
+            }
             if !r.voxels.is_empty() {
                 histogram[r.voxels.len().min(max_voxels)] += 1;
                 leaves.push(LeafInput {
@@ -696,6 +724,30 @@ fn build_level(
         report(0.45 + 0.5 * end as f32 / n as f32)?;
     }
     phases.push(("leaves".to_string(), ms(t)));
+
+    // 5b. Corners fitted to the surface.
+    if let Some((point_of_slot, values)) = shared {
+        let t = Instant::now();
+        let cells: Vec<u32> = fitted.iter().map(|&(c, _)| c).collect();
+        let fit = cornerfit::fit_values(
+            &params,
+            &cornerfit::FitParams::DEFAULT,
+            &local,
+            &sub,
+            cornerfit::SharedPoints {
+                values: &values,
+                point_of_slot: &point_of_slot,
+            },
+            &cells,
+            &dropped,
+        );
+        for &(c, at) in &fitted {
+            leaves[at].voxels[0].corners =
+                std::array::from_fn(|k| fit[point_of_slot[c as usize * 8 + k] as usize]);
+        }
+        phases.push(("fit".to_string(), ms(t)));
+        report(0.97)?;
+    }
 
     // 6. Pack.
     let t = Instant::now();

@@ -181,6 +181,11 @@ pub struct BuildArgs {
     #[arg(long, value_name = "LEVEL", num_args = 0..=1, default_missing_value = "9",
           require_equals = true, value_parser = clap::value_parser!(i32).range(1..=22))]
     pub compress: Option<i32>,
+    /// Corners fitted to the surface: the shared corner values chosen so that the voxels' zero
+    /// set follows the mesh (a least-squares fit within a few quantisation steps of the exact
+    /// distance) instead of the exact distance; the same leaves, voxels and size.
+    #[arg(long)]
+    pub fit_corners: bool,
     /// Print one JSON object on stdout instead of the human summary.
     #[arg(long)]
     pub json: bool,

@@ -228,6 +228,7 @@ fn build_settings(args: &SweepOptions, method: SweepMethod, depth: u8) -> BuildS
         sign: SignMode::Auto,
         leaf: build::LeafParams::OURS,
         coarsest_level: None,
+        fit_corners: false,
     }
 }
 

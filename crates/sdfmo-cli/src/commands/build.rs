@@ -29,6 +29,7 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
         sign: args.sign.mode(),
         leaf: build::LeafParams::OURS,
         coarsest_level: args.coarsest_level(),
+        fit_corners: args.fit_corners,
     };
     if settings.coarsest_level.is_some() {
         return run_lod(args, &input, &settings);

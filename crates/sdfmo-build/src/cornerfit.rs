@@ -1,0 +1,451 @@
+//! Corners fitted to the surface ([`BuildSettings::fit_corners`](crate::BuildSettings)): the
+//! shared corner values of the leaves that keep the global-distance voxel, chosen so that the
+//! trilinear interpolant's zero set follows the mesh, instead of sampling the exact distance.
+//!
+//! Exact distances at the corners are not the best corners for a trilinear voxel: near a
+//! feature or across a curved surface the interpolant of the exact distance bows off the
+//! surface, and rounding each value to its code on its own adds up to half a step more. The fit
+//! is one sparse least-squares problem over the *shared* grid points (every voxel around a
+//! point reads the same value, so a layout that stores each grid point once stores the fitted
+//! one once):
+//!
+//! ```text
+//! minimise  Σ_leaves 1/N_L Σ_samples f_L(p)²  +  λ Σ_points (v − d)²
+//! ```
+//!
+//! in units of the leaf edge `h`, where `f_L` is leaf `L`'s trilinear interpolant of the point
+//! values `v`, the samples `p` are the leaf decision's points of the true surface in the cell
+//! (`leaf::samples`, `N_L` of them) and `d` is the exact signed distance. It is solved for the
+//! moves `v − d` by a fixed number of conjugate-gradient steps from zero; each value is rounded
+//! to its code within [`FitParams::max_shift_steps`] of `d`, and then a few sweeps of greedy
+//! descent move codes by one step where that lowers the same energy (the quantised values are
+//! what the file stores).
+//!
+//! Which points move: those of leaves whose voxel is the shared global-distance voxel (every
+//! SVO leaf; a multi-octree leaf the decision gave the SVO voxel). Private corners (a
+//! multi-octree leaf's component, surface, plane or clip voxels) keep their own values. A point
+//! that is also a corner of a candidate cell the build dropped keeps its exact value, and a
+//! point farther than one quantisation step from the surface keeps its sign, so that no cell
+//! outside the file (a dropped candidate, or a cell beyond the candidate margin, all of whose
+//! corners are that far) gains a zero crossing. The leaf decisions are made on the exact
+//! corners before the fit: the leaves and voxels, and so the bytes, are the same with or
+//! without it.
+//!
+//! Deterministic: the per-leaf systems are functions of their leaf, the point sums run over
+//! each point's leaves in leaf order, the dot products sum fixed chunks in a fixed order, and
+//! the code descent moves one parity class of grid points at a time (points of one class share
+//! no leaf), so the values do not depend on the number of threads.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::geom::corner_offset;
+use crate::leaf::samples::Samples;
+use crate::leaf::{Cell, Params};
+use crate::local::LocalMesh;
+use crate::subdivide::Subdivision;
+
+/// The weights and limits of the fit. Measured at depth 9, multi-octree, 1024² paper views, dB
+/// over the exact corners for teapot / abc8 (/ abc1):
+/// - `λ` (shift 2, 40 steps, no code descent): 0.2 → +0.78 / +0.43, 0.05 → +0.82 / +0.54,
+///   0.01 → +1.12 / +0.49. A gradient term pulling `∇f` to the face normals at the samples
+///   (weight 0.1 or 1 against the value term's 1) cost the teapot 0.40 or 1.31 dB: dropped.
+/// - The code descent (shift 3, 40 steps): 0 → 4 sweeps −0.14 / +0.07 / +0.06.
+/// - Steps and shift: 40 steps, shift 3 → +1.09 / +0.72 / +0.93; 120 steps, shift 4 → +1.22 /
+///   +1.15 / +1.21; 120 steps, shift 6 → +1.23 / +1.47 / +1.29 (the values below).
+///
+/// With these values 48 of the 50 cells of the paper sweep gain (+0.03 to +2.64 dB); abc5 loses
+/// 1.04 dB (SVO, depth 6) and 0.30 dB (multi, depth 7). Keeping the exact corners where the
+/// exact voxel misses a sample by more than 0.05 of a cell restored abc5's depth 6 but took
+/// most of the gain elsewhere (depth 9 multi: teapot +0.79, abc1 +0.78, abc3 +0.16 dB); at 0.1
+/// of a cell, or only where the samples lie on several components, abc5 still lost 1.0 dB.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct FitParams {
+    /// Weight `λ` of a value's squared move away from its exact distance.
+    pub lambda: f32,
+    /// Conjugate-gradient steps.
+    pub iterations: usize,
+    /// Largest move of a value from its exact distance, in quantisation steps.
+    pub max_shift_steps: f32,
+    /// Sweeps of the greedy descent over the quantised codes (one code up or down per point
+    /// and sweep where that lowers the energy).
+    pub code_sweeps: usize,
+}
+
+impl FitParams {
+    /// The values the builder uses.
+    pub const DEFAULT: FitParams = FitParams {
+        lambda: 0.01,
+        iterations: 120,
+        max_shift_steps: 6.0,
+        code_sweeps: 4,
+    };
+}
+
+/// One fitted leaf's normal equations: the upper triangle of its 8×8 matrix (row-major,
+/// 36 entries) and its right-hand side, in units of `h`, for the moves `v − d` of its corners.
+#[derive(Clone, Copy, Debug)]
+struct LeafSystem {
+    m: [f32; 36],
+    b: [f32; 8],
+}
+
+/// Index of `(i, j)`, `i ≤ j`, in the packed upper triangle of an 8×8 matrix.
+#[inline]
+fn upper(i: usize, j: usize) -> usize {
+    debug_assert!(i <= j);
+    i * 8 - i * (i + 1) / 2 + j
+}
+
+impl LeafSystem {
+    fn zero() -> LeafSystem {
+        LeafSystem {
+            m: [0.0; 36],
+            b: [0.0; 8],
+        }
+    }
+
+    /// Adds the row `r · x = t` with weight `w`.
+    #[inline]
+    fn add_row(&mut self, r: &[f32; 8], t: f32, w: f32) {
+        for i in 0..8 {
+            if r[i] == 0.0 {
+                continue;
+            }
+            let wi = w * r[i];
+            for (j, rj) in r.iter().enumerate().skip(i) {
+                self.m[upper(i, j)] += wi * rj;
+            }
+            self.b[i] += wi * t;
+        }
+    }
+
+    /// `M x`.
+    #[inline]
+    fn apply(&self, x: &[f32; 8]) -> [f32; 8] {
+        let mut y = [0.0f32; 8];
+        for i in 0..8 {
+            let d = self.m[upper(i, i)];
+            y[i] += d * x[i];
+            for j in i + 1..8 {
+                let a = self.m[upper(i, j)];
+                y[i] += a * x[j];
+                y[j] += a * x[i];
+            }
+        }
+        y
+    }
+}
+
+/// The trilinear weights of the eight corners at local coordinates `l`.
+#[inline]
+fn weights(l: Vec3) -> [f32; 8] {
+    std::array::from_fn(|k| {
+        let o = corner_offset(k);
+        let f = |o: f32, t: f32| if o > 0.5 { t } else { 1.0 - t };
+        f(o.x, l.x) * f(o.y, l.y) * f(o.z, l.z)
+    })
+}
+
+/// The normal equations of one leaf with exact corners `d` (normalised units) and `samples`:
+/// rows for the moves `x = (v − d) / h`.
+fn leaf_system(cell: &Cell, d: &[f32; 8], samples: &Samples) -> LeafSystem {
+    let mut sys = LeafSystem::zero();
+    if samples.is_empty() {
+        return sys;
+    }
+    let du: [f32; 8] = d.map(|v| v * cell.inv_h);
+    let w = 1.0 / samples.len() as f32;
+    for &l in &samples.points {
+        // Value: f(p) = w·(d + x h) = 0  →  w·x = −w·d / h.
+        let r = weights(l);
+        let f0: f32 = r.iter().zip(&du).map(|(a, b)| a * b).sum();
+        sys.add_row(&r, -f0, w);
+    }
+    sys
+}
+
+/// Sum of `f(i)` over `0..n` in fixed chunks summed in order (the same for any thread count).
+fn ordered_sum(n: usize, f: impl Fn(usize) -> f64 + Sync) -> f64 {
+    const CHUNK: usize = 4096;
+    let parts: Vec<f64> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| (c * CHUNK..((c + 1) * CHUNK).min(n)).map(&f).sum())
+        .collect();
+    parts.iter().sum()
+}
+
+/// The shared grid points of a build: the exact distance of each (`values`) and the point of
+/// each candidate cell's eight corners (`point_of_slot[cell * 8 + k]`).
+#[derive(Clone, Copy)]
+pub(crate) struct SharedPoints<'a> {
+    /// Exact signed distance per point.
+    pub values: &'a [f32],
+    /// Point index per cell corner.
+    pub point_of_slot: &'a [u32],
+}
+
+/// The fitted values of the shared grid points `pts`: `fitted` are the cells whose voxel is the
+/// shared one (ascending), `frozen` the cells (dropped candidates) whose points keep their exact
+/// value.
+pub(crate) fn fit_values(
+    p: &Params,
+    fp: &FitParams,
+    mesh: &LocalMesh,
+    sub: &Subdivision,
+    pts: SharedPoints,
+    fitted: &[u32],
+    frozen: &[u32],
+) -> Vec<f32> {
+    let SharedPoints {
+        values,
+        point_of_slot,
+    } = pts;
+    let h = p.h;
+    let npts = values.len();
+    let corners_of =
+        |cell: u32| -> [u32; 8] { std::array::from_fn(|k| point_of_slot[cell as usize * 8 + k]) };
+
+    // Which points may move.
+    let mut free = vec![false; npts];
+    for &c in fitted {
+        for q in corners_of(c) {
+            free[q as usize] = true;
+        }
+    }
+    for &c in frozen {
+        for q in corners_of(c) {
+            free[q as usize] = false;
+        }
+    }
+
+    // Per-leaf systems.
+    let systems: Vec<LeafSystem> = fitted
+        .par_iter()
+        .map_init(Samples::default, |samples, &c| {
+            let cand = &sub.cells[c as usize];
+            let cell = Cell::new(cand.coord, h);
+            samples.collect(p, mesh, &cell, sub.tris_of(cand));
+            let d = corners_of(c).map(|q| values[q as usize]);
+            leaf_system(&cell, &d, samples)
+        })
+        .collect();
+
+    // Each point's (leaf, corner) slots, in leaf order: the scatter as a gather.
+    let mut start = vec![0u32; npts + 1];
+    for &c in fitted {
+        for q in corners_of(c) {
+            start[q as usize + 1] += 1;
+        }
+    }
+    for i in 0..npts {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut slots = vec![0u32; start[npts] as usize];
+    for (j, &c) in fitted.iter().enumerate() {
+        for (k, q) in corners_of(c).into_iter().enumerate() {
+            let at = &mut fill[q as usize];
+            slots[*at as usize] = (j * 8 + k) as u32;
+            *at += 1;
+        }
+    }
+    let gather = |per_leaf: &[[f32; 8]], out: &mut [f32], diag: f32, x: &[f32]| {
+        out.par_iter_mut().enumerate().for_each(|(i, o)| {
+            if !free[i] {
+                *o = 0.0;
+                return;
+            }
+            let mut s = diag * x[i];
+            for &sl in &slots[start[i] as usize..start[i + 1] as usize] {
+                s += per_leaf[(sl / 8) as usize][(sl % 8) as usize];
+            }
+            *o = s;
+        });
+    };
+    let leaf_x = |x: &[f32]| -> Vec<[f32; 8]> {
+        fitted
+            .par_iter()
+            .map(|&c| corners_of(c).map(|q| x[q as usize]))
+            .collect()
+    };
+
+    // Right-hand side: Σ_L b_L on the free points (the moves start at 0).
+    let bs: Vec<[f32; 8]> = systems.iter().map(|s| s.b).collect();
+    let mut r = vec![0.0f32; npts];
+    gather(&bs, &mut r, 0.0, &vec![0.0; npts]);
+    drop(bs);
+
+    // Conjugate gradients on (Σ_L M_L + λ I) x = r over the free points.
+    let mut x = vec![0.0f32; npts];
+    let mut dir = r.clone();
+    let mut ad = vec![0.0f32; npts];
+    let mut rr = ordered_sum(npts, |i| f64::from(r[i]) * f64::from(r[i]));
+    for _ in 0..fp.iterations {
+        if rr <= 0.0 {
+            break;
+        }
+        let xl = leaf_x(&dir);
+        let yl: Vec<[f32; 8]> = systems
+            .par_iter()
+            .zip(xl.par_iter())
+            .map(|(s, x)| s.apply(x))
+            .collect();
+        gather(&yl, &mut ad, fp.lambda, &dir);
+        let dad = ordered_sum(npts, |i| f64::from(dir[i]) * f64::from(ad[i]));
+        if dad <= 0.0 {
+            break;
+        }
+        let alpha = (rr / dad) as f32;
+        x.par_iter_mut()
+            .zip(dir.par_iter())
+            .for_each(|(x, d)| *x += alpha * d);
+        r.par_iter_mut()
+            .zip(ad.par_iter())
+            .for_each(|(r, a)| *r -= alpha * a);
+        let rr_new = ordered_sum(npts, |i| f64::from(r[i]) * f64::from(r[i]));
+        let beta = (rr_new / rr) as f32;
+        dir.par_iter_mut()
+            .zip(r.par_iter())
+            .for_each(|(d, r)| *d = r + beta * *d);
+        rr = rr_new;
+    }
+
+    // Quantisation: each free point's code, chosen within its range by greedy descent of the
+    // same energy, starting from the rounded continuous fit.
+    let step = p.dmax / sdfmo_format::quant::max_code(p.bits) as f32;
+    let limit = fp.max_shift_steps * step;
+    let code_of = |v: f32| sdfmo_format::quant::quantize(v, p.dmax, p.bits);
+    let value_of = |c: i32| c as f32 * step;
+    let range = |d: f32| -> (i32, i32) {
+        let q = sdfmo_format::quant::max_code(p.bits);
+        let mut lo = (((d - limit) / step).ceil() as i32).max(-q);
+        let mut hi = (((d + limit) / step).floor() as i32).min(q);
+        // A point farther than a step from the surface keeps its sign: no cell outside the
+        // candidates (all of whose corners are) gains a zero crossing.
+        if d > step {
+            lo = lo.max(1);
+        } else if d < -step {
+            hi = hi.min(-1);
+        }
+        let exact = code_of(d);
+        (lo.min(exact), hi.max(exact))
+    };
+    let mut codes: Vec<i32> = values
+        .par_iter()
+        .zip(x.par_iter())
+        .zip(free.par_iter())
+        .map(|((&d, &x), &free)| {
+            if free && x.is_finite() {
+                let (lo, hi) = range(d);
+                code_of(d + x * h).clamp(lo, hi)
+            } else {
+                code_of(d)
+            }
+        })
+        .collect();
+    if fp.code_sweeps > 0 {
+        let inv_h = 1.0 / h;
+        let mut xs: Vec<f32> = codes
+            .par_iter()
+            .zip(values.par_iter())
+            .map(|(&c, &d)| (value_of(c) - d) * inv_h)
+            .collect();
+        // Points of one parity class (grid coordinates mod 2) share no leaf: a class moves at once.
+        let mut classes: [Vec<u32>; 8] = Default::default();
+        for i in 0..npts {
+            if free[i] && start[i] < start[i + 1] {
+                let sl = slots[start[i] as usize];
+                let cand = &sub.cells[fitted[(sl / 8) as usize] as usize];
+                let o = corner_offset((sl % 8) as usize);
+                let g = [
+                    cand.coord[0] + o.x as u32,
+                    cand.coord[1] + o.y as u32,
+                    cand.coord[2] + o.z as u32,
+                ];
+                classes[((g[0] & 1) * 4 + (g[1] & 1) * 2 + (g[2] & 1)) as usize].push(i as u32);
+            }
+        }
+        let ds = step * inv_h;
+        for _ in 0..fp.code_sweeps {
+            let mut moved = 0usize;
+            for class in &classes {
+                let updates: Vec<(u32, i32)> = class
+                    .par_iter()
+                    .filter_map(|&i| {
+                        let i = i as usize;
+                        let (mut a, mut g) = (fp.lambda, fp.lambda * xs[i]);
+                        for &sl in &slots[start[i] as usize..start[i + 1] as usize] {
+                            let (j, k) = ((sl / 8) as usize, (sl % 8) as usize);
+                            let sys = &systems[j];
+                            let pts = corners_of(fitted[j]);
+                            a += sys.m[upper(k, k)];
+                            g -= sys.b[k];
+                            for (m, &q) in pts.iter().enumerate() {
+                                let mk = sys.m[upper(k.min(m), k.max(m))];
+                                g += mk * xs[q as usize];
+                            }
+                        }
+                        let (lo, hi) = range(values[i]);
+                        let c = codes[i];
+                        let mut best = (0.0f32, c);
+                        for (dc, delta) in [(1, ds), (-1, -ds)] {
+                            let e = delta * delta * a + 2.0 * delta * g;
+                            if (lo..=hi).contains(&(c + dc)) && e < best.0 {
+                                best = (e, c + dc);
+                            }
+                        }
+                        (best.1 != c).then_some((i as u32, best.1))
+                    })
+                    .collect();
+                moved += updates.len();
+                for (i, c) in updates {
+                    codes[i as usize] = c;
+                    xs[i as usize] = (value_of(c) - values[i as usize]) * inv_h;
+                }
+            }
+            if moved == 0 {
+                break;
+            }
+        }
+    }
+    codes
+        .par_iter()
+        .zip(values.par_iter())
+        .zip(free.par_iter())
+        .map(|((&c, &d), &free)| if free { value_of(c) } else { d })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::trilinear;
+
+    #[test]
+    fn weights_are_the_interpolant() {
+        let c: [f32; 8] = [0.3, -0.2, 0.7, 0.1, -0.5, 0.4, 0.2, -0.9];
+        for l in [Vec3::new(0.1, 0.7, 0.4), Vec3::ZERO, Vec3::ONE] {
+            let w = weights(l);
+            let v: f32 = w.iter().zip(&c).map(|(a, b)| a * b).sum();
+            assert!((v - trilinear(&c, l)).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn the_packed_matrix_applies_as_the_full_one() {
+        let mut s = LeafSystem::zero();
+        let rows = [weights(Vec3::new(0.2, 0.5, 0.9)), weights(Vec3::splat(0.3))];
+        for (i, r) in rows.iter().enumerate() {
+            s.add_row(r, 0.5 + i as f32, 2.0);
+        }
+        let x: [f32; 8] = std::array::from_fn(|k| k as f32 - 3.5);
+        let y = s.apply(&x);
+        for i in 0..8 {
+            let want: f32 = (0..8)
+                .map(|j| rows.iter().map(|r| 2.0 * r[i] * r[j] * x[j]).sum::<f32>())
+                .sum();
+            assert!((y[i] - want).abs() < 1e-5, "{i}: {} vs {want}", y[i]);
+        }
+    }
+}
