@@ -619,3 +619,31 @@ fn shared_data_parts_and_sign() {
     assert_eq!(j["watertight"], false);
     assert!(j["boundary_edges"].as_u64().unwrap() > 0);
 }
+
+/// `build --fit-corners`: the same leaves, voxels and bytes as without, other corner values,
+/// and a `fit` phase before `pack`.
+#[test]
+fn build_with_fitted_corners_keeps_the_size() {
+    let dir = tmp("fit-corners");
+    let (exact, fitted) = (dir.join("exact.smo"), dir.join("fitted.smo"));
+    let a = json_ok(&os!["build", "-d", "5", "-o", exact]);
+    let b = json_ok(&os!["build", "-d", "5", "--fit-corners", "-o", fitted]);
+    for key in ["leaves", "voxels", "surface_voxels", "bytes"] {
+        assert_eq!(a[key], b[key], "{key}");
+    }
+    assert_ne!(
+        std::fs::read(&exact).unwrap(),
+        std::fs::read(&fitted).unwrap()
+    );
+    let names = |j: &Value| -> Vec<String> {
+        j["phases"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| p["name"].as_str().unwrap().to_string())
+            .collect()
+    };
+    assert!(!names(&a).contains(&"fit".to_string()));
+    let with = names(&b);
+    assert_eq!(with[with.len() - 2..], ["fit", "pack"]);
+}
