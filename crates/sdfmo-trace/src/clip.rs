@@ -130,8 +130,7 @@ pub(crate) fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(
             &corners,
             local_o,
             local_d,
-            0.0,
-            best_s,
+            (0.0, best_s),
             surface,
             others_keep,
         );
@@ -219,8 +218,7 @@ mod tests {
                 corners,
                 case.origin,
                 case.dir,
-                0.0,
-                best_s,
+                (0.0, best_s),
                 kind.surface(),
                 keep,
             );
@@ -528,7 +526,7 @@ mod tests {
             let t0 = a.max(0.0);
             for surface in [false, true] {
                 assert_eq!(
-                    intersect_voxel_where(&corners, origin, dir, t0, b, surface, |_, _| true),
+                    intersect_voxel_where(&corners, origin, dir, (t0, b), surface, |_, _| true),
                     intersect_voxel(&corners, origin, dir, t0, b, surface)
                 );
             }

@@ -164,10 +164,10 @@ pub fn intersect_voxel(
     t1: f32,
     surface: bool,
 ) -> Option<f32> {
-    intersect_voxel_where(corners, origin, dir, t0, t1, surface, |_, _| true)
+    intersect_voxel_where(corners, origin, dir, (t0, t1), surface, |_, _| true)
 }
 
-/// The first candidate hit of one voxel in `[t0, t1]` that `accept` accepts (it gets the
+/// The first candidate hit of one voxel in `span = (t0, t1)` that `accept` accepts (it gets the
 /// candidate's `t` and whether it is a polished root, `false` for the span start `t0` of a
 /// segment that starts inside a volume voxel or on a surface voxel), in the voxel's local
 /// frame `[0,1]³`, the candidates taken front to back (those of the clip rule, `FORMAT.md` in
@@ -182,20 +182,12 @@ pub fn intersect_voxel_where(
     corners: &[f32; 8],
     origin: Vec3,
     dir: Vec3,
-    t0: f32,
-    t1: f32,
+    span: (f32, f32),
     surface: bool,
     accept: impl FnMut(f32, bool) -> bool,
 ) -> Option<f32> {
     // The plain kernel's early-outs, normalisation and polish, `accept` choosing the candidate.
-    intersect_prepared(
-        &prepare_voxel(corners),
-        origin,
-        dir,
-        (t0, t1),
-        surface,
-        accept,
-    )
+    intersect_prepared(&prepare_voxel(corners), origin, dir, span, surface, accept)
 }
 
 /// What [`intersect_voxel`] learns from a voxel's corners alone, the same for every ray: a

@@ -306,27 +306,48 @@ fn traverse<B: AsRef<[u8]>, const ANY: bool>(
     ray: &Ray,
     t_min: f32,
     t_max: f32,
-    step: impl Fn(&Octree<B>, &Cell, Vec3, Vec3, u8, &mut CellStack<Cell, STACK_SIZE>) -> Option<Cell>,
+    step: impl Fn(&mut Walk<'_, B>, &Cell) -> Option<Cell>,
 ) -> Option<Hit> {
     let (mut cell, inv) = root_cell(octree, ray, t_min, t_max)?;
     let (o, d) = (ray.origin, ray.dir);
-    // Axes along which the ray moves towards − (bit 4 = x, 2 = y, 1 = z, as in octants): on
-    // those a mid-plane crossed at tm ≤ t puts the ray on the lower side at t, on the others on
-    // the upper side.
     let negative = u8::from(inv.x < 0.0) << 2 | u8::from(inv.y < 0.0) << 1 | u8::from(inv.z < 0.0);
-    let mut stack = CellStack::<Cell, STACK_SIZE>::new();
+    let mut walk = Walk {
+        octree,
+        o,
+        d,
+        inv,
+        negative,
+        stack: CellStack::new(),
+    };
     loop {
         if octree.is_leaf(cell.node) {
-            if let Some(hit) = leaf_hit::<B, ANY>(octree, &cell, o, d) {
+            if let Some(hit) = leaf_hit::<B, ANY>(&walk, &cell) {
                 return Some(hit);
             }
-        } else if let Some(next) = step(octree, &cell, o, inv, negative, &mut stack) {
+        } else if let Some(next) = step(&mut walk, &cell) {
             // The nearest child goes straight to `cell` (no round trip through the stack).
             cell = next;
             continue;
         }
-        cell = stack.pop()?;
+        cell = walk.stack.pop()?;
     }
+}
+
+/// One ray's walk of the octree: what each inner-node step reads, and the cells still to
+/// visit.
+struct Walk<'a, B: AsRef<[u8]>> {
+    octree: &'a Octree<B>,
+    /// The ray's origin.
+    o: Vec3,
+    /// Its direction.
+    d: Vec3,
+    /// Its inverse direction ([`inv_dir`]).
+    inv: Vec3,
+    /// Axes along which the ray moves towards − (bit 4 = x, 2 = y, 1 = z, as in octants): on
+    /// those a mid-plane crossed at tm ≤ t puts the ray on the lower side at t, on the others
+    /// on the upper side.
+    negative: u8,
+    stack: CellStack<Cell, STACK_SIZE>,
 }
 
 /// One inner node: its present children that the ray's span crosses, in ray order. The nearest
@@ -346,14 +367,8 @@ fn traverse<B: AsRef<[u8]>, const ANY: bool>(
 /// * a child's span runs from the crossing that enters it (or `t_enter`) to the next crossing
 ///   (or `t_exit`).
 #[inline(always)]
-fn inner_step<B: AsRef<[u8]>>(
-    octree: &Octree<B>,
-    cell: &Cell,
-    o: Vec3,
-    inv: Vec3,
-    negative: u8,
-    stack: &mut CellStack<Cell, STACK_SIZE>,
-) -> Option<Cell> {
+fn inner_step<B: AsRef<[u8]>>(walk: &mut Walk<'_, B>, cell: &Cell) -> Option<Cell> {
+    let (octree, o, inv, negative) = (walk.octree, walk.o, walk.inv, walk.negative);
     let half = 0.5 * cell.size;
     let mid = cell.min + Vec3::splat(half);
     let (te, tx) = (cell.t_enter, cell.t_exit);
@@ -389,16 +404,16 @@ fn inner_step<B: AsRef<[u8]>>(
     // Farthest first; the nearest present child is kept back and returned.
     let mut pending: Option<Cell> = None;
     if p3 {
-        stack.defer(&mut pending, child(o3, k2, tx));
+        walk.stack.defer(&mut pending, child(o3, k2, tx));
     }
     if p2 {
-        stack.defer(&mut pending, child(o2, k1, k2));
+        walk.stack.defer(&mut pending, child(o2, k1, k2));
     }
     if p1 {
-        stack.defer(&mut pending, child(o1, k0, k1));
+        walk.stack.defer(&mut pending, child(o1, k0, k1));
     }
     if p0 {
-        stack.defer(&mut pending, child(o0, te, k0));
+        walk.stack.defer(&mut pending, child(o0, te, k0));
     }
     pending
 }
@@ -406,12 +421,8 @@ fn inner_step<B: AsRef<[u8]>>(
 /// The nearest voxel hit inside a leaf's span (any hit when `ANY`); in a leaf with clip voxels
 /// the nearest hit the clip rule accepts ([`crate::clip`]).
 #[inline(always)]
-fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(
-    octree: &Octree<B>,
-    cell: &Cell,
-    o: Vec3,
-    d: Vec3,
-) -> Option<Hit> {
+fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(walk: &Walk<'_, B>, cell: &Cell) -> Option<Hit> {
+    let (octree, o, d) = (walk.octree, walk.o, walk.d);
     let inv_size = 1.0 / cell.size;
     // The kernel works from the entry point, in the cell's local frame [0,1]³, with the same
     // parameter scale as the world ray (t_local = t − t_enter).
@@ -648,16 +659,10 @@ pub(crate) mod tests {
     }
 
     /// The inner-node step as it was before the lean one (commit f8eb665), kept verbatim as
-    /// the reference the new one must match bit for bit (`negative` unused: it reads the
+    /// the reference the new one must match bit for bit (`walk.negative` unused: it reads the
     /// direction's signs from `inv`, as it did).
-    fn reference_step<B: AsRef<[u8]>>(
-        octree: &Octree<B>,
-        cell: &Cell,
-        o: Vec3,
-        inv: Vec3,
-        _negative: u8,
-        stack: &mut CellStack<Cell, STACK_SIZE>,
-    ) -> Option<Cell> {
+    fn reference_step<B: AsRef<[u8]>>(walk: &mut Walk<'_, B>, cell: &Cell) -> Option<Cell> {
+        let (octree, o, inv) = (walk.octree, walk.o, walk.inv);
         // Whether the ray moves towards + along each axis (then a mid-plane crossed at tm ≤ t puts
         // the ray on the upper side at t).
         let positive = [inv.x > 0.0, inv.y > 0.0, inv.z > 0.0];
@@ -737,7 +742,7 @@ pub(crate) mod tests {
             if i == 0 {
                 next = Some(c);
             } else {
-                stack.push(c);
+                walk.stack.push(c);
             }
         }
         next
