@@ -693,6 +693,82 @@ fn header(meta: &OctreeMeta, c: &V3Counts, l: &V3Layout) -> V3Header {
     }
 }
 
+/// The sections of a 3.0 file as a header declares them, for the compressed container, which
+/// stores each section as its own stream and puts it back at its offset.
+pub(crate) struct V3Sections {
+    /// Code width.
+    pub(crate) bits: ValueBits,
+    /// Node groups above the bricks: how many nodes.
+    pub(crate) upper: u32,
+    /// Private leaves: how many.
+    pub(crate) private_leaves: u32,
+    /// `(offset, size)` of nodes, bricks, residuals, private leaves, private flags and private
+    /// corners, in file order.
+    pub(crate) sections: [(u64, u64); 6],
+    /// The whole file.
+    pub(crate) file_size: u64,
+}
+
+/// Reads the sections of a 3.0 header (`header` holds at least [`V3_HEADER_SIZE`] bytes) and
+/// checks them canonical (as [`BrickOctree::encode`] places them, from the counts and the
+/// residual size) and the file no larger than `max_file` bytes. Nothing else is validated:
+/// the container's CRC-32 and the reader's `new` do that on the whole file.
+pub(crate) fn v3_sections(header: &[u8], max_file: u64) -> Result<V3Sections> {
+    check_magic(header, V3_HEADER_SIZE)?;
+    let h = V3Header::read(header);
+    check_major(h.version_major, h.version_minor, V3_VERSION_MAJOR)?;
+    let Some(bits) = ValueBits::from_bits(h.value_bits) else {
+        return corrupt("value_bits", format!("{} (must be 8 or 16)", h.value_bits));
+    };
+    if usize::try_from(h.header_size) != Ok(V3_HEADER_SIZE) || h.residuals_size > max_file {
+        return corrupt(
+            "header_size",
+            format!(
+                "header_size {} (must be {V3_HEADER_SIZE}), residuals_size {} (at most {max_file})",
+                h.header_size, h.residuals_size
+            ),
+        );
+    }
+    let c = V3Counts {
+        upper: h.upper_node_count,
+        bricks: h.brick_count,
+        leaves: h.leaf_count,
+        voxels: h.voxel_count,
+        surface: h.surface_voxel_count,
+        clip: h.clip_voxel_count,
+        private_leaves: h.private_leaf_count,
+        private_voxels: h.private_voxel_count,
+    };
+    let layout = V3Layout::new(V3_HEADER_SIZE as u64, &c, h.residuals_size, bits);
+    let declared = [
+        (h.nodes_offset, h.nodes_size),
+        (h.bricks_offset, h.bricks_size),
+        (h.residuals_offset, h.residuals_size),
+        (h.private_leaves_offset, h.private_leaves_size),
+        (h.private_flags_offset, h.private_flags_size),
+        (h.private_corners_offset, h.private_corners_size),
+    ];
+    if declared != layout.sections()
+        || h.file_size != layout.file_size
+        || layout.file_size > max_file
+    {
+        return corrupt(
+            "file_size",
+            format!(
+                "{} bytes, sections not where the counts place them or over the limit of {max_file}",
+                h.file_size
+            ),
+        );
+    }
+    Ok(V3Sections {
+        bits,
+        upper: c.upper,
+        private_leaves: c.private_leaves,
+        sections: layout.sections(),
+        file_size: layout.file_size,
+    })
+}
+
 fn corrupt<T>(field: &'static str, reason: impl Into<String>) -> Result<T> {
     Err(FormatError::corrupt(field, reason))
 }

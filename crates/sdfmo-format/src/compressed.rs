@@ -19,21 +19,28 @@
 //! compressed file decodes to the traced layout. Layout: the crate's `FORMAT.md`, "Compressed
 //! files".
 
+use crate::brick::v3_sections;
 use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
-use crate::header::lod_header_size;
-use crate::header::{Header, Layout, CHECKSUM_SIZE, FORMAT_VERSION_MAJOR, HEADER_SIZE, MAGIC};
+use crate::header::{field_in, lod_header_size};
+use crate::header::{
+    Header, Layout, BRICK_RECORD_FIELDS, BRICK_RECORD_SIZE, CHECKSUM_SIZE, FORMAT_VERSION_MAJOR,
+    HEADER_SIZE, MAGIC, RESIDUAL_OFFSET_BITS, V3_HEADER_SIZE, V3_VERSION_MAJOR,
+};
 use crate::lod::{LodOctree, SmoFile};
 use crate::validate::check_major;
-use crate::{PackedOctreeView, ValueBits, MAX_DEPTH};
+use crate::{BrickOctreeView, PackedOctreeView, ValueBits, MAX_DEPTH};
 
 /// The first eight bytes of a compressed file: `\x89 S M Z \r \n \x1a \n` (the `.smo` magic with
 /// `Z` for `O`, so a reader that knows only `.smo` refuses it as a bad magic).
 pub const COMPRESSED_MAGIC: [u8; 8] = [0x89, b'S', b'M', b'Z', b'\r', b'\n', 0x1A, b'\n'];
 /// The container's version (major): a different one is refused.
 pub const COMPRESSED_VERSION_MAJOR: u16 = 1;
-/// The container's version (minor).
-pub const COMPRESSED_VERSION_MINOR: u16 = 0;
+/// The container's version (minor): 1 when it holds a 3.0 file (its prelude is the 3.0 header),
+/// which a 1.0 reader cannot decode; files of 1.x and 2.0 are written as 1.0, as before.
+pub const COMPRESSED_VERSION_MINOR: u16 = 1;
+/// The minor version written for 1.x and 2.0 files (their streams are unchanged since 1.0).
+const COMPRESSED_VERSION_MINOR_1X: u16 = 0;
 /// Bytes of the container's fixed header (before the stream table).
 pub const COMPRESSED_HEADER_SIZE: usize = 32;
 /// Bytes per entry of the stream table: compressed size, decoded size (two `u64`).
@@ -52,6 +59,13 @@ const STREAMS_PER_LEVEL: usize = 6;
 const MAX_STREAMS: usize = 1 + STREAMS_PER_LEVEL * (MAX_DEPTH as usize + 1);
 /// The decoded header stream: the 1.x header and its trailing CRC-32.
 const LEVEL_HEADER_STREAM: usize = HEADER_SIZE + CHECKSUM_SIZE;
+/// The decoded prelude of a 3.0 file: its header and its trailing CRC-32.
+const BRICK_HEADER_STREAM: usize = V3_HEADER_SIZE + CHECKSUM_SIZE;
+/// Where a brick record's residual word and first private leaf sit.
+const RECORD_RESIDUALS: usize = field_in(&BRICK_RECORD_FIELDS, "residuals").offset;
+const RECORD_FIRST: usize = field_in(&BRICK_RECORD_FIELDS, "first_private_leaf").offset;
+/// The residual word's offset bits (the rest is the width code).
+const RESIDUAL_OFFSET: u32 = (1 << RESIDUAL_OFFSET_BITS) - 1;
 /// No neighbour leaf along an axis.
 const NONE: u32 = u32::MAX;
 
@@ -84,7 +98,11 @@ pub fn compress_with_level(smo: &[u8], level: i32) -> Result<Vec<u8>> {
         ));
     }
     let mut raw: Vec<Vec<u8>> = Vec::new();
-    if crate::SmoFile::has_levels(smo) {
+    let mut minor = COMPRESSED_VERSION_MINOR_1X;
+    if is_v3(smo) {
+        encode_bricks(BrickOctreeView::new(smo)?.as_bytes(), &mut raw)?;
+        minor = COMPRESSED_VERSION_MINOR;
+    } else if crate::SmoFile::has_levels(smo) {
         let lod = LodOctree::from_bytes(smo)?;
         raw.push(smo[..lod_header_size(lod.levels().len())].to_vec());
         for level in lod.levels() {
@@ -98,7 +116,7 @@ pub fn compress_with_level(smo: &[u8], level: i32) -> Result<Vec<u8>> {
     let mut out = vec![0u8; COMPRESSED_HEADER_SIZE + COMPRESSED_STREAM_ENTRY * raw.len()];
     out[..8].copy_from_slice(&COMPRESSED_MAGIC);
     out[8..10].copy_from_slice(&COMPRESSED_VERSION_MAJOR.to_le_bytes());
-    out[10..12].copy_from_slice(&COMPRESSED_VERSION_MINOR.to_le_bytes());
+    out[10..12].copy_from_slice(&minor.to_le_bytes());
     out[12..16].copy_from_slice(&(raw.len() as u32).to_le_bytes());
     out[16..24].copy_from_slice(&(smo.len() as u64).to_le_bytes());
     out[24..28].copy_from_slice(&crc32(smo).to_le_bytes());
@@ -151,32 +169,19 @@ pub fn decompress(bytes: &[u8], max_decoded: u64) -> Result<Vec<u8>> {
         )
     })?;
     out.resize(table.decoded_size, 0);
-    let prelude = &mut out[..streams[0].1];
-    unpack(streams[0].0, prelude, "prelude")?;
-    let mut at = streams[0].1;
-    if at == 0 && streams.len() != 1 + STREAMS_PER_LEVEL {
-        return Err(FormatError::corrupt(
-            "compressed stream_count",
-            "several levels without a 2.0 header (prelude)",
-        ));
-    }
-    if at > 0 {
-        let prelude = &out[..at];
-        if !SmoFile::has_levels(prelude) {
+    let prelude = streams[0].1;
+    unpack(streams[0].0, &mut out[..prelude], "prelude")?;
+    let at = if prelude == BRICK_HEADER_STREAM && is_v3(&out[..prelude]) {
+        if streams.len() != 1 + STREAMS_PER_LEVEL {
             return Err(FormatError::corrupt(
-                "compressed prelude",
-                "not a 2.0 header (magic and major version 2)",
+                "compressed stream_count",
+                "a 3.0 file is a prelude and six streams",
             ));
         }
-    }
-    for (i, level) in streams[1..].chunks_exact(STREAMS_PER_LEVEL).enumerate() {
-        if i > 0 {
-            let aligned = at.div_ceil(8) * 8;
-            // Padding between levels stays zero (`out` starts zeroed).
-            at = aligned;
-        }
-        at = decode_level(level, &mut out, at)?;
-    }
+        decode_bricks(&streams[1..], &mut out)?
+    } else {
+        decode_levels(&streams, &mut out)?
+    };
     if at != out.len() {
         return Err(FormatError::corrupt(
             "compressed",
@@ -283,6 +288,32 @@ fn read_container(bytes: &[u8], max_decoded: u64) -> Result<Container> {
         entries,
         data_start,
     })
+}
+
+/// Decodes the levels of a 1.x or 2.0 file (after the prelude, already in `out`); returns where
+/// the last ends.
+fn decode_levels(streams: &[(&[u8], usize)], out: &mut [u8]) -> Result<usize> {
+    let mut at = streams[0].1;
+    if at == 0 && streams.len() != 1 + STREAMS_PER_LEVEL {
+        return Err(FormatError::corrupt(
+            "compressed stream_count",
+            "several levels without a 2.0 header (prelude)",
+        ));
+    }
+    if at > 0 && !SmoFile::has_levels(&out[..at]) {
+        return Err(FormatError::corrupt(
+            "compressed prelude",
+            "not a 2.0 or 3.0 header (magic and major version 2 or 3)",
+        ));
+    }
+    for (i, level) in streams[1..].chunks_exact(STREAMS_PER_LEVEL).enumerate() {
+        if i > 0 {
+            // Padding between levels stays zero (`out` starts zeroed).
+            at = at.div_ceil(8) * 8;
+        }
+        at = decode_level(level, out, at)?;
+    }
+    Ok(at)
 }
 
 /// Decompresses one zstd frame into exactly `out`.
@@ -438,6 +469,209 @@ fn decode_level(streams: &[(&[u8], usize)], out: &mut [u8], start: usize) -> Res
         }
     }
     Ok(start + size)
+}
+
+/// Whether `bytes` start as a 3.0 file (magic and major version 3).
+fn is_v3(bytes: &[u8]) -> bool {
+    bytes.len() >= 10 && bytes[..8] == MAGIC && u16_at(bytes, 8) == V3_VERSION_MAJOR
+}
+
+/// Splits a validated 3.0 file into the prelude (its header and CRC-32) and six streams, one
+/// per section (measured separately smaller than one stream: `docs/results/format.md`):
+/// the upper nodes' masks, the brick records ([`records_to_stream`]), the residuals, the
+/// private leaves' counts, the private flags and the private corners ([`predict_voxels`]).
+fn encode_bricks(file: &[u8], raw: &mut Vec<Vec<u8>>) -> Result<()> {
+    let v3 = v3_sections(file, file.len() as u64)?;
+    let [nodes, bricks, residuals, leaves, flags, corners] = v3.sections;
+    let mut head = file[..V3_HEADER_SIZE].to_vec();
+    head.extend_from_slice(&file[file.len() - CHECKSUM_SIZE..]);
+    let mut codes = section(file, corners).to_vec();
+    match v3.bits {
+        ValueBits::Eight => predict_voxels(&mut codes),
+        ValueBits::Sixteen => {
+            let mut values = words(&codes);
+            predict_voxels(&mut values);
+            put_words(&values, &mut codes);
+        }
+    }
+    raw.extend([
+        head,
+        group_bytes(section(file, nodes), v3.upper),
+        records_to_stream(section(file, bricks)),
+        section(file, residuals).to_vec(),
+        group_bytes(section(file, leaves), v3.private_leaves),
+        section(file, flags).to_vec(),
+        codes,
+    ]);
+    Ok(())
+}
+
+/// Decodes a 3.0 file's six streams into `out`, whose first [`BRICK_HEADER_STREAM`] bytes
+/// hold the prelude; returns the file's size (all of `out`).
+fn decode_bricks(streams: &[(&[u8], usize)], out: &mut [u8]) -> Result<usize> {
+    let [nodes_s, bricks_s, residuals_s, leaves_s, flags_s, corners_s] = streams else {
+        unreachable!("the caller checked six streams")
+    };
+    let crc: [u8; CHECKSUM_SIZE] = bytes_at(out, V3_HEADER_SIZE);
+    // The header's section sizes are checked against its counts; every stream against them.
+    let v3 = v3_sections(&out[..V3_HEADER_SIZE], out.len() as u64)?;
+    if v3.file_size != out.len() as u64 {
+        return Err(FormatError::corrupt(
+            "compressed header stream",
+            format!(
+                "a 3.0 file of {} bytes, the container declares {}",
+                v3.file_size,
+                out.len()
+            ),
+        ));
+    }
+    // The prelude's CRC-32 sat where the node groups start: move it to the end.
+    out[V3_HEADER_SIZE..BRICK_HEADER_STREAM].fill(0);
+    let size = out.len();
+    out[size - CHECKSUM_SIZE..].copy_from_slice(&crc);
+    let [nodes, bricks, residuals, leaves, flags, corners] = v3.sections;
+    let expect = [
+        (nodes_s.1, v3.upper as usize, "masks"),
+        (bricks_s.1, bricks.1 as usize, "bricks"),
+        (residuals_s.1, residuals.1 as usize, "residuals"),
+        (leaves_s.1, v3.private_leaves as usize, "private leaves"),
+        (flags_s.1, flags.1 as usize, "private flags"),
+        (corners_s.1, corners.1 as usize, "private corners"),
+    ];
+    for (got, want, name) in expect {
+        if got != want {
+            return Err(FormatError::corrupt(
+                "compressed stream table",
+                format!("the {name} stream declares {got} bytes, the header implies {want}"),
+            ));
+        }
+    }
+    let mut masks = vec![0u8; nodes_s.1];
+    unpack(nodes_s.0, &mut masks, "compressed masks stream")?;
+    write_groups(
+        section_mut(out, nodes),
+        &masks,
+        |m| u64::from(m.count_ones()),
+        1,
+    )?;
+    let mut records = vec![0u8; bricks_s.1];
+    unpack(bricks_s.0, &mut records, "compressed bricks stream")?;
+    stream_to_records(&records, section_mut(out, bricks));
+    unpack(
+        residuals_s.0,
+        section_mut(out, residuals),
+        "compressed residuals stream",
+    )?;
+    let mut counts = vec![0u8; leaves_s.1];
+    unpack(leaves_s.0, &mut counts, "compressed private leaves stream")?;
+    write_groups(section_mut(out, leaves), &counts, u64::from, 0)?;
+    unpack(
+        flags_s.0,
+        section_mut(out, flags),
+        "compressed private flags stream",
+    )?;
+    let codes = section_mut(out, corners);
+    unpack(corners_s.0, codes, "compressed private corners stream")?;
+    match v3.bits {
+        ValueBits::Eight => unpredict_voxels(codes),
+        ValueBits::Sixteen => {
+            let mut values = words(codes);
+            unpredict_voxels(&mut values);
+            put_words(&values, codes);
+        }
+    }
+    Ok(size)
+}
+
+/// Brick records as a stream: the residual offset and first private leaf of each record as the
+/// difference from the record before (both running sums, so small and repetitive), then the
+/// records transposed byte by byte (byte 0 of every record, then byte 1, …), so that each
+/// field's bytes sit together (measured smaller than records in place:
+/// `docs/results/format.md`).
+fn records_to_stream(records: &[u8]) -> Vec<u8> {
+    let n = records.len() / BRICK_RECORD_SIZE;
+    let mut deltas = records.to_vec();
+    for i in (1..n).rev() {
+        let (before, here) = deltas.split_at_mut(i * BRICK_RECORD_SIZE);
+        let prev = &before[(i - 1) * BRICK_RECORD_SIZE..];
+        let (p_res, p_first) = (u32_at(prev, RECORD_RESIDUALS), u32_at(prev, RECORD_FIRST));
+        let (res, first) = (u32_at(here, RECORD_RESIDUALS), u32_at(here, RECORD_FIRST));
+        let offset = (res & RESIDUAL_OFFSET).wrapping_sub(p_res & RESIDUAL_OFFSET);
+        put_u32(
+            here,
+            RECORD_RESIDUALS,
+            res & !RESIDUAL_OFFSET | offset & RESIDUAL_OFFSET,
+        );
+        put_u32(here, RECORD_FIRST, first.wrapping_sub(p_first));
+    }
+    let mut out = vec![0u8; records.len()];
+    for (i, record) in deltas.chunks_exact(BRICK_RECORD_SIZE).enumerate() {
+        for (j, &b) in record.iter().enumerate() {
+            out[j * n + i] = b;
+        }
+    }
+    out
+}
+
+/// The inverse of [`records_to_stream`], into `records` (as long as `stream`).
+fn stream_to_records(stream: &[u8], records: &mut [u8]) {
+    let n = records.len() / BRICK_RECORD_SIZE;
+    for (i, record) in records.chunks_exact_mut(BRICK_RECORD_SIZE).enumerate() {
+        for (j, b) in record.iter_mut().enumerate() {
+            *b = stream[j * n + i];
+        }
+    }
+    for i in 1..n {
+        let (before, here) = records.split_at_mut(i * BRICK_RECORD_SIZE);
+        let prev = &before[(i - 1) * BRICK_RECORD_SIZE..];
+        let (p_res, p_first) = (u32_at(prev, RECORD_RESIDUALS), u32_at(prev, RECORD_FIRST));
+        let (res, first) = (u32_at(here, RECORD_RESIDUALS), u32_at(here, RECORD_FIRST));
+        let offset = (res & RESIDUAL_OFFSET).wrapping_add(p_res & RESIDUAL_OFFSET);
+        put_u32(
+            here,
+            RECORD_RESIDUALS,
+            res & !RESIDUAL_OFFSET | offset & RESIDUAL_OFFSET,
+        );
+        put_u32(here, RECORD_FIRST, first.wrapping_add(p_first));
+    }
+}
+
+/// Private voxels' codes (eight per voxel) to residuals, in place: corner `o > 0` minus corner
+/// [`OWN_CORNER`]`[o]` of the same voxel (its neighbour along one axis), corner 0 minus the
+/// previous voxel's corner 0. Backwards, so every prediction reads an original code.
+fn predict_voxels<T: Code>(codes: &mut [T]) {
+    let voxels = codes.len() / 8;
+    for v in (0..voxels).rev() {
+        let at = v * 8;
+        for o in (1..8).rev() {
+            codes[at + o] = codes[at + o].sub(codes[at + OWN_CORNER[o]]);
+        }
+        if v > 0 {
+            codes[at] = codes[at].sub(codes[at - 8]);
+        }
+    }
+}
+
+/// The inverse of [`predict_voxels`], in place, forwards.
+fn unpredict_voxels<T: Code>(codes: &mut [T]) {
+    let voxels = codes.len() / 8;
+    for v in 0..voxels {
+        let at = v * 8;
+        if v > 0 {
+            codes[at] = codes[at].add(codes[at - 8]);
+        }
+        for o in 1..8 {
+            codes[at + o] = codes[at + o].add(codes[at + OWN_CORNER[o]]);
+        }
+    }
+}
+
+fn u32_at(b: &[u8], at: usize) -> u32 {
+    u32::from_le_bytes(bytes_at(b, at))
+}
+
+fn put_u32(b: &mut [u8], at: usize, value: u32) {
+    b[at..at + 4].copy_from_slice(&value.to_le_bytes());
 }
 
 fn value_bits(bits: u8) -> Result<ValueBits> {

@@ -5,10 +5,13 @@ mod common;
 
 use common::{clipped_shell_leaves, meta, shell_leaves};
 use rand::{Rng, SeedableRng};
-use sdfmo_format::compressed::{compress, compress_with_level, decompress, is_compressed};
+use sdfmo_format::compressed::{
+    compress, compress_with_level, decompress, is_compressed, COMPRESSED_HEADER_SIZE,
+    COMPRESSED_VERSION_MINOR,
+};
 use sdfmo_format::{
-    FormatError, LeafInput, LodOctree, OctreeMeta, PackedOctree, SmoFile, ValueBits, Voxel,
-    MAX_FILE_SIZE,
+    BrickOctree, FormatError, LeafInput, LodOctree, OctreeMeta, PackedOctree, SmoFile, ValueBits,
+    Voxel, MAX_FILE_SIZE,
 };
 
 fn files() -> Vec<(&'static str, Vec<u8>)> {
@@ -196,4 +199,106 @@ fn a_small_file_cannot_ask_for_a_huge_buffer() {
     let err = decompress(&packed, MAX_FILE_SIZE).unwrap_err();
     assert!(err.to_string().contains("decoded_size"), "{err}");
     let _: OctreeMeta = meta(3, ValueBits::Eight);
+}
+
+/// 3.0 files of the shapes [`files`] uses (8 and 16 bits; with surface, multi and clip voxels).
+fn v3_files() -> Vec<(&'static str, Vec<u8>)> {
+    let mut out = Vec::new();
+    for (name, bits, clip) in [
+        ("v3 shell 8", ValueBits::Eight, false),
+        ("v3 shell 16", ValueBits::Sixteen, false),
+        ("v3 clip 8", ValueBits::Eight, true),
+        ("v3 clip 16", ValueBits::Sixteen, true),
+    ] {
+        let leaves = if clip {
+            clipped_shell_leaves(5)
+        } else {
+            shell_leaves(5)
+        };
+        let o = PackedOctree::from_leaves(meta(5, bits), leaves).unwrap();
+        let v3 = BrickOctree::encode(&o).unwrap();
+        assert!(v3.private_voxel_count() > 0 && v3.private_voxel_count() < v3.voxel_count());
+        out.push((name, v3.into_bytes()));
+    }
+    out
+}
+
+#[test]
+fn a_v3_file_decodes_to_its_own_bytes() {
+    for (name, v3) in v3_files() {
+        let packed = compress(&v3).unwrap();
+        assert!(is_compressed(&packed), "{name}");
+        // Minor 1: a container a 1.0 reader cannot decode; 1.x files stay 1.0.
+        assert_eq!(
+            packed[10..12],
+            COMPRESSED_VERSION_MINOR.to_le_bytes(),
+            "{name}"
+        );
+        assert_eq!(decompress(&packed, MAX_FILE_SIZE).unwrap(), v3, "{name}");
+        assert!(
+            packed.len() * 2 < v3.len(),
+            "{name}: {} of {}",
+            packed.len(),
+            v3.len()
+        );
+    }
+    let (_, smo) = &files()[0];
+    assert_eq!(compress(smo).unwrap()[10..12], [0, 0]);
+}
+
+#[test]
+fn hostile_v3_containers_are_refused_without_panic() {
+    let (_, v3) = v3_files().swap_remove(2);
+    let packed = compress(&v3).unwrap();
+    for n in 0..packed.len() {
+        assert!(
+            decompress(&packed[..n], MAX_FILE_SIZE).is_err(),
+            "prefix {n}"
+        );
+    }
+    // Random byte changes, resealed: an error, or (a change zstd ignores) the same file.
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(340);
+    let mut refused = 0;
+    for _ in 0..3000 {
+        let mut bad = packed.clone();
+        for _ in 0..rng.random_range(1..4) {
+            let i = rng.random_range(0..bad.len() - 4);
+            bad[i] = rng.random();
+        }
+        let n = bad.len();
+        let crc = sdfmo_format::crc32(&bad[..n - 4]);
+        bad[n - 4..].copy_from_slice(&crc.to_le_bytes());
+        match decompress(&bad, MAX_FILE_SIZE) {
+            Ok(out) => assert_eq!(out, v3),
+            Err(_) => refused += 1,
+        }
+    }
+    assert!(refused > 2000, "{refused}");
+}
+
+#[test]
+fn a_v3_header_with_sections_elsewhere_is_refused() {
+    // The container rebuilds a 3.0 file from its counts: a header whose section table does not
+    // match them (here the residuals declared one byte longer) is named, not decoded.
+    let (_, v3) = v3_files().swap_remove(0);
+    let packed = compress(&v3).unwrap();
+    let table = COMPRESSED_HEADER_SIZE;
+    let (packed_len, size) = (
+        u64::from_le_bytes(packed[table..table + 8].try_into().unwrap()) as usize,
+        u64::from_le_bytes(packed[table + 8..table + 16].try_into().unwrap()) as usize,
+    );
+    let mut prelude =
+        zstd::bulk::decompress(&packed[table + 7 * 16..][..packed_len], size).unwrap();
+    let at = 120; // residuals_size (FORMAT.md, 3.0 header)
+    let declared = u64::from_le_bytes(prelude[at..at + 8].try_into().unwrap());
+    prelude[at..at + 8].copy_from_slice(&(declared + 1).to_le_bytes());
+    let frame = zstd::bulk::compress(&prelude, 1).unwrap();
+    let mut bad = packed[..table + 7 * 16].to_vec();
+    bad[table..table + 8].copy_from_slice(&(frame.len() as u64).to_le_bytes());
+    bad.extend_from_slice(&frame);
+    bad.extend_from_slice(&packed[table + 7 * 16 + packed_len..packed.len() - 4]);
+    let crc = sdfmo_format::crc32(&bad);
+    bad.extend_from_slice(&crc.to_le_bytes());
+    let err = decompress(&bad, MAX_FILE_SIZE).unwrap_err();
+    assert!(err.to_string().contains("file_size"), "{err}");
 }
