@@ -1275,26 +1275,37 @@ impl<B: AsRef<[u8]>> fmt::Debug for BrickOctree<B> {
 }
 
 /// The checks of [`BrickOctree::new`], in order.
-fn validate(bytes: &[u8]) -> Result<(OctreeMeta, V3Counts, V3Layout)> {
-    let len = bytes.len();
-    check_magic(bytes, V3_HEADER_SIZE)?;
-    if len < V3_HEADER_SIZE {
+/// Whether `bytes` start as a 3.0 file: the `.smo` magic and major version 3.
+pub(crate) fn is_v3(bytes: &[u8]) -> bool {
+    bytes.len() >= 10
+        && bytes[..8] == MAGIC
+        && u16::from_le_bytes([bytes[8], bytes[9]]) == V3_VERSION_MAJOR
+}
+
+/// The checks of a 3.0 header that need only its first [`V3_HEADER_SIZE`] bytes (`head`, or
+/// a shorter prefix) and the length `len` of the whole file: magic, major version, header
+/// size, the declared file size against `len`. Run by [`BrickOctree::new`] and, before the
+/// body is read, by the readers of files ([`crate::read_smo`]).
+pub(crate) fn check_v3_head(head: &[u8], len: u64) -> Result<V3Header> {
+    check_magic(head, V3_HEADER_SIZE)?;
+    if len < V3_HEADER_SIZE as u64 || head.len() < V3_HEADER_SIZE {
         return Err(FormatError::Truncated {
-            len,
+            len: usize::try_from(len).unwrap_or(usize::MAX).min(head.len()),
             needed: V3_HEADER_SIZE as u64,
         });
     }
-    let h = V3Header::read(bytes);
+    let h = V3Header::read(head);
     check_major(h.version_major, h.version_minor, V3_VERSION_MAJOR)?;
     let header_size = u64::from(h.header_size);
     let min_len = header_size + CHECKSUM_SIZE as u64;
-    check_sizes(
-        header_size,
-        V3_HEADER_SIZE,
-        h.file_size,
-        len as u64,
-        min_len,
-    )?;
+    check_sizes(header_size, V3_HEADER_SIZE, h.file_size, len, min_len)?;
+    Ok(h)
+}
+
+fn validate(bytes: &[u8]) -> Result<(OctreeMeta, V3Counts, V3Layout)> {
+    let len = bytes.len();
+    let h = check_v3_head(bytes, len as u64)?;
+    let header_size = u64::from(h.header_size);
     let crc_at = len - CHECKSUM_SIZE;
     let stored = u32::from_le_bytes(bytes_at::<4>(bytes, crc_at));
     let computed = crc32(&bytes[..crc_at]);

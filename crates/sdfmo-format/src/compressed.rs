@@ -19,13 +19,13 @@
 //! compressed file decodes to the traced layout. Layout: the crate's `FORMAT.md`, "Compressed
 //! files".
 
-use crate::brick::v3_sections;
+use crate::brick::{is_v3, v3_sections};
 use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
 use crate::header::{field_in, lod_header_size};
 use crate::header::{
     Header, Layout, BRICK_RECORD_FIELDS, BRICK_RECORD_SIZE, CHECKSUM_SIZE, FORMAT_VERSION_MAJOR,
-    HEADER_SIZE, MAGIC, RESIDUAL_OFFSET_BITS, V3_HEADER_SIZE, V3_VERSION_MAJOR,
+    HEADER_SIZE, MAGIC, RESIDUAL_OFFSET_BITS, V3_HEADER_SIZE,
 };
 use crate::lod::{LodOctree, SmoFile};
 use crate::validate::check_major;
@@ -469,11 +469,6 @@ fn decode_level(streams: &[(&[u8], usize)], out: &mut [u8], start: usize) -> Res
         }
     }
     Ok(start + size)
-}
-
-/// Whether `bytes` start as a 3.0 file (magic and major version 3).
-fn is_v3(bytes: &[u8]) -> bool {
-    bytes.len() >= 10 && bytes[..8] == MAGIC && u16_at(bytes, 8) == V3_VERSION_MAJOR
 }
 
 /// Splits a validated 3.0 file into the prelude (its header and CRC-32) and six streams, one

@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use crate::error::Result;
-use crate::header::{Layout, CHECKSUM_SIZE, HEADER_SIZE};
+use crate::header::{Layout, CHECKSUM_SIZE};
 use crate::octree::{Octree, PackedOctree, PackedOctreeView};
 use crate::MAX_FILE_SIZE;
 
@@ -104,7 +104,9 @@ impl PackedOctree {
     }
 
     /// Reads and validates a `.smo` file of at most [`MAX_FILE_SIZE`] bytes (a regular file:
-    /// devices and FIFOs are refused without reading).
+    /// devices and FIFOs are refused without reading). A 3.0 file (plain or compressed) is
+    /// validated and decoded to its 1.x octree ([`BrickOctree::to_octree`](crate::BrickOctree::to_octree)),
+    /// an interim step until the tracers read bricks.
     pub fn load(path: &Path) -> Result<PackedOctree> {
         PackedOctree::load_with_limit(path, MAX_FILE_SIZE)
     }
@@ -115,14 +117,24 @@ impl PackedOctree {
     pub fn load_with_limit(path: &Path, max_bytes: u64) -> Result<PackedOctree> {
         // Header first: a file whose header declares another size is refused before its body
         // is read (the 1.x checks only: a 2.0 file is `UnsupportedVersion`, as from bytes).
-        let bytes = sdfmo_io::read_regular_checked(path, max_bytes, HEADER_SIZE, |head, len| {
-            if crate::compressed::is_compressed(head) {
-                return Ok(len);
-            }
-            crate::validate::check_header_size(head, len).map(|_| len)
-        })?;
-        if crate::compressed::is_compressed(&bytes) {
-            return PackedOctree::from_vec(crate::compressed::decompress(&bytes, max_bytes)?);
+        let bytes =
+            sdfmo_io::read_regular_checked(path, max_bytes, crate::V3_HEADER_SIZE, |head, len| {
+                if crate::compressed::is_compressed(head) {
+                    return Ok(len);
+                }
+                if crate::brick::is_v3(head) {
+                    return crate::brick::check_v3_head(head, len).map(|_| len);
+                }
+                crate::validate::check_header_size(head, len).map(|_| len)
+            })?;
+        let bytes = if crate::compressed::is_compressed(&bytes) {
+            crate::compressed::decompress(&bytes, max_bytes)?
+        } else {
+            bytes
+        };
+        if crate::brick::is_v3(&bytes) {
+            // An interim step until the tracers read bricks: the 1.x octree of a 3.0 file.
+            return Ok(crate::BrickOctree::new(bytes)?.to_octree());
         }
         PackedOctree::from_vec(bytes)
     }

@@ -511,6 +511,10 @@ pub enum SmoRead {
 /// the file's first [`SMO_HEAD_BYTES`] bytes (or the whole file when it is shorter). The
 /// errors are those [`SmoFile::from_bytes`] gives for the whole file.
 pub fn check_smo_head(head: &[u8], len: u64, read: SmoRead) -> Result<()> {
+    if crate::brick::is_v3(head) {
+        crate::brick::check_v3_head(head, len)?;
+        return Ok(());
+    }
     if !SmoFile::has_levels(head) {
         check_header_size(head, len)?;
         return Ok(());
@@ -584,7 +588,9 @@ pub enum SmoFile {
 
 impl SmoFile {
     /// Reads either kind from bytes, by the major version (bytes 8..10): 1 → [`PackedOctree::from_bytes`],
-    /// 2 → [`LodOctree::from_bytes`]; anything else is the 1.x reader's error. A compressed
+    /// 2 → [`LodOctree::from_bytes`], 3 → [`BrickOctree::new`](crate::BrickOctree::new) decoded
+    /// to its 1.x octree ([`BrickOctree::to_octree`](crate::BrickOctree::to_octree): an interim
+    /// step until the tracers read bricks); anything else is the 1.x reader's error. A compressed
     /// container ([`crate::compressed`]) is decoded first (to at most [`MAX_FILE_SIZE`] bytes).
     pub fn from_bytes(bytes: &[u8]) -> Result<SmoFile> {
         if crate::compressed::is_compressed(bytes) {
@@ -592,6 +598,11 @@ impl SmoFile {
         }
         if SmoFile::has_levels(bytes) {
             return Ok(SmoFile::Levels(LodOctree::from_bytes(bytes)?));
+        }
+        if crate::brick::is_v3(bytes) {
+            // For now the tracers read 1.x: a 3.0 file is validated and decoded to its 1.x
+            // octree (the same voxels, codes and flags) until they trace bricks directly.
+            return Ok(SmoFile::Octree(crate::BrickOctree::new(bytes)?.to_octree()));
         }
         debug_assert_eq!(FORMAT_VERSION_MAJOR, 1);
         Ok(SmoFile::Octree(PackedOctree::from_bytes(bytes)?))

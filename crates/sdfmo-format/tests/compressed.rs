@@ -302,3 +302,37 @@ fn a_v3_header_with_sections_elsewhere_is_refused() {
     let err = decompress(&bad, MAX_FILE_SIZE).unwrap_err();
     assert!(err.to_string().contains("file_size"), "{err}");
 }
+
+#[test]
+fn every_reader_loads_a_v3_file_as_its_octree() {
+    // Until the tracers read bricks, a 3.0 file (plain or compressed) loads as the 1.x octree
+    // it encodes, through every reader.
+    let dir = tempfile::tempdir().unwrap();
+    for (name, v3) in v3_files() {
+        let octree = BrickOctree::new(&v3[..]).unwrap().to_octree();
+        for (kind, bytes) in [
+            ("plain", v3.clone()),
+            ("compressed", compress(&v3).unwrap()),
+        ] {
+            let path = dir.path().join("x.smo");
+            std::fs::write(&path, &bytes).unwrap();
+            assert_eq!(PackedOctree::load(&path).unwrap(), octree, "{name} {kind}");
+            let want = SmoFile::Octree(octree.clone());
+            assert_eq!(SmoFile::load(&path).unwrap(), want, "{name} {kind}");
+            assert_eq!(SmoFile::from_bytes(&bytes).unwrap(), want, "{name} {kind}");
+            assert_eq!(
+                SmoFile::from_prefix(&bytes).unwrap().file,
+                want,
+                "{name} {kind}"
+            );
+        }
+        // A cut 3.0 file is refused from its header, before its body is read.
+        let path = dir.path().join("cut.smo");
+        std::fs::write(&path, &v3[..v3.len() - 1]).unwrap();
+        assert!(matches!(
+            SmoFile::load(&path),
+            Err(FormatError::Truncated { .. })
+        ));
+        assert!(PackedOctree::load(&path).is_err());
+    }
+}
