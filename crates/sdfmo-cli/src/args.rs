@@ -138,6 +138,18 @@ pub enum BitsArg {
     Sixteen,
 }
 
+/// The `.smo` layout `sdfmo build` writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FormatArg {
+    /// Version 1.x: eight corner codes per voxel (default; what the tracers read).
+    #[value(name = "1")]
+    V1,
+    /// Version 3.0: bricks of 4³ cells that store each shared corner once (FORMAT.md, "Bricks
+    /// (version 3.0)"); depth ≥ 2, one level. Loaded as its 1.x octree for now.
+    #[value(name = "3")]
+    V3,
+}
+
 /// `sdfmo build`.
 #[derive(Debug, Args)]
 pub struct BuildArgs {
@@ -175,6 +187,9 @@ pub struct BuildArgs {
     /// The coarsest level written with `--lod`, 1..=DEPTH (default: DEPTH − 4, at least 1).
     #[arg(long, value_name = "LEVEL", requires = "lod", value_parser = parse_depth)]
     pub coarsest: Option<u8>,
+    /// File format: 1 (1.x) or 3 (3.0 bricks, a third of the bytes; not with `--lod`).
+    #[arg(long, value_enum, default_value_t = FormatArg::V1, conflicts_with = "lod")]
+    pub format: FormatArg,
     /// Write the compressed container (FORMAT.md, "Compressed files"): the same octree in
     /// about a tenth of the bytes, decoded on load by every reader. LEVEL is zstd's, 1..=22
     /// (default 9; 19 is about 10 % smaller and several times slower to write).

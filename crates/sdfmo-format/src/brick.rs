@@ -1276,7 +1276,7 @@ impl<B: AsRef<[u8]>> fmt::Debug for BrickOctree<B> {
 
 /// The checks of [`BrickOctree::new`], in order.
 /// Whether `bytes` start as a 3.0 file: the `.smo` magic and major version 3.
-pub(crate) fn is_v3(bytes: &[u8]) -> bool {
+pub fn is_v3(bytes: &[u8]) -> bool {
     bytes.len() >= 10
         && bytes[..8] == MAGIC
         && u16::from_le_bytes([bytes[8], bytes[9]]) == V3_VERSION_MAJOR

@@ -75,8 +75,8 @@ mod validate;
 use glam::Vec3;
 
 pub use brick::{
-    cell_grid_index, fit_brick_plane, plane_predict, point_mask, BrickLeaf, BrickNode, BrickOctree,
-    BrickOctreeView, BrickSectionSizes, CORNER_POINT_OFFSETS,
+    cell_grid_index, fit_brick_plane, is_v3, plane_predict, point_mask, BrickLeaf, BrickNode,
+    BrickOctree, BrickOctreeView, BrickSectionSizes, CORNER_POINT_OFFSETS,
 };
 pub use crc32::crc32;
 pub use error::{FormatError, Result};

@@ -4,9 +4,10 @@ use std::fmt::Write as _;
 
 use anyhow::Context;
 use sdf_multioctree::build::{self, BuildSettings, BuildStats};
+use sdf_multioctree::format::{BrickOctree, BRICK_LEVELS};
 use serde_json::json;
 
-use crate::args::BuildArgs;
+use crate::args::{BuildArgs, FormatArg};
 use crate::commands::{load_input, memory_budget};
 use crate::output::{check_output, ensure_parent, print_json, print_text};
 use crate::progress;
@@ -19,6 +20,12 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
         "the octree file (-o)",
         &[sdf_multioctree::format::FILE_EXTENSION],
     )?;
+    if args.format == FormatArg::V3 && args.depth < BRICK_LEVELS {
+        anyhow::bail!(
+            "--format 3 needs a depth of at least {BRICK_LEVELS} (a brick spans {BRICK_LEVELS} levels), got {}",
+            args.depth
+        );
+    }
     let input = load_input(args.mesh.as_deref())?;
     let settings = BuildSettings {
         depth: args.depth,
@@ -42,7 +49,14 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
     let (octree, stats) =
         built.with_context(|| format!("cannot build an octree of {}", input.source))?;
     ensure_parent(&args.output)?;
-    let stored = save(args, octree.as_bytes())?;
+    let v3 = match args.format {
+        FormatArg::V1 => None,
+        FormatArg::V3 => {
+            Some(BrickOctree::encode(&octree).context("cannot encode the octree as format 3.0")?)
+        }
+    };
+    let file = v3.as_ref().map_or(octree.as_bytes(), |b| b.as_bytes());
+    let stored = save(args, file)?;
 
     if args.json {
         let mut j = stats_json(&stats);
@@ -54,6 +68,8 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
             j["max_voxels"] = json!(args.max_voxels);
         }
         j["output"] = json!(args.output.display().to_string());
+        j["format"] = json!(if v3.is_some() { "3.0" } else { "1.x" });
+        j["file_bytes"] = json!(file.len());
         j["compress_level"] = json!(args.compress);
         j["stored_bytes"] = json!(stored);
         let estimate = build::estimate_memory(&input.mesh, &settings);
@@ -75,7 +91,20 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
         stats.bytes as f64 / 1e6,
         stats.build_ms
     );
-    s.push_str(&stored_note(args, stats.bytes, stored, stats.voxels));
+    if let Some(b) = &v3 {
+        let _ = writeln!(
+            s,
+            "  format 3.0: {} bytes ({:.3} MB, {:.2} bytes per voxel; 1.x {:.2}), {} bricks, {} of {} voxels private",
+            file.len(),
+            file.len() as f64 / 1e6,
+            file.len() as f64 / stats.voxels.max(1) as f64,
+            stats.bytes as f64 / stats.voxels.max(1) as f64,
+            b.brick_count(),
+            b.private_voxel_count(),
+            b.voxel_count()
+        );
+    }
+    s.push_str(&stored_note(args, file.len(), stored, stats.voxels));
     let hist: Vec<String> = stats
         .voxels_per_leaf
         .iter()

@@ -7,8 +7,8 @@ use std::path::Path;
 use anyhow::Context;
 use sdf_multioctree::format::compressed::COMPRESSED_MAGIC;
 use sdf_multioctree::format::{
-    read_smo, FormatError, LevelEntry, LodOctree, PackedOctree, SmoFile, SmoRead, MAGIC,
-    MAX_FILE_SIZE,
+    is_v3, read_smo, BrickOctree, BrickOctreeView, FormatError, LevelEntry, LodOctree,
+    PackedOctree, SmoFile, SmoRead, MAGIC, MAX_FILE_SIZE,
 };
 use serde_json::json;
 
@@ -139,6 +139,12 @@ fn run_smo(path: &Path, as_json: bool) -> anyhow::Result<()> {
         FormatError::Io(io) => anyhow::Error::new(io),
         e => anyhow::Error::new(e).context(cannot()),
     })?;
+    if is_v3(&bytes) {
+        let b = BrickOctree::new(&bytes[..])
+            .map_err(|e: FormatError| anyhow::Error::new(e))
+            .with_context(cannot)?;
+        return print_v3(path, &b, as_json);
+    }
     let (version, file_size, levels): (&str, u64, Vec<(LevelEntry, Option<PackedOctree>)>) =
         if SmoFile::has_levels(&bytes) {
             let p = LodOctree::from_prefix(&bytes).with_context(cannot)?;
@@ -209,5 +215,84 @@ fn run_smo(path: &Path, as_json: bool) -> anyhow::Result<()> {
             }
         }
     }
+    print_text(&s)
+}
+
+/// `sdfmo info` of a 3.0 file: its counts, bytes per voxel and section sizes.
+fn print_v3(path: &Path, b: &BrickOctreeView<'_>, as_json: bool) -> anyhow::Result<()> {
+    let stored = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+    let compressed = file_magic(path) == Some(COMPRESSED_MAGIC);
+    let z = b.section_sizes();
+    let voxels = b.voxel_count().max(1) as f64;
+    if as_json {
+        return print_json(&json!({
+            "source": path.display().to_string(),
+            "kind": "octree",
+            "version": "3.0 (bricks)",
+            "file_size": z.total,
+            "compressed": compressed,
+            "stored_bytes": stored,
+            "depth": b.depth(),
+            "bits": b.meta().bits.bits(),
+            "bricks": b.brick_count(),
+            "leaves": b.leaf_count(),
+            "voxels": b.voxel_count(),
+            "surface_voxels": b.surface_voxel_count(),
+            "private_leaves": b.private_leaf_count(),
+            "private_voxels": b.private_voxel_count(),
+            "bytes_per_voxel": z.total as f64 / voxels,
+            "sections": {
+                "header": z.header,
+                "nodes": z.nodes,
+                "bricks": z.bricks,
+                "residuals": z.residuals,
+                "private_leaves": z.private_leaves,
+                "private_flags": z.private_flags,
+                "private_corners": z.private_corners,
+                "padding": z.padding,
+                "checksum": z.checksum,
+            },
+        }));
+    }
+    let mut s = format!(
+        "{}\n  .smo 3.0 (bricks), {} bytes, {:.2} bytes per voxel (loaded as its 1.x octree)\n",
+        path.display(),
+        z.total,
+        z.total as f64 / voxels
+    );
+    if compressed {
+        let _ = writeln!(
+            s,
+            "  compressed: {stored} bytes on disk ({:.1}x smaller, {:.2} bytes per voxel)",
+            z.total as f64 / stored.max(1) as f64,
+            stored as f64 / voxels
+        );
+    }
+    let _ = writeln!(
+        s,
+        "  depth {}, {}-bit, bricks {}, leaves {}, voxels {} ({} surface), private {} leaves / {} voxels",
+        b.depth(),
+        b.meta().bits.bits(),
+        b.brick_count(),
+        b.leaf_count(),
+        b.voxel_count(),
+        b.surface_voxel_count(),
+        b.private_leaf_count(),
+        b.private_voxel_count()
+    );
+    let _ = writeln!(
+        s,
+        "  sections (bytes): header {}, nodes {}, bricks {}, residuals {}, private leaves {}, \
+         private flags {}, private corners {}, padding {}, checksum {}",
+        z.header,
+        z.nodes,
+        z.bricks,
+        z.residuals,
+        z.private_leaves,
+        z.private_flags,
+        z.private_corners,
+        z.padding,
+        z.checksum
+    );
     print_text(&s)
 }
