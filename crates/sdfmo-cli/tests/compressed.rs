@@ -89,3 +89,78 @@ fn a_level_outside_zstd_is_refused() {
         assert!(!out.exists(), "{level}");
     }
 }
+
+#[test]
+fn a_format_3_build_renders_as_the_1x_one() {
+    // Until the tracers read bricks, a 3.0 file (plain or compressed) is loaded as the 1.x
+    // octree it encodes: the same image byte for byte, and `info` names its bricks.
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    let v1 = json(&ok(&["build", "-d", "6", "-o", &p("v1.smo"), "--json"]));
+    assert_eq!(v1["format"], "1.x");
+    for (name, extra) in [("v3.smo", &[][..]), ("v3z.smo", &["--compress"][..])] {
+        let out = p(name);
+        let args = [
+            &["build", "-d", "6", "--format", "3", "-o", &out, "--json"][..],
+            extra,
+        ]
+        .concat();
+        let v3 = json(&ok(&args));
+        assert_eq!(v3["format"], "3.0", "{name}");
+        assert_eq!(v3["voxels"], v1["voxels"], "{name}");
+        let file = v3["file_bytes"].as_u64().unwrap();
+        assert!(file < v1["bytes"].as_u64().unwrap(), "{name}: {file}");
+        let info = json(&ok(&["info", &p(name), "--json"]));
+        assert_eq!(info["version"], "3.0 (bricks)", "{name}");
+        assert_eq!(info["file_size"].as_u64(), Some(file), "{name}");
+        assert_eq!(info["compressed"], !extra.is_empty(), "{name}");
+        assert!(info["bricks"].as_u64().unwrap() > 0, "{name}");
+        ok(&[
+            "render",
+            &p(name),
+            "-o",
+            &p(&format!("{name}.png")),
+            "--size",
+            "96",
+        ]);
+    }
+    ok(&["render", &p("v1.smo"), "-o", &p("v1.png"), "--size", "96"]);
+    let png = |n: &str| std::fs::read(p(n)).unwrap();
+    assert_eq!(png("v3.smo.png"), png("v1.png"));
+    assert_eq!(png("v3z.smo.png"), png("v1.png"));
+}
+
+#[test]
+fn format_3_below_depth_2_or_with_levels_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.smo");
+    let o = sdfmo(&[
+        "build",
+        "-d",
+        "1",
+        "--format",
+        "3",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("--format 3 needs a depth of at least 2"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    let o = sdfmo(&[
+        "build",
+        "-d",
+        "4",
+        "--lod",
+        "--format",
+        "3",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(!out.exists());
+}
