@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use sdf_multioctree::build::BuildStats;
 use sdf_multioctree::format::compressed::{compress_with_level, is_compressed};
 use sdf_multioctree::format::{
-    FormatError, PackedOctree, SmoFile, SmoPrefix, ValueBits, FILE_EXTENSION, MAX_DEPTH,
+    is_v3, FormatError, PackedOctree, SmoFile, SmoPrefix, ValueBits, FILE_EXTENSION, MAX_DEPTH,
     MAX_FILE_SIZE,
 };
 use sdf_multioctree::io::Naming;
@@ -99,7 +99,9 @@ static GPU: std::sync::Mutex<Option<Renderer>> = std::sync::Mutex::new(None);
 impl Octree {
     /// Loads and validates a ``.smo`` file (header, sizes, checksum, every node and voxel):
     /// one octree, or levels of detail (``sdfmo build --lod``), whole or cut where a level ends
-    /// (a download in progress; ``levels`` and ``file_levels`` say what it holds). Raises
+    /// (a download in progress; ``levels`` and ``file_levels`` say what it holds). A 3.0 file
+    /// (``sdfmo build --format 3``, plain or compressed) loads as the 1.x octree it encodes, for
+    /// now: ``to_bytes`` gives that 1.x file. Raises
     /// ``FileNotFoundError`` / ``PermissionError`` / ``IsADirectoryError`` / ``OSError`` when
     /// the file cannot be read and ``sdfmo.FormatError`` when its bytes are not a valid octree
     /// (a file cut inside a level included).
@@ -121,10 +123,13 @@ impl Octree {
     fn from_bytes(py: Python<'_>, data: &Bound<'_, PyAny>) -> PyResult<Octree> {
         let data = arrays::bytes_arg(data, "data")?;
         let data = match data {
-            // A file without levels keeps the copy as its buffer (no second one).
-            arrays::BytesArg::Copied(v) if !SmoFile::has_levels(&v) && !is_compressed(&v) => py
-                .detach(|| PackedOctree::from_vec(v))
-                .map(|o| Octree::new(o, None).data),
+            // A 1.x file keeps the copy as its buffer (no second one).
+            arrays::BytesArg::Copied(v)
+                if !SmoFile::has_levels(&v) && !is_compressed(&v) && !is_v3(&v) =>
+            {
+                py.detach(|| PackedOctree::from_vec(v))
+                    .map(|o| Octree::new(o, None).data)
+            }
             borrowed => {
                 let bytes = borrowed.as_slice();
                 py.detach(|| SmoFile::from_prefix(bytes))

@@ -52,3 +52,23 @@ def test_a_damaged_compressed_file_is_a_format_error(cli, tmp_path):
         sdfmo.Octree.from_bytes(bytes(data))
     with pytest.raises(sdfmo.FormatError):
         sdfmo.Octree.from_bytes(bytes(data[:100]))
+
+
+@pytest.mark.parametrize("compress", [False, True])
+def test_a_format_3_file_loads_as_its_1x_octree(cli, tmp_path, compress):
+    # Until the tracers read bricks, a 3.0 file is loaded as the 1.x octree it encodes: the
+    # same 1.x bytes and the same distances as the 1.x build.
+    v1, v3 = tmp_path / "v1.smo", tmp_path / "v3.smo"
+    run(cli, "build", "-d", "6", "-o", v1)
+    run(cli, "build", "-d", "6", "--format", "3", "-o", v3, *(["--compress"] if compress else []))
+    assert v3.read_bytes()[:10] != v1.read_bytes()[:10]
+    a, b = sdfmo.Octree.load(v1), sdfmo.Octree.load(v3)
+    assert a.to_bytes() == b.to_bytes()
+    points = np.random.default_rng(34).uniform(-1.2, 1.2, size=(2000, 3)).astype(np.float32)
+    assert np.array_equal(a.distance(points), b.distance(points))
+    for data in (v3.read_bytes(), bytearray(v3.read_bytes())):
+        assert np.array_equal(sdfmo.Octree.from_bytes(data).distance(points), a.distance(points))
+    damaged = bytearray(v3.read_bytes())
+    damaged[len(damaged) // 2] ^= 0xFF
+    with pytest.raises(sdfmo.FormatError):
+        sdfmo.Octree.from_bytes(damaged)
