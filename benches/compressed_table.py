@@ -1,11 +1,34 @@
 #!/usr/bin/env python3
 """The tables of docs/results/format.md, "Compressed files", from the committed
-docs/results/format/compressed.csv (written by benches/compressed_sizes.sh).
+docs/results/format/compressed.csv (written by benches/compressed_sizes.sh), and with
+--v3 the table of "Format 3.0 compressed" from docs/results/format/brick-estimate.csv (written
+by benches/brick_estimate.sh).
 
     python3 benches/compressed_table.py [docs/results/format/compressed.csv]
+    python3 benches/compressed_table.py --v3 [docs/results/format/brick-estimate.csv]
 """
 import csv
 import sys
+
+
+def v3_table(path):
+    rows = list(csv.DictReader(open(path)))
+    print("| model | method | depth | 1.x B/voxel | 3.0 | **compressed 3.0** | compressed 1.x | 3.0 as one zstd frame | decode MB/s (median, best) |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        model, method, depth = r["file"].rsplit(".", 1)[0].split("-")
+        v = int(r["voxels"])
+        print(f"| {model} | {method} | {depth} | {r['traced_bpv']} | {r['v3_bpv']} | **{r['v3_compressed_bpv']}** | "
+              f"{r['v1_compressed_bpv']} | {int(r['v3_one_frame_bytes']) / v:.2f} | "
+              f"{r['v3_decode_mb_per_s']}, {r['v3_decode_best_mb_per_s']} |")
+    worst = max(float(r["v3_compressed_bpv"]) for r in rows)
+    slowest = min(int(r["v3_decode_mb_per_s"]) for r in rows)
+    print(f"\nLargest compressed 3.0: {worst:.2f} B/voxel; slowest median decode: {slowest} MB/s.")
+
+
+if sys.argv[1:2] == ["--v3"]:
+    v3_table(sys.argv[2] if len(sys.argv) > 2 else "docs/results/format/brick-estimate.csv")
+    sys.exit(0)
 
 path = sys.argv[1] if len(sys.argv) > 1 else "docs/results/format/compressed.csv"
 rows = list(csv.DictReader(open(path)))

@@ -9,11 +9,13 @@
 //!
 //! Properties checked: when a container decodes to a valid `.smo`, loading the container
 //! (`SmoFile::from_bytes`) gives the same file as loading the decoded bytes, and compressing them
-//! again and decoding gives them back; an input that is itself a valid `.smo` (1.x or 2.0)
-//! round-trips through the container.
+//! again and decoding gives them back; an input that is itself a valid `.smo` (1.x, 2.0 or 3.0)
+//! round-trips through the container. (`SmoFile::from_bytes` reads a 3.0 file as its 1.x
+//! octree, so a container of a 3.0 file is compared through that.)
 //!
 //! Seeds: small compressed files from `sdfmo build --compress`, e.g. `sdfmo build -d 4 --compress
-//! -o fuzz/corpus/fuzz_compressed/d4.smo` (`*.smo` is git-ignored), and the `fuzz_smo` seeds.
+//! -o fuzz/corpus/fuzz_compressed/d4.smo` (`*.smo` is git-ignored), the same with `--format 3`
+//! (plain and compressed 3.0 files), and the `fuzz_smo` seeds.
 #![no_main]
 
 mod smo_common;
