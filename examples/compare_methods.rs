@@ -27,7 +27,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .map_err(|_| "SIZE must be a number")?;
 
     // The mesh's reference renders of the paper's views; each octree is scored against them.
-    let protocol = PaperProtocol::new(&mesh, DEFAULT_MARGIN, size, None)?;
+    let protocol = PaperProtocol::new(&mesh, DEFAULT_MARGIN, size)?;
     println!(
         "{name}, depth {depth}, {} views of {size}x{size}",
         protocol.cameras().len()

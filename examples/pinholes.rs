@@ -13,7 +13,8 @@
 
 use glam::Vec3;
 use sdf_multioctree::render::Camera;
-use sdf_multioctree::{load_mesh, load_octree, render_mesh, render_octree, Mode, Rendered};
+use sdf_multioctree::{load_mesh, load_octree, Device, LevelRequest, Mode, RenderSettings};
+use sdf_multioctree::{Rendered, Renderer};
 
 /// xorshift64*: a fixed, dependency-free sequence of uniform numbers in [0, 1).
 struct Rng(u64);
@@ -65,6 +66,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .iter()
         .map(|p| load_octree(p).map(|o| (p.clone(), o)))
         .collect::<Result<Vec<_>, _>>()?;
+    let mask = RenderSettings::new(Mode::Mask);
+    // The mesh's ray queries are prepared once, on a renderer of their own.
+    let mut mesh_renderer = Renderer::new(Device::Cpu)?;
+    let mut mesh_scene = mesh_renderer.prepare_mesh(&mesh)?;
+    let mut renderer = Renderer::new(Device::Cpu)?;
     let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
     // Per octree: pinholes, views with any, all missing pixels.
     let mut totals = vec![(0usize, 0usize, 0usize); octrees.len()];
@@ -74,11 +80,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let target = rng.direction() * (0.3 * rng.next());
         let fov = 40.0 + 30.0 * rng.next();
         let cam = Camera::new(eye, target, fov, size, size);
-        let reference = hits(&render_mesh(&mesh, &cam, Mode::Mask)?);
+        let reference = hits(&mesh_scene.render(&cam, &mask)?);
         let inner = eroded(&reference, size as usize, size as usize);
         silhouette += inner.iter().filter(|&&b| b).count();
         for ((_, octree), total) in octrees.iter().zip(&mut totals) {
-            let test = hits(&render_octree(octree, &cam, Mode::Mask)?);
+            let test = hits(
+                &renderer
+                    .prepare(&octree.file, LevelRequest::Finest)?
+                    .render(&cam, &mask)?,
+            );
             let holes = inner.iter().zip(&test).filter(|(&r, &t)| r && !t).count();
             let missing = reference
                 .iter()

@@ -8,8 +8,8 @@
 //! about a second.
 
 use sdf_multioctree::{
-    build_octree, demo_mesh, load_octree, paper_views, render_octree, save_octree, save_png,
-    Method, Mode,
+    build_octree, demo_mesh, load_octree, paper_views, save_octree, save_png, Device, LevelRequest,
+    Method, Mode, RenderSettings, Renderer,
 };
 
 fn main() -> std::process::ExitCode {
@@ -54,11 +54,14 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     // 3. Save it and load it back (the loader validates the whole file).
     let smo = out_dir.join("quickstart.smo");
     save_octree(&octree, &smo)?;
-    let octree = load_octree(&smo)?;
+    let file = load_octree(&smo)?.file;
 
-    // 4. Render the paper's first view and save it.
+    // 4. Render the paper's first view (on the CPU; `Device::Gpu` with the `gpu` feature) and
+    //    save it.
     let camera = &paper_views(512)[0];
-    let image = render_octree(&octree, camera, Mode::Lambert)?;
+    let image = Renderer::new(Device::Cpu)?
+        .prepare(&file, LevelRequest::Finest)?
+        .render(camera, &RenderSettings::new(Mode::Lambert))?;
     let png = out_dir.join("quickstart.png");
     save_png(&image, &png)?;
     println!(

@@ -37,28 +37,34 @@
 //!
 //! ## The pipeline in a few calls
 //!
-//! The functions at the root of this crate cover the common path with the paper's defaults
-//! (load → build → save/load → render → compare); each layer offers every setting.
+//! One entry per step, with the paper's defaults (load → build → save/load → render →
+//! compare): [`load_mesh`], [`build_octree`] (every setting, progress, cancellation and levels
+//! of detail on [`BuildRequest`]), [`save_octree`], [`load_octree`] (a file of either kind),
+//! and [`Renderer`] (CPU or GPU, octree files or the mesh reference, on [`RenderSettings`]).
+//! The libraries run on the caller's rayon pool: `install` one to choose the thread count.
 //!
 //! ```
-//! use sdf_multioctree::{build_octree, compare, demo_mesh, load_octree, paper_views};
-//! use sdf_multioctree::{octree_distance, render_mesh, render_octree, save_octree, save_png};
-//! use sdf_multioctree::{Method, Mode, Vec3}; // Vec3 is glam's (`sdf_multioctree::glam`)
+//! use sdf_multioctree::{build_octree, compare, demo_mesh, load_octree, paper_views, save_octree};
+//! use sdf_multioctree::{octree_distance, save_png, Device, LevelRequest, Renderer};
+//! use sdf_multioctree::{Method, Mode, RenderSettings, Vec3}; // Vec3 is glam's (`sdf_multioctree::glam`)
 //!
 //! let mesh = demo_mesh(); // or sdf_multioctree::load_mesh("part.stl")?
 //! let (octree, stats) = build_octree(&mesh, 5, Method::Multi { max_voxels: 8 })?;
 //! let path = std::env::temp_dir().join(format!("sdfmo-doc-{}.smo", std::process::id()));
 //! save_octree(&octree, &path)?;
-//! let octree = load_octree(&path)?;
-//! assert_eq!(octree.byte_size(), stats.bytes);
+//! let file = load_octree(&path)?.file; // one octree, or levels of detail
+//! assert_eq!(file.finest().byte_size(), stats.bytes);
 //!
 //! let camera = &paper_views(64)[0];
-//! let reference = render_mesh(&mesh, camera, Mode::Lambert)?; // same camera and shading
-//! let image = render_octree(&octree, camera, Mode::Lambert)?;
+//! let lambert = RenderSettings::new(Mode::Lambert);
+//! let mut renderer = Renderer::new(Device::Cpu)?;
+//! let reference = renderer.prepare_mesh(&mesh)?.render(camera, &lambert)?; // same camera and shading
+//! let image = renderer.prepare(&file, LevelRequest::Finest)?.render(camera, &lambert)?;
 //! let quality = compare(&reference, &image)?;
 //! assert!(quality.psnr > 10.0 && quality.flip < 0.5);
 //!
-//! let mask = render_octree(&octree, camera, Mode::Mask)?; // only hit or miss: no normals
+//! // Only hit or miss: no normals.
+//! let mask = renderer.prepare(&file, LevelRequest::Finest)?.render(camera, &RenderSettings::new(Mode::Mask))?;
 //! assert_eq!(mask.counters.normal_evals, 0);
 //!
 //! // The stored signed distance in model units: about 0 on the surface, NaN where the octree
@@ -138,16 +144,15 @@ pub const DEFAULT_MARGIN: f32 = 0.05;
 use std::fmt;
 use std::path::Path;
 
-use build::BuildSettings;
 use distance::{MeshDistance, SignMode};
-use render::{MeshScene, OctreeScene, RenderSettings};
+use render::MeshScene;
 
 // The types and functions the high-level API takes and returns, at the root so that a caller
 // of these functions (and the examples) needs no layer path.
-pub use build::{BuildStats, Method};
+pub use build::{BuildRequest, BuildSettings, BuildStats, Method};
 pub use format::{PackedOctree, SmoFile, SmoPrefix};
 pub use mesh::TriMesh;
-pub use render::{save_png, Camera, LevelRequest, Mode, Rendered};
+pub use render::{save_png, Camera, LevelRequest, Mode, RenderSettings, Rendered};
 
 /// Declares [`Error`], one variant per layer with the prefix its message gets, with its
 /// `Display`, `source` (the layer error's own source: the layer's message is already shown)
@@ -238,8 +243,17 @@ pub fn demo_mesh() -> TriMesh {
 }
 
 /// Builds an octree of `mesh` (model units; normalised by the builder with
-/// [`DEFAULT_MARGIN`]) at `depth` with `method`, 8-bit corners, automatic sign and all cores.
-/// Use [`build::build`] for every setting and a progress callback.
+/// [`DEFAULT_MARGIN`]) at `depth` with `method`, 8-bit corners and automatic sign, on the
+/// caller's rayon pool. [`BuildRequest`] takes every setting ([`BuildSettings`]), a memory
+/// budget, progress, cancellation, and builds levels of detail:
+///
+/// ```
+/// use sdf_multioctree::{demo_mesh, BuildRequest, BuildSettings, Method};
+/// let settings = BuildSettings::new(5, Method::Multi { max_voxels: 8 });
+/// let (levels, stats) = BuildRequest::new(&demo_mesh(), settings).levels(3)?;
+/// assert_eq!((levels.coarsest(), levels.depth(), stats.len()), (3, 5, 3));
+/// # Ok::<(), sdf_multioctree::Error>(())
+/// ```
 ///
 /// # Errors
 /// [`Error::Build`] for an invalid depth or voxel cap, or a mesh the builder cannot use.
@@ -248,97 +262,67 @@ pub fn build_octree(
     depth: u8,
     method: Method,
 ) -> Result<(PackedOctree, BuildStats)> {
-    let settings = BuildSettings {
-        depth,
-        method,
-        margin: DEFAULT_MARGIN,
-        ..BuildSettings::default()
-    };
-    Ok(build::build(mesh, &settings, None)?)
+    let settings = BuildSettings::new(depth, method).with_margin(DEFAULT_MARGIN);
+    Ok(build::build(mesh, &settings)?)
 }
 
-/// Loads a `.smo` octree file, validating it.
-///
-/// # Errors
-/// [`Error::Format`] for an unreadable, truncated, corrupt or hostile file.
-pub fn load_octree(path: impl AsRef<Path>) -> Result<PackedOctree> {
-    Ok(PackedOctree::load(path.as_ref())?)
-}
-
-/// Loads a `.smo` file of either kind, one octree or levels of detail (`sdfmo build --lod`,
-/// [`build::build_lod`]), validating it: the whole file, or a file with levels cut where a
-/// level ends (a download in progress, `head -c`). Returns the levels it holds
-/// ([`SmoPrefix::file`], to draw with [`render_levels`]) and those of the whole file
-/// ([`SmoPrefix::declared`]; [`SmoPrefix::is_complete`] says whether all are held).
+/// Loads a `.smo` file of either kind, chosen by its header: one octree (version 1.x) or
+/// levels of detail (version 2.0, `sdfmo build --lod`, [`BuildRequest::levels`]), validating
+/// it: the whole file, or a file with levels cut where a level ends (a download in progress,
+/// `head -c`). Returns the levels it holds ([`SmoPrefix::file`], to draw with a [`Renderer`])
+/// and those of the whole file ([`SmoPrefix::declared`]; [`SmoPrefix::is_complete`] says
+/// whether all are held).
 ///
 /// ```
-/// use sdf_multioctree::build::{build_lod, BuildSettings};
-/// use sdf_multioctree::{demo_mesh, load_levels, paper_views, render_levels, render_octree};
-/// use sdf_multioctree::{Error, LevelRequest, Method, Mode};
+/// use sdf_multioctree::{demo_mesh, load_octree, paper_views, BuildRequest, BuildSettings};
+/// use sdf_multioctree::{Device, Error, LevelRequest, Method, Mode, Renderer, RenderSettings, SmoFile};
 ///
 /// // Levels 3 to 5 of the demo part in one file, cut where level 4 ends.
-/// let settings = BuildSettings { depth: 5, coarsest_level: Some(3), ..BuildSettings::default() };
-/// let (lod, _) = build_lod(&demo_mesh(), &settings, None, None, &|| false)?;
+/// let settings = BuildSettings::new(5, Method::default());
+/// let (lod, _) = BuildRequest::new(&demo_mesh(), settings).levels(3)?;
 /// let cut = lod.entries()[1].end() as usize;
 /// let path = std::env::temp_dir().join(format!("sdfmo-doc-levels-{}.smo", std::process::id()));
 /// std::fs::write(&path, &lod.to_bytes()[..cut]).unwrap();
 ///
-/// let data = load_levels(&path)?;
+/// let data = load_octree(&path)?;
 /// assert_eq!((data.held(), data.declared), ((3, 4), (3, 5)));
 /// let camera = &paper_views(32)[0];
+/// let (depth, mask) = (RenderSettings::new(Mode::Depth), RenderSettings::new(Mode::Mask));
+/// let mut renderer = Renderer::new(Device::Cpu)?;
 /// // A level is that level's octree; the default is the finest held.
-/// let level_3 = render_levels(&data.file, camera, Mode::Depth, LevelRequest::Level(3))?;
-/// let alone = render_octree(&lod.levels()[0], camera, Mode::Depth)?;
+/// let level_3 = renderer.prepare(&data.file, LevelRequest::Level(3))?.render(camera, &depth)?;
+/// let alone = SmoFile::Octree(lod.levels()[0].clone());
+/// let alone = renderer.prepare(&alone, LevelRequest::Finest)?.render(camera, &depth)?;
 /// assert_eq!(level_3.rgb, alone.rgb);
-/// let finest = render_levels(&data.file, camera, Mode::Mask, LevelRequest::Finest)?;
+/// let finest = renderer.prepare(&data.file, LevelRequest::Finest)?.render(camera, &mask)?;
 /// // Each ray at the coarsest level held whose voxels stay under 2 pixels.
-/// let by_error = render_levels(&data.file, camera, Mode::Mask, LevelRequest::PixelError(2.0))?;
+/// let by_error = renderer.prepare(&data.file, LevelRequest::PixelError(2.0))?.render(camera, &mask)?;
 /// assert!(finest.counters.hits > 0 && by_error.counters.hits > 0);
 /// // Level 5 is not in the prefix: the error names the levels held.
-/// let e = render_levels(&data.file, camera, Mode::Mask, LevelRequest::Level(5)).unwrap_err();
+/// let e = renderer.prepare(&data.file, LevelRequest::Level(5)).unwrap_err();
 /// assert!(matches!(e, Error::Render(_)) && e.to_string().contains("levels 3..=4"), "{e}");
 /// # std::fs::remove_file(&path).ok();
 /// # Ok::<(), sdf_multioctree::Error>(())
 /// ```
 ///
 /// # Errors
-/// [`Error::Format`] for an unreadable, corrupt or hostile file, and for one cut anywhere but
-/// where a level ends ([`format::FormatError::CutInsideLevel`], or `Truncated` before the
-/// coarsest level's end or in a file without levels).
-pub fn load_levels(path: impl AsRef<Path>) -> Result<SmoPrefix> {
+/// [`Error::Format`] for an unreadable, truncated, corrupt or hostile file, and for one cut
+/// anywhere but where a level ends ([`format::FormatError::CutInsideLevel`], or `Truncated`
+/// before the coarsest level's end or in a file without levels).
+pub fn load_octree(path: impl AsRef<Path>) -> Result<SmoPrefix> {
     Ok(SmoFile::load_prefix(path.as_ref(), format::MAX_FILE_SIZE)?)
-}
-
-/// Ray traces the levels of a `.smo` file ([`load_levels`]) in `mode` on all cores: `level`
-/// picks what is drawn ([`LevelRequest`]: the finest level held, one level, or each ray's level
-/// by pixel error), the rule `sdfmo render --lod`/`--pixel-error` and Python's `lod=` and
-/// `pixel_error=` follow. The camera is in the normalised frame (see [`camera_from_model`]
-/// with `octree_frame(file.finest())` for one in model units). Example: [`load_levels`]; on a
-/// GPU, or with more settings: [`Renderer`].
-///
-/// # Errors
-/// [`Error::Render`] for an invalid camera, a level the file does not hold (naming those it
-/// holds), or a pixel error on a file without levels or not finite and > 0.
-pub fn render_levels(
-    file: &SmoFile,
-    camera: &Camera,
-    mode: Mode,
-    level: LevelRequest,
-) -> Result<Rendered> {
-    Renderer::new(Device::Cpu)?
-        .prepare(file, level)?
-        .render(camera, &RenderSettings::new(mode))
 }
 
 /// Where a [`Renderer`] traces its rays.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Device {
-    /// The CPU kernel (`sdfmo-trace`) on rayon's threads: every mode, shadows and occlusion.
+    /// The CPU kernel (`sdfmo-trace`) on the caller's rayon pool: every mode, shadows and
+    /// occlusion, the source mesh too ([`Renderer::prepare_mesh`]).
     #[default]
     Cpu,
     /// The WGSL kernel (crate `sdfmo-gpu`, feature `gpu`) on the first GPU adapter wgpu finds
-    /// (`WGPU_ADAPTER_NAME` picks one): primary rays only (shadows, occlusion and a thread
-    /// count are refused). Its images agree with the CPU's to a few ulps of the hit distance,
+    /// (`WGPU_ADAPTER_NAME` picks one): primary rays of octree files only (shadows, occlusion
+    /// and the mesh reference are refused). Its images agree with the CPU's to a few ulps of the hit distance,
     /// not bit for bit (`crates/sdfmo-gpu/tests/match_cpu.rs` states the tolerances).
     Gpu,
 }
@@ -473,10 +457,32 @@ impl Renderer {
             }
         };
         Ok(Prepared {
-            file,
-            level,
+            source: Source::File { file, level },
             #[cfg(feature = "gpu")]
             gpu,
+            _renderer: std::marker::PhantomData,
+        })
+    }
+
+    /// Prepares the source mesh (model units) as the reference image: normalised exactly as
+    /// the builder does ([`DEFAULT_MARGIN`], [`mesh_frame`]), the same cameras and shading as
+    /// its octrees, face normals. On the CPU only (the GPU kernel traces octrees).
+    ///
+    /// # Errors
+    /// [`Error::Distance`] if the ray queries cannot be prepared; [`Error::Render`] on a GPU.
+    pub fn prepare_mesh(&mut self, mesh: &TriMesh) -> Result<Prepared<'_>> {
+        if self.device() == Device::Gpu {
+            return Err(Error::Render(render::RenderError::InvalidSettings(
+                "the mesh reference renders on the CPU (Device::Cpu); the GPU kernel traces octrees"
+                    .into(),
+            )));
+        }
+        let (normalized, _) = mesh.normalized(DEFAULT_MARGIN);
+        let dist = MeshDistance::new(&normalized, SignMode::Auto)?;
+        Ok(Prepared {
+            source: Source::Mesh(Box::new(dist)),
+            #[cfg(feature = "gpu")]
+            gpu: None,
             _renderer: std::marker::PhantomData,
         })
     }
@@ -492,11 +498,31 @@ enum Upload {
     Levels(gpu::GpuLodOctree),
 }
 
-/// A file prepared for renders on a [`Renderer`]'s device ([`Renderer::prepare`]).
+/// What a [`Prepared`] draws.
+enum Source<'a> {
+    /// A `.smo` file, drawn as the request asks.
+    File {
+        file: &'a SmoFile,
+        level: LevelRequest,
+    },
+    /// The source mesh's ray queries, in the normalised frame.
+    Mesh(Box<MeshDistance>),
+}
+
+impl fmt::Debug for Source<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Source::File { level, .. } => write!(f, "File({level:?})"),
+            Source::Mesh(_) => f.write_str("Mesh"),
+        }
+    }
+}
+
+/// A file or mesh prepared for renders on a [`Renderer`]'s device ([`Renderer::prepare`],
+/// [`Renderer::prepare_mesh`]).
 #[derive(Debug)]
 pub struct Prepared<'a> {
-    file: &'a SmoFile,
-    level: LevelRequest,
+    source: Source<'a>,
     /// The GPU and what it holds of the file (`None` on the CPU).
     #[cfg(feature = "gpu")]
     gpu: Option<(&'a mut gpu::GpuRenderer, Upload)>,
@@ -505,19 +531,18 @@ pub struct Prepared<'a> {
 }
 
 impl Prepared<'_> {
-    /// Renders the prepared file seen by `camera` with `settings` ([`render::render`]'s
-    /// camera, settings and image, on either device).
+    /// Renders what was prepared seen by `camera` with `settings` ([`render::render`]'s
+    /// camera, settings and image, on either device; on the CPU on the caller's rayon pool).
     ///
     /// # Errors
     /// [`Error::Render`] for an invalid camera or settings; on a GPU, `Error::Gpu` for
-    /// settings it does not render (shadows, occlusion, a thread count), a device error or a
-    /// time-out.
+    /// settings it does not render (shadows, occlusion), a device error or a time-out.
     pub fn render(&mut self, camera: &Camera, settings: &RenderSettings) -> Result<Rendered> {
         self.render_with(camera, settings, None, None)
     }
 
     /// [`Prepared::render`] reporting its progress (the fraction of tiles done, from the
-    /// worker threads; see [`render::render_with_progress`]) and stopping with
+    /// worker threads; see [`render::RenderRequest::progress`]) and stopping with
     /// [`render::RenderError::Cancelled`] when `cancel` returns true (asked before each tile).
     /// A GPU frame is one dispatch: neither is called there.
     ///
@@ -530,7 +555,13 @@ impl Prepared<'_> {
         progress: Option<&(dyn Fn(f32) + Sync)>,
         cancel: Option<&(dyn Fn() -> bool + Sync)>,
     ) -> Result<Rendered> {
-        let scene = self.level.scene(self.file, camera)?;
+        let (file, level) = match &self.source {
+            Source::File { file, level } => (*file, *level),
+            Source::Mesh(dist) => {
+                return on_cpu(&MeshScene(dist), camera, settings, progress, cancel)
+            }
+        };
+        let scene = level.scene(file, camera)?;
         #[cfg(feature = "gpu")]
         if let Some((g, upload)) = self.gpu.as_mut() {
             return Ok(match upload {
@@ -547,15 +578,29 @@ impl Prepared<'_> {
                 }
             });
         }
-        Ok(match scene {
-            render::LevelScene::Level(s) => {
-                render::render_observed(&s, camera, settings, progress, cancel)?
-            }
-            render::LevelScene::PixelError(s) => {
-                render::render_observed(&s, camera, settings, progress, cancel)?
-            }
-        })
+        match scene {
+            render::LevelScene::Level(s) => on_cpu(&s, camera, settings, progress, cancel),
+            render::LevelScene::PixelError(s) => on_cpu(&s, camera, settings, progress, cancel),
+        }
     }
+}
+
+/// `scene` rendered on the CPU with the optional progress and cancellation.
+fn on_cpu<T: render::Traceable>(
+    scene: &T,
+    camera: &Camera,
+    settings: &RenderSettings,
+    progress: Option<&(dyn Fn(f32) + Sync)>,
+    cancel: Option<&(dyn Fn() -> bool + Sync)>,
+) -> Result<Rendered> {
+    let mut request = render::RenderRequest::new(scene, camera, settings);
+    if let Some(progress) = progress {
+        request = request.progress(progress);
+    }
+    if let Some(cancel) = cancel {
+        request = request.cancel(cancel);
+    }
+    Ok(request.render()?)
 }
 
 /// Saves an octree as a `.smo` file, atomically.
@@ -570,36 +615,6 @@ pub fn save_octree(octree: &PackedOctree, path: impl AsRef<Path>) -> Result<()> 
 /// the origin, vertical field of view 60°).
 pub fn paper_views(size: u32) -> Vec<Camera> {
     Camera::paper_views(size, size)
-}
-
-/// Ray traces an octree in `mode` on all cores: [`Mode::Lambert`] is the paper's shading (no
-/// shadows), [`Mode::Mask`], [`Mode::Depth`] and [`Mode::Normal`] compute only what they show.
-/// Use [`render::render`] with [`render::RenderSettings`] for shadows, occlusion and threads.
-///
-/// # Errors
-/// [`Error::Render`] for an invalid camera.
-pub fn render_octree(octree: &PackedOctree, camera: &Camera, mode: Mode) -> Result<Rendered> {
-    Ok(render::render(
-        &OctreeScene(octree),
-        camera,
-        &RenderSettings::new(mode),
-    )?)
-}
-
-/// Ray traces the source mesh (model units) in `mode` as the reference image: normalised
-/// exactly as the builder does, the same camera and shading as [`render_octree`], face normals.
-///
-/// # Errors
-/// [`Error::Distance`] if the ray queries cannot be prepared, [`Error::Render`] for an invalid
-/// camera. (A [`TriMesh`] is valid by construction, so there is no mesh error here.)
-pub fn render_mesh(mesh: &TriMesh, camera: &Camera, mode: Mode) -> Result<Rendered> {
-    let (normalized, _) = mesh.normalized(DEFAULT_MARGIN);
-    let dist = MeshDistance::new(&normalized, SignMode::Auto)?;
-    Ok(render::render(
-        &MeshScene(&dist),
-        camera,
-        &RenderSettings::new(mode),
-    )?)
 }
 
 /// The signed distance the octree stores at `point`, both in model units (the units of the
@@ -653,7 +668,7 @@ pub fn octree_frame<B: AsRef<[u8]>>(octree: &format::Octree<B>) -> mesh::Normali
 }
 
 /// The mesh's frame: model units ↔ the normalised root cube, exactly as [`build_octree`],
-/// [`render_mesh`] and the command line normalise it ([`DEFAULT_MARGIN`]); the frame of every
+/// [`Renderer::prepare_mesh`] and the command line normalise it ([`DEFAULT_MARGIN`]); the frame of every
 /// octree built from it.
 pub fn mesh_frame(mesh: &TriMesh) -> mesh::Normalization {
     mesh::Normalization::for_bounds(&mesh.bounds(), DEFAULT_MARGIN)
@@ -667,14 +682,19 @@ pub fn mesh_frame(mesh: &TriMesh) -> mesh::Normalization {
 ///
 /// ```
 /// use sdf_multioctree::{build_octree, camera_from_model, demo_mesh, octree_frame};
-/// use sdf_multioctree::{paper_views, render_octree, Method, Mode, Vec3};
+/// use sdf_multioctree::{paper_views, Device, LevelRequest, Method, Mode, Renderer};
+/// use sdf_multioctree::{RenderSettings, SmoFile, Vec3};
 ///
 /// let mesh = demo_mesh();
 /// let (octree, _) = build_octree(&mesh, 5, Method::Multi { max_voxels: 8 })?;
 /// let mut camera = paper_views(32)[0];
 /// camera.eye = Vec3::new(0.0, 0.0, 40.0); // model units: 40 units in front of the part
 /// camera.target = mesh.bounds().center();
-/// let image = render_octree(&octree, &camera_from_model(&octree_frame(&octree), &camera), Mode::Mask)?;
+/// let camera = camera_from_model(&octree_frame(&octree), &camera);
+/// let file = SmoFile::Octree(octree);
+/// let image = Renderer::new(Device::Cpu)?
+///     .prepare(&file, LevelRequest::Finest)?
+///     .render(&camera, &RenderSettings::new(Mode::Mask))?;
 /// assert!(image.counters.hits > 0);
 /// # Ok::<(), sdf_multioctree::Error>(())
 /// ```
@@ -717,45 +737,48 @@ mod tests {
         assert_eq!(DEFAULT_MARGIN, BuildSettings::default().margin);
     }
 
-    /// `render_levels` of each level of a file with levels is `render_octree` of that level
-    /// alone (the CLI's `render --lod` path), of the whole file and of each prefix cut where a
-    /// level ends; a cut inside a level is refused.
+    /// A [`Renderer`] draws each level of a file with levels as that level's octree alone (the
+    /// CLI's `render --lod` path), from the whole file and from each prefix cut where a level
+    /// ends; a cut inside a level is refused.
     #[test]
-    fn render_levels_draws_each_level_of_every_level_boundary_prefix() {
-        let settings = BuildSettings {
-            depth: 5,
-            coarsest_level: Some(3),
-            ..BuildSettings::default()
-        };
-        let (lod, _) = build::build_lod(&demo_mesh(), &settings, None, None, &|| false).unwrap();
+    fn each_level_of_every_level_boundary_prefix_renders_as_that_level_alone() {
+        let settings = BuildSettings::new(5, Method::default());
+        let (lod, _) = BuildRequest::new(&demo_mesh(), settings).levels(3).unwrap();
         let bytes = lod.to_bytes();
         let camera = paper_views(24)[1];
+        let mut renderer = Renderer::new(Device::Cpu).unwrap();
+        let mut draw = |file: &SmoFile, level, mode| {
+            renderer
+                .prepare(file, level)
+                .and_then(|mut p| p.render(&camera, &RenderSettings::new(mode)))
+        };
+        let alone = |k: u8| SmoFile::Octree(lod.level(k).unwrap().clone());
         let dir = std::env::temp_dir().join(format!("sdfmo-facade-levels-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         for (i, e) in lod.entries().iter().enumerate() {
             let path = dir.join(format!("cut{i}.smo"));
             std::fs::write(&path, &bytes[..e.end() as usize]).unwrap();
-            let data = load_levels(&path).unwrap();
+            let data = load_octree(&path).unwrap();
             assert_eq!((data.held(), data.declared), ((3, e.level), (3, 5)));
             assert_eq!(data.is_complete(), e.level == 5);
             for k in 3..=e.level {
-                let a = render_levels(&data.file, &camera, Mode::Normal, LevelRequest::Level(k));
-                let b = render_octree(lod.level(k).unwrap(), &camera, Mode::Normal).unwrap();
+                let a = draw(&data.file, LevelRequest::Level(k), Mode::Normal);
+                let b = draw(&alone(k), LevelRequest::Finest, Mode::Normal);
                 assert_eq!(
                     a.unwrap().rgb,
-                    b.rgb,
+                    b.unwrap().rgb,
                     "prefix to level {}, level {k}",
                     e.level
                 );
             }
-            let finest = render_levels(&data.file, &camera, Mode::Depth, LevelRequest::Finest);
-            let b = render_octree(lod.level(e.level).unwrap(), &camera, Mode::Depth).unwrap();
-            assert_eq!(finest.unwrap().rgb, b.rgb);
-            let missing = render_levels(&data.file, &camera, Mode::Mask, LevelRequest::Level(6));
+            let finest = draw(&data.file, LevelRequest::Finest, Mode::Depth);
+            let b = draw(&alone(e.level), LevelRequest::Finest, Mode::Depth);
+            assert_eq!(finest.unwrap().rgb, b.unwrap().rgb);
+            let missing = draw(&data.file, LevelRequest::Level(6), Mode::Mask);
             assert!(matches!(missing, Err(Error::Render(_))));
             if e.level < 5 {
                 std::fs::write(&path, &bytes[..e.end() as usize + 9]).unwrap();
-                let cut = load_levels(&path).unwrap_err();
+                let cut = load_octree(&path).unwrap_err();
                 assert!(
                     matches!(
                         cut,
@@ -767,6 +790,30 @@ mod tests {
             }
         }
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// The mesh reference is the source mesh normalised as the builder does: its image and
+    /// the octree's agree closely, and the GPU refuses it with a typed error (no panic).
+    #[test]
+    fn the_mesh_reference_renders_beside_its_octree() {
+        let mesh = demo_mesh();
+        let (octree, _) = build_octree(&mesh, 6, Method::default()).unwrap();
+        let file = SmoFile::Octree(octree);
+        let camera = paper_views(48)[2];
+        let settings = RenderSettings::new(Mode::Lambert);
+        let mut renderer = Renderer::new(Device::Cpu).unwrap();
+        let reference = renderer
+            .prepare_mesh(&mesh)
+            .unwrap()
+            .render(&camera, &settings)
+            .unwrap();
+        let image = renderer
+            .prepare(&file, LevelRequest::Finest)
+            .unwrap()
+            .render(&camera, &settings)
+            .unwrap();
+        assert!(reference.counters.hits > 0);
+        assert!(compare(&reference, &image).unwrap().psnr > 15.0);
     }
 
     #[test]

@@ -10,11 +10,11 @@
 //! prints why and passes, unless `SDFMO_REQUIRE_GPU=1`.
 #![cfg(feature = "gpu")]
 
-use sdf_multioctree::build::{build_lod, BuildSettings};
 use sdf_multioctree::gpu::GpuError;
 use sdf_multioctree::render::{RenderError, RenderSettings};
 use sdf_multioctree::{
-    demo_mesh, load_levels, paper_views, Device, Error, LevelRequest, Mode, Rendered, Renderer,
+    demo_mesh, load_octree, paper_views, BuildRequest, BuildSettings, Device, Error, LevelRequest,
+    Method, Mode, Rendered, Renderer,
 };
 
 /// The GPU renderer, or `None` (with a message) when there is no adapter and none is required.
@@ -78,12 +78,8 @@ fn agree(cpu: &Rendered, gpu: &Rendered, mode: Mode, label: &str) {
 fn gpu_renders_levels_and_prefixes_as_the_cpu_does() {
     let Some(mut gpu) = gpu() else { return };
     assert_eq!(gpu.device(), Device::Gpu);
-    let settings = BuildSettings {
-        depth: 6,
-        coarsest_level: Some(3),
-        ..BuildSettings::default()
-    };
-    let (lod, _) = build_lod(&demo_mesh(), &settings, None, None, &|| false).unwrap();
+    let settings = BuildSettings::new(6, Method::default());
+    let (lod, _) = BuildRequest::new(&demo_mesh(), settings).levels(3).unwrap();
     let bytes = lod.to_bytes();
     let dir = std::env::temp_dir().join(format!("sdfmo-facade-gpu-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -95,7 +91,7 @@ fn gpu_renders_levels_and_prefixes_as_the_cpu_does() {
         let entry = entries.iter().find(|e| e.level == end_level).unwrap();
         let path = dir.join(format!("to{end_level}.smo"));
         std::fs::write(&path, &bytes[..entry.end() as usize]).unwrap();
-        let data = load_levels(&path).unwrap();
+        let data = load_octree(&path).unwrap();
         assert_eq!(data.held(), (3, end_level));
         for request in [
             LevelRequest::Finest,
@@ -130,11 +126,8 @@ fn gpu_renders_levels_and_prefixes_as_the_cpu_does() {
         }
     }
     // Shadows are a CPU setting: a typed error on the GPU.
-    let data = load_levels(dir.join("to6.smo")).unwrap();
-    let shadows = RenderSettings {
-        shadows: true,
-        ..RenderSettings::new(Mode::Lambert)
-    };
+    let data = load_octree(dir.join("to6.smo")).unwrap();
+    let shadows = RenderSettings::new(Mode::Lambert).with_shadows(true);
     let e = gpu
         .prepare(&data.file, LevelRequest::Finest)
         .unwrap()

@@ -9,15 +9,15 @@
 //! 2). Narrow a run with criterion's filter, e.g.
 //! `cargo bench -p sdfmo-benches --bench build -- 'build/abc1/d9/multi'`.
 
-use sdfmo_benches::{build_at, build_settings, env_depths, env_list, env_num, load_stl, METHODS};
+use sdfmo_benches::{build_at, env_depths, env_list, env_num, load_stl, pool, METHODS};
 use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use sdfmo_build::{build, Method};
+use sdfmo_build::{build, BuildSettings, Method};
 
 fn bench_build(c: &mut Criterion) {
-    let threads: usize = env_num("SDFMO_BENCH_THREADS", 2);
+    let pool = pool(env_num("SDFMO_BENCH_THREADS", 2));
     let depths = env_depths("SDFMO_BENCH_DEPTHS", "6,7,8,9,10");
     for name in env_list("SDFMO_BENCH_MESHES", "abc1,abc5") {
         let Some(mesh) = load_stl(&name) else {
@@ -36,8 +36,8 @@ fn bench_build(c: &mut Criterion) {
             }));
             group.warm_up_time(Duration::from_millis(500));
             for (label, method) in METHODS {
-                let (_, stats) = build_at(&mesh, depth, method, Some(threads));
-                let settings = build_settings(depth, method, Some(threads));
+                let (_, stats) = build_at(&mesh, depth, method, &pool);
+                let settings = BuildSettings::new(depth, method);
                 assert!(stats.leaves > 0, "{name} d{depth} {label}: no leaves");
                 if method == Method::Svo {
                     assert_eq!(stats.voxels, stats.leaves);
@@ -47,7 +47,10 @@ fn bench_build(c: &mut Criterion) {
                     stats.leaves, stats.voxels, stats.surface_voxels, stats.bytes
                 );
                 group.bench_function(format!("d{depth}/{label}"), |b| {
-                    b.iter(|| build(black_box(&mesh), black_box(&settings), None).expect("build"))
+                    b.iter(|| {
+                        pool.install(|| build(black_box(&mesh), black_box(&settings)))
+                            .expect("build")
+                    })
                 });
             }
         }

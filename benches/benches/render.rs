@@ -11,7 +11,7 @@
 //! Narrow a run with criterion's filter, e.g.
 //! `cargo bench -p sdfmo-benches --bench render -- 'render/abc1/d9/multi/lambert'`.
 
-use sdfmo_benches::{build_at, env_depths, env_list, env_num, load_stl, METHODS};
+use sdfmo_benches::{build_at, env_depths, env_list, env_num, load_stl, pool, METHODS};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -21,21 +21,19 @@ use sdfmo_render::{
     mesh_in_octree_frame, render, Camera, MeshScene, Mode, OctreeScene, RenderSettings, Traceable,
 };
 
-/// (label, settings) of the measured render configurations.
-fn configs() -> Vec<(String, RenderSettings)> {
+/// (label, threads, settings) of the measured render configurations.
+fn configs() -> Vec<(String, usize, RenderSettings)> {
     let mut out = Vec::new();
     for threads in [1, 2] {
         for mode in Mode::ALL {
             out.push((
                 format!("{mode}/t{threads}"),
-                RenderSettings::new(mode).with_threads(threads),
+                threads,
+                RenderSettings::new(mode),
             ));
         }
-        let shadows = RenderSettings {
-            shadows: true,
-            ..RenderSettings::new(Mode::Lambert).with_threads(threads)
-        };
-        out.push((format!("lambert+shadows/t{threads}"), shadows));
+        let shadows = RenderSettings::new(Mode::Lambert).with_shadows(true);
+        out.push((format!("lambert+shadows/t{threads}"), threads, shadows));
     }
     out
 }
@@ -54,8 +52,11 @@ fn bench_scene<T: Traceable>(
         .throughput(Throughput::Elements(
             u64::from(cam.width) * u64::from(cam.height),
         ));
-    for (label, settings) in configs() {
-        let probe = render(scene, cam, &settings).expect("render");
+    for (label, threads, settings) in configs() {
+        let pool = pool(threads);
+        let probe = pool
+            .install(|| render(scene, cam, &settings))
+            .expect("render");
         assert!(
             probe.counters.hits > 0,
             "{group}/{method}/{label}: empty image"
@@ -66,7 +67,8 @@ fn bench_scene<T: Traceable>(
         );
         g.bench_function(format!("{method}/{label}"), |b| {
             b.iter(|| {
-                render(black_box(scene), black_box(cam), black_box(&settings)).expect("render")
+                pool.install(|| render(black_box(scene), black_box(cam), black_box(&settings)))
+                    .expect("render")
             })
         });
     }
@@ -84,7 +86,7 @@ fn render_benches(c: &mut Criterion) {
         let mut reference_done = false;
         for &depth in &depths {
             for (method_name, method) in METHODS {
-                let (octree, stats) = build_at(&mesh, depth, method, None);
+                let (octree, stats) = build_at(&mesh, depth, method, &pool(2));
                 eprintln!(
                     "{name} d{depth} {method_name}: {} leaves, {} voxels, {} bytes, built in {:.0} ms",
                     stats.leaves, stats.voxels, stats.bytes, stats.build_ms

@@ -44,23 +44,25 @@ pub fn env_depths(name: &str, default: &str) -> Vec<u8> {
         .collect()
 }
 
-/// The settings of a benchmark build: `depth`, `method`, `threads` (`None`: all), defaults
-/// otherwise.
-pub fn build_settings(depth: u8, method: Method, threads: Option<usize>) -> BuildSettings {
-    BuildSettings {
-        threads,
-        ..BuildSettings::new(depth, method)
-    }
+/// A pool of `threads` workers: the libraries run on the caller's pool, a benchmark installs
+/// this one around what it measures.
+pub fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a pool of benchmark threads")
 }
 
-/// Builds `mesh` with [`build_settings`], panicking on error (a benchmark's input).
+/// Builds `mesh` at `depth` with `method` (defaults otherwise) on `pool`, panicking on error
+/// (a benchmark's input).
 pub fn build_at(
     mesh: &TriMesh,
     depth: u8,
     method: Method,
-    threads: Option<usize>,
+    pool: &rayon::ThreadPool,
 ) -> (PackedOctree, BuildStats) {
-    build(mesh, &build_settings(depth, method, threads), None).expect("build")
+    pool.install(|| build(mesh, &BuildSettings::new(depth, method)))
+        .expect("build")
 }
 
 /// The shared test-mesh directory: `SDFMO_TEST_DATA`, else `../shared/data` beside the workspace

@@ -7,7 +7,8 @@ use sdf_multioctree::build::Method;
 use sdf_multioctree::format::PackedOctree;
 use sdf_multioctree::mesh::{procedural, TriMesh};
 use sdf_multioctree::render::{Camera, Mode};
-use sdf_multioctree::{build_octree, load_mesh, load_octree, render_octree, Error};
+use sdf_multioctree::{build_octree, load_mesh, load_octree, Error};
+use sdf_multioctree::{Device, LevelRequest, RenderSettings, Renderer, SmoFile};
 
 use crate::common::MULTI;
 
@@ -108,6 +109,8 @@ fn invalid_settings_and_cameras_are_typed_errors() {
         Error::Build(_)
     ));
     let (o, _) = build_octree(&m, 4, MULTI).unwrap();
+    let file = SmoFile::Octree(o);
+    let mut renderer = Renderer::new(Device::Cpu).unwrap();
     let good = Camera::paper_view(0, 16, 16);
     for cam in [
         Camera {
@@ -132,7 +135,10 @@ fn invalid_settings_and_cameras_are_typed_errors() {
             ..good
         },
     ] {
-        let e = render_octree(&o, &cam, Mode::Lambert).unwrap_err();
+        let e = renderer
+            .prepare(&file, LevelRequest::Finest)
+            .and_then(|mut p| p.render(&cam, &RenderSettings::new(Mode::Lambert)))
+            .unwrap_err();
         assert!(matches!(e, Error::Render(_)), "{cam:?}: {e}");
     }
 }
@@ -145,7 +151,7 @@ fn corrupt_octree_files_are_typed_errors() {
     let path = tmp("demo.smo");
     sdf_multioctree::save_octree(&o, &path).unwrap();
     let good = std::fs::read(&path).unwrap();
-    assert_eq!(load_octree(&path).unwrap().to_bytes(), good);
+    assert_eq!(load_octree(&path).unwrap().file.finest().to_bytes(), good);
     let bad = tmp("bad.smo");
     // Through the file API for a sample (file writes are slow on a loaded machine), through the
     // same validation in memory for the sweep.
@@ -193,7 +199,7 @@ fn corrupt_octree_files_are_typed_errors() {
     std::fs::remove_dir_all(path.parent().unwrap()).ok();
 }
 
-/// Regression: the facade's `render_mesh` used to normalise the mesh (`TriMesh::normalized` →
+/// Regression: the facade's `render_mesh` (now `Renderer::prepare_mesh`) used to normalise the mesh (`TriMesh::normalized` →
 /// `bounds`) before anything validated it, so a `TriMesh` built without `TriMesh::new` (its fields
 /// were public) with triangles [[0,1,2],[0,3,1]] over 3 vertices panicked with "index out of
 /// bounds: the len is 3 but the index is 3" instead of returning an error. The fields are private

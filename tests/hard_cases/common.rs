@@ -28,11 +28,8 @@ pub fn build(mesh: &TriMesh, depth: u8, method: Method) -> PackedOctree {
 
 /// Builds with an explicit normalisation margin.
 pub fn build_with_margin(mesh: &TriMesh, depth: u8, method: Method, margin: f32) -> PackedOctree {
-    let settings = BuildSettings {
-        margin,
-        ..BuildSettings::new(depth, method)
-    };
-    sdf_multioctree::build::build(mesh, &settings, None)
+    let settings = BuildSettings::new(depth, method).with_margin(margin);
+    sdf_multioctree::build::build(mesh, &settings)
         .unwrap_or_else(|e| panic!("build depth {depth} {method:?}: {e}"))
         .0
 }

@@ -200,14 +200,10 @@ fn overlapping_boxes_pinholes(sign: SignMode, margin: f32) -> Vec<(String, usize
     let mut out = Vec::new();
     for depth in [4u8, 5] {
         for (mname, method) in METHODS {
-            let settings = BuildSettings {
-                depth,
-                method,
-                margin,
-                sign,
-                ..BuildSettings::default()
-            };
-            let o = sdf_multioctree::build::build(&mesh, &settings, None)
+            let settings = BuildSettings::new(depth, method)
+                .with_margin(margin)
+                .with_sign(sign);
+            let o = sdf_multioctree::build::build(&mesh, &settings)
                 .expect("build")
                 .0;
             let name = format!("overlapping boxes {sign:?} margin {margin} {mname} depth {depth}");

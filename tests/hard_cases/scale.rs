@@ -72,7 +72,7 @@ fn diff(a: &PackedOctree, b: &PackedOctree) -> Diff {
 /// Minimum PSNR over the paper's views (48²) of `test`'s renders against `reference`'s: the
 /// paper protocol with an octree as the reference.
 fn min_psnr(reference: &PackedOctree, test: &PackedOctree) -> f64 {
-    PaperProtocol::of_scene(&OctreeScene(reference), 48, None)
+    PaperProtocol::of_scene(&OctreeScene(reference), 48)
         .and_then(|p| p.score(&OctreeScene(test)))
         .expect("render and compare")
         .min_psnr()

@@ -18,15 +18,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let depth: u8 = a[1].parse()?;
     let view: usize = a[2].parse()?;
     let size: u32 = a[3].parse()?;
-    let (svo, _) = build(&mesh, &BuildSettings::new(depth, Method::Svo), None)?;
-    let (multi, _) = build(
-        &mesh,
-        &BuildSettings {
-            depth,
-            ..Default::default()
-        },
-        None,
-    )?;
+    let (svo, _) = build(&mesh, &BuildSettings::new(depth, Method::Svo))?;
+    let (multi, _) = build(&mesh, &BuildSettings::new(depth, Method::default()))?;
     let m = mesh_in_octree_frame(&mesh, multi.meta());
     let d = MeshDistance::new(&m, SignMode::Auto)?;
     let leaves: HashMap<[u32; 3], Vec<sdfmo_format::Voxel>> = multi.leaves().collect();

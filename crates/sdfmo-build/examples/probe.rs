@@ -16,6 +16,10 @@ use sdfmo_format::trilinear;
 use sdfmo_format::{cell_size, PackedOctree, Voxel};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
+    // Two workers, as the tables were measured (the builder runs on the caller's pool).
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build_global()?;
     let args: Vec<String> = std::env::args().skip(1).collect();
     let path = args.first().ok_or("usage: probe MESH [DEPTH...]")?;
     let depths: Vec<u8> = if args.len() > 1 {
@@ -76,14 +80,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 Ok("w") => SignMode::Winding,
                 _ => SignMode::Auto,
             };
-            let s = BuildSettings {
-                depth: d,
-                method,
-                threads: Some(2),
-                sign,
-                ..Default::default()
-            };
-            let (oct, st) = build(&mesh, &s, None)?;
+            let s = BuildSettings::new(d, method).with_sign(sign);
+            let (oct, st) = build(&mesh, &s)?;
             let (err, missing, p95) = surface_error(&oct, &samples);
             let fs = false_surface(&oct, &dist, &mut rng);
             println!(

@@ -28,7 +28,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mesh = sdfmo_mesh::load_mesh(Path::new(path))?.mesh;
     let name = sdfmo_mesh::mesh_name(Path::new(path));
     let margin = BuildSettings::default().margin;
-    let protocol = PaperProtocol::new(&mesh, margin, size, None)?;
+    let protocol = PaperProtocol::new(&mesh, margin, size)?;
     let refs = protocol.references();
     if let Some(dir) = &save {
         std::fs::create_dir_all(dir)?;
@@ -40,11 +40,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut row = Vec::new();
         let mut svo_imgs: Vec<image::RgbImage> = Vec::new();
         for method in [Method::Svo, Method::Multi { max_voxels: 8 }] {
-            let s = BuildSettings {
-                fit_corners: fit,
-                ..BuildSettings::new(depth, method)
-            };
-            let (oct, st) = build(&mesh, &s, None)?;
+            let s = BuildSettings::new(depth, method).with_fit_corners(fit);
+            let (oct, st) = build(&mesh, &s)?;
             let score = protocol.score(&OctreeScene(&oct))?;
             let mut imgs = Vec::new();
             for (i, view) in score.views.iter().enumerate() {

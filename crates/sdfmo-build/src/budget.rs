@@ -64,7 +64,7 @@ pub fn estimate_memory(mesh: &TriMesh, settings: &BuildSettings) -> MemoryEstima
 }
 
 /// The prediction of [`estimate_memory`], or [`BuildError::MemoryBudget`] when it exceeds
-/// `budget` (`None`: no limit). [`build_with_budget`](crate::build_with_budget) calls it before
+/// `budget` (`None`: no limit). [`BuildRequest`](crate::BuildRequest) calls it before
 /// any work; a caller that runs several builds (a sweep) can call it for all of them first.
 pub fn check_memory(
     mesh: &TriMesh,

@@ -32,7 +32,7 @@ pub enum BuildError {
         /// The budget in bytes.
         budget: u64,
     },
-    /// The levels of detail asked for cannot be built ([`BuildSettings::coarsest_level`](crate::BuildSettings::coarsest_level)).
+    /// The levels of detail asked for cannot be built ([`BuildRequest::levels`](crate::BuildRequest::levels)).
     #[error("levels {coarsest}..={depth}: {why}")]
     InvalidLevels {
         /// The coarsest level asked for.
@@ -45,19 +45,13 @@ pub enum BuildError {
     /// `Method::Multi { max_voxels: 0 }`.
     #[error("max_voxels must be at least 1 (got {0})")]
     InvalidMaxVoxels(u8),
-    /// `threads: Some(0)`.
-    #[error("threads must be at least 1")]
-    InvalidThreads,
     /// The normalisation margin is not in [0, 0.5).
     #[error("margin {0} is out of range [0, 0.5)")]
     InvalidMargin(f32),
-    /// The local thread pool could not be created.
-    #[error("could not create a thread pool")]
-    ThreadPool(#[from] rayon::ThreadPoolBuildError),
     /// The distance structure refused the mesh.
     #[error("building the distance structure")]
     Distance(#[from] sdfmo_distance::DistanceError),
-    /// The caller's cancel function returned true ([`build_cancellable`](crate::build_cancellable)).
+    /// The caller's cancel function returned true ([`BuildRequest::cancel`](crate::BuildRequest::cancel)).
     #[error("the build was cancelled")]
     Cancelled,
     /// Packing the octree failed.

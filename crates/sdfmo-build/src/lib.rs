@@ -4,14 +4,24 @@
 //! open and thin elements).
 //!
 //! ```no_run
-//! use sdfmo_build::{build, BuildSettings, Method};
+//! use sdfmo_build::{build, BuildRequest, BuildSettings, Method};
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let mesh = sdfmo_mesh::procedural::demo_part();
-//! let settings = BuildSettings { depth: 7, method: Method::Multi { max_voxels: 8 }, ..Default::default() };
-//! let (octree, stats) = build(&mesh, &settings, None)?;
+//! let settings = BuildSettings::new(7, Method::Multi { max_voxels: 8 });
+//! let (octree, stats) = build(&mesh, &settings)?;
 //! println!("{} leaves, {} voxels, {} bytes", stats.leaves, stats.voxels, octree.byte_size());
+//!
+//! // Options on a request: a memory budget, progress, cancellation, levels of detail.
+//! let (levels, _) = BuildRequest::new(&mesh, settings)
+//!     .memory_budget(Some(1 << 30))
+//!     .progress(&|f| eprint!("\r{:3.0} %", 100.0 * f))
+//!     .levels(5)?;
+//! assert_eq!((levels.coarsest(), levels.depth()), (5, 7));
 //! # Ok(()) }
 //! ```
+//!
+//! Every build runs on the caller's rayon pool (the global one, or one the caller `install`s:
+//! the front-ends own their pools).
 //!
 //! # Pipeline ([`build`])
 //!
@@ -82,7 +92,18 @@ impl Default for Method {
 }
 
 /// What [`build`] builds.
-#[derive(Clone, Copy, Debug)]
+///
+/// `#[non_exhaustive]`: made by [`BuildSettings::new`] (or `default()`) and the `with_*`
+/// setters, so that a setting added later breaks no caller; the fields are public for reading.
+///
+/// ```
+/// use sdfmo_build::{BuildSettings, LeafParams, Method};
+/// use sdfmo_format::ValueBits;
+/// let s = BuildSettings::new(9, Method::Svo).with_bits(ValueBits::Sixteen).with_leaf(LeafParams::PAPER);
+/// assert_eq!((s.depth, s.bits, s.margin), (9, ValueBits::Sixteen, 0.05));
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct BuildSettings {
     /// Leaves at this level (edge `2 / 2^depth`); 1..=16 ([`MIN_DEPTH`]..=[`MAX_DEPTH`]).
     pub depth: u8,
@@ -90,8 +111,6 @@ pub struct BuildSettings {
     pub method: Method,
     /// Corner quantisation of the file.
     pub bits: ValueBits,
-    /// Worker threads (`None`: rayon's global pool). The output does not depend on it.
-    pub threads: Option<usize>,
     /// Normalisation margin (0.05): the longest extent is scaled to `2·(1 − margin)`.
     pub margin: f32,
     /// How the global signed distance is signed. `Auto`: pseudo-normals on watertight meshes; on
@@ -102,10 +121,6 @@ pub struct BuildSettings {
     /// The thresholds of the multi-octree's per-leaf decision ([`LeafParams::OURS`] by
     /// default, or [`LeafParams::PAPER`]); the SVO ignores them.
     pub leaf: LeafParams,
-    /// Levels of detail: `Some(c)` with `MIN_DEPTH ≤ c ≤ depth` makes [`build_lod`] build
-    /// every level `c..=depth`, each what a build of that depth makes (`None`: the leaf level
-    /// alone). [`build`] makes one level and refuses `Some(c)` with `c < depth`.
-    pub coarsest_level: Option<u8>,
     /// Corners fitted to the surface (off by default): the shared corner values of the leaves
     /// that keep the global-distance voxel (every SVO leaf, most multi-octree leaves) are a
     /// least-squares fit of the trilinear interpolant's zero set to the mesh inside those
@@ -127,6 +142,44 @@ impl BuildSettings {
             ..BuildSettings::default()
         }
     }
+
+    /// The same settings at `depth`.
+    pub fn with_depth(self, depth: u8) -> BuildSettings {
+        BuildSettings { depth, ..self }
+    }
+
+    /// The same settings with `method`.
+    pub fn with_method(self, method: Method) -> BuildSettings {
+        BuildSettings { method, ..self }
+    }
+
+    /// The same settings with corners of `bits`.
+    pub fn with_bits(self, bits: ValueBits) -> BuildSettings {
+        BuildSettings { bits, ..self }
+    }
+
+    /// The same settings with the normalisation `margin`.
+    pub fn with_margin(self, margin: f32) -> BuildSettings {
+        BuildSettings { margin, ..self }
+    }
+
+    /// The same settings signed by `sign`.
+    pub fn with_sign(self, sign: SignMode) -> BuildSettings {
+        BuildSettings { sign, ..self }
+    }
+
+    /// The same settings with the leaf decision's thresholds `leaf`.
+    pub fn with_leaf(self, leaf: LeafParams) -> BuildSettings {
+        BuildSettings { leaf, ..self }
+    }
+
+    /// The same settings with corners fitted to the surface or not ([`BuildSettings::fit_corners`]).
+    pub fn with_fit_corners(self, fit_corners: bool) -> BuildSettings {
+        BuildSettings {
+            fit_corners,
+            ..self
+        }
+    }
 }
 
 impl Default for BuildSettings {
@@ -135,11 +188,9 @@ impl Default for BuildSettings {
             depth: 8,
             method: Method::default(),
             bits: ValueBits::Eight,
-            threads: None,
             margin: 0.05,
             sign: SignMode::Auto,
             leaf: LeafParams::OURS,
-            coarsest_level: None,
             fit_corners: false,
         }
     }
@@ -218,9 +269,6 @@ fn validate(mesh: &TriMesh, settings: &BuildSettings) -> Result<()> {
     if let Method::Multi { max_voxels: 0 } = settings.method {
         return Err(BuildError::InvalidMaxVoxels(0));
     }
-    if settings.threads == Some(0) {
-        return Err(BuildError::InvalidThreads);
-    }
     if !(0.0..0.5).contains(&settings.margin) {
         return Err(BuildError::InvalidMargin(settings.margin));
     }
@@ -256,93 +304,140 @@ pub fn check_mesh(mesh: &TriMesh) -> Result<()> {
 }
 
 /// Builds the octree of `mesh` (model units; normalised here, the transform is stored in the
-/// octree). `progress` receives fractions in `0..=1`, increasing, from the calling thread.
-///
-/// The build is refused before it starts when its predicted peak memory
-/// ([`estimate_memory`]) exceeds [`default_memory_budget`] (half the physical memory); use
-/// [`build_with_budget`] to choose the budget.
-pub fn build(
-    mesh: &TriMesh,
-    settings: &BuildSettings,
-    progress: Option<&(dyn Fn(f32) + Sync)>,
-) -> Result<(PackedOctree, BuildStats)> {
-    build_with_budget(mesh, settings, default_memory_budget(), progress)
-}
-
-/// [`build`] with an explicit memory budget in bytes (`None`: no limit).
+/// octree) on the caller's rayon pool: [`BuildRequest::octree`] with the default memory budget
+/// and neither progress nor cancellation.
 ///
 /// # Errors
-/// [`BuildError::MemoryBudget`] when the prediction exceeds `budget`, and every error of
-/// [`build`].
-pub fn build_with_budget(
-    mesh: &TriMesh,
-    settings: &BuildSettings,
-    budget: Option<u64>,
-    progress: Option<&(dyn Fn(f32) + Sync)>,
-) -> Result<(PackedOctree, BuildStats)> {
-    build_cancellable(mesh, settings, budget, progress, &|| false)
+/// [`BuildError::InvalidDepth`], [`BuildError::InvalidMaxVoxels`], [`BuildError::InvalidMargin`],
+/// [`BuildError::DegenerateMesh`], [`BuildError::MemoryBudget`], and the distance structure's or
+/// the packing's error.
+pub fn build(mesh: &TriMesh, settings: &BuildSettings) -> Result<(PackedOctree, BuildStats)> {
+    BuildRequest::new(mesh, *settings).octree()
 }
 
-/// [`build_with_budget`] that stops early, with [`BuildError::Cancelled`], when `cancel`
-/// returns true. `cancel` is asked from the calling thread between the phases, between chunks
-/// of 65 536 corner points and between chunks of 16 384 leaves, so a caller can offer Ctrl-C
-/// (the Python package does). The subdivision phase is not split (about 1.2 s at depth 9 on
-/// one thread of the sphere of the Python tests, four times that per extra level).
+/// A build with its options, [`build`] when none is set (image-rs's `ImageReader` + `Limits`
+/// is the model: options on the request, then one terminal call): the memory budget,
+/// a progress callback, a cancellation test, and whether one octree ([`BuildRequest::octree`])
+/// or levels of detail ([`BuildRequest::levels`]) are built.
 ///
-/// # Errors
-/// [`BuildError::Cancelled`], and every error of [`build_with_budget`].
-pub fn build_cancellable(
-    mesh: &TriMesh,
-    settings: &BuildSettings,
+/// The build runs on the caller's rayon pool; every step is a pure function of the input in
+/// a fixed order of leaves, so the bytes are the same for any number of threads, and with or
+/// without progress and cancellation.
+///
+/// ```
+/// use sdfmo_build::{build, BuildError, BuildRequest, BuildSettings, Method};
+/// let mesh = sdfmo_mesh::procedural::demo_part();
+/// let settings = BuildSettings::new(4, Method::default());
+/// let (octree, _) = BuildRequest::new(&mesh, settings).memory_budget(None).cancel(&|| false).octree()?;
+/// assert_eq!(octree.as_bytes(), build(&mesh, &settings)?.0.as_bytes());
+/// let refused = BuildRequest::new(&mesh, settings).memory_budget(Some(1 << 20)).octree();
+/// assert!(matches!(refused, Err(BuildError::MemoryBudget { .. })));
+/// # Ok::<(), BuildError>(())
+/// ```
+#[must_use = "a request builds nothing until `octree` or `levels` is called"]
+pub struct BuildRequest<'a> {
+    mesh: &'a TriMesh,
+    settings: BuildSettings,
     budget: Option<u64>,
-    progress: Option<&(dyn Fn(f32) + Sync)>,
-    cancel: &(dyn Fn() -> bool + Sync),
-) -> Result<(PackedOctree, BuildStats)> {
-    validate(mesh, settings)?;
-    if let Some(c) = settings.coarsest_level.filter(|&c| c < settings.depth) {
-        return Err(BuildError::InvalidLevels {
-            coarsest: c,
-            depth: settings.depth,
-            why: "build makes one level; build_lod makes levels",
-        });
-    }
-    check_memory(mesh, settings, budget)?;
-    match settings.threads {
-        Some(n) => {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build()?;
-            pool.install(|| build_in_pool(mesh, settings, progress, cancel))
+    progress: Option<&'a (dyn Fn(f32) + Sync)>,
+    cancel: &'a (dyn Fn() -> bool + Sync),
+}
+
+impl<'a> BuildRequest<'a> {
+    /// The build of `mesh` (model units) with `settings`, under [`default_memory_budget`].
+    pub fn new(mesh: &'a TriMesh, settings: BuildSettings) -> BuildRequest<'a> {
+        BuildRequest {
+            mesh,
+            settings,
+            budget: default_memory_budget(),
+            progress: None,
+            cancel: &|| false,
         }
-        None => build_in_pool(mesh, settings, progress, cancel),
+    }
+
+    /// Refuses the build before it starts when its predicted peak memory ([`estimate_memory`])
+    /// exceeds `budget` bytes (`None`: no limit; default [`default_memory_budget`], half the
+    /// physical memory).
+    pub fn memory_budget(mut self, budget: Option<u64>) -> BuildRequest<'a> {
+        self.budget = budget;
+        self
+    }
+
+    /// Calls `progress` with fractions in `0..=1`, increasing, from the calling thread (for
+    /// levels, over the whole build: each level weighted by 4^level, the growth of a
+    /// surface's cells per level).
+    pub fn progress(mut self, progress: &'a (dyn Fn(f32) + Sync)) -> BuildRequest<'a> {
+        self.progress = Some(progress);
+        self
+    }
+
+    /// Stops early, with [`BuildError::Cancelled`], when `cancel` returns true. `cancel` is
+    /// asked from the calling thread between the phases, between chunks of 65 536 corner
+    /// points and between chunks of 16 384 leaves, so a caller can offer Ctrl-C (the Python
+    /// package does). The subdivision phase is not split (about 1.2 s at depth 9 on one thread
+    /// of the sphere of the Python tests, four times that per extra level).
+    pub fn cancel(mut self, cancel: &'a (dyn Fn() -> bool + Sync)) -> BuildRequest<'a> {
+        self.cancel = cancel;
+        self
+    }
+
+    /// Builds one octree, its leaves at the settings' depth.
+    ///
+    /// # Errors
+    /// Those of [`build`], and [`BuildError::Cancelled`].
+    pub fn octree(&self) -> Result<(PackedOctree, BuildStats)> {
+        let (mesh, settings) = (self.mesh, &self.settings);
+        validate(mesh, settings)?;
+        check_memory(mesh, settings, self.budget)?;
+        let normalised = Normalised::new(mesh, settings.margin);
+        build_level(
+            &normalised,
+            normalised.ms,
+            settings,
+            self.progress,
+            self.cancel,
+        )
+    }
+
+    /// Builds the levels of detail `coarsest..=depth` (the settings' depth): level `k` is
+    /// exactly the octree [`build`] makes at depth `k` with the same settings, so it renders as
+    /// that build does. The levels share the normalisation transform (it depends on the mesh's
+    /// bounds and the margin only). Returns the levels and each level's statistics, coarsest
+    /// first.
+    ///
+    /// The levels share the reshaped, normalised mesh (made once); from the per-depth vertex
+    /// snap on ([`build`]'s step 1: the grid is `2^-(depth + 10)` for 8-bit corners)
+    /// everything is the level's own: the snapped mesh differs per depth, so its welding,
+    /// distance structure, winding data, subdivision, corners and leaf decisions do too, and
+    /// reusing any of them across levels would change the level's bytes. The memory check is
+    /// the finest level's (the levels are built one after the other; the coarser ones held
+    /// meanwhile are at most a third of the finest one's size).
+    ///
+    /// # Errors
+    /// [`BuildError::InvalidLevels`] when `coarsest` is below [`MIN_DEPTH`] or above the
+    /// depth, and every error of [`BuildRequest::octree`].
+    pub fn levels(&self, coarsest: u8) -> Result<(LodOctree, Vec<BuildStats>)> {
+        build_levels(
+            self.mesh,
+            &self.settings,
+            coarsest,
+            self.budget,
+            self.progress,
+            self.cancel,
+        )
     }
 }
 
-/// Builds the levels of detail `settings.coarsest_level..=settings.depth` of `mesh` (the leaf
-/// level alone with `coarsest_level: None`): level `k` is exactly the octree [`build`] makes at
-/// depth `k` with the same settings, so it renders as that build does. The levels share the
-/// normalisation transform (it depends on the mesh's bounds and the margin only). Returns the
-/// levels and each level's statistics, coarsest first; `progress` covers the whole build (each
-/// level weighted by 4^level, the growth of a surface's cells per level).
-///
-/// The levels share the reshaped, normalised mesh (made once); from the per-depth vertex snap
-/// on ([`build`]'s step 1: the grid is `2^-(depth + 10)` for 8-bit corners) everything is the
-/// level's own: the snapped mesh differs per depth, so its welding, distance structure, winding
-/// data, subdivision, corners and leaf decisions do too, and reusing any of them across levels
-/// would change the level's bytes. The memory check is the finest level's (the levels are
-/// built one after the other; the coarser ones held meanwhile are at most a third of the
-/// finest one's size).
-///
-/// # Errors
-/// [`BuildError::InvalidLevels`] when the coarsest level is below [`MIN_DEPTH`] or above the
-/// depth, and every error of [`build_cancellable`].
-pub fn build_lod(
+/// [`BuildRequest::levels`].
+fn build_levels(
     mesh: &TriMesh,
     settings: &BuildSettings,
+    coarsest: u8,
     budget: Option<u64>,
     progress: Option<&(dyn Fn(f32) + Sync)>,
     cancel: &(dyn Fn() -> bool + Sync),
 ) -> Result<(LodOctree, Vec<BuildStats>)> {
     let depth = settings.depth;
-    let coarsest = settings.coarsest_level.unwrap_or(depth);
     if coarsest < MIN_DEPTH || coarsest > depth {
         return Err(BuildError::InvalidLevels {
             coarsest,
@@ -354,47 +449,34 @@ pub fn build_lod(
     check_memory(mesh, settings, budget)?;
     let weight = |k: u8| 4f64.powi(i32::from(k));
     let total: f64 = (coarsest..=depth).map(weight).sum();
-    let run = || -> Result<(LodOctree, Vec<BuildStats>)> {
-        // The reshaped, normalised mesh depends on the mesh and the margin only: made once.
-        // Everything after the per-depth snap (welding, the distance structure, the winding
-        // sign's data) depends on the depth and is each level's own.
-        let normalised = Normalised::new(mesh, settings.margin);
-        let mut levels = Vec::new();
-        let mut stats = Vec::new();
-        let mut done = 0.0;
-        for k in coarsest..=depth {
-            let level_settings = BuildSettings {
-                depth: k,
-                coarsest_level: None,
-                ..*settings
-            };
-            let w = weight(k);
-            let scaled = |f: f32| {
-                if let Some(p) = progress {
-                    p((((done + w * f64::from(f)) / total) as f32).clamp(0.0, 1.0));
-                }
-            };
-            let shared_ms = if k == coarsest { normalised.ms } else { 0.0 };
-            let (octree, st) = build_level(
-                &normalised,
-                shared_ms,
-                &level_settings,
-                Some(&scaled),
-                cancel,
-            )?;
-            done += w;
-            levels.push(octree);
-            stats.push(st);
-        }
-        Ok((LodOctree::from_levels(levels)?, stats))
-    };
-    match settings.threads {
-        Some(n) => rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build()?
-            .install(run),
-        None => run(),
+    // The reshaped, normalised mesh depends on the mesh and the margin only: made once.
+    // Everything after the per-depth snap (welding, the distance structure, the winding
+    // sign's data) depends on the depth and is each level's own.
+    let normalised = Normalised::new(mesh, settings.margin);
+    let mut levels = Vec::new();
+    let mut stats = Vec::new();
+    let mut done = 0.0;
+    for k in coarsest..=depth {
+        let level_settings = settings.with_depth(k);
+        let w = weight(k);
+        let scaled = |f: f32| {
+            if let Some(p) = progress {
+                p((((done + w * f64::from(f)) / total) as f32).clamp(0.0, 1.0));
+            }
+        };
+        let shared_ms = if k == coarsest { normalised.ms } else { 0.0 };
+        let (octree, st) = build_level(
+            &normalised,
+            shared_ms,
+            &level_settings,
+            Some(&scaled),
+            cancel,
+        )?;
+        done += w;
+        levels.push(octree);
+        stats.push(st);
     }
+    Ok((LodOctree::from_levels(levels)?, stats))
 }
 
 fn ms(t: Instant) -> f64 {
@@ -545,7 +627,7 @@ fn global_signed_distance(
 }
 
 /// The mesh after flat fans are re-triangulated and the result normalised: the part of step 1
-/// that does not depend on the depth (shared by the levels of [`build_lod`]).
+/// that does not depend on the depth (shared by the levels of [`BuildRequest::levels`]).
 struct Normalised {
     mesh: TriMesh,
     norm: sdfmo_mesh::Normalization,
@@ -566,16 +648,6 @@ impl Normalised {
             ms: ms(t),
         }
     }
-}
-
-fn build_in_pool(
-    mesh: &TriMesh,
-    settings: &BuildSettings,
-    progress: Option<&(dyn Fn(f32) + Sync)>,
-    cancel: &(dyn Fn() -> bool + Sync),
-) -> Result<(PackedOctree, BuildStats)> {
-    let normalised = Normalised::new(mesh, settings.margin);
-    build_level(&normalised, normalised.ms, settings, progress, cancel)
 }
 
 /// Steps 1 (the snap) to 6 of one depth, from the normalised mesh; `normalised_ms` (the time
@@ -785,11 +857,16 @@ mod tests {
         let settings = BuildSettings::new(5, Method::default());
         let asked = std::sync::atomic::AtomicUsize::new(0);
         let after_two = || asked.fetch_add(1, std::sync::atomic::Ordering::Relaxed) >= 2;
-        let r = build_cancellable(&mesh, &settings, None, None, &after_two);
+        let r = BuildRequest::new(&mesh, settings)
+            .cancel(&after_two)
+            .octree();
         assert!(matches!(r, Err(BuildError::Cancelled)), "{r:?}");
         assert_eq!(asked.load(std::sync::atomic::Ordering::Relaxed), 3);
-        let (a, _) = build_cancellable(&mesh, &settings, None, None, &|| false).unwrap();
-        let (b, _) = build(&mesh, &settings, None).unwrap();
+        let (a, _) = BuildRequest::new(&mesh, settings)
+            .cancel(&|| false)
+            .octree()
+            .unwrap();
+        let (b, _) = build(&mesh, &settings).unwrap();
         assert_eq!(a.as_bytes(), b.as_bytes());
     }
 

@@ -5,19 +5,28 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 
 use glam::Vec3;
-use sdfmo_build::{build, BuildError, BuildSettings, BuildStats, Method};
+use sdfmo_build::{build, BuildError, BuildRequest, BuildSettings, BuildStats, Method};
 use sdfmo_format::trilinear;
 use sdfmo_format::{cell_size, PackedOctree, Voxel};
 use sdfmo_mesh::{procedural, TriMesh};
 
 const MULTI: Method = Method::Multi { max_voxels: 8 };
 
+/// `f` run on a pool of `threads` workers (the builder runs on the caller's pool).
+fn on_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a pool")
+        .install(f)
+}
+
 fn settings(depth: u8, method: Method) -> BuildSettings {
     BuildSettings::new(depth, method)
 }
 
 fn run(mesh: &TriMesh, depth: u8, method: Method) -> (PackedOctree, BuildStats) {
-    build(mesh, &settings(depth, method), None).expect("build")
+    build(mesh, &settings(depth, method)).expect("build")
 }
 
 /// A mesh of the shared test data (resolved by `build.rs` through `sdfmo-testdata`); the tests
@@ -70,11 +79,10 @@ fn identical_bytes_for_1_2_and_4_threads() {
         let bytes: Vec<Vec<u8>> = [1, 2, 4]
             .iter()
             .map(|&t| {
-                let s = BuildSettings {
-                    threads: Some(t),
-                    ..settings(6, method)
-                };
-                build(&mesh, &s, None).expect("build").0.to_bytes()
+                on_threads(t, || build(&mesh, &settings(6, method)))
+                    .expect("build")
+                    .0
+                    .to_bytes()
             })
             .collect();
         assert!(bytes[0].len() > 1000);
@@ -92,13 +100,7 @@ fn leaf_presets_are_build_settings() {
     assert_eq!(BuildSettings::default().leaf, LeafParams::OURS);
     assert_eq!(LeafParams::default(), LeafParams::OURS);
     let mesh = procedural::demo_part();
-    let with = |method, leaf| {
-        let s = BuildSettings {
-            leaf,
-            ..settings(6, method)
-        };
-        build(&mesh, &s, None).expect("build")
-    };
+    let with = |method, leaf| build(&mesh, &settings(6, method).with_leaf(leaf)).expect("build");
     let (ours, _) = with(MULTI, LeafParams::OURS);
     let (paper, _) = with(MULTI, LeafParams::PAPER);
     let paper = PackedOctree::from_bytes(&paper.to_bytes()).expect("a valid octree");
@@ -121,11 +123,10 @@ fn leaf_presets_are_build_settings() {
 fn identical_bytes_for_1_and_4_threads_on_abc5() {
     let abc5 = load("abc5.stl");
     let with_threads = |t| {
-        let s = BuildSettings {
-            threads: Some(t),
-            ..settings(6, MULTI)
-        };
-        build(&abc5, &s, None).unwrap().0.to_bytes()
+        on_threads(t, || build(&abc5, &settings(6, MULTI)))
+            .unwrap()
+            .0
+            .to_bytes()
     };
     assert_eq!(with_threads(1), with_threads(4));
 }
@@ -159,7 +160,10 @@ fn stats_are_consistent() {
     let mesh = procedural::demo_part();
     let progress = std::sync::Mutex::new(Vec::new());
     let cb = |f: f32| progress.lock().unwrap().push(f);
-    let (oct, st) = build(&mesh, &settings(6, MULTI), Some(&cb)).unwrap();
+    let (oct, st) = BuildRequest::new(&mesh, settings(6, MULTI))
+        .progress(&cb)
+        .octree()
+        .unwrap();
     assert_eq!(st.leaves, oct.leaf_count());
     assert_eq!(st.voxels, oct.voxel_count());
     assert_eq!(st.surface_voxels, oct.surface_voxel_count());
@@ -457,7 +461,7 @@ fn bad_input_is_a_typed_error() {
         let mesh = TriMesh::new(positions, vec![[0, 1, 2]], vec![0]).unwrap();
         assert!(
             matches!(
-                build(&mesh, &BuildSettings::default(), None),
+                build(&mesh, &BuildSettings::default()),
                 Err(BuildError::DegenerateMesh(_))
             ),
             "{what}"
@@ -488,7 +492,7 @@ fn bad_input_is_a_typed_error() {
     let s = |f: fn(&mut BuildSettings)| {
         let mut s = BuildSettings::default();
         f(&mut s);
-        build(&cube, &s, None)
+        build(&cube, &s)
     };
     assert!(matches!(
         s(|s| s.depth = 17),
@@ -497,10 +501,6 @@ fn bad_input_is_a_typed_error() {
     assert!(matches!(
         s(|s| s.method = Method::Multi { max_voxels: 0 }),
         Err(BuildError::InvalidMaxVoxels(0))
-    ));
-    assert!(matches!(
-        s(|s| s.threads = Some(0)),
-        Err(BuildError::InvalidThreads)
     ));
     assert!(matches!(
         s(|s| s.margin = 0.5),

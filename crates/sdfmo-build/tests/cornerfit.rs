@@ -12,11 +12,8 @@ use sdfmo_mesh::{procedural, TriMesh};
 const MULTI: Method = Method::Multi { max_voxels: 8 };
 
 fn with_fit(mesh: &TriMesh, depth: u8, method: Method, fit: bool) -> PackedOctree {
-    let s = BuildSettings {
-        fit_corners: fit,
-        ..BuildSettings::new(depth, method)
-    };
-    build(mesh, &s, None).expect("build").0
+    let s = BuildSettings::new(depth, method).with_fit_corners(fit);
+    build(mesh, &s).expect("build").0
 }
 
 fn leaf_map(o: &PackedOctree) -> HashMap<[u32; 3], Vec<Voxel>> {
@@ -117,12 +114,16 @@ fn fitted_corners_are_identical_for_1_2_and_3_threads() {
         let bytes: Vec<Vec<u8>> = [1, 2, 3]
             .iter()
             .map(|&t| {
-                let s = BuildSettings {
-                    threads: Some(t),
-                    fit_corners: true,
-                    ..BuildSettings::new(6, method)
-                };
-                build(&mesh, &s, None).expect("build").0.to_bytes()
+                let s = BuildSettings::new(6, method).with_fit_corners(true);
+                // The builder runs on the caller's pool.
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(t)
+                    .build()
+                    .expect("a pool")
+                    .install(|| build(&mesh, &s))
+                    .expect("build")
+                    .0
+                    .to_bytes()
             })
             .collect();
         assert_eq!(bytes[0], bytes[1], "{method:?}: 1 vs 2 threads");

@@ -24,7 +24,7 @@ fn check_depth(depth: u8) -> Vec<(String, f64)> {
     for model in MODELS {
         let mesh = load(model);
         for method in METHODS {
-            let (o, _) = build(&mesh, &BuildSettings::new(depth, method), None).expect("build");
+            let (o, _) = build(&mesh, &BuildSettings::new(depth, method)).expect("build");
             let what = format!("{model} {method:?} depth {depth}");
             let b = BrickOctree::encode(&o).expect("encode");
             let v = BrickOctreeView::new(b.as_bytes()).expect("valid 3.0 bytes");

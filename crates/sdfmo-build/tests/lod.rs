@@ -1,18 +1,21 @@
-//! Levels of detail end to end: `build_lod` against separate builds, the file's prefixes
+//! Levels of detail end to end: `BuildRequest::levels` against separate builds, the file's prefixes
 //! against the whole file, and the per-ray level choice against fixed levels (images).
 
-use sdfmo_build::{build, build_lod, BuildError, BuildSettings, Method};
+use sdfmo_build::{build, BuildError, BuildRequest, BuildSettings, BuildStats, Method};
 use sdfmo_format::{LodOctree, PackedOctree, SmoFile};
 use sdfmo_render::{render, Camera, LodScene, OctreeScene, RenderSettings};
 use sdfmo_trace::{pixel_angle, LevelChoice};
 
 const MULTI: Method = Method::Multi { max_voxels: 8 };
 
-fn lod_settings(depth: u8, coarsest: u8, method: Method) -> BuildSettings {
-    BuildSettings {
-        coarsest_level: Some(coarsest),
-        ..BuildSettings::new(depth, method)
-    }
+/// Levels `coarsest..=depth` of `mesh`.
+fn levels(
+    mesh: &sdfmo_mesh::TriMesh,
+    depth: u8,
+    coarsest: u8,
+    method: Method,
+) -> Result<(LodOctree, Vec<BuildStats>), BuildError> {
+    BuildRequest::new(mesh, BuildSettings::new(depth, method)).levels(coarsest)
 }
 
 /// Level k of a file with levels is, byte for byte, the file a build of depth k writes (so it
@@ -21,12 +24,11 @@ fn lod_settings(depth: u8, coarsest: u8, method: Method) -> BuildSettings {
 fn every_level_is_the_build_of_its_depth() {
     let mesh = sdfmo_mesh::procedural::demo_part();
     for method in [Method::Svo, MULTI] {
-        let (lod, stats) =
-            build_lod(&mesh, &lod_settings(6, 3, method), None, None, &|| false).expect("lod");
+        let (lod, stats) = levels(&mesh, 6, 3, method).expect("lod");
         assert_eq!((lod.coarsest(), lod.depth()), (3, 6));
         assert_eq!(stats.len(), 4);
         for k in 3..=6 {
-            let (alone, st) = build(&mesh, &BuildSettings::new(k, method), None).expect("build");
+            let (alone, st) = build(&mesh, &BuildSettings::new(k, method)).expect("build");
             assert_eq!(
                 lod.level(k).unwrap().as_bytes(),
                 alone.as_bytes(),
@@ -46,12 +48,12 @@ fn every_level_is_the_build_of_its_depth() {
 fn every_level_is_the_build_of_its_depth_on_abc1() {
     let path = std::path::PathBuf::from(env!("SDFMO_TEST_DATA_DIR")).join("abc1.stl");
     let mesh = sdfmo_mesh::load_mesh(&path).expect("abc1").mesh;
-    let settings = lod_settings(6, 4, MULTI);
+    let request = || BuildRequest::new(&mesh, BuildSettings::new(6, MULTI));
     let seen = std::sync::Mutex::new(Vec::new());
     let record = |f: f32| seen.lock().unwrap().push(f);
-    let (lod, _) = build_lod(&mesh, &settings, None, Some(&record), &|| false).expect("lod");
+    let (lod, _) = request().progress(&record).levels(4).expect("lod");
     for k in 4..=6 {
-        let (alone, _) = build(&mesh, &BuildSettings::new(k, MULTI), None).expect("build");
+        let (alone, _) = build(&mesh, &BuildSettings::new(k, MULTI)).expect("build");
         assert_eq!(
             lod.level(k).unwrap().as_bytes(),
             alone.as_bytes(),
@@ -74,7 +76,7 @@ fn every_level_is_the_build_of_its_depth_on_abc1() {
     let last = std::sync::atomic::AtomicU32::new(0);
     let store = |f: f32| last.store(f.to_bits(), std::sync::atomic::Ordering::Relaxed);
     let past_first = || f32::from_bits(last.load(std::sync::atomic::Ordering::Relaxed)) > 0.1;
-    let r = build_lod(&mesh, &settings, None, Some(&store), &past_first);
+    let r = request().progress(&store).cancel(&past_first).levels(4);
     assert!(matches!(r, Err(BuildError::Cancelled)), "{r:?}");
     assert!(f32::from_bits(last.load(std::sync::atomic::Ordering::Relaxed)) < 0.5);
 }
@@ -83,23 +85,14 @@ fn every_level_is_the_build_of_its_depth_on_abc1() {
 fn level_settings_are_checked() {
     let mesh = sdfmo_mesh::procedural::demo_part();
     for (depth, coarsest) in [(5, 6), (5, 0)] {
-        let r = build_lod(
-            &mesh,
-            &lod_settings(depth, coarsest, MULTI),
-            None,
-            None,
-            &|| false,
-        );
+        let r = levels(&mesh, depth, coarsest, MULTI);
         assert!(
             matches!(r, Err(BuildError::InvalidLevels { .. })),
             "{depth} {coarsest}"
         );
     }
-    // `build` makes one level: asked for several, it refuses rather than ignore the setting.
-    let r = build(&mesh, &lod_settings(5, 3, MULTI), None);
-    assert!(matches!(r, Err(BuildError::InvalidLevels { .. })));
     // The leaf level alone is a file of one level.
-    let (one, _) = build_lod(&mesh, &lod_settings(5, 5, MULTI), None, None, &|| false).unwrap();
+    let (one, _) = levels(&mesh, 5, 5, MULTI).unwrap();
     assert_eq!(one.levels().len(), 1);
 }
 
@@ -108,7 +101,7 @@ fn level_settings_are_checked() {
 #[test]
 fn prefixes_render_their_levels() {
     let mesh = sdfmo_mesh::procedural::demo_part();
-    let (lod, _) = build_lod(&mesh, &lod_settings(6, 3, MULTI), None, None, &|| false).unwrap();
+    let (lod, _) = levels(&mesh, 6, 3, MULTI).unwrap();
     let bytes = lod.to_bytes();
     let SmoFile::Levels(whole) = SmoFile::from_bytes(&bytes).unwrap() else {
         panic!("read as 1.x")
@@ -139,7 +132,7 @@ fn prefixes_render_their_levels() {
 #[test]
 fn pixel_error_picks_levels_by_distance() {
     let mesh = sdfmo_mesh::procedural::demo_part();
-    let (lod, _) = build_lod(&mesh, &lod_settings(6, 3, MULTI), None, None, &|| false).unwrap();
+    let (lod, _) = levels(&mesh, 6, 3, MULTI).unwrap();
     let cam = Camera::paper_view(0, 96, 96);
     let settings = RenderSettings::default();
     let pa = pixel_angle(cam.fov_y_deg, cam.height);

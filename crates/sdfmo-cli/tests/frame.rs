@@ -8,8 +8,9 @@ use std::process::Command;
 use sdf_multioctree::distance::{MeshDistance, SignMode};
 use sdf_multioctree::glam::{DVec3, Vec3};
 use sdf_multioctree::mesh::{procedural::box_mesh, write::to_obj};
+use sdf_multioctree::DEFAULT_MARGIN;
 use sdf_multioctree::{camera_from_model, load_mesh, load_octree, mesh_frame, octree_frame};
-use sdf_multioctree::{render_mesh, render_octree, Camera, Mode, DEFAULT_MARGIN};
+use sdf_multioctree::{Camera, Device, LevelRequest, Mode, RenderSettings, Renderer};
 
 const SDFMO: &str = env!("CARGO_BIN_EXE_sdfmo");
 
@@ -123,13 +124,14 @@ fn an_eye_in_model_units_gives_the_librarys_image() {
     let mut camera = Camera::paper_view(0, 48, 32);
     camera.eye = Vec3::from_array(eye);
     camera.target = Vec3::from_array(target);
-    let octree = load_octree(&smo).unwrap();
-    let image = render_octree(
-        &octree,
-        &camera_from_model(&octree_frame(&octree), &camera),
-        Mode::Lambert,
-    )
-    .unwrap();
+    let file = load_octree(&smo).unwrap().file;
+    let octree = file.finest();
+    let lambert = RenderSettings::new(Mode::Lambert);
+    let mut renderer = Renderer::new(Device::Cpu).unwrap();
+    let image = renderer
+        .prepare(&file, LevelRequest::Finest)
+        .and_then(|mut p| p.render(&camera_from_model(&octree_frame(octree), &camera), &lambert))
+        .unwrap();
     assert!(
         image.counters.hits > 30,
         "the box is in view: {:?}",
@@ -137,16 +139,14 @@ fn an_eye_in_model_units_gives_the_librarys_image() {
     );
     assert_eq!(png_rgb(&octree_png), image.rgb);
     let mesh = load_mesh(&obj).unwrap();
-    let image = render_mesh(
-        &mesh,
-        &camera_from_model(&mesh_frame(&mesh), &camera),
-        Mode::Lambert,
-    )
-    .unwrap();
+    let image = renderer
+        .prepare_mesh(&mesh)
+        .and_then(|mut p| p.render(&camera_from_model(&mesh_frame(&mesh), &camera), &lambert))
+        .unwrap();
     assert_eq!(png_rgb(&mesh_png), image.rgb);
 
     // The same camera given in the normalised frame draws the same image.
-    let frame = octree_frame(&octree);
+    let frame = octree_frame(octree);
     let n = |p: [f32; 3]| frame.point_to_normalized(Vec3::from_array(p).as_dvec3());
     let (ne, nt) = (n(eye), n(target));
     let normalized_png = dir.path().join("normalized.png");

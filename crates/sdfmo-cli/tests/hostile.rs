@@ -517,10 +517,7 @@ fn deep_builds_are_refused_in_seconds() {
         let budget = sdf_multioctree::build::default_memory_budget();
         let mesh = sdf_multioctree::mesh::load_mesh(&abc5).unwrap().mesh;
         for depth in 13..=16u8 {
-            let settings = sdf_multioctree::build::BuildSettings {
-                depth,
-                ..Default::default()
-            };
+            let settings = sdf_multioctree::build::BuildSettings::default().with_depth(depth);
             let estimate = sdf_multioctree::build::estimate_memory(&mesh, &settings).bytes;
             if budget.is_none_or(|b| estimate <= b) {
                 eprintln!("note: depth {depth} fits this machine's budget: case skipped");
@@ -556,10 +553,7 @@ fn deep_builds_are_refused_in_seconds() {
         )
         .within(Duration::from_secs(5));
         if budget.is_some_and(|b| {
-            let s = sdf_multioctree::build::BuildSettings {
-                depth: 13,
-                ..Default::default()
-            };
+            let s = sdf_multioctree::build::BuildSettings::default().with_depth(13);
             sdf_multioctree::build::estimate_memory(&mesh, &s).bytes > b
         }) {
             cases.push(c);

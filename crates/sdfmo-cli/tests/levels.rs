@@ -1,6 +1,6 @@
 //! Levels of detail in `sdfmo render` (issue 37): a file with levels, whole or cut where a
-//! level ends, draws the levels it holds, with the facade's images (`load_levels`,
-//! `render_levels`: the same `LevelRequest` rule); a cut inside a level, a level not held and a
+//! level ends, draws the levels it holds, with the facade's images (`load_octree`,
+//! `Renderer`: the same `LevelRequest` rule); a cut inside a level, a level not held and a
 //! pixel error without levels are one-line errors. (Python's side is
 //! `crates/sdfmo-py/tests/test_levels.py`, against this binary.)
 
@@ -9,7 +9,8 @@ use std::process::{Command, Output};
 
 use sdf_multioctree::format::LodOctree;
 use sdf_multioctree::render::encode_png;
-use sdf_multioctree::{load_levels, render_levels, Camera, LevelRequest, Mode, Vec3};
+use sdf_multioctree::{load_octree, Camera, Device, LevelRequest, Mode, Vec3};
+use sdf_multioctree::{RenderSettings, Renderer};
 use serde_json::Value;
 
 const SDFMO: &str = env!("CARGO_BIN_EXE_sdfmo");
@@ -46,8 +47,13 @@ fn render(file: &Path, png: &Path, args: &[&str]) -> (Value, String, Vec<u8>) {
 
 /// The facade's PNG of `file` for `camera` and `request` (what the CLI must write).
 fn facade_png(file: &Path, camera: &Camera, mode: Mode, request: LevelRequest) -> Vec<u8> {
-    let data = load_levels(file).unwrap();
-    let image = render_levels(&data.file, camera, mode, request).unwrap();
+    let data = load_octree(file).unwrap();
+    let image = Renderer::new(Device::Cpu)
+        .unwrap()
+        .prepare(&data.file, request)
+        .unwrap()
+        .render(camera, &RenderSettings::new(mode))
+        .unwrap();
     encode_png(&image, Path::new("x.png")).unwrap()
 }
 

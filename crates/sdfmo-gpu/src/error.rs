@@ -47,7 +47,7 @@ pub enum GpuError {
     },
     /// The camera or the settings cannot be rendered: the renderer's own checks
     /// ([`sdfmo_render::Camera::frame`], [`sdfmo_render::RenderPlan::new`]), settings the
-    /// kernel does not render (shadows, occlusion, threads), a pixel error that is not finite
+    /// kernel does not render (shadows, occlusion), a pixel error that is not finite
     /// and > 0, an image over the adapter's dispatch limit.
     #[error(transparent)]
     Render(#[from] sdfmo_render::RenderError),

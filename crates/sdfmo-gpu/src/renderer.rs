@@ -664,11 +664,11 @@ impl GpuRenderer {
             return Err(GpuError::ForeignOctree);
         }
         let plan = RenderPlan::new(settings)?;
-        if plan.shadow_rays || plan.ao_samples > 0 || plan.threads.is_some() {
+        if plan.shadow_rays || plan.ao_samples > 0 {
             return Err(invalid_settings(format!(
-                "the GPU kernel traces primary rays only: shadows ({}), ambient occlusion ({} \
-                 rays) and a thread count ({:?}) are CPU settings",
-                settings.shadows, settings.ao_samples, settings.threads
+                "the GPU kernel traces primary rays only: shadows ({}) and ambient occlusion ({} \
+                 rays) are CPU settings",
+                settings.shadows, settings.ao_samples
             )));
         }
         let frame = camera.frame()?;

@@ -80,12 +80,7 @@ const MAX_ILL_CONDITIONED: f64 = 0.002;
 const MAX_EDGE_EXCUSED: f64 = 0.005;
 
 fn cpu(octree: &PackedOctree, cam: &Camera, mode: Mode) -> Rendered {
-    let settings = RenderSettings {
-        mode,
-        shadows: false,
-        ao_samples: 0,
-        threads: None,
-    };
+    let settings = RenderSettings::new(mode);
     render(&OctreeScene(octree), cam, &settings).expect("CPU render")
 }
 
@@ -163,12 +158,7 @@ impl CpuSide for PixelErrorCpu<'_> {
             lod: self.lod,
             choice: self.choice(cam),
         };
-        let settings = RenderSettings {
-            mode,
-            shadows: false,
-            ao_samples: 0,
-            threads: None,
-        };
+        let settings = RenderSettings::new(mode);
         render(&scene, cam, &settings).expect("CPU render")
     }
 
@@ -389,11 +379,8 @@ fn compare_views(
 }
 
 fn build_octree(mesh: &TriMesh, depth: u8, method: Method, bits: ValueBits) -> PackedOctree {
-    let settings = BuildSettings {
-        bits,
-        ..BuildSettings::new(depth, method)
-    };
-    build(mesh, &settings, None).expect("build").0
+    let settings = BuildSettings::new(depth, method).with_bits(bits);
+    build(mesh, &settings).expect("build").0
 }
 
 fn methods() -> [(Method, &'static str); 2] {
@@ -422,19 +409,16 @@ fn load(name: &str) -> TriMesh {
     sdfmo_mesh::load_mesh(&data(name)).expect("test mesh").mesh
 }
 
-/// Levels of detail: every level of one file with levels (`build_lod`, written and read back as
+/// Levels of detail: every level of one file with levels (`BuildRequest::levels`, written and read back as
 /// a viewer would), drawn by the GPU as `render --lod K --device gpu` does, matches the CPU.
 /// Levels 6…8, the depths the other models' tests cover: a depth-5 multi-octree of the demo
 /// part (a level or a build alike) has 178 lambert pixels excused at sharp edges of 30,968 hits,
 /// over this file's bound, which is a property of depth 5, not of levels (2026-12-03).
 /// The demo part with levels 6..=8 as a reader sees it (written and read back).
 fn demo_levels(demo: &TriMesh, method: Method) -> LodOctree {
-    let settings = BuildSettings {
-        coarsest_level: Some(6),
-        ..BuildSettings::new(8, method)
-    };
-    let (lod, _) =
-        sdfmo_build::build_lod(demo, &settings, None, None, &|| false).expect("build_lod");
+    let (lod, _) = sdfmo_build::BuildRequest::new(demo, BuildSettings::new(8, method))
+        .levels(6)
+        .expect("levels");
     LodOctree::from_bytes(&lod.to_bytes()).expect("read back")
 }
 

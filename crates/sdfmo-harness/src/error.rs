@@ -10,7 +10,7 @@ use sdf_multioctree::build::BuildError;
 use sdf_multioctree::io::IoError;
 use sdf_multioctree::mesh::MeshError;
 use sdf_multioctree::metrics::MetricsError;
-use sdf_multioctree::render::{ProtocolError, RenderError};
+use sdf_multioctree::render::ProtocolError;
 
 pub use crate::report::extra::ExtraRowsError;
 use crate::Shard;
@@ -72,9 +72,15 @@ pub enum HarnessError {
         #[source]
         source: Box<ProtocolError>,
     },
-    /// The worker pool could not be started.
-    #[error("cannot start worker threads")]
-    Threads(#[source] RenderError),
+    /// The worker pool of `threads` could not be started.
+    #[error("cannot start {threads} worker threads")]
+    Threads {
+        /// The workers asked for.
+        threads: usize,
+        /// Rayon's error.
+        #[source]
+        source: rayon::ThreadPoolBuildError,
+    },
     /// An image of the report could not be encoded as PNG.
     #[error("cannot encode {}", path.display())]
     Png {

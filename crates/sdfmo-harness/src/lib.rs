@@ -25,11 +25,12 @@ mod plots;
 pub mod progress;
 mod report;
 mod shard;
+mod workers;
 
 use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
-use sdf_multioctree::build::{self, BuildSettings, BuildStats};
+use sdf_multioctree::build::{self, BuildRequest, BuildSettings, BuildStats};
 use sdf_multioctree::distance::SignMode;
 use sdf_multioctree::format::PackedOctree;
 use sdf_multioctree::metrics;
@@ -43,6 +44,7 @@ pub use manifest::{parse_shard, Shard};
 pub use options::{Outcome, ShardStep, SweepMethod, SweepOptions, SweepStep};
 use report::{Model, Provenance, Report, Row, SweepSettings};
 pub use shard::EXIT_MODELS_FAILED;
+pub use workers::Workers;
 
 use crate::files::write_derived_png;
 use crate::input::{load_input, InputMesh};
@@ -51,11 +53,6 @@ use crate::input::{load_input, InputMesh};
 /// memory).
 fn memory_budget(max_memory: Option<u64>) -> Option<u64> {
     max_memory.or_else(sdf_multioctree::build::default_memory_budget)
-}
-
-/// Runs `f` on a rayon pool of `threads` workers, or on the global pool when `None`.
-fn with_threads<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -> Result<R> {
-    sdf_multioctree::render::in_pool(threads, f).map_err(HarnessError::Threads)
 }
 
 /// Relative path (from the output directory) of an image of the sweep.
@@ -219,17 +216,10 @@ fn run_meshes(args: &SweepOptions, meshes: &[PathBuf], extra_rows: &[PathBuf]) -
 
 /// The settings of one build of the sweep.
 fn build_settings(args: &SweepOptions, method: SweepMethod, depth: u8) -> BuildSettings {
-    BuildSettings {
-        depth,
-        method: method.method(args.max_voxels),
-        bits: sdf_multioctree::format::ValueBits::Eight,
-        threads: args.threads,
-        margin: sdf_multioctree::DEFAULT_MARGIN,
-        sign: SignMode::Auto,
-        leaf: build::LeafParams::OURS,
-        coarsest_level: None,
-        fit_corners: false,
-    }
+    BuildSettings::new(depth, method.method(args.max_voxels))
+        .with_bits(sdf_multioctree::format::ValueBits::Eight)
+        .with_margin(sdf_multioctree::DEFAULT_MARGIN)
+        .with_sign(SignMode::Auto)
 }
 
 /// Makes the report of the models and rows so far (with the extra rows).
@@ -240,6 +230,8 @@ struct Plan {
     methods: Vec<SweepMethod>,
     depths: Vec<u8>,
     budget: Option<u64>,
+    /// The pool of `threads` the builds, renders and image writes run on.
+    workers: Workers,
 }
 
 impl Plan {
@@ -250,6 +242,7 @@ impl Plan {
             methods: unique_methods(args),
             depths: args.depths.clone().collect(),
             budget: memory_budget(args.max_memory),
+            workers: Workers::new(args.threads)?,
         };
         for input in inputs {
             for &method in &plan.methods {
@@ -319,28 +312,25 @@ fn sweep_model(
         report_of,
     } = *sweep;
     let (methods, depths, budget) = (&plan.methods, &plan.depths, plan.budget);
+    let workers = &plan.workers;
     let name = &input.name;
     let img_dir: PathBuf =
         sdf_multioctree::io::create_derived_dir(&args.output, &Path::new("images").join(name))?;
     bar.set_message(format!("{name}: reference"));
-    let protocol = PaperProtocol::new(
-        &input.mesh,
-        sdf_multioctree::DEFAULT_MARGIN,
-        args.size,
-        args.threads,
-    )
-    .map_err(|source| HarnessError::Reference {
-        mesh: input.source.clone(),
-        source: Box::new(source),
-    })?
-    .with_frames(usize::from(args.frames));
+    let protocol = workers
+        .install(|| PaperProtocol::new(&input.mesh, sdf_multioctree::DEFAULT_MARGIN, args.size))
+        .map_err(|source| HarnessError::Reference {
+            mesh: input.source.clone(),
+            source: Box::new(source),
+        })?
+        .with_frames(usize::from(args.frames));
     for (k, reference) in protocol.references().iter().enumerate() {
         write_derived_png(&img_dir.join(reference_file(k)), reference)?;
     }
     bar.inc(1);
 
     let run = ModelRun {
-        args,
+        workers,
         protocol: &protocol,
         img_dir: &img_dir,
         name,
@@ -359,16 +349,16 @@ fn sweep_model(
         if args.levels {
             // One file with every level; each level is scored as a build of its depth.
             let (first, last) = (depths[0], depths[depths.len() - 1]);
-            let settings = BuildSettings {
-                coarsest_level: Some(first),
-                ..build_settings(args, method, last)
-            };
+            let settings = build_settings(args, method, last);
             let stage = format!("{name}: {} levels {first}..={last}: build", method.name());
             bar.set_message(stage.clone());
             let on_progress = |f: f32| bar.set_message(format!("{stage} {:.0}%", f * 100.0));
-            let (lod, stats) =
-                build::build_lod(&input.mesh, &settings, budget, Some(&on_progress), &|| {
-                    false
+            let (lod, stats) = workers
+                .install(|| {
+                    BuildRequest::new(&input.mesh, settings)
+                        .memory_budget(budget)
+                        .progress(&on_progress)
+                        .levels(first)
                 })
                 .map_err(build_failed(
                     method,
@@ -385,13 +375,14 @@ fn sweep_model(
                 let build_settings = build_settings(args, method, depth);
                 let stage = format!("{name}: {} depth {depth}: build", method.name());
                 let on_progress = |f: f32| bar.set_message(format!("{stage} {:.0}%", f * 100.0));
-                let (octree, stats) = build::build_with_budget(
-                    &input.mesh,
-                    &build_settings,
-                    budget,
-                    Some(&on_progress),
-                )
-                .map_err(build_failed(method, format!("depth {depth}"), input))?;
+                let (octree, stats) = workers
+                    .install(|| {
+                        BuildRequest::new(&input.mesh, build_settings)
+                            .memory_budget(budget)
+                            .progress(&on_progress)
+                            .octree()
+                    })
+                    .map_err(build_failed(method, format!("depth {depth}"), input))?;
                 bar.set_message(format!("{name}: {} depth {depth}: render", method.name()));
                 add_row(run.score(method, &octree, &stats, None)?)?;
             }
@@ -422,7 +413,7 @@ fn build_failed(
 
 /// One model being swept: what scoring an octree of it needs.
 struct ModelRun<'a> {
-    args: &'a SweepOptions,
+    workers: &'a Workers,
     protocol: &'a PaperProtocol,
     img_dir: &'a Path,
     name: &'a str,
@@ -441,15 +432,15 @@ impl ModelRun<'_> {
     ) -> Result<Row> {
         let depth = octree.depth();
         let score = self
-            .protocol
-            .score(&OctreeScene(octree))
+            .workers
+            .install(|| self.protocol.score(&OctreeScene(octree)))
             .map_err(|source| HarnessError::Score {
                 method: method.name(),
                 depth,
                 source: Box::new(source),
             })?;
         // PNG encoding is single-threaded: the views and heat maps in parallel.
-        with_threads(self.args.threads, || {
+        self.workers.install(|| {
             score
                 .views
                 .par_iter()
@@ -464,7 +455,7 @@ impl ModelRun<'_> {
                         &metrics::flip_heatmap(&view.flip),
                     )
                 })
-        })??;
+        })?;
         let psnr = score.psnr();
         Ok(Row {
             model: self.name.to_owned(),

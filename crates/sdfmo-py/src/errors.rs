@@ -133,7 +133,6 @@ pub fn format_error(e: &LayerFormatError) -> PyErr {
 pub fn build_error(e: &BuildError) -> PyErr {
     match e {
         BuildError::MemoryBudget { .. } => PyMemoryError::new_err(chain(e)),
-        BuildError::ThreadPool(_) => PyRuntimeError::new_err(chain(e)),
         BuildError::Format(f) => format_error(f),
         _ => PyValueError::new_err(chain(e)),
     }
@@ -147,7 +146,6 @@ pub fn distance_error(e: &DistanceError) -> PyErr {
 /// A render error: cameras and settings as `ValueError`.
 pub fn render_error(e: &RenderError) -> PyErr {
     match e {
-        RenderError::ThreadPool { .. } => PyRuntimeError::new_err(chain(e)),
         RenderError::Io(io) => io_error(io),
         _ => PyValueError::new_err(chain(e)),
     }

@@ -760,16 +760,11 @@ impl Mesh {
                 )))
             }
         };
-        let settings = BuildSettings {
-            depth,
-            method,
-            bits,
-            // The pool is ours (cancellation and reuse); the builder runs in it.
-            threads: None,
-            margin: DEFAULT_MARGIN,
-            sign: sign_arg(sign)?,
-            ..BuildSettings::default()
-        };
+        // The builder runs on the caller's pool: ours (`run::run`, cancellation and reuse).
+        let settings = BuildSettings::new(depth, method)
+            .with_bits(bits)
+            .with_margin(DEFAULT_MARGIN)
+            .with_sign(sign_arg(sign)?);
         let budget = max_memory.or_else(build::default_memory_budget);
         let mesh = &self.data.mesh;
         // The build's predicted peak must also be allocatable now (an address-space limit below
@@ -780,7 +775,10 @@ impl Mesh {
         }
         let built = run::run(py, threads, usize::MAX, |cancel| {
             let stop = || cancel.is_set();
-            match build::build_cancellable(mesh, &settings, budget, None, &stop) {
+            let request = build::BuildRequest::new(mesh, settings)
+                .memory_budget(budget)
+                .cancel(&stop);
+            match request.octree() {
                 Err(build::BuildError::Cancelled) => Err(Cancelled),
                 r => Ok(r),
             }
@@ -828,12 +826,11 @@ impl Mesh {
         let data = &self.data;
         args.render(py, |settings, camera, cancel| {
             let dist = data.distance(SignMode::Auto)?;
-            Ok(sdf_multioctree::render::render_cancellable(
-                &MeshScene(dist),
-                camera,
-                settings,
-                cancel,
-            ))
+            Ok(
+                sdf_multioctree::render::RenderRequest::new(&MeshScene(dist), camera, settings)
+                    .cancel(cancel)
+                    .render(),
+            )
         })
     }
 }

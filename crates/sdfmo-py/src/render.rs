@@ -161,12 +161,10 @@ impl RenderArgs {
             .map_err(|e| crate::errors::render_error(&e))?;
         Ok(RenderArgs {
             camera,
-            settings: RenderSettings {
-                mode,
-                shadows,
-                ao_samples: ao as u32,
-                threads: None,
-            },
+            // The renderer runs on the caller's pool: `threads` is ours (`run::run`).
+            settings: RenderSettings::new(mode)
+                .with_shadows(shadows)
+                .with_ao_samples(ao as u32),
             threads,
         })
     }
@@ -177,7 +175,7 @@ impl RenderArgs {
     }
 
     /// Renders with `f` (given the settings, the camera and the cancellation test to pass to
-    /// `sdfmo_render::render_cancellable`) without the GIL and returns the image as uint8
+    /// `sdfmo_render::RenderRequest::cancel`) without the GIL and returns the image as uint8
     /// `(h, w, 3)`. Ctrl-C stops the render within about a tile's time
     /// (`KeyboardInterrupt`).
     pub fn render<'py>(

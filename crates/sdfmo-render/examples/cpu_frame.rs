@@ -17,9 +17,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use sdfmo_format::PackedOctree;
-use sdfmo_render::{
-    render_with_plan, save_png, Camera, Mode, OctreeScene, RenderPlan, RenderSettings,
-};
+use sdfmo_render::{render, save_png, Camera, Mode, OctreeScene, RenderSettings};
 
 /// CPU time of each of the process's live threads, ns, by thread id (Linux; empty elsewhere).
 fn thread_cpu_ns() -> Vec<(String, u64)> {
@@ -91,7 +89,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .map(|&n| rayon::ThreadPoolBuilder::new().num_threads(n).build())
         .collect::<Result<_, _>>()?;
     let camera = Camera::paper_view(view, size, size);
-    let plan = RenderPlan::new(&RenderSettings::new(Mode::Lambert))?;
+    let settings = RenderSettings::new(Mode::Lambert);
     println!(
         "| octree | threads | hits | median wall ms | median CPU ms / frame | median busiest-thread CPU ms | runs |"
     );
@@ -99,7 +97,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for file in &files {
         let octree = PackedOctree::load(file)?;
         let scene = OctreeScene(&octree);
-        let first = pools[0].install(|| render_with_plan(&scene, &camera, &plan))?;
+        let first = pools[0].install(|| render(&scene, &camera, &settings))?;
         if let Some(dir) = &png {
             let stem = file
                 .file_stem()
@@ -112,7 +110,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for _ in 0..repeat {
             for (k, pool) in pools.iter().enumerate() {
                 let (c0, t0) = (thread_cpu_ns(), Instant::now());
-                let r = pool.install(|| render_with_plan(&scene, &camera, &plan))?;
+                let r = pool.install(|| render(&scene, &camera, &settings))?;
                 wall[k].push(t0.elapsed().as_secs_f64() * 1e3);
                 let (total, largest) = cpu_between(&c0, &thread_cpu_ns());
                 cpu[k].push(total as f64 * 1e-6);

@@ -32,21 +32,30 @@ fn cpu_ns() -> u64 {
 }
 
 /// The fastest of `repeat` renders (wall time) and the mean CPU time per render, ms.
+/// The fastest of `repeat` renders on a pool of `threads` workers, and the process's CPU ms
+/// per render.
 fn best_of<T: Traceable>(
     scene: &T,
     camera: &Camera,
     s: &RenderSettings,
+    threads: usize,
     repeat: usize,
 ) -> (Rendered, f64) {
-    let mut best = render(scene, camera, s).expect("render");
-    let c0 = cpu_ns();
-    for _ in 0..repeat {
-        let r = render(scene, camera, s).expect("render");
-        if r.render_ms < best.render_ms {
-            best = r;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a pool");
+    pool.install(|| {
+        let mut best = render(scene, camera, s).expect("render");
+        let c0 = cpu_ns();
+        for _ in 0..repeat {
+            let r = render(scene, camera, s).expect("render");
+            if r.render_ms < best.render_ms {
+                best = r;
+            }
         }
-    }
-    (best, (cpu_ns() - c0) as f64 / 1e6 / repeat as f64)
+        (best, (cpu_ns() - c0) as f64 / 1e6 / repeat as f64)
+    })
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -94,15 +103,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
     };
     for &t in &threads {
-        let s = RenderSettings::new(Mode::Mask).with_threads(t);
-        let (r, cpu) = best_of(&Spheres::default(), &camera, &s, repeat);
+        let s = RenderSettings::new(Mode::Mask);
+        let (r, cpu) = best_of(&Spheres::default(), &camera, &s, t, repeat);
         row("empty (renderer overhead)", Mode::Mask, t, &r, cpu);
     }
     let mut reference_done = false;
     for &depth in &depths {
         for &(method_name, method) in &methods {
             let settings = BuildSettings::new(depth, method);
-            let (octree, stats) = build(&mesh, &settings, None)?;
+            let (octree, stats) = build(&mesh, &settings)?;
             eprintln!(
                 "{name} depth {depth} {method_name}: {} voxels, {} bytes, build {:.0} ms",
                 stats.voxels, stats.bytes, stats.build_ms
@@ -112,8 +121,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     MeshDistance::new(&mesh_in_octree_frame(&mesh, octree.meta()), SignMode::Auto)?;
                 for &mode in &modes {
                     for &t in &threads {
-                        let s = RenderSettings::new(mode).with_threads(t);
-                        let (m, cpu) = best_of(&MeshScene(&dist), &camera, &s, repeat);
+                        let s = RenderSettings::new(mode);
+                        let (m, cpu) = best_of(&MeshScene(&dist), &camera, &s, t, repeat);
                         row(&format!("{name} mesh (BVH)"), mode, t, &m, cpu);
                         save_png(&m, out.join(format!("{name}_mesh_{mode}.png")))?;
                     }
@@ -122,8 +131,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             for &mode in &modes {
                 for &t in &threads {
-                    let s = RenderSettings::new(mode).with_threads(t);
-                    let (o, cpu) = best_of(&OctreeScene(&octree), &camera, &s, repeat);
+                    let s = RenderSettings::new(mode);
+                    let (o, cpu) = best_of(&OctreeScene(&octree), &camera, &s, t, repeat);
                     row(&format!("{name} d{depth} {method_name}"), mode, t, &o, cpu);
                     save_png(
                         &o,

@@ -1,6 +1,6 @@
 //! Which level of a `.smo` file a render draws: the one rule behind `sdfmo render --lod` and
 //! `--pixel-error`, Python's `Octree.render(lod=…, pixel_error=…)` and the facade's
-//! `render_levels`.
+//! `Renderer`.
 
 use glam::Vec3;
 use sdfmo_format::SmoFile;

@@ -45,10 +45,7 @@ pub use output::{encode_exr, encode_png, save_exr, save_png};
 pub use plan::{Counters, Mode, RenderPlan, RenderSettings, MAX_AO_SAMPLES};
 #[cfg(feature = "mesh-reference")]
 pub use protocol::{PaperProtocol, ProtocolError, Score, ViewScore};
-pub use render::{
-    in_pool, render, render_cancellable, render_observed, render_with_plan, render_with_progress,
-    Rendered,
-};
+pub use render::{render, RenderRequest, Rendered};
 pub use scene::{SphereHit, Spheres, Traceable};
 /// The packet of primary rays [`Traceable::first_hits`] takes.
 pub use sdfmo_trace::RayPacket;
@@ -60,18 +57,9 @@ pub enum RenderError {
     /// The camera is degenerate (size, field of view, eye = target, non-finite values).
     #[error("invalid camera: {0}")]
     InvalidCamera(String),
-    /// The settings or plan are inconsistent (zero threads, unknown mode, …).
+    /// The settings or plan are inconsistent (unknown mode, too many occlusion rays, …).
     #[error("invalid render settings: {0}")]
     InvalidSettings(String),
-    /// The local thread pool could not be created.
-    #[error("cannot create a pool of {threads} threads")]
-    ThreadPool {
-        /// Requested threads.
-        threads: usize,
-        /// Rayon's error.
-        #[source]
-        source: rayon::ThreadPoolBuildError,
-    },
     /// A [`Rendered`] buffer does not match its width and height.
     #[error("{what} buffer of {len} values does not match a {width}x{height} image")]
     BufferSize {
@@ -121,7 +109,7 @@ pub enum RenderError {
         /// The file's one level.
         depth: u8,
     },
-    /// The render was cancelled by its caller ([`render_cancellable`]).
+    /// The render was cancelled by its caller ([`RenderRequest::cancel`]).
     #[error("the render was cancelled")]
     Cancelled,
     /// A file could not be written: a refused destination (directory, device, FIFO), a

@@ -70,20 +70,30 @@ impl FromStr for Mode {
 pub const MAX_AO_SAMPLES: u32 = 1024;
 
 /// What the caller asks for. Shadows and ambient occlusion only apply to [`Mode::Lambert`].
+///
+/// `#[non_exhaustive]`: made by [`RenderSettings::new`] (or `default()`, lambert) and the
+/// `with_*` setters, so that a setting added later breaks no caller. The renderer runs on the
+/// caller's rayon pool (the global one unless the caller `install`s another): the image does not
+/// depend on its size.
+///
+/// ```
+/// use sdfmo_render::{Mode, RenderSettings};
+/// let s = RenderSettings::new(Mode::Lambert).with_shadows(true).with_ao_samples(16);
+/// assert!(s.shadows && s.ao_samples == 16);
+/// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct RenderSettings {
     /// Output mode.
     pub mode: Mode,
     /// Cast a shadow ray toward the light from every lit hit (lambert only).
     pub shadows: bool,
-    /// Ambient-occlusion rays per hit, 0 = off (lambert only).
+    /// Ambient-occlusion rays per hit, 0 = off (lambert only; at most [`MAX_AO_SAMPLES`]).
     pub ao_samples: u32,
-    /// Threads of a local pool; `None` uses rayon's global pool. `Some(0)` is an error.
-    pub threads: Option<usize>,
 }
 
 impl RenderSettings {
-    /// `mode` without shadows or occlusion, on the global pool.
+    /// `mode` without shadows or occlusion.
     pub fn new(mode: Mode) -> RenderSettings {
         RenderSettings {
             mode,
@@ -91,18 +101,27 @@ impl RenderSettings {
         }
     }
 
-    /// The same settings on a local pool of `threads` threads.
-    pub fn with_threads(self, threads: usize) -> RenderSettings {
-        RenderSettings {
-            threads: Some(threads),
-            ..self
-        }
+    /// The same settings in `mode`.
+    pub fn with_mode(self, mode: Mode) -> RenderSettings {
+        RenderSettings { mode, ..self }
+    }
+
+    /// The same settings with shadow rays on or off.
+    pub fn with_shadows(self, shadows: bool) -> RenderSettings {
+        RenderSettings { shadows, ..self }
+    }
+
+    /// The same settings with `ao_samples` ambient-occlusion rays per hit (0: off).
+    pub fn with_ao_samples(self, ao_samples: u32) -> RenderSettings {
+        RenderSettings { ao_samples, ..self }
     }
 }
 
 /// What a render will compute, decided from [`RenderSettings`] by [`RenderPlan::new`] (and
-/// inspectable, or adjustable, before [`crate::render_with_plan`]).
+/// inspectable, or adjustable, before [`RenderRequest::plan`](crate::RenderRequest::plan)).
+/// `#[non_exhaustive]`: made by [`RenderPlan::new`], its fields adjusted after.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[non_exhaustive]
 pub struct RenderPlan {
     /// Output mode.
     pub mode: Mode,
@@ -117,14 +136,15 @@ pub struct RenderPlan {
     /// Keep the f32 normal of every pixel in [`crate::Rendered::normals`] (normal mode).
     /// Setting it in another mode also turns on `normals`.
     pub keep_normals: bool,
-    /// Local pool size, `None` for the global pool.
-    pub threads: Option<usize>,
     /// Tile edge in pixels.
     pub tile_size: u32,
 }
 
 impl RenderPlan {
-    /// Plans the minimum work for `settings`; errors on `threads == Some(0)`.
+    /// Plans the minimum work for `settings`.
+    ///
+    /// # Errors
+    /// [`RenderError::InvalidSettings`] for more than [`MAX_AO_SAMPLES`] occlusion rays.
     pub fn new(settings: &RenderSettings) -> Result<RenderPlan, RenderError> {
         let lambert = settings.mode == Mode::Lambert;
         let plan = RenderPlan {
@@ -134,21 +154,18 @@ impl RenderPlan {
             ao_samples: if lambert { settings.ao_samples } else { 0 },
             keep_depth: settings.mode == Mode::Depth,
             keep_normals: settings.mode == Mode::Normal,
-            threads: settings.threads,
             tile_size: DEFAULT_TILE_SIZE,
         };
         plan.validate()?;
         Ok(plan)
     }
 
-    /// Checks the plan: threads ≠ `Some(0)`, tile size ≥ 1, normals evaluated whenever lambert,
-    /// normal mode, shadows, occlusion or kept normals need them.
+    /// Checks the plan: at most [`MAX_AO_SAMPLES`] occlusion rays, tile size ≥ 1, normals
+    /// evaluated whenever lambert, normal mode, shadows, occlusion or kept normals need them.
+    ///
+    /// # Errors
+    /// [`RenderError::InvalidSettings`] naming what is inconsistent.
     pub fn validate(&self) -> Result<(), RenderError> {
-        if self.threads == Some(0) {
-            return Err(RenderError::InvalidSettings(
-                "threads must be at least 1 (or unset for the global pool)".into(),
-            ));
-        }
         if self.ao_samples > MAX_AO_SAMPLES {
             return Err(RenderError::InvalidSettings(format!(
                 "{} ambient-occlusion rays per hit is more than the limit of {MAX_AO_SAMPLES}",
@@ -206,12 +223,9 @@ mod tests {
     #[test]
     fn mask_and_depth_plan_no_normals_shadows_or_occlusion() {
         for mode in [Mode::Mask, Mode::Depth] {
-            let s = RenderSettings {
-                mode,
-                shadows: true,
-                ao_samples: 16,
-                threads: None,
-            };
+            let s = RenderSettings::new(mode)
+                .with_shadows(true)
+                .with_ao_samples(16);
             let p = RenderPlan::new(&s).unwrap();
             assert!(!p.normals && !p.shadow_rays && p.ao_samples == 0 && !p.keep_normals);
             assert_eq!(p.keep_depth, mode == Mode::Depth);
@@ -222,11 +236,11 @@ mod tests {
     fn lambert_plans_only_what_is_asked() {
         let p = RenderPlan::new(&RenderSettings::new(Mode::Lambert)).unwrap();
         assert!(p.normals && !p.shadow_rays && p.ao_samples == 0 && !p.keep_depth);
-        let p = RenderPlan::new(&RenderSettings {
-            shadows: true,
-            ao_samples: 3,
-            ..RenderSettings::new(Mode::Lambert)
-        })
+        let p = RenderPlan::new(
+            &RenderSettings::new(Mode::Lambert)
+                .with_shadows(true)
+                .with_ao_samples(3),
+        )
         .unwrap();
         assert!(p.normals && p.shadow_rays && p.ao_samples == 3);
         let p = RenderPlan::new(&RenderSettings::new(Mode::Normal)).unwrap();
@@ -234,8 +248,10 @@ mod tests {
     }
 
     #[test]
-    fn zero_threads_and_inconsistent_plans_are_errors() {
-        assert!(RenderPlan::new(&RenderSettings::new(Mode::Mask).with_threads(0)).is_err());
+    fn too_many_occlusion_rays_and_inconsistent_plans_are_errors() {
+        let ao = RenderSettings::new(Mode::Lambert).with_ao_samples(MAX_AO_SAMPLES + 1);
+        assert!(RenderPlan::new(&ao).is_err());
+        assert!(RenderPlan::new(&ao.with_ao_samples(MAX_AO_SAMPLES)).is_ok());
         let mut p = RenderPlan::new(&RenderSettings::new(Mode::Lambert)).unwrap();
         p.normals = false;
         assert!(p.validate().is_err());

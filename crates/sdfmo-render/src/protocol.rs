@@ -9,7 +9,6 @@ use sdfmo_distance::{MeshDistance, SignMode};
 use sdfmo_mesh::TriMesh;
 use sdfmo_metrics::FlipResult;
 
-use crate::render::in_pool;
 use crate::{render, Camera, MeshScene, Mode, RenderError, RenderSettings, Traceable};
 
 /// What can go wrong in the protocol: preparing the mesh's ray queries, rendering, comparing.
@@ -92,42 +91,33 @@ impl Score {
 impl PaperProtocol {
     /// The protocol for `mesh` (model units): normalised with `margin` exactly as the builder
     /// does, ray traced from the paper's four views at `size` × `size` in lambert with face
-    /// normals, on `threads` workers (`None`: all).
+    /// normals, on the caller's rayon pool.
     ///
     /// # Errors
     /// [`ProtocolError::Distance`] if the ray queries cannot be prepared,
-    /// [`ProtocolError::Render`] for an invalid size or thread count.
-    pub fn new(
-        mesh: &TriMesh,
-        margin: f32,
-        size: u32,
-        threads: Option<usize>,
-    ) -> Result<PaperProtocol, ProtocolError> {
+    /// [`ProtocolError::Render`] for an invalid size.
+    pub fn new(mesh: &TriMesh, margin: f32, size: u32) -> Result<PaperProtocol, ProtocolError> {
         // Only the surface matters for the images: flat fans re-triangulated.
         let reshaped = sdfmo_distance::reshape_fans(mesh);
         let mesh = reshaped.as_ref().map_or(mesh, |r| &r.mesh);
         let (normalized, _) = mesh.normalized(margin);
         let dist =
             MeshDistance::new(&normalized, SignMode::Auto).map_err(ProtocolError::Distance)?;
-        PaperProtocol::of_scene(&MeshScene(&dist), size, threads)
+        PaperProtocol::of_scene(&MeshScene(&dist), size)
     }
 
     /// The protocol with `reference` (any scene in the normalised frame, for instance another
     /// octree) rendered as the reference images, from the paper's views at `size` × `size`.
     ///
     /// # Errors
-    /// [`ProtocolError::Render`] for an invalid size or thread count.
+    /// [`ProtocolError::Render`] for an invalid size.
     pub fn of_scene<T: Traceable>(
         reference: &T,
         size: u32,
-        threads: Option<usize>,
     ) -> Result<PaperProtocol, ProtocolError> {
         let mut protocol = PaperProtocol {
             cameras: Camera::paper_views(size, size),
-            settings: RenderSettings {
-                threads,
-                ..RenderSettings::new(Mode::Lambert)
-            },
+            settings: RenderSettings::new(Mode::Lambert),
             references: Vec::new(),
             reference_ms: 0.0,
             frames: 1,
@@ -191,24 +181,21 @@ impl PaperProtocol {
             let median_ms = sdfmo_metrics::median(times).unwrap_or(r.render_ms);
             rendered.push((r.to_image(), median_ms));
         }
-        let views = in_pool(self.settings.threads, || {
-            rendered
-                .into_par_iter()
-                .zip(self.references.par_iter())
-                .map(|((image, render_ms), reference)| {
-                    let psnr = sdfmo_metrics::psnr(reference, &image)?;
-                    let flip = sdfmo_metrics::flip(reference, &image)?;
-                    Ok(ViewScore {
-                        image,
-                        render_ms,
-                        psnr,
-                        flip,
-                    })
+        let views = rendered
+            .into_par_iter()
+            .zip(self.references.par_iter())
+            .map(|((image, render_ms), reference)| {
+                let psnr = sdfmo_metrics::psnr(reference, &image)?;
+                let flip = sdfmo_metrics::flip(reference, &image)?;
+                Ok(ViewScore {
+                    image,
+                    render_ms,
+                    psnr,
+                    flip,
                 })
-                .collect::<Result<Vec<_>, sdfmo_metrics::MetricsError>>()
-        })
-        .map_err(ProtocolError::Render)?
-        .map_err(ProtocolError::Metrics)?;
+            })
+            .collect::<Result<Vec<_>, sdfmo_metrics::MetricsError>>()
+            .map_err(ProtocolError::Metrics)?;
         Ok(Score { views })
     }
 }
@@ -222,7 +209,7 @@ mod tests {
     #[test]
     fn a_scene_scores_infinite_against_itself_and_finite_against_another() {
         let one = Spheres::one(Vec3::ZERO, 0.5);
-        let protocol = PaperProtocol::of_scene(&one, 32, Some(1)).unwrap();
+        let protocol = PaperProtocol::of_scene(&one, 32).unwrap();
         assert_eq!(protocol.cameras().len(), 4);
         assert_eq!(protocol.references().len(), 4);
         let same = protocol.score(&one).unwrap();
@@ -239,7 +226,7 @@ mod tests {
     fn several_frames_score_the_same_images() {
         let one = Spheres::one(Vec3::ZERO, 0.5);
         let other = Spheres::one(Vec3::ZERO, 0.4);
-        let protocol = PaperProtocol::of_scene(&one, 24, Some(1)).unwrap();
+        let protocol = PaperProtocol::of_scene(&one, 24).unwrap();
         assert_eq!(protocol.frames(), 1);
         let single = protocol.score(&other).unwrap();
         let protocol = protocol.with_frames(3);

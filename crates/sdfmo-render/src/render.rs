@@ -64,131 +64,132 @@ impl Rendered {
     }
 }
 
-/// Renders `scene` seen by `camera` with the plan of `settings` (see [`RenderPlan::new`]).
+/// Renders `scene` seen by `camera` with the plan of `settings` (see [`RenderPlan::new`]), on
+/// the caller's rayon pool. [`RenderRequest`] adds progress, cancellation and an explicit plan.
+///
+/// # Errors
+/// [`RenderError::InvalidCamera`], [`RenderError::InvalidSettings`].
 pub fn render<T: Traceable>(
     scene: &T,
     camera: &Camera,
     settings: &RenderSettings,
 ) -> Result<Rendered, RenderError> {
-    render_with_plan(scene, camera, &RenderPlan::new(settings)?)
+    RenderRequest::new(scene, camera, settings).render()
 }
 
-/// [`render`], calling `progress` with the fraction of the image's tiles done so far, once per
-/// tile, from the worker threads (so not in order: keep the largest, as a progress bar's
-/// position does). The image and counters are those of [`render`].
-pub fn render_with_progress<T: Traceable>(
-    scene: &T,
-    camera: &Camera,
-    settings: &RenderSettings,
-    progress: &(dyn Fn(f32) + Sync),
-) -> Result<Rendered, RenderError> {
-    render_plan(
-        scene,
-        camera,
-        &RenderPlan::new(settings)?,
-        Some(progress),
-        None,
-    )
-}
-
-/// [`render`] that stops early with [`RenderError::Cancelled`] when `cancel` returns true.
-/// `cancel` is asked from the worker threads before each tile, so a render stops within about
-/// one tile's time per worker (the Python package's Ctrl-C); an image that is not cancelled is
-/// that of [`render`].
-pub fn render_cancellable<T: Traceable>(
-    scene: &T,
-    camera: &Camera,
-    settings: &RenderSettings,
-    cancel: &(dyn Fn() -> bool + Sync),
-) -> Result<Rendered, RenderError> {
-    render_plan(
-        scene,
-        camera,
-        &RenderPlan::new(settings)?,
-        None,
-        Some(cancel),
-    )
-}
-
-/// [`render`] with an optional progress callback (see [`render_with_progress`]) and an
-/// optional cancellation test (see [`render_cancellable`]): the one call a front-end that
-/// offers both needs.
-pub fn render_observed<T: Traceable>(
-    scene: &T,
-    camera: &Camera,
-    settings: &RenderSettings,
-    progress: Option<&(dyn Fn(f32) + Sync)>,
-    cancel: Option<&(dyn Fn() -> bool + Sync)>,
-) -> Result<Rendered, RenderError> {
-    render_plan(scene, camera, &RenderPlan::new(settings)?, progress, cancel)
-}
-
-/// Renders with an explicit plan. Tiles of `plan.tile_size` pixels are rendered in parallel
-/// (rayon; a local pool of `plan.threads` threads when set) and every pixel depends only on its
-/// own coordinates, so the image and counters are identical for any thread count.
-pub fn render_with_plan<T: Traceable>(
-    scene: &T,
-    camera: &Camera,
-    plan: &RenderPlan,
-) -> Result<Rendered, RenderError> {
-    render_plan(scene, camera, plan, None, None)
-}
-
-/// [`render_with_plan`] with an optional progress callback (see [`render_with_progress`]) and
-/// cancellation test (see [`render_cancellable`]).
-fn render_plan<T: Traceable>(
-    scene: &T,
-    camera: &Camera,
-    plan: &RenderPlan,
-    progress: Option<&(dyn Fn(f32) + Sync)>,
-    cancel: Option<&(dyn Fn() -> bool + Sync)>,
-) -> Result<Rendered, RenderError> {
-    plan.validate()?;
-    let frame = camera.frame()?;
-    let (bmin, bmax) = scene.bounds();
-    let ctx = Ctx {
-        scene,
-        frame,
-        plan: *plan,
-        range: DepthRange::new(camera.eye, bmin, bmax),
-        light: light_dir(),
-        eps: scene.epsilon(),
-        occupied: scene.occupied_bounds().map(|(lo, hi)| {
-            (
-                lo - Vec3::splat(OCCUPIED_PAD),
-                hi + Vec3::splat(OCCUPIED_PAD),
-            )
-        }),
-        progress,
-        tiles_done: AtomicUsize::new(0),
-        cancel,
-        cancelled: AtomicBool::new(false),
-    };
-    let rendered = in_pool(plan.threads, || ctx.run())?;
-    if ctx.cancelled.load(Ordering::Relaxed) {
-        return Err(RenderError::Cancelled);
-    }
-    Ok(rendered)
-}
-
-/// Runs `f` on a local pool of `threads` workers, or on the current pool for `None` (what
-/// [`RenderSettings::threads`](crate::RenderSettings) means, for work besides rendering too).
+/// A render with its options, [`render`] when none is set: a progress callback, a cancellation
+/// test and an explicit plan (image-rs's `ImageReader` is the model: options on the request,
+/// one terminal call).
 ///
-/// # Errors
-/// [`RenderError::ThreadPool`] if the pool cannot be created.
-pub fn in_pool<R: Send>(
-    threads: Option<usize>,
-    f: impl FnOnce() -> R + Send,
-) -> Result<R, RenderError> {
-    match threads {
-        None => Ok(f()),
-        Some(n) => {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
-                .build()
-                .map_err(|source| RenderError::ThreadPool { threads: n, source })?;
-            Ok(pool.install(f))
+/// Tiles of [`RenderPlan::tile_size`] pixels are rendered in parallel on the caller's rayon
+/// pool (the global one, or the one the caller `install`s: the front-ends own the pools) and
+/// every pixel depends only on its own coordinates, so the image and counters are identical
+/// for any thread count, and with or without progress and cancellation.
+///
+/// ```
+/// use std::sync::atomic::{AtomicU32, Ordering};
+/// use sdfmo_render::{Camera, Mode, RenderPlan, RenderRequest, RenderSettings, Spheres};
+/// use glam::Vec3;
+///
+/// let scene = Spheres::one(Vec3::ZERO, 0.5);
+/// let camera = Camera::paper_view(0, 64, 64);
+/// let settings = RenderSettings::new(Mode::Lambert);
+/// let mut plan = RenderPlan::new(&settings)?;
+/// plan.tile_size = 16;
+/// let done = AtomicU32::new(0);
+/// let progress = |f: f32| { done.fetch_max(f.to_bits(), Ordering::Relaxed); };
+/// let image = RenderRequest::new(&scene, &camera, &settings)
+///     .plan(plan)
+///     .progress(&progress)
+///     .cancel(&|| false)
+///     .render()?;
+/// assert_eq!(f32::from_bits(done.load(Ordering::Relaxed)), 1.0);
+/// assert_eq!(image.rgb, sdfmo_render::render(&scene, &camera, &settings)?.rgb);
+/// # Ok::<(), sdfmo_render::RenderError>(())
+/// ```
+#[must_use = "a request renders nothing until `render` is called"]
+pub struct RenderRequest<'a, T> {
+    scene: &'a T,
+    camera: &'a Camera,
+    settings: RenderSettings,
+    plan: Option<RenderPlan>,
+    progress: Option<&'a (dyn Fn(f32) + Sync)>,
+    cancel: Option<&'a (dyn Fn() -> bool + Sync)>,
+}
+
+impl<'a, T: Traceable> RenderRequest<'a, T> {
+    /// The render of `scene` seen by `camera` with the plan of `settings`.
+    pub fn new(scene: &'a T, camera: &'a Camera, settings: &RenderSettings) -> Self {
+        RenderRequest {
+            scene,
+            camera,
+            settings: *settings,
+            plan: None,
+            progress: None,
+            cancel: None,
         }
+    }
+
+    /// Renders with `plan` (made by [`RenderPlan::new`] and adjusted) instead of the plan of
+    /// the settings.
+    pub fn plan(mut self, plan: RenderPlan) -> Self {
+        self.plan = Some(plan);
+        self
+    }
+
+    /// Calls `progress` with the fraction of the image's tiles done so far, once per tile,
+    /// from the worker threads (so not in order: keep the largest, as a progress bar's
+    /// position does).
+    pub fn progress(mut self, progress: &'a (dyn Fn(f32) + Sync)) -> Self {
+        self.progress = Some(progress);
+        self
+    }
+
+    /// Stops early with [`RenderError::Cancelled`] when `cancel` returns true. It is asked
+    /// from the worker threads before each tile, so a render stops within about one tile's
+    /// time per worker (the Python package's Ctrl-C).
+    pub fn cancel(mut self, cancel: &'a (dyn Fn() -> bool + Sync)) -> Self {
+        self.cancel = Some(cancel);
+        self
+    }
+
+    /// Renders.
+    ///
+    /// # Errors
+    /// [`RenderError::InvalidCamera`], [`RenderError::InvalidSettings`] (settings or plan),
+    /// [`RenderError::Cancelled`].
+    pub fn render(&self) -> Result<Rendered, RenderError> {
+        let plan = match self.plan {
+            Some(plan) => plan,
+            None => RenderPlan::new(&self.settings)?,
+        };
+        plan.validate()?;
+        let (scene, camera) = (self.scene, self.camera);
+        let frame = camera.frame()?;
+        let (bmin, bmax) = scene.bounds();
+        let ctx = Ctx {
+            scene,
+            frame,
+            plan,
+            range: DepthRange::new(camera.eye, bmin, bmax),
+            light: light_dir(),
+            eps: scene.epsilon(),
+            occupied: scene.occupied_bounds().map(|(lo, hi)| {
+                (
+                    lo - Vec3::splat(OCCUPIED_PAD),
+                    hi + Vec3::splat(OCCUPIED_PAD),
+                )
+            }),
+            progress: self.progress,
+            tiles_done: AtomicUsize::new(0),
+            cancel: self.cancel,
+            cancelled: AtomicBool::new(false),
+        };
+        let rendered = ctx.run();
+        if ctx.cancelled.load(Ordering::Relaxed) {
+            return Err(RenderError::Cancelled);
+        }
+        Ok(rendered)
     }
 }
 
@@ -574,11 +575,19 @@ mod tests {
         use std::sync::Mutex;
         let scene = crate::Spheres::one(Vec3::ZERO, 0.5);
         let camera = Camera::paper_views(70, 50)[1];
-        let mut settings = RenderSettings::new(Mode::Lambert).with_threads(2);
-        settings.ao_samples = 2;
+        let settings = RenderSettings::new(Mode::Lambert).with_ao_samples(2);
         let reports = Mutex::new(Vec::new());
         let on = |f: f32| reports.lock().unwrap().push(f);
-        let with = render_with_progress(&scene, &camera, &settings, &on).unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let with = pool.install(|| {
+            RenderRequest::new(&scene, &camera, &settings)
+                .progress(&on)
+                .render()
+                .unwrap()
+        });
         let without = render(&scene, &camera, &settings).unwrap();
         assert_eq!(with.rgb, without.rgb);
         assert_eq!(with.counters, without.counters);
@@ -598,9 +607,13 @@ mod tests {
             45,
             37,
         );
-        let mut plan = RenderPlan::new(&RenderSettings::new(Mode::Depth).with_threads(2)).unwrap();
+        let settings = RenderSettings::new(Mode::Depth);
+        let mut plan = RenderPlan::new(&settings).unwrap();
         plan.tile_size = 16;
-        let r = render_with_plan(&DirectionProbe, &camera, &plan).unwrap();
+        let r = RenderRequest::new(&DirectionProbe, &camera, &settings)
+            .plan(plan)
+            .render()
+            .unwrap();
         let depth = r.depth.unwrap();
         for py in 0..camera.height {
             for px in 0..camera.width {

@@ -29,12 +29,7 @@ fn a_cube_of_intersect_voxels_renders_sharp_and_flat() {
         let octree = cube_octree(depth, &planes);
         assert!(octree.has_clip_voxels());
         let margin = 1e-4 * cell_size(depth);
-        let settings = RenderSettings {
-            mode: Mode::Normal,
-            shadows: false,
-            ao_samples: 0,
-            threads: Some(2),
-        };
+        let settings = RenderSettings::new(Mode::Normal);
         let (mut clear, mut differ, mut flat, mut worst) = (0, 0, 0, 0.0f32);
         for cam in Camera::paper_views(SIZE, SIZE) {
             let image = render(&OctreeScene(&octree), &cam, &settings).expect("render");

@@ -2,7 +2,7 @@
 //! traced by `sdfmo-trace`, compared with the same mesh through `sdfmo-distance`.
 
 mod common;
-use common::{settings, shot};
+use common::{on_threads, settings, shot};
 
 use glam::Vec3;
 use sdfmo_build::{build, BuildSettings, Method};
@@ -11,16 +11,14 @@ use sdfmo_format::PackedOctree;
 use sdfmo_mesh::{procedural, TriMesh};
 use sdfmo_render::shading::PixelRng;
 use sdfmo_render::{
-    mesh_in_octree_frame, render, render_with_plan, Camera, MeshScene, Mode, OctreeScene,
-    RenderPlan, RenderSettings, Rendered, Traceable,
+    mesh_in_octree_frame, render, Camera, MeshScene, Mode, OctreeScene, RenderPlan, RenderRequest,
+    RenderSettings, Rendered, Traceable,
 };
 
 fn octree(mesh: &TriMesh, depth: u8, method: Method) -> PackedOctree {
-    let s = BuildSettings {
-        threads: Some(2),
-        ..BuildSettings::new(depth, method)
-    };
-    build(mesh, &s, None).expect("build").0
+    build(mesh, &BuildSettings::new(depth, method))
+        .expect("build")
+        .0
 }
 
 fn reference(mesh: &TriMesh, octree: &PackedOctree) -> MeshDistance {
@@ -85,7 +83,7 @@ fn assert_agrees_with(mesh: &TriMesh, depth: u8, min_iou: f64, min_psnr: f64, me
         let tree = octree(mesh, depth, method);
         let dist = reference(mesh, &tree);
         for camera in Camera::paper_views(64, 64) {
-            let s = settings(Mode::Mask, false, 0, 2);
+            let s = settings(Mode::Mask, false, 0);
             let o = render(&OctreeScene(&tree), &camera, &s).unwrap();
             let m = render(&MeshScene(&dist), &camera, &s).unwrap();
             let v = iou(&o, &m);
@@ -94,7 +92,7 @@ fn assert_agrees_with(mesh: &TriMesh, depth: u8, min_iou: f64, min_psnr: f64, me
                 "{method:?} view {:?}: mask IoU {v}",
                 camera.eye
             );
-            let s = settings(Mode::Lambert, false, 0, 2);
+            let s = settings(Mode::Lambert, false, 0);
             let o = render(&OctreeScene(&tree), &camera, &s).unwrap();
             let m = render(&MeshScene(&dist), &camera, &s).unwrap();
             let mse = o
@@ -175,19 +173,12 @@ fn octree_image_does_not_depend_on_the_thread_count() {
     let mesh = procedural::demo_part();
     let tree = octree(&mesh, 6, Method::Multi { max_voxels: 8 });
     let camera = Camera::paper_view(3, 50, 40);
-    let one = render(
-        &OctreeScene(&tree),
-        &camera,
-        &settings(Mode::Lambert, true, 2, 1),
-    )
-    .unwrap();
+    let s = settings(Mode::Lambert, true, 2);
+    let one = on_threads(1, || render(&OctreeScene(&tree), &camera, &s).unwrap());
     for threads in [2, 4] {
-        let r = render(
-            &OctreeScene(&tree),
-            &camera,
-            &settings(Mode::Lambert, true, 2, threads),
-        )
-        .unwrap();
+        let r = on_threads(threads, || {
+            render(&OctreeScene(&tree), &camera, &s).unwrap()
+        });
         assert_eq!(one.rgb, r.rgb);
         assert_eq!(one.counters, r.counters);
     }
@@ -328,7 +319,7 @@ fn skipping_rays_outside_the_occupied_box_changes_no_pixel() {
         assert!((hi - lo).min_element() < 1.9, "{lo} {hi}");
         for view in 0..4 {
             let camera = Camera::paper_view(view, 48, 40);
-            let s = settings(Mode::Lambert, true, 2, 2);
+            let s = settings(Mode::Lambert, true, 2);
             let fast = render(&scene, &camera, &s).unwrap();
             let full = render(&TraceEverything(scene), &camera, &s).unwrap();
             assert!(fast.counters.hits > 0);
@@ -337,7 +328,10 @@ fn skipping_rays_outside_the_occupied_box_changes_no_pixel() {
             // Small tiles: many of them lie wholly outside the box and are skipped.
             let mut plan = RenderPlan::new(&s).unwrap();
             plan.tile_size = 4;
-            let small = render_with_plan(&scene, &camera, &plan).unwrap();
+            let small = RenderRequest::new(&scene, &camera, &s)
+                .plan(plan)
+                .render()
+                .unwrap();
             assert_eq!(small.rgb, full.rgb, "view {view}, 4-pixel tiles");
             assert_eq!(small.counters, full.counters, "view {view}, 4-pixel tiles");
         }

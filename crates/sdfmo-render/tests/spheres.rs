@@ -2,14 +2,14 @@
 //! thread-count independence, shading values, shadows, occlusion, depth, normals, file output.
 
 mod common;
-use common::{settings, shot};
+use common::{on_threads, settings, shot};
 
 use std::path::PathBuf;
 
 use glam::Vec3;
 use sdfmo_render::shading::{light_dir, AMBIENT};
 use sdfmo_render::{
-    render, render_with_plan, save_exr, save_png, Camera, Mode, RenderError, RenderPlan,
+    render, save_exr, save_png, Camera, Mode, RenderError, RenderPlan, RenderRequest,
     RenderSettings, Rendered, Spheres,
 };
 
@@ -79,24 +79,16 @@ fn lambert_casts_secondary_rays_only_when_asked() {
 fn image_and_counters_do_not_depend_on_the_thread_count() {
     let scene = shadow_pair();
     for mode in Mode::ALL {
-        let s = |t| settings(mode, true, 4, t);
-        let one = render(&scene, &cam(70), &s(1)).unwrap();
+        let s = settings(mode, true, 4);
+        let one = on_threads(1, || render(&scene, &cam(70), &s).unwrap());
         for threads in [2, 4] {
-            let other = render(&scene, &cam(70), &s(threads)).unwrap();
+            let other = on_threads(threads, || render(&scene, &cam(70), &s).unwrap());
             assert_eq!(one.rgb, other.rgb, "{mode} with {threads} threads");
             assert_eq!(one.depth, other.depth);
             assert_eq!(one.normals, other.normals);
             assert_eq!(one.counters, other.counters);
         }
-        let global = render(
-            &scene,
-            &cam(70),
-            &RenderSettings {
-                threads: None,
-                ..s(1)
-            },
-        )
-        .unwrap();
+        let global = render(&scene, &cam(70), &s).unwrap();
         assert_eq!(one.rgb, global.rgb);
     }
 }
@@ -104,10 +96,18 @@ fn image_and_counters_do_not_depend_on_the_thread_count() {
 #[test]
 fn tile_size_does_not_change_the_image() {
     let scene = shadow_pair();
-    let mut plan = RenderPlan::new(&settings(Mode::Lambert, true, 3, 2)).unwrap();
-    let a = render_with_plan(&scene, &cam(45), &plan).unwrap();
+    let s = settings(Mode::Lambert, true, 3);
+    let mut plan = RenderPlan::new(&s).unwrap();
+    let camera = cam(45);
+    let a = RenderRequest::new(&scene, &camera, &s)
+        .plan(plan)
+        .render()
+        .unwrap();
     plan.tile_size = 7;
-    let b = render_with_plan(&scene, &cam(45), &plan).unwrap();
+    let b = RenderRequest::new(&scene, &camera, &s)
+        .plan(plan)
+        .render()
+        .unwrap();
     assert_eq!(a.rgb, b.rgb);
     assert_eq!(a.counters, b.counters);
 }
@@ -121,7 +121,7 @@ fn px(r: &Rendered, x: u32, y: u32) -> [u8; 3] {
 fn lambert_centre_pixel_has_the_documented_value() {
     // Odd size: the centre ray points straight at the sphere centre, n = +Z,
     // value = 0.25 + 2/3 · (1/√3) = 0.6349 → 162.
-    let r = render(&sphere(), &cam(33), &settings(Mode::Lambert, false, 0, 1)).unwrap();
+    let r = render(&sphere(), &cam(33), &settings(Mode::Lambert, false, 0)).unwrap();
     assert_eq!(px(&r, 16, 16), [162; 3]);
     assert_eq!(px(&r, 0, 0), [0; 3], "background is black");
     // grey everywhere, at least ambient on the object
@@ -243,7 +243,7 @@ fn inside_a_sphere_normals_flip_toward_the_viewer() {
     // The camera inside a big sphere sees its inner side: two-sided shading lights it.
     let scene = Spheres::one(Vec3::ZERO, 10.0);
     let camera = Camera::new(Vec3::ZERO, -Vec3::ONE, 60.0, 9, 9);
-    let r = render(&scene, &camera, &settings(Mode::Lambert, false, 0, 1)).unwrap();
+    let r = render(&scene, &camera, &settings(Mode::Lambert, false, 0)).unwrap();
     assert_eq!(r.counters.hits, 81);
     // looking toward −(1,1,1): the inner wall's viewer-facing normal is +(1,1,1)/√3 = the light
     assert_eq!(px(&r, 4, 4), [234; 3]);
@@ -257,7 +257,7 @@ fn invalid_input_is_an_error_not_a_panic() {
         Err(RenderError::InvalidCamera(_))
     ));
     assert!(matches!(
-        render(&sphere(), &cam(8), &settings(Mode::Mask, false, 0, 0)),
+        render(&sphere(), &cam(8), &settings(Mode::Lambert, false, 2000)),
         Err(RenderError::InvalidSettings(_))
     ));
 }
@@ -346,20 +346,25 @@ fn exr_holds_f32_depth_and_normals() {
 #[test]
 fn a_cancelled_render_stops_and_says_so() {
     // Issue 32: the Python package's `render` ignored Ctrl-C until the whole image was done;
-    // `render_cancellable` asks before each tile.
+    // `RenderRequest::cancel` asks before each tile.
     use sdfmo_render::plan::DEFAULT_TILE_SIZE;
-    use sdfmo_render::render_cancellable;
     use std::sync::atomic::{AtomicUsize, Ordering};
     let scene = Spheres::one(Vec3::ZERO, 0.5);
     let camera = Camera::paper_view(0, 256, 256);
     let settings = RenderSettings::new(Mode::Lambert);
     let whole = render(&scene, &camera, &settings).unwrap();
-    let never = render_cancellable(&scene, &camera, &settings, &|| false).unwrap();
+    let never = RenderRequest::new(&scene, &camera, &settings)
+        .cancel(&|| false)
+        .render()
+        .unwrap();
     assert_eq!(never.rgb, whole.rgb);
     assert_eq!(never.counters, whole.counters);
     let asked = AtomicUsize::new(0);
     let after_three = || asked.fetch_add(1, Ordering::Relaxed) >= 3;
-    let e = render_cancellable(&scene, &camera, &settings, &after_three).unwrap_err();
+    let e = RenderRequest::new(&scene, &camera, &settings)
+        .cancel(&after_three)
+        .render()
+        .unwrap_err();
     assert!(matches!(e, RenderError::Cancelled), "{e}");
     // Once it said stop, the other tiles are skipped without asking again.
     let tiles = 256usize.div_ceil(DEFAULT_TILE_SIZE as usize).pow(2);

@@ -92,13 +92,8 @@ fn pinholes(
     views: &[CameraFrame],
     reference: &[Vec<bool>],
 ) -> (usize, usize) {
-    let settings = BuildSettings {
-        depth,
-        method,
-        bits: ValueBits::Eight,
-        ..BuildSettings::default()
-    };
-    let (octree, _) = build(mesh, &settings, None).expect("build");
+    let settings = BuildSettings::new(depth, method).with_bits(ValueBits::Eight);
+    let (octree, _) = build(mesh, &settings).expect("build");
     let mut holes = 0;
     let mut inside = 0;
     for (cam, eroded) in views.iter().zip(reference) {

@@ -92,12 +92,8 @@ fn bench_traversal(c: &mut Criterion) {
         ("svo", Method::Svo),
         ("multi", Method::Multi { max_voxels: 8 }),
     ] {
-        let settings = BuildSettings {
-            depth,
-            method,
-            ..BuildSettings::default()
-        };
-        let (octree, stats) = build(&mesh, &settings, None).expect("build");
+        let settings = BuildSettings::new(depth, method);
+        let (octree, stats) = build(&mesh, &settings).expect("build");
         let hits = trace_all(&octree, &rays);
         assert!(hits > 10_000, "{label}: only {hits} hits");
         eprintln!(

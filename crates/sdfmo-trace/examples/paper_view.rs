@@ -28,12 +28,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let size: u32 = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(1024);
     let runs: usize = args.get(4).map(|s| s.parse()).transpose()?.unwrap_or(5);
 
-    let settings = BuildSettings {
-        depth,
-        method,
-        ..BuildSettings::default()
-    };
-    let (octree, stats) = build(&mesh, &settings, None)?;
+    let settings = BuildSettings::new(depth, method);
+    let (octree, stats) = build(&mesh, &settings)?;
     println!(
         "{} leaves, {} voxels, built in {:.0} ms",
         stats.leaves, stats.voxels, stats.build_ms

@@ -21,13 +21,8 @@ const ROUNDING: f32 = 8.0 * f32::EPSILON;
 /// signed distance in the octree's (normalised) frame, the leaf edge `h` and the quantisation
 /// half step `δ = dmax / (2Q)`.
 fn svo(mesh: &TriMesh, depth: u8, bits: ValueBits) -> (PackedOctree, MeshDistance, f32, f32) {
-    let settings = BuildSettings {
-        depth,
-        method: Method::Svo,
-        bits,
-        ..Default::default()
-    };
-    let (octree, _) = build(mesh, &settings, None).unwrap();
+    let settings = BuildSettings::new(depth, Method::Svo).with_bits(bits);
+    let (octree, _) = build(mesh, &settings).unwrap();
     let (normalized, _) = mesh.normalized(settings.margin);
     let exact = MeshDistance::new(&normalized, settings.sign).unwrap();
     let h = octree.meta().leaf_size();

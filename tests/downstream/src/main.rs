@@ -5,7 +5,7 @@
 use sdf_multioctree::glam::Vec3;
 use sdf_multioctree::{
     build_octree, compare, demo_mesh, load_mesh, load_octree, octree_distance, paper_views,
-    render_mesh, render_octree, save_octree, save_png, Method, Mode,
+    save_octree, save_png, Device, LevelRequest, Method, Mode, RenderSettings, Renderer,
 };
 
 fn main() -> Result<(), sdf_multioctree::Error> {
@@ -20,12 +20,17 @@ fn main() -> Result<(), sdf_multioctree::Error> {
     std::fs::create_dir_all(&dir).expect("a temporary folder");
     let path = dir.join("part.smo");
     save_octree(&octree, &path)?;
-    let octree = load_octree(&path)?;
+    let file = load_octree(&path)?.file;
+    let octree = file.finest();
     assert_eq!(octree.byte_size(), stats.bytes);
 
     let camera = &paper_views(128)[0];
-    let reference = render_mesh(&mesh, camera, Mode::Lambert)?;
-    let image = render_octree(&octree, camera, Mode::Lambert)?;
+    let lambert = RenderSettings::new(Mode::Lambert);
+    let mut renderer = Renderer::new(Device::Cpu)?;
+    let reference = renderer.prepare_mesh(&mesh)?.render(camera, &lambert)?;
+    let image = renderer
+        .prepare(&file, LevelRequest::Finest)?
+        .render(camera, &lambert)?;
     save_png(&image, dir.join("part.png"))?;
     let quality = compare(&reference, &image)?;
     println!("PSNR {:.2} dB, FLIP {:.4}", quality.psnr, quality.flip);
@@ -33,8 +38,8 @@ fn main() -> Result<(), sdf_multioctree::Error> {
 
     // On the surface (a vertex of the mesh) about zero; far away nothing is stored: NaN.
     let vertex: Vec3 = mesh.positions()[0];
-    let on_surface = octree_distance(&octree, vertex);
-    let far = octree_distance(&octree, vertex + Vec3::splat(1e4));
+    let on_surface = octree_distance(octree, vertex);
+    let far = octree_distance(octree, vertex + Vec3::splat(1e4));
     println!("distance at a vertex {on_surface:.5}, far away {far}");
     assert!(on_surface.is_finite() && far.is_nan());
 

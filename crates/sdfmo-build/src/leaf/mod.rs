@@ -83,7 +83,19 @@ use split::LeafComponents;
 /// the value was set once and no alternative was measured.
 ///
 /// The SVO ignores them. Any values build a valid octree; none of them changes the file format.
+///
+/// `#[non_exhaustive]`: start from a preset and assign the fields to change (a threshold added
+/// later breaks no caller):
+///
+/// ```
+/// use sdfmo_build::{BuildSettings, LeafParams, Method};
+/// let mut leaf = LeafParams::OURS;
+/// leaf.earn = 0.05;
+/// let settings = BuildSettings::new(8, Method::default()).with_leaf(leaf);
+/// assert_eq!(settings.leaf.earn, 0.05);
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct LeafParams {
     /// The SVO voxel is accepted outright when its largest sample error (distance from a sample
     /// of the surface to its zero set) is below this (0.08): the many leaves of smooth surfaces

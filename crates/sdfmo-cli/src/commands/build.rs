@@ -3,12 +3,12 @@
 use std::fmt::Write as _;
 
 use anyhow::Context;
-use sdf_multioctree::build::{self, BuildSettings, BuildStats};
+use sdf_multioctree::build::{self, BuildRequest, BuildSettings, BuildStats};
 use sdf_multioctree::format::{BrickOctree, BRICK_LEVELS};
 use serde_json::json;
 
 use crate::args::{BuildArgs, FormatArg};
-use crate::commands::{load_input, memory_budget};
+use crate::commands::{load_input, memory_budget, Workers};
 use crate::output::{check_output, ensure_parent, print_json, print_text};
 use crate::progress;
 
@@ -27,24 +27,24 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
         );
     }
     let input = load_input(args.mesh.as_deref())?;
-    let settings = BuildSettings {
-        depth: args.depth,
-        method: args.method.method(args.max_voxels),
-        bits: args.bits.bits(),
-        threads: args.threads,
-        margin: sdf_multioctree::DEFAULT_MARGIN,
-        sign: args.sign.mode(),
-        leaf: build::LeafParams::OURS,
-        coarsest_level: args.coarsest_level(),
-        fit_corners: args.fit_corners,
-    };
-    if settings.coarsest_level.is_some() {
-        return run_lod(args, &input, &settings);
+    let settings = BuildSettings::new(args.depth, args.method.method(args.max_voxels))
+        .with_bits(args.bits.bits())
+        .with_margin(sdf_multioctree::DEFAULT_MARGIN)
+        .with_sign(args.sign.mode())
+        .with_fit_corners(args.fit_corners);
+    let workers = Workers::new(args.threads)?;
+    if let Some(coarsest) = args.coarsest_level() {
+        return run_lod(args, &input, &settings, coarsest, &workers);
     }
     let budget = memory_budget(args.max_memory);
     let bar = progress::fraction(&format!("building {} depth {}", input.name, args.depth));
     let on_progress = |f: f32| progress::set_fraction(&bar, f);
-    let built = build::build_with_budget(&input.mesh, &settings, budget, Some(&on_progress));
+    let built = workers.install(|| {
+        BuildRequest::new(&input.mesh, settings)
+            .memory_budget(budget)
+            .progress(&on_progress)
+            .octree()
+    });
     bar.finish_and_clear();
     let (octree, stats) =
         built.with_context(|| format!("cannot build an octree of {}", input.source))?;
@@ -172,15 +172,21 @@ fn run_lod(
     args: &BuildArgs,
     input: &crate::commands::InputMesh,
     settings: &BuildSettings,
+    coarsest: u8,
+    workers: &Workers,
 ) -> anyhow::Result<()> {
     let budget = memory_budget(args.max_memory);
-    let coarsest = settings.coarsest_level.unwrap_or(settings.depth);
     let bar = progress::fraction(&format!(
         "building {} levels {coarsest}..={}",
         input.name, args.depth
     ));
     let on_progress = |f: f32| progress::set_fraction(&bar, f);
-    let built = build::build_lod(&input.mesh, settings, budget, Some(&on_progress), &|| false);
+    let built = workers.install(|| {
+        BuildRequest::new(&input.mesh, *settings)
+            .memory_budget(budget)
+            .progress(&on_progress)
+            .levels(coarsest)
+    });
     bar.finish_and_clear();
     let (lod, stats) =
         built.with_context(|| format!("cannot build the levels of {}", input.source))?;

@@ -12,7 +12,7 @@ use sdf_multioctree::mesh::Normalization;
 use serde_json::json;
 
 use crate::args::DistanceArgs;
-use crate::commands::{load_input, sign_name, with_threads};
+use crate::commands::{load_input, sign_name, Workers};
 use crate::output::{check_output, json_f32, print_json, print_text, write_atomic};
 
 /// Largest points file read (1 GiB, some 30 million points).
@@ -58,12 +58,12 @@ pub fn run(args: &DistanceArgs) -> anyhow::Result<()> {
 
     // The worker threads are started (and woken) before the clock starts: `query_ms` is the
     // queries alone.
-    let (distances, query_ms) = with_threads(args.threads, || {
+    let (distances, query_ms) = Workers::new(args.threads)?.install(|| {
         rayon::broadcast(|_| ());
         let start = Instant::now();
         let d = dist.signed_distances(&points);
         (d, start.elapsed().as_secs_f64() * 1e3)
-    })?;
+    });
     let distances: Vec<f32> = match to_frame {
         Some(frame) => distances
             .iter()

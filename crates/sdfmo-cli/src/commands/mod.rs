@@ -8,11 +8,12 @@ pub mod info;
 pub mod render;
 pub mod sweep;
 
-use anyhow::Context;
 use sdf_multioctree::build::Method;
 use sdf_multioctree::distance::SignMode;
 use sdf_multioctree::format::ValueBits;
 pub use sdfmo_harness::input::{load_input, InputMesh};
+/// The pool of a command's `--threads` (the libraries run on the caller's pool).
+pub use sdfmo_harness::Workers;
 
 use crate::args::{BitsArg, MethodArg, SignArg};
 
@@ -68,12 +69,4 @@ impl BitsArg {
 /// physical memory).
 pub fn memory_budget(max_memory: Option<u64>) -> Option<u64> {
     max_memory.or_else(sdf_multioctree::build::default_memory_budget)
-}
-
-/// Runs `f` on a rayon pool of `threads` workers, or on the global pool when `None`.
-pub fn with_threads<R: Send>(
-    threads: Option<usize>,
-    f: impl FnOnce() -> R + Send,
-) -> anyhow::Result<R> {
-    sdf_multioctree::render::in_pool(threads, f).context("cannot start worker threads")
 }

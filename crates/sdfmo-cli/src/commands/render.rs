@@ -17,7 +17,7 @@ use sdf_multioctree::{Device, Renderer};
 use serde_json::json;
 
 use crate::args::{DeviceArg, ModeArg, RenderArgs, RenderMeshArgs, RenderOptions, ViewsArg};
-use crate::commands::load_input;
+use crate::commands::{load_input, Workers};
 use crate::output::{check_output_as, ensure_parent, indexed_path, print_json, print_text};
 use crate::progress;
 use sdf_multioctree::io::Naming;
@@ -90,10 +90,12 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
         .prepare(&data.file, request)
         .with_context(|| format!("cannot render {source}{on}"))?;
     let settings = settings(&args.opts);
+    // `--threads` is a CPU option (`check_gpu_options`): a GPU render runs without a pool.
+    let workers = Workers::new(args.opts.threads)?;
     // A GPU frame is one dispatch: its progress moves per view only.
     let mut view = |cam: &Camera, progress: &Progress<'_>| -> anyhow::Result<Rendered> {
-        prepared
-            .render_with(cam, &settings, Some(progress), None)
+        workers
+            .install(|| prepared.render_with(cam, &settings, Some(progress), None))
             .with_context(|| format!("cannot render {source}{on}"))
     };
     render_all(&mut view, &by, &args.opts, &frame, &outputs)
@@ -207,12 +209,18 @@ fn cpu_views<'a, T: Traceable>(
     scene: &'a T,
     opts: &'a RenderOptions,
     source: &'a str,
-) -> impl FnMut(&Camera, &Progress<'_>) -> anyhow::Result<Rendered> + 'a {
+) -> anyhow::Result<impl FnMut(&Camera, &Progress<'_>) -> anyhow::Result<Rendered> + 'a> {
     let settings = settings(opts);
-    move |cam, progress| {
-        render::render_with_progress(scene, cam, &settings, progress)
+    let workers = Workers::new(opts.threads)?;
+    Ok(move |cam: &Camera, progress: &Progress<'_>| {
+        workers
+            .install(|| {
+                render::RenderRequest::new(scene, cam, &settings)
+                    .progress(progress)
+                    .render()
+            })
             .with_context(|| format!("cannot render {source}"))
-    }
+    })
 }
 
 /// Renders the source mesh, normalised exactly as the builder does, so the images line up with
@@ -227,7 +235,7 @@ pub fn run_mesh(args: &RenderMeshArgs) -> anyhow::Result<()> {
     let dist = MeshDistance::new(&normalized, SignMode::Auto)
         .with_context(|| format!("cannot prepare ray queries on {}", input.source))?;
     let scene = MeshScene(&dist);
-    let mut view = cpu_views(&scene, &args.opts, &input.source);
+    let mut view = cpu_views(&scene, &args.opts, &input.source)?;
     let by = RenderedBy::cpu(&input.source);
     render_all(&mut view, &by, &args.opts, &frame, &outputs)
 }
@@ -338,12 +346,9 @@ pub fn cameras(opts: &RenderOptions, frame: &Normalization) -> Vec<Camera> {
 
 /// The render settings the options ask for.
 pub fn settings(opts: &RenderOptions) -> RenderSettings {
-    RenderSettings {
-        mode: opts.mode.mode(),
-        shadows: opts.shadows,
-        ao_samples: opts.ao,
-        threads: opts.threads,
-    }
+    RenderSettings::new(opts.mode.mode())
+        .with_shadows(opts.shadows)
+        .with_ao_samples(opts.ao)
 }
 
 /// Counters as a JSON object.
