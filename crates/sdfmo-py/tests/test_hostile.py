@@ -267,6 +267,10 @@ def expect_ctrl_c_stops(call, after, within, setup=""):
     expect_raised(
         f"""
         import signal, threading
+        # Python turns SIGINT into KeyboardInterrupt only if it was not ignored at start-up,
+        # and a job started in the background by a shell without job control (`cmd &`, as a
+        # CI runner may) inherits SIGINT ignored: install the handler explicitly.
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         {setup}
         threading.Timer({after}, os.kill, (os.getpid(), signal.SIGINT)).start()
         t = time.monotonic()
