@@ -1,8 +1,9 @@
 //! One-thread batches for instruction counts: `signed_distances` and the closest points (with
 //! their triangle and feature) of the same points, half within 0.02 of the surface and half
 //! uniform in the root cube, each in a function of its own for callgrind's `--toggle-collect`.
-//! With a third argument, writes every answer's bits there (20 bytes per point: signed
-//! distance, closest distance, triangle, feature code) to compare two versions byte for byte.
+//! With a third argument, writes every answer's bits there (16 bytes per point: signed
+//! distance, closest distance, triangle, feature code, 4 bytes each) to compare two versions
+//! byte for byte.
 //!
 //! ```text
 //! cargo build --release -p sdfmo-distance --example query_icount
@@ -53,7 +54,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let signed = pool.install(|| run_signed(&md, &pts));
     let closest = pool.install(|| run_closest(&md, &pts));
     if let Some(out) = args.get(3) {
-        let mut bytes = Vec::with_capacity(pts.len() * 20);
+        let mut bytes = Vec::with_capacity(pts.len() * 16);
         for (d, (c, t, f)) in signed.iter().zip(&closest) {
             bytes.extend(d.to_bits().to_le_bytes());
             bytes.extend(c.to_le_bytes());
