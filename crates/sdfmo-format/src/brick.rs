@@ -200,6 +200,20 @@ struct V3Counts {
 }
 
 impl V3Counts {
+    /// The counts `h` declares (not yet checked against anything).
+    fn declared_by(h: &V3Header) -> V3Counts {
+        V3Counts {
+            upper: h.upper_node_count,
+            bricks: h.brick_count,
+            leaves: h.leaf_count,
+            voxels: h.voxel_count,
+            surface: h.surface_voxel_count,
+            clip: h.clip_voxel_count,
+            private_leaves: h.private_leaf_count,
+            private_voxels: h.private_voxel_count,
+        }
+    }
+
     fn flags(&self) -> u32 {
         Counts {
             inner: self.upper,
@@ -729,16 +743,7 @@ pub(crate) fn v3_sections(header: &[u8], max_file: u64) -> Result<V3Sections> {
             ),
         );
     }
-    let c = V3Counts {
-        upper: h.upper_node_count,
-        bricks: h.brick_count,
-        leaves: h.leaf_count,
-        voxels: h.voxel_count,
-        surface: h.surface_voxel_count,
-        clip: h.clip_voxel_count,
-        private_leaves: h.private_leaf_count,
-        private_voxels: h.private_voxel_count,
-    };
+    let c = V3Counts::declared_by(&h);
     let layout = V3Layout::new(V3_HEADER_SIZE as u64, &c, h.residuals_size, bits);
     let declared = [
         (h.nodes_offset, h.nodes_size),
@@ -1346,16 +1351,7 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, V3Counts, V3Layout)> {
         center,
         scale: h.scale,
     };
-    let c = V3Counts {
-        upper: h.upper_node_count,
-        bricks: h.brick_count,
-        leaves: h.leaf_count,
-        voxels: h.voxel_count,
-        surface: h.surface_voxel_count,
-        clip: h.clip_voxel_count,
-        private_leaves: h.private_leaf_count,
-        private_voxels: h.private_voxel_count,
-    };
+    let c = V3Counts::declared_by(&h);
     let (upper, bricks, leaves) = (u64::from(c.upper), u64::from(c.bricks), u64::from(c.leaves));
     let (pl, pv) = (u64::from(c.private_leaves), u64::from(c.private_voxels));
     if upper + bricks > u64::from(u32::MAX) {

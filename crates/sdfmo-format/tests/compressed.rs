@@ -151,6 +151,38 @@ fn bad_levels_and_non_files_are_refused() {
     ));
 }
 
+/// Rewrites the container's trailing CRC-32 over the rest, so that a change gets past it.
+fn reseal(packed: &mut [u8]) {
+    let n = packed.len();
+    let crc = sdfmo_format::crc32(&packed[..n - 4]);
+    packed[n - 4..].copy_from_slice(&crc.to_le_bytes());
+}
+
+/// Every proper prefix of a container is an error.
+fn assert_every_prefix_refused(packed: &[u8]) {
+    for n in 0..packed.len() {
+        assert!(
+            decompress(&packed[..n], MAX_FILE_SIZE).is_err(),
+            "prefix {n}"
+        );
+    }
+}
+
+/// 3000 copies of `packed` with one to three random bytes changed (never the CRC), each
+/// resealed (see [`reseal`]); `seed` makes them reproducible.
+fn resealed_changes(packed: &[u8], seed: u64) -> impl Iterator<Item = Vec<u8>> + '_ {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    (0..3000).map(move |_| {
+        let mut bad = packed.to_vec();
+        for _ in 0..rng.random_range(1..4) {
+            let i = rng.random_range(0..bad.len() - 4);
+            bad[i] = rng.random();
+        }
+        reseal(&mut bad);
+        bad
+    })
+}
+
 #[test]
 fn hostile_containers_are_refused_without_panic() {
     let smo = PackedOctree::from_leaves(meta(4, ValueBits::Eight), shell_leaves(4))
@@ -158,24 +190,10 @@ fn hostile_containers_are_refused_without_panic() {
         .to_bytes();
     let packed = compress(&smo).unwrap();
     // Every truncation.
-    for n in 0..packed.len() {
-        assert!(
-            decompress(&packed[..n], MAX_FILE_SIZE).is_err(),
-            "prefix {n}"
-        );
-    }
+    assert_every_prefix_refused(&packed);
     // Random byte changes, resealed so that they get past the container's CRC-32.
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(34);
     let mut accepted = 0;
-    for _ in 0..3000 {
-        let mut bad = packed.clone();
-        for _ in 0..rng.random_range(1..4) {
-            let i = rng.random_range(0..bad.len() - 4);
-            bad[i] = rng.random();
-        }
-        let n = bad.len();
-        let crc = sdfmo_format::crc32(&bad[..n - 4]);
-        bad[n - 4..].copy_from_slice(&crc.to_le_bytes());
+    for bad in resealed_changes(&packed, 34) {
         if let Ok(out) = decompress(&bad, MAX_FILE_SIZE) {
             // Only a change that decodes to the same file (e.g. a zstd frame's unused bits) may
             // pass: the decoded file's CRC-32 is checked.
@@ -193,9 +211,7 @@ fn a_small_file_cannot_ask_for_a_huge_buffer() {
         .to_bytes();
     let mut packed = compress(&smo).unwrap();
     packed[16..24].copy_from_slice(&(1u64 << 40).to_le_bytes());
-    let n = packed.len();
-    let crc = sdfmo_format::crc32(&packed[..n - 4]);
-    packed[n - 4..].copy_from_slice(&crc.to_le_bytes());
+    reseal(&mut packed);
     let err = decompress(&packed, MAX_FILE_SIZE).unwrap_err();
     assert!(err.to_string().contains("decoded_size"), "{err}");
     let _: OctreeMeta = meta(3, ValueBits::Eight);
@@ -250,24 +266,10 @@ fn a_v3_file_decodes_to_its_own_bytes() {
 fn hostile_v3_containers_are_refused_without_panic() {
     let (_, v3) = v3_files().swap_remove(2);
     let packed = compress(&v3).unwrap();
-    for n in 0..packed.len() {
-        assert!(
-            decompress(&packed[..n], MAX_FILE_SIZE).is_err(),
-            "prefix {n}"
-        );
-    }
+    assert_every_prefix_refused(&packed);
     // Random byte changes, resealed: an error, or (a change zstd ignores) the same file.
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(340);
     let mut refused = 0;
-    for _ in 0..3000 {
-        let mut bad = packed.clone();
-        for _ in 0..rng.random_range(1..4) {
-            let i = rng.random_range(0..bad.len() - 4);
-            bad[i] = rng.random();
-        }
-        let n = bad.len();
-        let crc = sdfmo_format::crc32(&bad[..n - 4]);
-        bad[n - 4..].copy_from_slice(&crc.to_le_bytes());
+    for bad in resealed_changes(&packed, 340) {
         match decompress(&bad, MAX_FILE_SIZE) {
             Ok(out) => assert_eq!(out, v3),
             Err(_) => refused += 1,
