@@ -1,6 +1,8 @@
 //! Cross-crate tests of the builder: determinism, file round trip, the component split, thin
 //! and open elements, and typed errors.
 
+mod common;
+
 use std::collections::HashMap;
 use std::path::PathBuf;
 
@@ -524,14 +526,7 @@ fn bad_input_is_a_typed_error() {
 /// comes first, nor on the rounding of a side face's normal.
 #[test]
 fn multi_octree_is_stable_under_a_one_ulp_vertex_move() {
-    let rot = glam::Mat3::from_euler(glam::EulerRot::XYZ, 0.3, 0.7, 0.2);
-    let part = TriMesh::merge(&[
-        procedural::thin_plate(Vec3::new(1.0, 0.01, 0.8)).transformed(|p| rot * p),
-        procedural::sphere(Vec3::new(0.2, 0.3, -0.1), 0.3, 2),
-    ]);
-    let (mut positions, triangles, parts) = part.clone().into_arrays();
-    positions[0].x = f32::from_bits(positions[0].x.to_bits() + 1);
-    let moved = TriMesh::new(positions, triangles, parts).unwrap();
+    let (part, moved) = common::plate_and_sphere_moved_one_ulp();
     let (a, sa) = run(&part, 5, MULTI);
     let (b, _) = run(&moved, 5, MULTI);
     assert!(sa.surface_voxels > 0, "the plate must be split: {sa:?}");

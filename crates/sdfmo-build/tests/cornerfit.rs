@@ -2,6 +2,8 @@
 //! the exact corners, values within the shift bound, a zero set closer to the mesh, and the
 //! builder's stability (threads, a one-ulp vertex move).
 
+mod common;
+
 use std::collections::HashMap;
 
 use glam::Vec3;
@@ -135,14 +137,7 @@ fn fitted_corners_are_identical_for_1_2_and_3_threads() {
 /// thin plate next to a sphere by one ulp changes no leaf.
 #[test]
 fn fitted_corners_are_stable_under_a_one_ulp_vertex_move() {
-    let rot = glam::Mat3::from_euler(glam::EulerRot::XYZ, 0.3, 0.7, 0.2);
-    let part = TriMesh::merge(&[
-        procedural::thin_plate(Vec3::new(1.0, 0.01, 0.8)).transformed(|p| rot * p),
-        procedural::sphere(Vec3::new(0.2, 0.3, -0.1), 0.3, 2),
-    ]);
-    let (mut positions, triangles, parts) = part.clone().into_arrays();
-    positions[0].x = f32::from_bits(positions[0].x.to_bits() + 1);
-    let moved = TriMesh::new(positions, triangles, parts).unwrap();
+    let (part, moved) = common::plate_and_sphere_moved_one_ulp();
     let a = with_fit(&part, 5, MULTI, true);
     let b = with_fit(&moved, 5, MULTI, true);
     assert_ne!(a.to_bytes(), with_fit(&part, 5, MULTI, false).to_bytes());
