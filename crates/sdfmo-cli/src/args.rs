@@ -192,10 +192,11 @@ pub struct BuildArgs {
     pub format: FormatArg,
     /// Write the compressed container (FORMAT.md, "Compressed files"): the same octree in
     /// about a tenth of the bytes, decoded on load by every reader. LEVEL is zstd's, 1..=22
-    /// (default 9; 19 is about 10 % smaller and several times slower to write).
-    #[arg(long, value_name = "LEVEL", num_args = 0..=1, default_missing_value = "9",
-          require_equals = true, value_parser = clap::value_parser!(i32).range(1..=22))]
-    pub compress: Option<i32>,
+    /// (default: the library's `DEFAULT_COMPRESSION_LEVEL`, 9; 19 is about 10 % smaller and
+    /// several times slower to write).
+    #[arg(long, value_name = "LEVEL", num_args = 0..=1, require_equals = true,
+          value_parser = clap::value_parser!(i32).range(1..=22))]
+    pub compress: Option<Option<i32>>,
     /// Corners fitted to the surface: the shared corner values chosen so that the voxels' zero
     /// set follows the mesh (a least-squares fit within a few quantisation steps of the exact
     /// distance) instead of the exact distance; the same leaves, voxels and size.
@@ -211,6 +212,13 @@ impl BuildArgs {
     pub fn coarsest_level(&self) -> Option<u8> {
         self.lod
             .then(|| self.coarsest.unwrap_or(self.depth.saturating_sub(4).max(1)))
+    }
+
+    /// The zstd level of `--compress` (bare: the library's default): `None` without it.
+    pub fn compress_level(&self) -> Option<i32> {
+        self.compress.map(|level| {
+            level.unwrap_or(sdf_multioctree::format::compressed::DEFAULT_COMPRESSION_LEVEL)
+        })
     }
 }
 

@@ -45,8 +45,10 @@ const COMPRESSED_VERSION_MINOR_1X: u16 = 0;
 pub const COMPRESSED_HEADER_SIZE: usize = 32;
 /// Bytes per entry of the stream table: compressed size, decoded size (two `u64`).
 pub const COMPRESSED_STREAM_ENTRY: usize = 16;
-/// The zstd level [`compress`] uses (measured: `docs/results/format.md`, "Compressed files").
-pub const DEFAULT_COMPRESSION_LEVEL: i32 = 19;
+/// The zstd level [`compress`] and `sdfmo build --compress` use: every size and decode speed
+/// in `docs/results/format.md` ("Compressed files") is measured at it; 19 is about 10 %
+/// smaller and several times slower to write.
+pub const DEFAULT_COMPRESSION_LEVEL: i32 = 9;
 
 /// The most bytes a container may decode to per byte of it: a bound on the memory a small
 /// hostile file can ask for (real octrees compress 3–30×, `docs/results/format.md`).

@@ -70,7 +70,7 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
         j["output"] = json!(args.output.display().to_string());
         j["format"] = json!(if v3.is_some() { "3.0" } else { "1.x" });
         j["file_bytes"] = json!(file.len());
-        j["compress_level"] = json!(args.compress);
+        j["compress_level"] = json!(args.compress_level());
         j["stored_bytes"] = json!(stored);
         let estimate = build::estimate_memory(&input.mesh, &settings);
         j["memory_estimate"] = json!(estimate.bytes);
@@ -143,7 +143,7 @@ fn headline(args: &BuildArgs, input: &crate::commands::InputMesh, levels: &str) 
 
 /// Writes the file atomically, compressed with `--compress`; returns the bytes written.
 fn save(args: &BuildArgs, smo: &[u8]) -> anyhow::Result<usize> {
-    let Some(level) = args.compress else {
+    let Some(level) = args.compress_level() else {
         sdf_multioctree::io::write_atomic(&args.output, smo)?;
         return Ok(smo.len());
     };
@@ -155,7 +155,7 @@ fn save(args: &BuildArgs, smo: &[u8]) -> anyhow::Result<usize> {
 
 /// The summary's note on a compressed file: its size on disk against the traced bytes.
 fn stored_note(args: &BuildArgs, traced: usize, stored: usize, voxels: usize) -> String {
-    match args.compress {
+    match args.compress_level() {
         Some(level) => format!(
             "  compressed (zstd {level}): {stored} bytes on disk ({:.3} MB, {:.3} bytes per voxel, {:.1}x smaller)\n",
             stored as f64 / 1e6,
@@ -215,7 +215,7 @@ fn run_lod(
             "build_ms": total_ms,
             "levels": levels,
             "output": args.output.display().to_string(),
-            "compress_level": args.compress,
+            "compress_level": args.compress_level(),
             "stored_bytes": stored,
         });
         return print_json(&j);
