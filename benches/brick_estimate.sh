@@ -7,7 +7,12 @@
 # other load both are lower bounds). Tables: python3 benches/compressed_table.py --v3.
 #
 #   benches/brick_estimate.sh > docs/results/format/brick-estimate.csv
+#   DEPTHS="6 7" benches/brick_estimate.sh > docs/results/format/brick-estimate-d6-7.csv
+#
+# (the shallow depths are for the PSNR-against-bytes plots of docs/results/openvdb.md, which
+# span depths 6-10.)
 set -euo pipefail
+DEPTHS=${DEPTHS:-8 9 10}
 DATA=${SDFMO_TEST_DATA:-../shared/data}
 cd "$(dirname "$0")/.."
 cargo build --release -q -p sdfmo-cli
@@ -17,7 +22,7 @@ trap 'rm -rf "$tmp"' EXIT
 files=()
 for model in abc1.stl abc3.stl abc5.stl abc8.stl teapot.obj; do
   for method in svo multi; do
-    for depth in 8 9 10; do
+    for depth in $DEPTHS; do
       out="$tmp/${model%.*}-$method-$depth.smo"
       target/release/sdfmo build "$DATA/$model" -d "$depth" --method "$method" -o "$out" > /dev/null 2>&1
       files+=("$out")

@@ -112,6 +112,47 @@ def at_equal_psnr(curve: list[tuple[float, float]], p: float):
     return None
 
 
+def v3_sizes(docs: str) -> dict:
+    """(model, method, depth) -> {"traced": 1.x bytes, "v3": 3.0 bytes, "v3z": compressed 3.0 bytes}
+    from `benches/brick_estimate.sh`'s committed CSVs (depths 8-10, and 6-7 in their own file):
+    the same octrees as the sweep's rows, written as format 3.0 (lossless, so the same PSNR)."""
+    import csv
+    out = {}
+    for name in ("brick-estimate.csv", "brick-estimate-d6-7.csv"):
+        path = os.path.join(docs, "format", name)
+        if not os.path.exists(path):
+            continue
+        with open(path, newline="") as f:
+            for r in csv.DictReader(f):
+                stem, method, depth = r["file"].rsplit(".", 1)[0].rsplit("-", 2)
+                out[(stem, method, int(depth))] = {"traced": int(r["traced_bytes"]), "v3": int(r["v3_bytes"]),
+                                                   "v3z": int(r["v3_compressed_bytes"])}
+    return out
+
+
+def nglod_points(docs: str) -> dict:
+    """model -> [(bytes, mean PSNR of the 4 views, LOD)] of NGLOD at its paper schedule (seed 0),
+    from the committed `nglod/runs.json` (docs/results/nglod.md)."""
+    path = os.path.join(docs, "nglod", "runs.json")
+    if not os.path.exists(path):
+        return {}
+    out = {}
+    for run in load(path)["runs"]:
+        if run["kind"] == "paper" and run["seed"] == 0:
+            out[run["model"]] = sorted((lod["size"]["bytes"], mean(lod["psnr_views"]), int(k))
+                                       for k, lod in run["lods"].items())
+    return out
+
+
+def psnr_at_bytes(curve: list[tuple[float, float]], b: float):
+    """curve: [(bytes, psnr)] by increasing depth. The PSNR (linear in log bytes) at b bytes; None
+    outside the curve's range."""
+    for (b0, q0), (b1, q1) in zip(curve, curve[1:]):
+        if b0 <= b <= b1 and b1 > b0:
+            return q0 + (q1 - q0) * (math.log(b) - math.log(b0)) / (math.log(b1) - math.log(b0))
+    return None
+
+
 def plot_model(stem, ours, theirs, path):
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.2, 4.4))
@@ -205,6 +246,8 @@ def write_page(a, stems, cells, res) -> None:
     depths = sorted({d for (_, d, _) in cells})
     stems = [s for s in stems if any(k[0] == s for k in cells)]
     get = lambda st, d, b, v: variant_stats(cells[(st, d, b)], v) if (st, d, b) in cells else None
+    v3 = {k: x for k, x in v3_sizes(docs).items() if k in ours and ours[k]["bytes"] == x["traced"]}
+    nglod = nglod_points(docs)
 
     # timings
     tims = {}
@@ -548,6 +591,12 @@ def write_page(a, stems, cells, res) -> None:
         curves_theirs += [(f"NanoVDB {VNAME[v]} b{b}", [(get(st, d, b, v)["file_bytes"], get(st, d, b, v)["psnr"], d)
                                                         for d in depths if get(st, d, b, v)], ls)
                           for v, b, ls in (("float", 1, "g-"), ("fp8", 1, "c-"), ("fp4", 1, "m-"), ("fpn", 1, "y-"), ("fp4", 3, "m--"))]
+        curves_ours += [(name, [(v3[(st, "multi", d)][key], ours[(st, "multi", d)]["psnr"], d) for d in depths
+                                if (st, "multi", d) in ours and (st, "multi", d) in v3], style)
+                        for name, key, style in (("multi-octree, format 3.0", "v3", "r--"),
+                                                 ("multi-octree, 3.0 compressed", "v3z", "r:"))]
+        if st in nglod:
+            curves_theirs.append(("NGLOD LOD 2–5", [(b, q, k) for b, q, k in nglod[st]], "k-."))
         png = f"psnr_vs_mb_{st}.png"
         plot_model(st, curves_ours, curves_theirs, os.path.join(figdir, png))
         w(f"![{st}: PSNR against MB](openvdb/{png})")
@@ -657,6 +706,7 @@ def write_page(a, stems, cells, res) -> None:
           f"{len([1 for st in stems for d in depths if d >= 9 and (st, 'multi', d) in ours])} cases ("
           + ", ".join(f"{st} d{d}" for st, d in unreached) + "): there it is not smaller at any size we measured.")
     w("")
+    v3_claims = write_v3_section(w, stems, depths, ours, v3, nglod, cells)
     # claims 2 and 3: timing
     res_time = {}
     if tims:
@@ -737,7 +787,8 @@ def write_page(a, stems, cells, res) -> None:
     S.append("")
     L[summary_at:summary_at] = S
     res["claims"] = {"bytes_at_equal_psnr_at_their_points": {str(d): k for d, k in claims.items()},
-                     "their_grids_below_our_psnr": unreached, "time": res_time}
+                     "their_grids_below_our_psnr": unreached, "time": res_time,
+                     "format_3_at_peer_bytes": v3_claims}
 
     # hard cases
     hard_sweep = os.path.join(a.out, "hard", "sweep", "results.json")
@@ -843,6 +894,78 @@ def write_page(a, stems, cells, res) -> None:
     atomic_write(os.path.join(docs, "openvdb.md"), "\n".join(L) + "\n")
     if not a.data:
         write_archive(a.out, os.path.join(figdir, "data.tar.xz"))
+
+
+def write_v3_section(w, stems, depths, ours, v3, nglod, cells) -> dict:
+    """The multi-octree written as format 3.0 (the same octrees, a third of the bytes) against every
+    NanoVDB grid and every NGLOD level: our PSNR at the peer's bytes. Returns, per file kind, the
+    peer points counted and the ones below us or below our range (for docs/compare.md)."""
+    out = {}
+    if not v3:
+        return out
+    w("## Format 3.0 against every NanoVDB grid and every NGLOD level")
+    w("")
+    w("The same multi-octrees written as format 3.0 (`sdfmo build --format 3`; lossless, so the PSNR is the row's; "
+      f"sizes of {len(v3)} octrees from [`format/brick-estimate*.csv`](format/brick-estimate.csv), each checked to be "
+      "the sweep row's octree by its 1.x byte count) and its compressed container (`--format 3 --compress`). For each "
+      "peer point (a NanoVDB grid: variant, band 1–3, depth 6–10, file bytes; an NGLOD LOD 2–5 at its paper "
+      "schedule, seed 0, [nglod.md](nglod.md)), our PSNR at the peer's bytes on the 3.0 curve (linear in log bytes "
+      "between our depths); *margin* = ours − theirs (≥ 0: at or above). A peer point smaller than our depth-6 file "
+      "has no point of ours at its size: it counts as *below our range*, with our depth 6's lead and size ratio.")
+    w("")
+    w("| model | file | peer points | at or above | below (worst: point, margin) | below our range (ours d6 ÷ theirs bytes, dB lead) | median margin |")
+    w("|---|---|---:|---:|---|---|---:|")
+    for st in stems:
+        for key, label in (("v3", "3.0"), ("v3z", "3.0 compressed")):
+            curve = [(v3[(st, "multi", d)][key], ours[(st, "multi", d)]["psnr"]) for d in depths
+                     if (st, "multi", d) in v3 and ours[(st, "multi", d)]["psnr"] is not None]
+            if len(curve) < 2:
+                continue
+            peers = peer_points(st, cells, nglod)
+            margins, below, small = [], [], []
+            for name, b, q in peers:
+                o = psnr_at_bytes(curve, b)
+                if o is not None:
+                    margins.append(o - q)
+                    if o < q:
+                        below.append((o - q, name))
+                elif b < curve[0][0]:
+                    small.append((name, curve[0][0] / b, curve[0][1] - q))
+                else:  # larger than our depth 10: compare with our depth 10
+                    margins.append(curve[-1][1] - q)
+                    if curve[-1][1] < q:
+                        below.append((curve[-1][1] - q, name))
+            worst = min(below) if below else None
+            k = out.setdefault(key, {"points": 0, "below": [], "below_range": []})
+            k["points"] += len(peers)
+            k["below"] += [[st, name, round(m, 2)] for m, name in below]
+            k["below_range"] += [[st, name, round(r, 2), round(dq, 2)] for name, r, dq in small]
+            w(f"| {st} | {label} | {len(peers)} | {len(peers) - len(below) - len(small)} | "
+              + (f"{len(below)} ({worst[1]}: {worst[0]:+.2f} dB)" if worst else "0") + " | "
+              + (", ".join(f"{n}: {r:.2f}×, {dq:+.2f} dB" for n, r, dq in small) if small else "none") + " | "
+              + (f"{statistics.median(margins):+.2f} dB" if margins else "–") + " |")
+    w("")
+    for key, x in out.items():
+        for st, name, margin in x["below"]:
+            b, q = next((b, q) for n, b, q in peer_points(st, cells, nglod) if n == name)
+            pts = [(d, v3[(st, "multi", d)][key], ours[(st, "multi", d)]["psnr"]) for d in depths if (st, "multi", d) in v3]
+            lo = max((p for p in pts if p[1] <= b), key=lambda p: p[1])
+            hi = min((p for p in pts if p[1] >= b), key=lambda p: p[1])
+            w(f"- Below ({'3.0' if key == 'v3' else '3.0 compressed'}, {st}): {name} ({mb(b)} MB, {q:.2f} dB) falls "
+              f"between our depth {lo[0]} ({mb(lo[1])} MB, {lo[2]:.2f} dB) and depth {hi[0]} ({mb(hi[1])} MB, "
+              f"{hi[2]:.2f} dB): a depth step costs 3–4× the bytes, and the line between our two points passes "
+              f"{-margin:.2f} dB under the peer's.")
+    if any(x["below"] for x in out.values()):
+        w("")
+    return out
+
+
+def peer_points(st, cells, nglod) -> list:
+    """[(name, bytes, PSNR)] of every NanoVDB grid and NGLOD level of model st."""
+    pts = [(f"{VNAME[v]} b{b} d{d}", variant_stats(c, v)["file_bytes"], variant_stats(c, v)["psnr"])
+           for (s2, d, b), c in sorted(cells.items()) if s2 == st for v in VARIANTS
+           if variant_stats(c, v)["psnr"] is not None]
+    return pts + [(f"NGLOD LOD {k}", b, q) for b, q, k in nglod.get(st, [])]
 
 
 def write_archive(out: str, path: str) -> None:
