@@ -903,7 +903,7 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
 
     /// The node with breadth-first index `k` of the upper tree: a brick from `upper` on.
     #[inline]
-    fn node(&self, k: u32) -> BrickNode {
+    pub(crate) fn node(&self, k: u32) -> BrickNode {
         match k.checked_sub(self.counts.upper) {
             Some(b) => BrickNode::Brick(b),
             None => BrickNode::Upper(k),
@@ -967,6 +967,16 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
             }
             BrickNode::Leaf { .. } => None,
         }
+    }
+
+    /// The breadth-first index (see [`Self::node`]) of the first child of upper node `k`: its
+    /// children are that index plus the popcount of its mask below their octant (as in 1.x).
+    #[inline]
+    pub(crate) fn first_child_index(&self, k: u32) -> u32 {
+        assert!(k < self.counts.upper, "node {k} out of range");
+        let at = self.layout.nodes.0 as usize + (k as usize >> 3) * 12;
+        let (first_child, masks) = group_at(self.as_bytes(), at);
+        first_child + low_bits(masks, (k & 7) * 8).count_ones()
     }
 
     /// Whether `node` is a leaf.

@@ -70,6 +70,7 @@ mod octree;
 pub mod quant;
 #[cfg(any(test, feature = "test-support"))]
 pub mod testing;
+mod trace;
 mod validate;
 
 use glam::Vec3;
@@ -98,6 +99,7 @@ pub use lod::{
     SMO_HEAD_BYTES,
 };
 pub use octree::{NodeRef, Octree, PackedOctree, PackedOctreeView};
+pub use trace::{BrickVoxel, BrickVoxels, TracedOctree};
 
 /// Deepest supported octree (leaf coordinates up to 2^16 per axis).
 pub const MAX_DEPTH: u8 = 16;

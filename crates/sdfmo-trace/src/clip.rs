@@ -31,10 +31,8 @@
 //! the voxel's hit. With a predicate that accepts everything it is
 //! [`intersect_voxel`](crate::intersect_voxel).
 
-use core::ops::Range;
-
 use glam::Vec3;
-use sdfmo_format::{trilinear, Octree};
+use sdfmo_format::{trilinear, TracedOctree};
 
 use sdfmo_format::MAX_CLIP_VOXELS_PER_LEAF;
 
@@ -62,17 +60,23 @@ pub fn inside_clip(corners: &[f32; 8], p: Vec3, slack: bool) -> bool {
 /// The clip voxels of one leaf (index and corners), gathered once per leaf so the clip test of
 /// a candidate reads only them: at most [`MAX_CLIP_VOXELS_PER_LEAF`] (validation refuses a file
 /// with more), which makes the clip rule's work linear in the leaf's voxels.
-pub(crate) struct LeafClips {
-    voxels: [(u32, [f32; 8]); MAX_CLIP_VOXELS_PER_LEAF],
+pub(crate) struct LeafClips<V> {
+    voxels: [(V, [f32; 8]); MAX_CLIP_VOXELS_PER_LEAF],
     count: usize,
 }
 
-impl LeafClips {
-    /// The clip voxels of `voxels` in order (a leaf's range of a validated octree).
+impl<V: Copy + PartialEq> LeafClips<V> {
+    /// The clip voxels of `voxels` in order (a leaf's voxels in a validated octree); `None`
+    /// for a leaf without voxels.
     #[inline]
-    pub(crate) fn gather<B: AsRef<[u8]>>(octree: &Octree<B>, voxels: Range<u32>) -> LeafClips {
+    pub(crate) fn gather<O: TracedOctree<Voxel = V>>(
+        octree: &O,
+        voxels: O::Voxels,
+    ) -> Option<LeafClips<V>> {
+        // Unused slots hold the leaf's first voxel (never read: `count` bounds the slice).
+        let filler = voxels.clone().next()?;
         let mut clips = LeafClips {
-            voxels: [(0, [0.0; 8]); MAX_CLIP_VOXELS_PER_LEAF],
+            voxels: [(filler, [0.0; 8]); MAX_CLIP_VOXELS_PER_LEAF],
             count: 0,
         };
         for j in voxels {
@@ -86,18 +90,18 @@ impl LeafClips {
                 }
             }
         }
-        clips
+        Some(clips)
     }
 
     /// The gathered `(voxel, corners)` pairs.
     #[inline]
-    pub(crate) fn as_slice(&self) -> &[(u32, [f32; 8])] {
+    pub(crate) fn as_slice(&self) -> &[(V, [f32; 8])] {
         &self.voxels[..self.count]
     }
 
     /// Whether every clip voxel other than `voxel` keeps the local point `p` ([`inside_clip`]).
     #[inline]
-    fn keep(&self, voxel: u32, p: Vec3, slack: bool) -> bool {
+    fn keep(&self, voxel: V, p: Vec3, slack: bool) -> bool {
         self.as_slice()
             .iter()
             .all(|(j, c)| *j == voxel || inside_clip(c, p, slack))
@@ -108,16 +112,16 @@ impl LeafClips {
 /// `voxels` on the segment `local_o + s·local_d`, `s ∈ [0, len]` (the leaf's local frame), as
 /// `(s, voxel, surface)`; any accepted candidate when `ANY`. At most 4 candidates per voxel,
 /// each tested against at most [`MAX_CLIP_VOXELS_PER_LEAF`] clip voxels.
-pub(crate) fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(
-    octree: &Octree<B>,
-    voxels: Range<u32>,
+pub(crate) fn leaf_hit<O: TracedOctree, const ANY: bool>(
+    octree: &O,
+    voxels: O::Voxels,
     local_o: Vec3,
     local_d: Vec3,
     len: f32,
-) -> Option<(f32, u32, bool)> {
-    let clips = LeafClips::gather(octree, voxels.clone());
+) -> Option<(f32, O::Voxel, bool)> {
+    let clips = LeafClips::gather(octree, voxels.clone())?;
     let mut best_s = len;
-    let mut best: Option<(u32, bool)> = None;
+    let mut best: Option<(O::Voxel, bool)> = None;
     for voxel in voxels {
         let surface = octree.voxel_is_surface(voxel);
         let clip = octree.voxel_is_clip(voxel);

@@ -4,16 +4,15 @@
 //! child lookup per level, no allocation) and evaluates the trilinear interpolant of its
 //! voxels — the same field the tracer intersects — and the analytic gradient of it.
 
-use core::ops::Range;
-
 use glam::Vec3;
-use sdfmo_format::{trilinear, trilinear_gradient, Octree};
+use sdfmo_format::{trilinear, trilinear_gradient, TracedOctree};
 
 use crate::clip::LeafClips;
 
-/// The stored field at a point: see [`distance_at`].
+/// The stored field at a point: see [`distance_at`]. `V` is the octree's voxel
+/// ([`TracedOctree::Voxel`]: the voxel index in a 1.x octree).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DistanceSample {
+pub struct DistanceSample<V = u32> {
     /// Signed distance in normalised units (negative inside; multiply by `1 / meta.scale` for
     /// model units). For a surface (thin) voxel it is unsigned: `|F| ≥ 0`, no inside.
     pub distance: f32,
@@ -21,8 +20,8 @@ pub struct DistanceSample {
     /// the chosen voxel's interpolant; about unit length where the field is a distance, and
     /// pointing away from the surface; zero at a saddle). The same direction in model units.
     pub gradient: Vec3,
-    /// The voxel that gave the value (for [`Octree::voxel_corners`]).
-    pub voxel: u32,
+    /// The voxel that gave the value (for [`TracedOctree::voxel_corners`]).
+    pub voxel: V,
     /// Whether that voxel is a surface (thin) voxel.
     pub surface: bool,
     /// Minimum corner of the leaf cell holding the point, normalised coordinates.
@@ -31,11 +30,11 @@ pub struct DistanceSample {
     pub cell_size: f32,
 }
 
-impl DistanceSample {
+impl<V: Copy> DistanceSample<V> {
     /// Puts `self` in `best` unless `best` already holds a sample at most as far (the union of
     /// a leaf's voxels: the minimum, the first of equal ones).
     #[inline]
-    pub(crate) fn keep_if_nearer(self, best: &mut Option<DistanceSample>) {
+    pub(crate) fn keep_if_nearer(self, best: &mut Option<DistanceSample<V>>) {
         if best.is_none_or(|b| self.distance < b.distance) {
             *best = Some(self);
         }
@@ -46,14 +45,14 @@ impl DistanceSample {
 /// `cell_min` of edge `cell_size`: unsigned for a surface voxel (`|f|`, the gradient flipped
 /// with it) unless `keep_sign` (a clip voxel's term in the clip rule is always signed).
 #[inline]
-pub(crate) fn voxel_sample<B: AsRef<[u8]>>(
-    octree: &Octree<B>,
-    v: u32,
+pub(crate) fn voxel_sample<O: TracedOctree>(
+    octree: &O,
+    v: O::Voxel,
     local: Vec3,
     cell_min: Vec3,
     cell_size: f32,
     keep_sign: bool,
-) -> DistanceSample {
+) -> DistanceSample<O::Voxel> {
     let corners = octree.voxel_corners(v);
     let surface = octree.voxel_is_surface(v);
     let value = trilinear(&corners, local);
@@ -122,7 +121,7 @@ pub(crate) fn voxel_sample<B: AsRef<[u8]>>(
 ///
 /// In a multi-octree leaf each voxel stores the distance to one connected component; the value
 /// returned is their union (the minimum), so the bound holds per component.
-pub fn distance_at<B: AsRef<[u8]>>(octree: &Octree<B>, p: Vec3) -> Option<DistanceSample> {
+pub fn distance_at<O: TracedOctree>(octree: &O, p: Vec3) -> Option<DistanceSample<O::Voxel>> {
     if !p.is_finite() || p.abs().max_element() > 1.0 {
         return None;
     }
@@ -150,10 +149,10 @@ pub fn distance_at<B: AsRef<[u8]>>(octree: &Octree<B>, p: Vec3) -> Option<Distan
     }
     let local = ((p - min) / size).clamp(Vec3::ZERO, Vec3::ONE);
     let voxels = octree.leaf_voxels(node);
-    if octree.any_clip_voxel(voxels.clone()) {
+    if octree.any_clip_voxel(&voxels) {
         return distance_in_leaf(octree, voxels, local, min, size);
     }
-    let mut best: Option<DistanceSample> = None;
+    let mut best: Option<DistanceSample<O::Voxel>> = None;
     for voxel in voxels {
         voxel_sample(octree, voxel, local, min, size, false).keep_if_nearer(&mut best);
     }
@@ -168,15 +167,15 @@ pub fn distance_at<B: AsRef<[u8]>>(octree: &Octree<B>, p: Vec3) -> Option<Distan
 /// `max(|f_S|, f_K)`. The sample's voxel is the *active* one (the one whose value it is, a clip
 /// voxel where the clip dominates, whose value is then signed even if it is a clip-only
 /// voxel), its gradient that voxel's (flipped with the sign for `|f_i|`).
-fn distance_in_leaf<B: AsRef<[u8]>>(
-    octree: &Octree<B>,
-    voxels: Range<u32>,
+fn distance_in_leaf<O: TracedOctree>(
+    octree: &O,
+    voxels: O::Voxels,
     local: Vec3,
     cell_min: Vec3,
     cell_size: f32,
-) -> Option<DistanceSample> {
-    let clips = LeafClips::gather(octree, voxels.clone());
-    let mut best: Option<DistanceSample> = None;
+) -> Option<DistanceSample<O::Voxel>> {
+    let clips = LeafClips::gather(octree, voxels.clone())?;
+    let mut best: Option<DistanceSample<O::Voxel>> = None;
     for i in voxels {
         if octree.voxel_is_surface(i) && octree.voxel_is_clip(i) {
             continue;

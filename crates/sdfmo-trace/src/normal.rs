@@ -1,21 +1,18 @@
 //! The normal at a hit: the analytic gradient of the voxel's trilinear interpolant.
 
 use glam::Vec3;
-use sdfmo_format::{trilinear_gradient, Octree};
+use sdfmo_format::{trilinear_gradient, TracedOctree};
 
 use crate::traversal::{Hit, Ray};
 
 /// Unit gradient of the voxel's interpolant at the hit, flipped so `dot(n, ray.dir) ≤ 0`
 /// (two-sided, facing the viewer). Where the gradient vanishes (a saddle, or a hit that does not
 /// belong to this octree) the normal is `−dir`. Never NaN for a finite ray.
-pub fn hit_normal<B: AsRef<[u8]>>(octree: &Octree<B>, ray: &Ray, hit: &Hit) -> Vec3 {
+pub fn hit_normal<O: TracedOctree>(octree: &O, ray: &Ray, hit: &Hit<O::Voxel>) -> Vec3 {
     // Only needed where the gradient fails: computed there (a square root and a division less
     // per hit).
     let facing = || (-ray.dir).try_normalize().unwrap_or(Vec3::Z);
-    if (hit.voxel as usize) >= octree.voxel_count()
-        || hit.cell_size.is_nan()
-        || hit.cell_size <= 0.0
-    {
+    if !octree.has_voxel(hit.voxel) || hit.cell_size.is_nan() || hit.cell_size <= 0.0 {
         return facing();
     }
     let corners = octree.voxel_corners(hit.voxel);

@@ -26,7 +26,7 @@
 //! [`intersect`]: crate::intersect
 
 use glam::Vec3;
-use sdfmo_format::{NodeRef, Octree, MAX_DEPTH};
+use sdfmo_format::{TracedOctree, MAX_DEPTH};
 
 use crate::ray_voxel::{intersect_prepared, prepare_voxel, PreparedVoxel};
 use crate::traversal::{child_at, le, root_span, split_span, CellStack, Hit};
@@ -39,7 +39,7 @@ pub const PACKET_SIZE: usize = 8;
 const PACKET_STACK: usize = 7 * MAX_DEPTH as usize + 2;
 
 /// The cells a packet has still to visit.
-type PacketStack = CellStack<PacketCell, PACKET_STACK>;
+type PacketStack<N> = CellStack<PacketCell<N>, PACKET_STACK>;
 
 /// Children in order of the number of bits that differ from the near octant (0, then the three
 /// one-bit flips, the three two-bit flips, the far octant).
@@ -47,8 +47,8 @@ const NEAR_TO_FAR: [u32; 8] = [0, 1, 2, 4, 3, 5, 6, 7];
 
 /// A cell and the lanes that visit it, with each lane's span.
 #[derive(Clone, Copy)]
-struct PacketCell {
-    node: NodeRef,
+struct PacketCell<N> {
+    node: N,
     min: Vec3,
     size: f32,
     lanes: u32,
@@ -82,17 +82,17 @@ pub struct RayPacket {
 /// octree for the whole packet. Fastest when the rays are close together (neighbouring pixels).
 ///
 /// [`intersect`]: crate::intersect
-pub fn intersect_packet<B: AsRef<[u8]>>(
-    octree: &Octree<B>,
+pub fn intersect_packet<O: TracedOctree>(
+    octree: &O,
     rays: &RayPacket,
-) -> [Option<Hit>; PACKET_SIZE] {
+) -> [Option<Hit<O::Voxel>>; PACKET_SIZE] {
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2.
         return unsafe { packet_avx2(octree, rays) };
     }
     packet::<
-        B,
+        O,
         {
             if cfg!(target_arch = "x86_64") {
                 SSE2
@@ -125,20 +125,20 @@ const AVX2: u8 = 2;
 /// Rust never fuses a multiply and an add by itself, so the same bits).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn packet_avx2<B: AsRef<[u8]>>(
-    octree: &Octree<B>,
+unsafe fn packet_avx2<O: TracedOctree>(
+    octree: &O,
     rays: &RayPacket,
-) -> [Option<Hit>; PACKET_SIZE] {
-    packet::<B, AVX2>(octree, rays)
+) -> [Option<Hit<O::Voxel>>; PACKET_SIZE] {
+    packet::<O, AVX2>(octree, rays)
 }
 
 /// The packet walk; `STEP` ([`SCALAR`], [`SSE2`], [`AVX2`]) picks the inner-node step (all give
 /// the same bits; [`AVX2`] only from [`packet_avx2`], SSE2 only on x86-64).
 #[inline(always)]
-fn packet<B: AsRef<[u8]>, const STEP: u8>(
-    octree: &Octree<B>,
+fn packet<O: TracedOctree, const STEP: u8>(
+    octree: &O,
     rays: &RayPacket,
-) -> [Option<Hit>; PACKET_SIZE] {
+) -> [Option<Hit<O::Voxel>>; PACKET_SIZE] {
     let RayPacket {
         origin,
         ref dirs,
@@ -178,7 +178,7 @@ fn packet<B: AsRef<[u8]>, const STEP: u8>(
         return out;
     }
 
-    let mut stack = PacketStack::new();
+    let mut stack = PacketStack::<O::Node>::new();
     let mut cell = PacketCell {
         node: root,
         min: Vec3::splat(-1.0),
@@ -203,7 +203,7 @@ fn packet<B: AsRef<[u8]>, const STEP: u8>(
                     AVX2 => unsafe { packet_step_avx2(&mut children) },
                     // SAFETY: SSE2 is part of the x86-64 baseline.
                     #[cfg(target_arch = "x86_64")]
-                    SSE2 => unsafe { packet_step_wide::<Sse2, B>(&mut children) },
+                    SSE2 => unsafe { packet_step_wide::<Sse2, O>(&mut children) },
                     _ => packet_step(&mut children),
                 }
                 if let Some(next) = children.pending {
@@ -224,12 +224,12 @@ fn packet<B: AsRef<[u8]>, const STEP: u8>(
 /// for all lanes (of `rays`, those in `lanes`). Lanes that hit get their hit in `out` and leave
 /// `alive`.
 #[inline(always)]
-fn packet_leaf<B: AsRef<[u8]>>(
-    octree: &Octree<B>,
-    cell: &PacketCell,
+fn packet_leaf<O: TracedOctree>(
+    octree: &O,
+    cell: &PacketCell<O::Node>,
     lanes: u32,
     rays: &RayPacket,
-    out: &mut [Option<Hit>; PACKET_SIZE],
+    out: &mut [Option<Hit<O::Voxel>>; PACKET_SIZE],
     alive: &mut u32,
 ) {
     let (o, dirs) = (rays.origin, &rays.dirs);
@@ -238,7 +238,7 @@ fn packet_leaf<B: AsRef<[u8]>>(
     let mut local_o = [Vec3::ZERO; PACKET_SIZE];
     let mut local_d = [Vec3::ZERO; PACKET_SIZE];
     let mut best_s = [0.0f32; PACKET_SIZE];
-    let mut best: [Option<(u32, bool)>; PACKET_SIZE] = [None; PACKET_SIZE];
+    let mut best: [Option<(O::Voxel, bool)>; PACKET_SIZE] = [None; PACKET_SIZE];
     let mut rest = lanes;
     while rest != 0 {
         let l = rest.trailing_zeros() as usize;
@@ -248,13 +248,13 @@ fn packet_leaf<B: AsRef<[u8]>>(
         best_s[l] = cell.t_exit[l] - cell.t_enter[l];
     }
     let voxels = octree.leaf_voxels(cell.node);
-    if octree.any_clip_voxel(voxels.clone()) {
+    if octree.any_clip_voxel(&voxels) {
         // A leaf with clip voxels takes the clip rule, lane by lane (as the single-ray test).
         let mut rest = lanes;
         while rest != 0 {
             let l = rest.trailing_zeros() as usize;
             rest &= rest - 1;
-            let hit = crate::clip::leaf_hit::<B, false>(
+            let hit = crate::clip::leaf_hit::<O, false>(
                 octree,
                 voxels.clone(),
                 local_o[l],
@@ -297,14 +297,14 @@ fn packet_leaf<B: AsRef<[u8]>>(
 /// The plain leaf rule (no clip voxels) for the packet's `lanes`: each voxel prepared once, the
 /// nearest hit per lane (as the single-ray leaf test).
 #[inline(always)]
-fn packet_leaf_voxels<B: AsRef<[u8]>>(
-    octree: &Octree<B>,
-    voxels: std::ops::Range<u32>,
+fn packet_leaf_voxels<O: TracedOctree>(
+    octree: &O,
+    voxels: O::Voxels,
     lanes: u32,
     local_o: &[Vec3; PACKET_SIZE],
     local_d: &[Vec3; PACKET_SIZE],
     best_s: &mut [f32; PACKET_SIZE],
-    best: &mut [Option<(u32, bool)>; PACKET_SIZE],
+    best: &mut [Option<(O::Voxel, bool)>; PACKET_SIZE],
 ) {
     for voxel in voxels {
         let prepared = prepare_voxel(&octree.voxel_corners(voxel));
@@ -338,31 +338,31 @@ fn packet_leaf_voxels<B: AsRef<[u8]>>(
 /// origin; either side where it lies on a mid-plane: no ray with t ≥ 0 then crosses that plane
 /// inside a span): each present child with the lanes that visit it and their spans. The
 /// nearest is kept back in `pending` for the walk to take, the others go on the stack.
-struct Children<'a, B: AsRef<[u8]>> {
-    octree: &'a Octree<B>,
-    cell: &'a PacketCell,
+struct Children<'a, O: TracedOctree> {
+    octree: &'a O,
+    cell: &'a PacketCell<O::Node>,
     lanes: u32,
     consts: &'a Lanes,
-    stack: &'a mut PacketStack,
+    stack: &'a mut PacketStack<O::Node>,
     half: f32,
     mid: Vec3,
     /// From the common origin to `mid`.
     d: Vec3,
     mask: u32,
     near: u32,
-    first: Option<u32>,
-    pending: Option<PacketCell>,
+    first: Option<O::Children>,
+    pending: Option<PacketCell<O::Node>>,
 }
 
-impl<'a, B: AsRef<[u8]>> Children<'a, B> {
+impl<'a, O: TracedOctree> Children<'a, O> {
     #[inline(always)]
     fn new(
-        octree: &'a Octree<B>,
-        cell: &'a PacketCell,
+        octree: &'a O,
+        cell: &'a PacketCell<O::Node>,
         lanes: u32,
         o: Vec3,
         consts: &'a Lanes,
-        stack: &'a mut PacketStack,
+        stack: &'a mut PacketStack<O::Node>,
     ) -> Self {
         let half = 0.5 * cell.size;
         let mid = cell.min + Vec3::splat(half);
@@ -393,11 +393,9 @@ impl<'a, B: AsRef<[u8]>> Children<'a, B> {
     #[inline(always)]
     fn add(&mut self, c: u32, lanes: u32, t_enter: [f32; PACKET_SIZE], t_exit: [f32; PACKET_SIZE]) {
         let (octree, node) = (self.octree, self.cell.node);
-        let first = *self
-            .first
-            .get_or_insert_with(|| octree.first_child_index(node));
+        let first = *self.first.get_or_insert_with(|| octree.children(node));
         // Exact, as in the single-ray step.
-        let (node, min) = child_at(first, self.mask, c, self.cell.min, self.mid);
+        let (node, min) = child_at(octree, first, self.mask, c, self.cell.min, self.mid);
         let child = PacketCell {
             node,
             min,
@@ -413,7 +411,7 @@ impl<'a, B: AsRef<[u8]>> Children<'a, B> {
 /// One inner node for a packet, lane by lane: each present child with the lanes that visit it
 /// and their spans (those of the single-ray step, see [`crate::traversal`]).
 #[inline(always)]
-fn packet_step<B: AsRef<[u8]>>(children: &mut Children<'_, B>) {
+fn packet_step<O: TracedOctree>(children: &mut Children<'_, O>) {
     let (cell, consts, d) = (children.cell, children.consts, children.d);
 
     // Each lane walks its own child sequence with the single-ray split of its span (entry
@@ -625,7 +623,7 @@ lanes8! {
 /// The CPU has `V`'s instruction set.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn packet_step_wide<V: Lanes8, B: AsRef<[u8]>>(children: &mut Children<'_, B>) {
+unsafe fn packet_step_wide<V: Lanes8, O: TracedOctree>(children: &mut Children<'_, O>) {
     let (cell, consts, d) = (children.cell, children.consts, children.d);
     // SAFETY: the caller guarantees V's instruction set.
     unsafe {
@@ -705,9 +703,9 @@ unsafe fn packet_step_wide<V: Lanes8, B: AsRef<[u8]>>(children: &mut Children<'_
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-unsafe fn packet_step_avx2<B: AsRef<[u8]>>(children: &mut Children<'_, B>) {
+unsafe fn packet_step_avx2<O: TracedOctree>(children: &mut Children<'_, O>) {
     // SAFETY: the CPU has AVX2 (this function's contract).
-    unsafe { packet_step_wide::<Avx2, B>(children) }
+    unsafe { packet_step_wide::<Avx2, O>(children) }
 }
 
 #[cfg(test)]
@@ -715,9 +713,10 @@ mod tests {
     use super::*;
     use crate::traversal::intersect;
     use crate::traversal::tests::{
-        octree_from_sdfs, same_hit, sphere_a, spheres_and_sheet, tilted_sheet,
+        octree_from_sdfs, same_hit, same_hit_in, sphere_a, spheres_and_sheet, tilted_sheet,
     };
     use crate::Ray;
+    use sdfmo_format::BrickOctree;
 
     #[test]
     fn packets_hit_exactly_like_single_rays() {
@@ -758,6 +757,8 @@ mod tests {
         ];
         let mut hits = 0;
         for octree in &octrees {
+            // The same octree in 3.0: the packets' hits are the 1.x hits, bit for bit.
+            let bricks = BrickOctree::encode(octree).unwrap();
             for &(eye, target) in &eyes {
                 let fwd = (target - eye).normalize();
                 let hint = if fwd.cross(Vec3::Y).length() < 1e-6 {
@@ -792,6 +793,7 @@ mod tests {
                                     t_max,
                                 };
                                 let got = intersect_packet(octree, &rays);
+                                let got3 = intersect_packet(&bricks, &rays);
                                 let scalar = packet::<_, SCALAR>(octree, &rays);
                                 // The SSE2 step without AVX2 (x86-64; elsewhere scalar again).
                                 let sse2 = packet::<_, SSE2>(octree, &rays);
@@ -812,6 +814,10 @@ mod tests {
                                     );
                                     assert!(same_hit(scalar[l], want), "scalar step, lane {l}");
                                     assert!(same_hit(sse2[l], want), "SSE2 step, lane {l}");
+                                    assert!(
+                                        same_hit_in(octree, want, &bricks, got3[l]),
+                                        "3.0, lane {l}"
+                                    );
                                     hits += usize::from(want.is_some());
                                 }
                             }

@@ -18,7 +18,7 @@
 use core::mem::MaybeUninit;
 
 use glam::Vec3;
-use sdfmo_format::{NodeRef, Octree};
+use sdfmo_format::TracedOctree;
 
 use crate::ray_voxel::intersect_voxel;
 
@@ -31,13 +31,14 @@ pub struct Ray {
     pub dir: Vec3,
 }
 
-/// The first hit of a ray in an octree.
+/// The first hit of a ray in an octree; `V` is the octree's voxel
+/// ([`TracedOctree::Voxel`]: the voxel index in a 1.x octree).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hit {
+pub struct Hit<V = u32> {
     /// Ray parameter of the hit.
     pub t: f32,
-    /// Index of the voxel hit (for [`Octree::voxel_corners`]).
-    pub voxel: u32,
+    /// The voxel hit (for [`TracedOctree::voxel_corners`]).
+    pub voxel: V,
     /// Minimum corner of the leaf cell, normalised coordinates.
     pub cell_min: Vec3,
     /// Edge length of the leaf cell.
@@ -52,8 +53,8 @@ use sdfmo_format::kernel::{TINY_DIR, TRAVERSAL_STACK_SIZE as STACK_SIZE};
 
 /// A cell waiting on the stack: node, box and the ray's span in it.
 #[derive(Clone, Copy, Debug)]
-struct Cell {
-    node: NodeRef,
+struct Cell<N> {
+    node: N,
     min: Vec3,
     size: f32,
     t_enter: f32,
@@ -63,28 +64,30 @@ struct Cell {
 /// The ray's first hit in `[t_min, t_max]`: in the first leaf along the ray that has one, the
 /// nearest hit among its voxels. `None` for an empty octree, a miss, or NaN input.
 ///
-/// Generic over the octree's buffer, so it traces a [`PackedOctree`](sdfmo_format::PackedOctree)
-/// (owned bytes) or a zero-copy [`PackedOctreeView`](sdfmo_format::PackedOctreeView) alike
-/// (static dispatch: one accessor implementation, monomorphised per buffer type).
-pub fn intersect<B: AsRef<[u8]>>(
-    octree: &Octree<B>,
+/// Generic over the octree ([`TracedOctree`]), so it traces a 1.x
+/// [`PackedOctree`](sdfmo_format::PackedOctree) (owned bytes), a zero-copy
+/// [`PackedOctreeView`](sdfmo_format::PackedOctreeView) or a 3.0
+/// [`BrickOctree`](sdfmo_format::BrickOctree) alike (static dispatch, monomorphised per layout
+/// and buffer type; the same octree in either layout gives the same hits, bit for bit).
+pub fn intersect<O: TracedOctree>(
+    octree: &O,
     ray: &Ray,
     t_min: f32,
     t_max: f32,
-) -> Option<Hit> {
-    traverse::<B, false>(octree, ray, t_min, t_max, inner_step)
+) -> Option<Hit<O::Voxel>> {
+    traverse::<O, false>(octree, ray, t_min, t_max, inner_step)
 }
 
 /// Whether anything is hit in `[t_min, t_max]` (stops at the first voxel hit, not the nearest).
-pub fn occluded<B: AsRef<[u8]>>(octree: &Octree<B>, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-    traverse::<B, true>(octree, ray, t_min, t_max, inner_step).is_some()
+pub fn occluded<O: TracedOctree>(octree: &O, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    traverse::<O, true>(octree, ray, t_min, t_max, inner_step).is_some()
 }
 
 /// A box containing every leaf of the octree, `(min, max)` in normalised coordinates: the union
 /// of the occupied cells `levels` below the root (of the leaves, where they are shallower).
 /// `None` for an empty octree. Costs one visit per occupied node down to `levels`; a ray that
 /// misses this box hits nothing, so renderers reject it before [`intersect`].
-pub fn occupied_bounds<B: AsRef<[u8]>>(octree: &Octree<B>, levels: u8) -> Option<(Vec3, Vec3)> {
+pub fn occupied_bounds<O: TracedOctree>(octree: &O, levels: u8) -> Option<(Vec3, Vec3)> {
     let root = octree.root()?;
     let mut lo = Vec3::splat(f32::INFINITY);
     let mut hi = Vec3::splat(f32::NEG_INFINITY);
@@ -96,9 +99,8 @@ pub fn occupied_bounds<B: AsRef<[u8]>>(octree: &Octree<B>, levels: u8) -> Option
             continue;
         }
         let mask = octree.child_mask(node);
-        let first = octree.first_child_index(node);
+        let children = octree.children(node);
         let half = 0.5 * size;
-        let mut index = first;
         for oct in 0..8u8 {
             if mask >> oct & 1 == 0 {
                 continue;
@@ -109,12 +111,11 @@ pub fn occupied_bounds<B: AsRef<[u8]>>(octree: &Octree<B>, levels: u8) -> Option
                 f32::from(oct & 1),
             );
             stack.push((
-                NodeRef::from_index(index),
+                octree.child_of(children, u32::from(mask), u32::from(oct)),
                 min + offset * half,
                 half,
                 level + 1,
             ));
-            index += 1;
         }
     }
     le(lo.x, hi.x).then_some((lo, hi))
@@ -180,12 +181,12 @@ pub(crate) fn root_span(origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> (Vec
 /// The root cell with the ray's span in it, and the ray's inverse direction; `None` for an
 /// empty octree or span (NaN input included).
 #[inline(always)]
-fn root_cell<B: AsRef<[u8]>>(
-    octree: &Octree<B>,
+fn root_cell<O: TracedOctree>(
+    octree: &O,
     ray: &Ray,
     t_min: f32,
     t_max: f32,
-) -> Option<(Cell, Vec3)> {
+) -> Option<(Cell<O::Node>, Vec3)> {
     let root = octree.root()?;
     // Also rejects a NaN bound (f32::max/min would ignore it).
     if !le(t_min, t_max) {
@@ -257,12 +258,18 @@ impl<T: Copy, const N: usize> CellStack<T, N> {
 }
 
 /// Child `oct` (octant bits x = 4, y = 2, z = 1) of an inner node with child `mask` whose
-/// children are stored from index `first` (contiguously, in octant order): its node and the min
-/// corner of its cell, for a node cell at `min` with centre `mid`.
+/// children are `children` ([`TracedOctree::children`]): its node and the min corner of its
+/// cell, for a node cell at `min` with centre `mid`.
 #[inline(always)]
-pub(crate) fn child_at(first: u32, mask: u32, oct: u32, min: Vec3, mid: Vec3) -> (NodeRef, Vec3) {
-    let below = mask & ((1u32 << oct) - 1);
-    let node = NodeRef::from_index(first + below.count_ones());
+pub(crate) fn child_at<O: TracedOctree>(
+    octree: &O,
+    children: O::Children,
+    mask: u32,
+    oct: u32,
+    min: Vec3,
+    mid: Vec3,
+) -> (O::Node, Vec3) {
+    let node = octree.child_of(children, mask, oct);
     // `min + 1·half` is `mid` and `min + 0·half` is `min` (never −0: cells start at −1 and grow
     // by positive halves), so selecting is exact.
     let min = Vec3::new(
@@ -301,13 +308,13 @@ pub(crate) fn split_span(tm: Vec3, te: f32, tx: f32) -> (u8, [f32; 3], [u8; 3]) 
 /// The single-ray walk, with the inner-node step `step` (a function item, called directly):
 /// always [`inner_step`], except in the test that checks it against the step it replaced.
 #[inline(always)]
-fn traverse<B: AsRef<[u8]>, const ANY: bool>(
-    octree: &Octree<B>,
+fn traverse<O: TracedOctree, const ANY: bool>(
+    octree: &O,
     ray: &Ray,
     t_min: f32,
     t_max: f32,
-    step: impl Fn(&mut Walk<'_, B>, &Cell) -> Option<Cell>,
-) -> Option<Hit> {
+    step: impl Fn(&mut Walk<'_, O>, &Cell<O::Node>) -> Option<Cell<O::Node>>,
+) -> Option<Hit<O::Voxel>> {
     let (mut cell, inv) = root_cell(octree, ray, t_min, t_max)?;
     let (o, d) = (ray.origin, ray.dir);
     let negative = u8::from(inv.x < 0.0) << 2 | u8::from(inv.y < 0.0) << 1 | u8::from(inv.z < 0.0);
@@ -321,7 +328,7 @@ fn traverse<B: AsRef<[u8]>, const ANY: bool>(
     };
     loop {
         if octree.is_leaf(cell.node) {
-            if let Some(hit) = leaf_hit::<B, ANY>(&walk, &cell) {
+            if let Some(hit) = leaf_hit::<O, ANY>(&walk, &cell) {
                 return Some(hit);
             }
         } else if let Some(next) = step(&mut walk, &cell) {
@@ -335,8 +342,8 @@ fn traverse<B: AsRef<[u8]>, const ANY: bool>(
 
 /// One ray's walk of the octree: what each inner-node step reads, and the cells still to
 /// visit.
-struct Walk<'a, B: AsRef<[u8]>> {
-    octree: &'a Octree<B>,
+struct Walk<'a, O: TracedOctree> {
+    octree: &'a O,
     /// The ray's origin.
     o: Vec3,
     /// Its direction.
@@ -347,7 +354,7 @@ struct Walk<'a, B: AsRef<[u8]>> {
     /// those a mid-plane crossed at tm ≤ t puts the ray on the lower side at t, on the others
     /// on the upper side.
     negative: u8,
-    stack: CellStack<Cell, STACK_SIZE>,
+    stack: CellStack<Cell<O::Node>, STACK_SIZE>,
 }
 
 /// One inner node: its present children that the ray's span crosses, in ray order. The nearest
@@ -367,7 +374,10 @@ struct Walk<'a, B: AsRef<[u8]>> {
 /// * a child's span runs from the crossing that enters it (or `t_enter`) to the next crossing
 ///   (or `t_exit`).
 #[inline(always)]
-fn inner_step<B: AsRef<[u8]>>(walk: &mut Walk<'_, B>, cell: &Cell) -> Option<Cell> {
+fn inner_step<O: TracedOctree>(
+    walk: &mut Walk<'_, O>,
+    cell: &Cell<O::Node>,
+) -> Option<Cell<O::Node>> {
     let (octree, o, inv, negative) = (walk.octree, walk.o, walk.inv, walk.negative);
     let half = 0.5 * cell.size;
     let mid = cell.min + Vec3::splat(half);
@@ -390,9 +400,16 @@ fn inner_step<B: AsRef<[u8]>>(walk: &mut Walk<'_, B>, cell: &Cell) -> Option<Cel
         return None;
     }
     // One read of the node's group.
-    let first = octree.first_child_index(cell.node);
+    let children = octree.children(cell.node);
     let child = |oct: u8, t_a: f32, t_b: f32| {
-        let (node, min) = child_at(first, u32::from(mask), u32::from(oct), cell.min, mid);
+        let (node, min) = child_at(
+            octree,
+            children,
+            u32::from(mask),
+            u32::from(oct),
+            cell.min,
+            mid,
+        );
         Cell {
             node,
             min,
@@ -402,7 +419,7 @@ fn inner_step<B: AsRef<[u8]>>(walk: &mut Walk<'_, B>, cell: &Cell) -> Option<Cel
         }
     };
     // Farthest first; the nearest present child is kept back and returned.
-    let mut pending: Option<Cell> = None;
+    let mut pending: Option<Cell<O::Node>> = None;
     if p3 {
         walk.stack.defer(&mut pending, child(o3, k2, tx));
     }
@@ -421,7 +438,10 @@ fn inner_step<B: AsRef<[u8]>>(walk: &mut Walk<'_, B>, cell: &Cell) -> Option<Cel
 /// The nearest voxel hit inside a leaf's span (any hit when `ANY`); in a leaf with clip voxels
 /// the nearest hit the clip rule accepts ([`crate::clip`]).
 #[inline(always)]
-fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(walk: &Walk<'_, B>, cell: &Cell) -> Option<Hit> {
+fn leaf_hit<O: TracedOctree, const ANY: bool>(
+    walk: &Walk<'_, O>,
+    cell: &Cell<O::Node>,
+) -> Option<Hit<O::Voxel>> {
     let (octree, o, d) = (walk.octree, walk.o, walk.d);
     let inv_size = 1.0 / cell.size;
     // The kernel works from the entry point, in the cell's local frame [0,1]³, with the same
@@ -432,8 +452,8 @@ fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(walk: &Walk<'_, B>, cell: &Cell) ->
     let voxels = octree.leaf_voxels(cell.node);
     // A leaf with clip voxels takes the clip rule (crate::clip); the test is one compare for
     // an octree without clip voxels.
-    if octree.any_clip_voxel(voxels.clone()) {
-        return crate::clip::leaf_hit::<B, ANY>(octree, voxels, local_o, local_d, best_s).map(
+    if octree.any_clip_voxel(&voxels) {
+        return crate::clip::leaf_hit::<O, ANY>(octree, voxels, local_o, local_d, best_s).map(
             |(s, voxel, surface)| Hit {
                 t: (cell.t_enter + s).min(cell.t_exit),
                 voxel,
@@ -443,7 +463,7 @@ fn leaf_hit<B: AsRef<[u8]>, const ANY: bool>(walk: &Walk<'_, B>, cell: &Cell) ->
             },
         );
     }
-    let mut best: Option<(u32, bool)> = None;
+    let mut best: Option<(O::Voxel, bool)> = None;
     for voxel in voxels {
         let corners = octree.voxel_corners(voxel);
         let surface = octree.voxel_is_surface(voxel);
@@ -476,7 +496,8 @@ pub(crate) mod tests {
     use rand_chacha::ChaCha8Rng;
     use sdfmo_format::testing::pinhole_dirs;
     use sdfmo_format::{
-        cell_size, LeafInput, OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, Voxel,
+        cell_size, BrickOctree, BrickOctreeView, LeafInput, NodeRef, OctreeMeta, PackedOctree,
+        PackedOctreeView, ValueBits, Voxel,
     };
 
     fn meta(depth: u8) -> OctreeMeta {
@@ -661,7 +682,10 @@ pub(crate) mod tests {
     /// The inner-node step as it was before the lean one (commit f8eb665), kept verbatim as
     /// the reference the new one must match bit for bit (`walk.negative` unused: it reads the
     /// direction's signs from `inv`, as it did).
-    fn reference_step<B: AsRef<[u8]>>(walk: &mut Walk<'_, B>, cell: &Cell) -> Option<Cell> {
+    fn reference_step<O: TracedOctree<Children = u32, Node = NodeRef>>(
+        walk: &mut Walk<'_, O>,
+        cell: &Cell<NodeRef>,
+    ) -> Option<Cell<NodeRef>> {
         let (octree, o, inv) = (walk.octree, walk.o, walk.inv);
         // Whether the ray moves towards + along each axis (then a mid-plane crossed at tm ≤ t puts
         // the ray on the upper side at t).
@@ -719,11 +743,7 @@ pub(crate) mod tests {
             n += 1;
         }
         // Children are stored contiguously in octant order: one read of the node's group.
-        let first = if n > 0 {
-            octree.first_child_index(cell.node)
-        } else {
-            0
-        };
+        let first = if n > 0 { octree.children(cell.node) } else { 0 };
         for (i, &(oct, t_a, t_b)) in children[..n].iter().enumerate().rev() {
             let below = u32::from(mask) & ((1u32 << oct) - 1);
             let child = NodeRef::from_index(first + below.count_ones());
@@ -763,6 +783,119 @@ pub(crate) mod tests {
             }
             _ => false,
         }
+    }
+
+    /// Whether a hit in the 1.x octree `o` and one in another layout `b` of the same octree
+    /// are the same bit for bit: `t` and the cell as bits, the surface flag, and the voxel's
+    /// corners (the voxels are named differently by each layout).
+    pub(crate) fn same_hit_in<P: TracedOctree>(
+        o: &PackedOctree,
+        a: Option<Hit>,
+        b: &P,
+        h: Option<Hit<P::Voxel>>,
+    ) -> bool {
+        match (a, h) {
+            (None, None) => true,
+            (Some(a), Some(h)) => {
+                a.t.to_bits() == h.t.to_bits()
+                    && a.cell_min.to_array().map(f32::to_bits)
+                        == h.cell_min.to_array().map(f32::to_bits)
+                    && a.cell_size.to_bits() == h.cell_size.to_bits()
+                    && a.surface == h.surface
+                    && o.voxel_corners(a.voxel).map(f32::to_bits)
+                        == b.voxel_corners(h.voxel).map(f32::to_bits)
+            }
+            _ => false,
+        }
+    }
+
+    #[test]
+    fn bricks_trace_like_the_1x_octree_bit_for_bit() {
+        // The same octree in 3.0 (BrickOctree::encode, lossless): every query the renderers
+        // and Python make gives the 1.x answer bit for bit, on volume, surface, multi-voxel and
+        // clip leaves (two intersected spheres; a sheet cut by a clip-only plane).
+        let rim = |p: Vec3| p.x - 0.1;
+        let octrees = [
+            octree_from_sdfs(5, &[(&sphere_a, false, false)]),
+            spheres_and_sheet(),
+            octree_from_sdfs(4, &[(&sphere_a, false, true), (&sphere_b, false, true)]),
+            octree_from_sdfs(5, &[(&tilted_sheet, true, false), (&rim, true, true)]),
+        ];
+        let mut rng = ChaCha8Rng::seed_from_u64(21);
+        let (mut hits, mut shared_hits, mut samples) = (0, 0, 0);
+        for octree in &octrees {
+            let bricks = BrickOctree::encode(octree).unwrap();
+            let view = BrickOctreeView::new(bricks.as_bytes()).unwrap();
+            assert_eq!(
+                occupied_bounds(&bricks, 3),
+                occupied_bounds(octree, 3),
+                "occupied bounds"
+            );
+            for i in 0..3000 {
+                let ray = random_ray(&mut rng);
+                let (t_min, t_max) = if i % 3 == 0 {
+                    (0.3, 2.5)
+                } else {
+                    (0.0, f32::INFINITY)
+                };
+                let want = intersect(octree, &ray, t_min, t_max);
+                let got = intersect(&bricks, &ray, t_min, t_max);
+                assert!(
+                    same_hit_in(octree, want, &bricks, got),
+                    "ray {i} {ray:?}: {got:?} vs {want:?}"
+                );
+                assert!(same_hit_in(
+                    octree,
+                    want,
+                    &view,
+                    intersect(&view, &ray, t_min, t_max)
+                ));
+                assert_eq!(
+                    occluded(&bricks, &ray, t_min, t_max),
+                    occluded(octree, &ray, t_min, t_max)
+                );
+                if let (Some(w), Some(g)) = (want, got) {
+                    let (nw, ng) = (
+                        crate::hit_normal(octree, &ray, &w),
+                        crate::hit_normal(&bricks, &ray, &g),
+                    );
+                    assert_eq!(
+                        nw.to_array().map(f32::to_bits),
+                        ng.to_array().map(f32::to_bits)
+                    );
+                    hits += 1;
+                    shared_hits += usize::from(g.voxel.leaf.is_shared());
+                }
+                // The stored distance at points along the ray.
+                let p = ray.origin + ray.dir * rng.random_range(0.0..4.0f32);
+                let (a, b) = (
+                    crate::distance_at(octree, p),
+                    crate::distance_at(&bricks, p),
+                );
+                match (a, b) {
+                    (None, None) => {}
+                    (Some(a), Some(b)) => {
+                        assert_eq!(a.distance.to_bits(), b.distance.to_bits(), "{p}");
+                        assert_eq!(a.gradient.to_array(), b.gradient.to_array(), "{p}");
+                        assert_eq!(
+                            octree.voxel_corners(a.voxel),
+                            TracedOctree::voxel_corners(&bricks, b.voxel)
+                        );
+                        assert_eq!(
+                            (a.surface, a.cell_min, a.cell_size),
+                            (b.surface, b.cell_min, b.cell_size)
+                        );
+                        samples += 1;
+                    }
+                    _ => panic!("distance at {p}: {a:?} vs {b:?}"),
+                }
+            }
+        }
+        assert!(
+            hits > 2000 && shared_hits > 500,
+            "{hits} hits, {shared_hits} shared"
+        );
+        assert!(samples > 500, "{samples} samples");
     }
 
     #[test]
