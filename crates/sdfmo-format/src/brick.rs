@@ -979,6 +979,22 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
         first_child + low_bits(masks, (k & 7) * 8).count_ones()
     }
 
+    /// Where the sections a tracer reads start, and the counts that bound them
+    /// ([`crate::trace`]).
+    #[inline(always)]
+    pub(crate) fn traced_sections(&self) -> crate::trace::BrickSections {
+        crate::trace::BrickSections {
+            bricks: self.layout.bricks.0 as usize,
+            residuals: self.layout.residuals.0 as usize,
+            private_leaves: self.layout.private_leaves.0 as usize,
+            private_flags: self.layout.private_flags.0 as usize,
+            private_corners: self.layout.private_corners.0 as usize,
+            brick_count: self.counts.bricks,
+            private_voxels: self.counts.private_voxels,
+            clip: self.counts.clip,
+        }
+    }
+
     /// Whether `node` is a leaf.
     #[inline]
     pub fn is_leaf(&self, node: BrickNode) -> bool {

@@ -11,7 +11,16 @@
 use core::fmt::Debug;
 use core::ops::Range;
 
-use crate::{BrickLeaf, BrickNode, BrickOctree, NodeRef, Octree, OctreeMeta};
+use crate::header::{
+    field_in, plane_fraction_bits, residual_widths, BRICK_RECORD_FIELDS, BRICK_RECORD_SIZE,
+    RESIDUAL_OFFSET_BITS,
+};
+use crate::octree::{byte_sum, bytes_at, group_at, low_bits};
+use crate::quant::max_code;
+use crate::{
+    cell_grid_index, point_mask, BrickNode, BrickOctree, NodeRef, Octree, OctreeMeta, ValueBits,
+    CORNER_POINT_OFFSETS,
+};
 
 /// An octree as a tracer walks it (see the module docs): nodes from the root down by child
 /// masks, a leaf's voxels, each voxel's corners and flags. Every query reads the validated
@@ -133,21 +142,47 @@ impl<B: AsRef<[u8]>> TracedOctree for Octree<B> {
     }
 }
 
-/// A voxel of a [`BrickOctree`]: voxel `k` of a leaf ([`BrickOctree::voxel_corners`]).
+/// The byte offsets of the sections of a [`BrickOctree`] a tracer reads, and the counts that
+/// bound them (from the validated header).
+pub(crate) struct BrickSections {
+    pub(crate) bricks: usize,
+    pub(crate) residuals: usize,
+    pub(crate) private_leaves: usize,
+    pub(crate) private_flags: usize,
+    pub(crate) private_corners: usize,
+    pub(crate) brick_count: u32,
+    pub(crate) private_voxels: u32,
+    pub(crate) clip: u32,
+}
+
+const OCCUPANCY: usize = field_in(&BRICK_RECORD_FIELDS, "occupancy").offset;
+const PRIVATE: usize = field_in(&BRICK_RECORD_FIELDS, "private").offset;
+const PLANE: usize = field_in(&BRICK_RECORD_FIELDS, "plane_a").offset;
+const RESIDUALS: usize = field_in(&BRICK_RECORD_FIELDS, "residuals").offset;
+const FIRST_PRIVATE_LEAF: usize = field_in(&BRICK_RECORD_FIELDS, "first_private_leaf").offset;
+
+/// A voxel of a [`BrickOctree`], as a hit names it: the one voxel of a shared leaf (its corners
+/// are points of the brick), or a private voxel by its index in the private sections.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct BrickVoxel {
-    /// The leaf.
-    pub leaf: BrickLeaf,
-    /// The voxel's number in the leaf (0 in a shared leaf).
-    pub k: u32,
+pub enum BrickVoxel {
+    /// The voxel of the shared leaf in `cell` (Morton index, 0..64) of `brick`.
+    Shared {
+        /// The brick.
+        brick: u32,
+        /// The leaf's cell in it.
+        cell: u8,
+    },
+    /// Private voxel number `0` (of the private corner and flag sections).
+    Private(u32),
 }
 
 /// The voxels of one [`BrickOctree`] leaf, in storage order.
 #[derive(Clone, Debug)]
 pub struct BrickVoxels {
-    leaf: Option<BrickLeaf>,
-    next: u32,
-    end: u32,
+    /// The shared leaf's voxel, until taken; `None` for a private leaf.
+    shared: Option<BrickVoxel>,
+    /// The private voxels not yet taken.
+    private: Range<u32>,
 }
 
 impl Iterator for BrickVoxels {
@@ -155,13 +190,118 @@ impl Iterator for BrickVoxels {
 
     #[inline(always)]
     fn next(&mut self) -> Option<BrickVoxel> {
-        let leaf = self.leaf?;
-        if self.next >= self.end {
-            return None;
+        if let Some(v) = self.shared.take() {
+            return Some(v);
         }
-        let k = self.next;
-        self.next += 1;
-        Some(BrickVoxel { leaf, k })
+        self.private.next().map(BrickVoxel::Private)
+    }
+}
+
+/// The `u64` at `at` of a brick record.
+#[inline(always)]
+fn u64_in(r: &[u8; BRICK_RECORD_SIZE], at: usize) -> u64 {
+    u64::from_le_bytes(bytes_at::<8>(r, at))
+}
+
+/// The `u32` at `at` of a brick record.
+#[inline(always)]
+fn u32_in(r: &[u8; BRICK_RECORD_SIZE], at: usize) -> u32 {
+    u32::from_le_bytes(bytes_at::<4>(r, at))
+}
+
+/// The eight `W`-bit residuals (W = 0, 2, 4, 8 or 16, sign-extended) of the points `ranks` in
+/// a brick's residual bytes `res` (LSB first; fields below 16 bits never straddle a byte).
+#[inline(always)]
+fn residuals<const W: u32>(res: &[u8], ranks: [u32; 8]) -> [i32; 8] {
+    ranks.map(|rank| match W {
+        0 => 0,
+        16 => i32::from(i16::from_le_bytes(bytes_at::<2>(res, 2 * rank as usize))),
+        _ => {
+            let bit = rank * W;
+            let field = u32::from(res[(bit >> 3) as usize]) >> (bit & 7);
+            ((field << (32 - W)) as i32) >> (32 - W)
+        }
+    })
+}
+
+impl<B: AsRef<[u8]>> BrickOctree<B> {
+    /// The record of `brick` (one bounds-checked load of its 32 bytes).
+    #[inline(always)]
+    fn record(&self, s: &BrickSections, brick: u32) -> [u8; BRICK_RECORD_SIZE] {
+        bytes_at::<BRICK_RECORD_SIZE>(
+            self.as_bytes(),
+            s.bricks + brick as usize * BRICK_RECORD_SIZE,
+        )
+    }
+
+    /// The occupancy of `brick` (one load).
+    #[inline(always)]
+    fn occupancy(&self, brick: u32) -> u64 {
+        let s = self.traced_sections();
+        u64::from_le_bytes(bytes_at::<8>(
+            self.as_bytes(),
+            s.bricks + brick as usize * BRICK_RECORD_SIZE + OCCUPANCY,
+        ))
+    }
+
+    /// The eight codes of the shared leaf in `cell` of `brick`: what
+    /// [`BrickOctree::voxel_codes`] gives, computed with the brick's point mask once, one
+    /// rank below the cell and seven popcounts of a 32-bit window above it, the plane from the
+    /// cell's lowest corner by adding its terms, and the residual width matched once.
+    #[inline(always)]
+    fn shared_codes(&self, brick: u32, cell: u8) -> [i32; 8] {
+        let s = self.traced_sections();
+        let r = self.record(&s, brick);
+        let shared = u64_in(&r, OCCUPANCY) & !u64_in(&r, PRIVATE);
+        let plane: [i32; 4] = core::array::from_fn(|i| {
+            i32::from(i16::from_le_bytes(bytes_at::<2>(&r, PLANE + 2 * i)))
+        });
+        let word = u32_in(&r, RESIDUALS);
+        let points = point_mask(shared);
+        let g = cell_grid_index(u32::from(cell));
+        let below = (points & ((1u128 << g) - 1)).count_ones();
+        // The corners lie within 31 points of the lowest one.
+        let window = (points >> g) as u32;
+        let ranks = CORNER_POINT_OFFSETS.map(|o| below + (window & ((1u32 << o) - 1)).count_ones());
+        let bits = self.meta().bits;
+        let (f, q) = (plane_fraction_bits(bits), max_code(bits));
+        let c = u32::from(cell);
+        let (x, y, z) = (
+            ((c >> 5 & 1) * 2 + (c >> 2 & 1)) as i32,
+            ((c >> 4 & 1) * 2 + (c >> 1 & 1)) as i32,
+            ((c >> 3 & 1) * 2 + (c & 1)) as i32,
+        );
+        let t0 = plane[0] + plane[1] * x + plane[2] * y + plane[3] * z;
+        let res =
+            &self.as_bytes()[s.residuals + (word & ((1 << RESIDUAL_OFFSET_BITS) - 1)) as usize..];
+        let res = match residual_widths(bits)[(word >> RESIDUAL_OFFSET_BITS) as usize] {
+            0 => residuals::<0>(res, ranks),
+            2 => residuals::<2>(res, ranks),
+            4 => residuals::<4>(res, ranks),
+            8 => residuals::<8>(res, ranks),
+            _ => residuals::<16>(res, ranks),
+        };
+        core::array::from_fn(|i| {
+            let t = t0
+                + plane[1] * (i >> 2) as i32
+                + plane[2] * (i >> 1 & 1) as i32
+                + plane[3] * (i & 1) as i32;
+            let pred = ((t + ((1 << f) >> 1)) >> f).clamp(-q, q);
+            // A full-width residual wraps modulo 2^bits (FORMAT.md).
+            match bits {
+                ValueBits::Eight => i32::from((pred + res[i]) as i8),
+                ValueBits::Sixteen => i32::from((pred + res[i]) as i16),
+            }
+        })
+    }
+
+    /// The two flag bits (surface, clip) of private voxel `v`.
+    #[inline(always)]
+    fn private_flags(&self, v: u32) -> u8 {
+        let s = self.traced_sections();
+        assert!(v < s.private_voxels, "voxel {v} out of range");
+        let bit = 2 * v as usize;
+        self.as_bytes()[s.private_flags + bit / 8] >> (bit % 8) & 3
     }
 }
 
@@ -184,12 +324,28 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
 
     #[inline(always)]
     fn is_leaf(&self, node: BrickNode) -> bool {
-        BrickOctree::is_leaf(self, node)
+        matches!(node, BrickNode::Leaf { .. })
     }
 
+    /// Above the bricks a node group's byte; a brick's and a half-brick's from one load of the
+    /// brick's occupancy.
     #[inline(always)]
     fn child_mask(&self, node: BrickNode) -> u8 {
-        BrickOctree::child_mask(self, node)
+        match node {
+            BrickNode::Upper(_) => BrickOctree::child_mask(self, node),
+            BrickNode::Brick(b) => {
+                // Bit o set when byte o of the occupancy is non-zero.
+                let x = self.occupancy(b);
+                let x = x | x >> 4;
+                let x = x | x >> 2;
+                let x = (x | x >> 1) & 0x0101_0101_0101_0101;
+                (x.wrapping_mul(0x0102_0408_1020_4080) >> 56) as u8
+            }
+            BrickNode::Half { brick, octant } => {
+                (self.occupancy(brick) >> (8 * u32::from(octant & 7))) as u8
+            }
+            BrickNode::Leaf { .. } => 0,
+        }
     }
 
     #[inline(always)]
@@ -225,45 +381,195 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
         BrickOctree::child(self, node, octant)
     }
 
+    /// A shared leaf from one load of the brick's private mask; a private leaf's voxels from
+    /// its leaf group (one popcount, one byte sum), as [`BrickOctree::leaf`] finds them.
     #[inline(always)]
     fn leaf_voxels(&self, node: BrickNode) -> BrickVoxels {
-        let leaf = self.leaf(node);
+        let none = BrickVoxels {
+            shared: None,
+            private: 0..0,
+        };
+        let BrickNode::Leaf { brick, cell } = node else {
+            return none;
+        };
+        let s = self.traced_sections();
+        let r = self.record(&s, brick);
+        let cell = cell & 63;
+        if u64_in(&r, OCCUPANCY) >> cell & 1 == 0 {
+            return none;
+        }
+        let private = u64_in(&r, PRIVATE);
+        if private >> cell & 1 == 0 {
+            return BrickVoxels {
+                shared: Some(BrickVoxel::Shared { brick, cell }),
+                private: 0..0,
+            };
+        }
+        let j = u32_in(&r, FIRST_PRIVATE_LEAF) + low_bits(private, u32::from(cell)).count_ones();
+        let (first, counts) = group_at(self.as_bytes(), s.private_leaves + (j as usize >> 3) * 12);
+        let shift = (j & 7) * 8;
+        let start = first + byte_sum(low_bits(counts, shift));
         BrickVoxels {
-            leaf,
-            next: 0,
-            end: leaf.map_or(0, |l| l.voxel_count()),
+            shared: None,
+            private: start..start + (counts >> shift & 0xff) as u32,
         }
     }
 
     #[inline(always)]
     fn any_clip_voxel(&self, voxels: &BrickVoxels) -> bool {
-        voxels
-            .leaf
-            .is_some_and(|l| BrickOctree::any_clip_voxel(self, &l))
+        self.traced_sections().clip > 0
+            && voxels
+                .private
+                .clone()
+                .any(|v| self.private_flags(v) & 2 != 0)
     }
 
     #[inline(always)]
     fn voxel_corners(&self, voxel: BrickVoxel) -> [f32; 8] {
-        BrickOctree::voxel_corners(self, &voxel.leaf, voxel.k)
+        let s = self.dequant_scale();
+        match voxel {
+            BrickVoxel::Shared { brick, cell } => {
+                self.shared_codes(brick, cell).map(|c| c as f32 * s)
+            }
+            BrickVoxel::Private(v) => {
+                let sec = self.traced_sections();
+                assert!(v < sec.private_voxels, "voxel {v} out of range");
+                let (b, at) = (self.as_bytes(), sec.private_corners);
+                match self.meta().bits {
+                    ValueBits::Eight => {
+                        bytes_at::<8>(b, at + v as usize * 8).map(|c| f32::from(c as i8) * s)
+                    }
+                    ValueBits::Sixteen => {
+                        let c = bytes_at::<16>(b, at + v as usize * 16);
+                        core::array::from_fn(|i| {
+                            f32::from(i16::from_le_bytes([c[2 * i], c[2 * i + 1]])) * s
+                        })
+                    }
+                }
+            }
+        }
     }
 
     #[inline(always)]
     fn voxel_is_surface(&self, voxel: BrickVoxel) -> bool {
-        BrickOctree::voxel_is_surface(self, &voxel.leaf, voxel.k)
+        match voxel {
+            BrickVoxel::Shared { .. } => false,
+            BrickVoxel::Private(v) => self.private_flags(v) & 1 != 0,
+        }
     }
 
     #[inline(always)]
     fn voxel_is_clip(&self, voxel: BrickVoxel) -> bool {
-        BrickOctree::voxel_is_clip(self, &voxel.leaf, voxel.k)
+        match voxel {
+            BrickVoxel::Shared { .. } => false,
+            BrickVoxel::Private(v) => self.private_flags(v) & 2 != 0,
+        }
     }
 
     fn has_voxel(&self, voxel: BrickVoxel) -> bool {
-        let BrickVoxel { leaf, k } = voxel;
-        (leaf.brick() as usize) < self.brick_count()
-            && self.leaf(BrickNode::Leaf {
-                brick: leaf.brick(),
-                cell: leaf.cell(),
-            }) == Some(leaf)
-            && k < leaf.voxel_count()
+        let s = self.traced_sections();
+        match voxel {
+            BrickVoxel::Shared { brick, cell } => {
+                brick < s.brick_count && cell < 64 && {
+                    let r = self.record(&s, brick);
+                    (u64_in(&r, OCCUPANCY) & !u64_in(&r, PRIVATE)) >> cell & 1 != 0
+                }
+            }
+            BrickVoxel::Private(v) => v < s.private_voxels,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::sphere_leaves;
+    use crate::{BrickOctreeView, LeafInput, PackedOctree, Voxel};
+
+    /// Spheres at 8 and 16 bits, some leaves with a second (surface, or clip) voxel: bricks of
+    /// every residual width and both kinds of leaf.
+    fn octrees() -> Vec<PackedOctree> {
+        let mut out = Vec::new();
+        for bits in [ValueBits::Eight, ValueBits::Sixteen] {
+            for depth in [4, 6] {
+                let mut leaves: Vec<LeafInput> = sphere_leaves(depth, 0.6);
+                for (i, leaf) in leaves.iter_mut().enumerate() {
+                    if i % 7 == 3 {
+                        let mut extra: Voxel = leaf.voxels[0];
+                        extra.corners = extra.corners.map(|c| c * 0.5 + 0.01);
+                        extra.surface = i % 2 == 0;
+                        extra.clip = i % 3 == 0;
+                        if extra.surface && extra.clip {
+                            extra.clip = false;
+                        }
+                        leaf.voxels.push(extra);
+                    }
+                }
+                let meta = OctreeMeta::unit(depth, bits);
+                out.push(PackedOctree::from_leaves(meta, leaves).unwrap());
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn brick_queries_answer_as_the_random_access_does() {
+        let (mut shared, mut private) = (0, 0);
+        for o in octrees() {
+            let b = BrickOctree::encode(&o).unwrap();
+            let v = BrickOctreeView::new(b.as_bytes()).unwrap();
+            for (coord, leaf) in b.leaves() {
+                let node = BrickNode::Leaf {
+                    brick: leaf.brick(),
+                    cell: leaf.cell(),
+                };
+                assert!(TracedOctree::is_leaf(&v, node));
+                let voxels: Vec<BrickVoxel> = TracedOctree::leaf_voxels(&v, node).collect();
+                assert_eq!(voxels.len() as u32, leaf.voxel_count(), "{coord:?}");
+                let clip = (0..leaf.voxel_count()).any(|k| b.voxel_is_clip(&leaf, k));
+                assert_eq!(
+                    TracedOctree::any_clip_voxel(&v, &TracedOctree::leaf_voxels(&v, node)),
+                    clip
+                );
+                for (k, &voxel) in voxels.iter().enumerate() {
+                    let k = k as u32;
+                    assert!(TracedOctree::has_voxel(&v, voxel));
+                    assert_eq!(
+                        TracedOctree::voxel_corners(&v, voxel).map(f32::to_bits),
+                        b.voxel_corners(&leaf, k).map(f32::to_bits),
+                        "{coord:?} voxel {k}"
+                    );
+                    assert_eq!(
+                        TracedOctree::voxel_is_surface(&v, voxel),
+                        b.voxel_is_surface(&leaf, k)
+                    );
+                    assert_eq!(
+                        TracedOctree::voxel_is_clip(&v, voxel),
+                        b.voxel_is_clip(&leaf, k)
+                    );
+                    match voxel {
+                        BrickVoxel::Shared { .. } => shared += 1,
+                        BrickVoxel::Private(_) => private += 1,
+                    }
+                }
+            }
+            // Names that are not voxels of this octree.
+            let bricks = b.brick_count() as u32;
+            assert!(!TracedOctree::has_voxel(
+                &v,
+                BrickVoxel::Shared {
+                    brick: bricks,
+                    cell: 0
+                }
+            ));
+            assert!(!TracedOctree::has_voxel(
+                &v,
+                BrickVoxel::Private(b.private_voxel_count() as u32)
+            ));
+        }
+        assert!(
+            shared > 1000 && private > 200,
+            "{shared} shared, {private} private"
+        );
     }
 }

@@ -11,13 +11,15 @@
 //! cargo run --release -p sdfmo-render --example cpu_frame -- [--threads 1,2] [--repeat 9] \
 //!     [--size 1024] [--view 0] [--png DIR] A.smo [B.smo …]
 //! ```
-//! `--png DIR` saves each octree's first render (`DIR/<stem>.png`) for byte comparisons.
+//! `--png DIR` saves each octree's first render (`DIR/<stem>.png`) for byte comparisons. A 3.0
+//! file is traced as it is (`BrickOctree`), any other as its 1.x octree. `--write-v3 DIR`
+//! renders nothing: it writes each 1.x file as 3.0 (`DIR/<stem>.v3.smo`, `BrickOctree::encode`).
 
 use std::path::PathBuf;
 use std::time::Instant;
 
-use sdfmo_format::PackedOctree;
-use sdfmo_render::{render, save_png, Camera, Mode, OctreeScene, RenderSettings};
+use sdfmo_format::{is_v3, BrickOctree, PackedOctree};
+use sdfmo_render::{render, save_png, Camera, Mode, OctreeScene, RenderSettings, Traceable};
 
 /// CPU time of each of the process's live threads, ns, by thread id (Linux; empty elsewhere).
 fn thread_cpu_ns() -> Vec<(String, u64)> {
@@ -66,6 +68,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut size = 1024u32;
     let mut view = 0u32;
     let mut png: Option<PathBuf> = None;
+    let mut write_v3: Option<PathBuf> = None;
     let mut files = Vec::new();
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
@@ -81,8 +84,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--size" => size = value()?.parse()?,
             "--view" => view = value()?.parse()?,
             "--png" => png = Some(PathBuf::from(value()?)),
+            "--write-v3" => write_v3 = Some(PathBuf::from(value()?)),
             _ => files.push(PathBuf::from(a)),
         }
+    }
+    if let Some(dir) = write_v3 {
+        for file in &files {
+            let stem = file
+                .file_stem()
+                .map_or("octree".into(), |s| s.to_string_lossy());
+            let v3 = BrickOctree::encode(&PackedOctree::load(file)?)?;
+            std::fs::write(dir.join(format!("{stem}.v3.smo")), v3.as_bytes())?;
+        }
+        return Ok(());
     }
     let pools: Vec<rayon::ThreadPool> = threads
         .iter()
@@ -94,10 +108,53 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "| octree | threads | hits | median wall ms | median CPU ms / frame | median busiest-thread CPU ms | runs |"
     );
     println!("|---|---|---|---|---|---|---|");
+    let run = Run {
+        pools: &pools,
+        threads: &threads,
+        camera: &camera,
+        settings: &settings,
+        repeat,
+        png: png.as_deref(),
+    };
     for file in &files {
-        let octree = PackedOctree::load(file)?;
-        let scene = OctreeScene(&octree);
-        let first = pools[0].install(|| render(&scene, &camera, &settings))?;
+        if is_v3(&std::fs::read(file)?) {
+            let octree = BrickOctree::new(std::fs::read(file)?)?;
+            run.frames(&OctreeScene(&octree), file)?;
+        } else {
+            let octree = PackedOctree::load(file)?;
+            run.frames(&OctreeScene(&octree), file)?;
+        }
+    }
+    Ok(())
+}
+
+/// What every file is rendered with.
+struct Run<'a> {
+    pools: &'a [rayon::ThreadPool],
+    threads: &'a [usize],
+    camera: &'a Camera,
+    settings: &'a RenderSettings,
+    repeat: usize,
+    png: Option<&'a std::path::Path>,
+}
+
+impl Run<'_> {
+    /// The first render (saved with `--png`), then `repeat` rounds over the pools, one row per
+    /// pool.
+    fn frames<S: Traceable>(
+        &self,
+        scene: &S,
+        file: &std::path::Path,
+    ) -> Result<(), Box<dyn std::error::Error>> {
+        let Run {
+            pools,
+            threads,
+            camera,
+            settings,
+            repeat,
+            png,
+        } = *self;
+        let first = pools[0].install(|| render(scene, camera, settings))?;
         if let Some(dir) = &png {
             let stem = file
                 .file_stem()
@@ -110,7 +167,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for _ in 0..repeat {
             for (k, pool) in pools.iter().enumerate() {
                 let (c0, t0) = (thread_cpu_ns(), Instant::now());
-                let r = pool.install(|| render(&scene, &camera, &settings))?;
+                let r = pool.install(|| render(scene, camera, settings))?;
                 wall[k].push(t0.elapsed().as_secs_f64() * 1e3);
                 let (total, largest) = cpu_between(&c0, &thread_cpu_ns());
                 cpu[k].push(total as f64 * 1e-6);
@@ -128,6 +185,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 median(&mut busiest[k]),
             );
         }
+        Ok(())
     }
-    Ok(())
 }

@@ -1,7 +1,7 @@
 //! The packed octree as a scene, through `sdfmo-trace`'s kernel.
 
 use glam::Vec3;
-use sdfmo_format::{cell_size, LodOctree, PackedOctree};
+use sdfmo_format::{cell_size, LodOctree, PackedOctree, TracedOctree};
 use sdfmo_trace::{
     hit_normal, intersect, intersect_lod, intersect_lod_packet, intersect_packet, occluded,
     occupied_bounds, Hit, LevelChoice, LodHit, Ray, RayPacket,
@@ -19,22 +19,33 @@ pub const OCTREE_EPSILON_LEAVES: f32 = 0.05;
 /// 1/16 of the root's edge: a tight box for a few thousand node visits per render).
 pub const OCCUPIED_LEVELS: u8 = 5;
 
-/// A packed octree as a [`Traceable`] (`sdfmo_trace::{intersect, occluded, hit_normal}`).
-#[derive(Clone, Copy)]
-pub struct OctreeScene<'a>(pub &'a PackedOctree);
+/// A packed octree as a [`Traceable`] (`sdfmo_trace::{intersect, occluded, hit_normal}`): a
+/// 1.x [`PackedOctree`] (the default) or any other [`TracedOctree`], such as a 3.0
+/// [`BrickOctree`](sdfmo_format::BrickOctree) traced in place (the same images as its 1.x
+/// octree, byte for byte).
+pub struct OctreeScene<'a, O = PackedOctree>(pub &'a O);
 
-impl Traceable for OctreeScene<'_> {
-    type Hit = Hit;
+// Not derived: a derive would ask `O: Clone` (the scene only copies the reference).
+impl<O> Clone for OctreeScene<'_, O> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<O> Copy for OctreeScene<'_, O> {}
+
+impl<O: TracedOctree + Sync> Traceable for OctreeScene<'_, O> {
+    type Hit = Hit<O::Voxel>;
 
     #[inline]
-    fn first_hit(&self, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> Option<Hit> {
+    fn first_hit(&self, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> Option<Self::Hit> {
         intersect(self.0, &Ray { origin, dir }, t_min, t_max)
     }
 
     /// One walk of the octree for the whole packet (`sdfmo_trace::intersect_packet`: the same
     /// hits as ray by ray, bit for bit).
     #[inline]
-    fn first_hits(&self, rays: &RayPacket, out: &mut [Option<Hit>; PACKET]) {
+    fn first_hits(&self, rays: &RayPacket, out: &mut [Option<Self::Hit>; PACKET]) {
         let hits = intersect_packet(self.0, rays);
         for (l, hit) in hits.into_iter().enumerate() {
             if rays.lanes >> l & 1 != 0 {
@@ -44,13 +55,13 @@ impl Traceable for OctreeScene<'_> {
     }
 
     #[inline]
-    fn hit_t(&self, hit: &Hit) -> f32 {
+    fn hit_t(&self, hit: &Self::Hit) -> f32 {
         hit.t
     }
 
     /// The analytic gradient of the hit voxel's trilinear interpolant.
     #[inline]
-    fn normal(&self, origin: Vec3, dir: Vec3, hit: &Hit) -> Vec3 {
+    fn normal(&self, origin: Vec3, dir: Vec3, hit: &Self::Hit) -> Vec3 {
         hit_normal(self.0, &Ray { origin, dir }, hit)
     }
 
@@ -66,7 +77,7 @@ impl Traceable for OctreeScene<'_> {
     }
 
     fn epsilon(&self) -> f32 {
-        let leaf = cell_size(self.0.depth());
+        let leaf = cell_size(self.0.meta().depth);
         OCTREE_EPSILON_LEAVES * leaf
     }
 }

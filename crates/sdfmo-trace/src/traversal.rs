@@ -496,8 +496,8 @@ pub(crate) mod tests {
     use rand_chacha::ChaCha8Rng;
     use sdfmo_format::testing::pinhole_dirs;
     use sdfmo_format::{
-        cell_size, BrickOctree, BrickOctreeView, LeafInput, NodeRef, OctreeMeta, PackedOctree,
-        PackedOctreeView, ValueBits, Voxel,
+        cell_size, BrickOctree, BrickOctreeView, BrickVoxel, LeafInput, NodeRef, OctreeMeta,
+        PackedOctree, PackedOctreeView, ValueBits, Voxel,
     };
 
     fn meta(depth: u8) -> OctreeMeta {
@@ -864,7 +864,7 @@ pub(crate) mod tests {
                         ng.to_array().map(f32::to_bits)
                     );
                     hits += 1;
-                    shared_hits += usize::from(g.voxel.leaf.is_shared());
+                    shared_hits += usize::from(matches!(g.voxel, BrickVoxel::Shared { .. }));
                 }
                 // The stored distance at points along the ray.
                 let p = ray.origin + ray.dir * rng.random_range(0.0..4.0f32);
