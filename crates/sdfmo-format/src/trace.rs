@@ -212,16 +212,23 @@ fn u32_in(r: &[u8; BRICK_RECORD_SIZE], at: usize) -> u32 {
 /// The eight `W`-bit residuals (W = 0, 2, 4, 8 or 16, sign-extended) of the points `ranks` in
 /// a brick's residual bytes `res` (LSB first; fields below 16 bits never straddle a byte).
 #[inline(always)]
-fn residuals<const W: u32>(res: &[u8], ranks: [u32; 8]) -> [i32; 8] {
-    ranks.map(|rank| match W {
-        0 => 0,
-        16 => i32::from(i16::from_le_bytes(bytes_at::<2>(res, 2 * rank as usize))),
-        _ => {
+fn residuals<const W: u32>(res: &[u8], ranks: &[u32; 8]) -> [i32; 8] {
+    // Plain loops, not `array::map`: the map's closure was not inlined (callgrind).
+    let mut out = [0i32; 8];
+    if W == 0 {
+        return out;
+    }
+    for i in 0..8 {
+        let rank = ranks[i];
+        out[i] = if W == 16 {
+            i32::from(i16::from_le_bytes(bytes_at::<2>(res, 2 * rank as usize)))
+        } else {
             let bit = rank * W;
             let field = u32::from(res[(bit >> 3) as usize]) >> (bit & 7);
             ((field << (32 - W)) as i32) >> (32 - W)
-        }
-    })
+        };
+    }
+    out
 }
 
 impl<B: AsRef<[u8]>> BrickOctree<B> {
@@ -262,7 +269,10 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
         let below = (points & ((1u128 << g) - 1)).count_ones();
         // The corners lie within 31 points of the lowest one.
         let window = (points >> g) as u32;
-        let ranks = CORNER_POINT_OFFSETS.map(|o| below + (window & ((1u32 << o) - 1)).count_ones());
+        let mut ranks = [0u32; 8];
+        for (rank, o) in ranks.iter_mut().zip(CORNER_POINT_OFFSETS) {
+            *rank = below + (window & ((1u32 << o) - 1)).count_ones();
+        }
         let bits = self.meta().bits;
         let (f, q) = (plane_fraction_bits(bits), max_code(bits));
         let c = u32::from(cell);
@@ -275,24 +285,26 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
         let res =
             &self.as_bytes()[s.residuals + (word & ((1 << RESIDUAL_OFFSET_BITS) - 1)) as usize..];
         let res = match residual_widths(bits)[(word >> RESIDUAL_OFFSET_BITS) as usize] {
-            0 => residuals::<0>(res, ranks),
-            2 => residuals::<2>(res, ranks),
-            4 => residuals::<4>(res, ranks),
-            8 => residuals::<8>(res, ranks),
-            _ => residuals::<16>(res, ranks),
+            0 => residuals::<0>(res, &ranks),
+            2 => residuals::<2>(res, &ranks),
+            4 => residuals::<4>(res, &ranks),
+            8 => residuals::<8>(res, &ranks),
+            _ => residuals::<16>(res, &ranks),
         };
-        core::array::from_fn(|i| {
+        let mut codes = [0i32; 8];
+        for (i, code) in codes.iter_mut().enumerate() {
             let t = t0
                 + plane[1] * (i >> 2) as i32
                 + plane[2] * (i >> 1 & 1) as i32
                 + plane[3] * (i & 1) as i32;
             let pred = ((t + ((1 << f) >> 1)) >> f).clamp(-q, q);
             // A full-width residual wraps modulo 2^bits (FORMAT.md).
-            match bits {
+            *code = match bits {
                 ValueBits::Eight => i32::from((pred + res[i]) as i8),
                 ValueBits::Sixteen => i32::from((pred + res[i]) as i16),
-            }
-        })
+            };
+        }
+        codes
     }
 
     /// The two flag bits (surface, clip) of private voxel `v`.
@@ -332,7 +344,7 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
     #[inline(always)]
     fn child_mask(&self, node: BrickNode) -> u8 {
         match node {
-            BrickNode::Upper(_) => BrickOctree::child_mask(self, node),
+            BrickNode::Upper(k) => self.upper_child_mask(k),
             BrickNode::Brick(b) => {
                 // Bit o set when byte o of the occupancy is non-zero.
                 let x = self.occupancy(b);
@@ -429,7 +441,12 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
         let s = self.dequant_scale();
         match voxel {
             BrickVoxel::Shared { brick, cell } => {
-                self.shared_codes(brick, cell).map(|c| c as f32 * s)
+                let codes = self.shared_codes(brick, cell);
+                let mut out = [0.0f32; 8];
+                for (v, c) in out.iter_mut().zip(codes) {
+                    *v = c as f32 * s;
+                }
+                out
             }
             BrickVoxel::Private(v) => {
                 let sec = self.traced_sections();

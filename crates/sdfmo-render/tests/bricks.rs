@@ -23,8 +23,11 @@ fn build_model(name: &str, depth: u8, method: Method) -> PackedOctree {
         .0
 }
 
-/// PNG bytes and the f32 buffers' bits of a render.
-fn image_bytes(r: &Rendered) -> (Vec<u8>, Option<Vec<u32>>, Option<Vec<[u32; 3]>>) {
+/// A render's PNG bytes, and the bits of its kept depths and normals.
+type ImageBytes = (Vec<u8>, Option<Vec<u32>>, Option<Vec<[u32; 3]>>);
+
+/// [`ImageBytes`] of a render.
+fn image_bytes(r: &Rendered) -> ImageBytes {
     (
         encode_png(r, Path::new("test.png")).expect("png"),
         r.depth
