@@ -3,7 +3,7 @@
 //
 // BINDING LAYOUT (group 0):
 //   binding 0  storage, read        smo: array<u32>          the `.smo` file (see sdfmo.wgsl):
-//                                                            a 1.x file, traced as it is, or
+//                                                            a 1.x or 3.0 file, traced as it is, or
 //                                                            with params.pixel_error > 0 a
 //                                                            2.0 file (levels of detail), each
 //                                                            ray at the level its error needs

@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use glam::{DVec3, Vec3};
 use sdfmo_format::quant::dequant_scale;
-use sdfmo_format::{LodOctree, PackedOctree, PackedOctreeView};
+use sdfmo_format::{BrickNode, BrickOctree, LodOctree, PackedOctree, PackedOctreeView};
 use sdfmo_render::octree::OCCUPIED_LEVELS;
 use sdfmo_render::scene::OCCUPIED_PAD;
 use sdfmo_render::shading::{light_dir, DepthRange, AMBIENT, LIGHT_INTENSITY};
@@ -19,7 +19,8 @@ use wgpu::util::DeviceExt;
 
 use crate::shared_struct::shared_struct;
 use crate::{
-    shader_source, GpuError, Result, BACKGROUND_ENTRY_POINT, ENTRY_POINT, SMO_FAR, WORKGROUP_SIZE,
+    shader_source, GpuError, Result, BACKGROUND_ENTRY_POINT, ENTRY_POINT, MAX_GPU_BRICKS, SMO_FAR,
+    WORKGROUP_SIZE,
 };
 
 /// The `mode` code of `SmoRenderParams` in `render.wgsl` (the renderer's [`Mode`]s; shadows
@@ -104,7 +105,8 @@ impl GpuTiming {
     }
 }
 
-/// An octree uploaded to the GPU: the `.smo` file's bytes, unchanged, in one storage buffer.
+/// An octree uploaded to the GPU: the `.smo` file's bytes (1.x, or 3.0 bricks), unchanged, in
+/// one storage buffer.
 #[derive(Debug)]
 pub struct GpuOctree {
     buffer: wgpu::Buffer,
@@ -188,9 +190,9 @@ shared_struct! {
         /// Depth mode: distances mapped to 255 and to the darkest grey.
         depth_near: f32,
         depth_far: f32,
-        /// 0: the bound file is a 1.x octree, traced as it is. > 0: it is a 2.0 file with
-        /// levels, and each ray stops at the coarsest level whose voxel edge projects to at
-        /// most this many pixels at its hit distance (`smo_intersect_lod`).
+        /// 0: the bound file is one octree (1.x, or 3.0 bricks), traced as it is. > 0: a 2.0
+        /// file with levels, and each ray stops at the coarsest level whose voxel edge projects
+        /// to at most this many pixels at its hit distance (`smo_intersect_lod`).
         pixel_error: f32,
         /// Radians one pixel subtends (with `pixel_error` > 0).
         pixel_angle: f32,
@@ -508,11 +510,42 @@ impl GpuRenderer {
         self.upload_validated(octree.as_bytes(), octree.meta(), occupied)
     }
 
-    /// Validates `.smo` file bytes ([`PackedOctreeView::new`]: the kernel trusts what it reads)
-    /// and uploads them unchanged into one storage buffer. The length is checked against
+    /// Uploads a 3.0 brick file: its bytes ([`BrickOctree::as_bytes`]), unchanged and not
+    /// copied on the host, traced as they are (the kernel reads bricks; nothing is expanded to
+    /// 1.x). The size is checked first ([`GpuRenderer::max_file_bytes`]).
+    ///
+    /// # Errors
+    /// Those of [`GpuRenderer::upload`], and [`GpuError::TooLarge`] for more than
+    /// [`MAX_GPU_BRICKS`] bricks.
+    pub fn upload_bricks<B: AsRef<[u8]>>(&self, bricks: &BrickOctree<B>) -> Result<GpuOctree> {
+        let bytes = bricks.as_bytes();
+        self.check_file_size(bytes.len() as u64)?;
+        if bricks.brick_count() > MAX_GPU_BRICKS as usize {
+            return Err(GpuError::TooLarge {
+                what: "the brick records (the kernel numbers bricks in 25 bits)",
+                needed: bricks.brick_count() as u64 * sdfmo_format::BRICK_RECORD_SIZE as u64,
+                limit: u64::from(MAX_GPU_BRICKS) * sdfmo_format::BRICK_RECORD_SIZE as u64,
+            });
+        }
+        let occupied = brick_occupied_bounds(bricks, OCCUPIED_LEVELS);
+        self.upload_validated(bytes, bricks.meta(), occupied)
+    }
+
+    /// Validates `.smo` file bytes (the kernel trusts what it reads: [`PackedOctreeView::new`]
+    /// for 1.x, [`BrickOctree::new`] for 3.0, which is traced as it is) and uploads them
+    /// unchanged into one storage buffer; a compressed file
+    /// ([`sdfmo_format::compressed`]) is decoded first, to at most
+    /// [`GpuRenderer::max_file_bytes`]. The length is checked against
     /// [`GpuRenderer::max_file_bytes`] before anything is read.
     pub fn upload_bytes(&self, bytes: &[u8]) -> Result<GpuOctree> {
+        if sdfmo_format::compressed::is_compressed(bytes) {
+            let decoded = sdfmo_format::compressed::decompress(bytes, self.max_file_bytes())?;
+            return self.upload_bytes(&decoded);
+        }
         self.check_file_size(bytes.len() as u64)?;
+        if sdfmo_format::is_v3(bytes) {
+            return self.upload_bricks(&BrickOctree::new(bytes)?);
+        }
         let view = PackedOctreeView::new(bytes)?;
         // OctreeScene's occupied bounds, of the borrowed bytes.
         let occupied = sdfmo_trace::occupied_bounds(&view, OCCUPIED_LEVELS);
@@ -946,6 +979,38 @@ impl GpuRenderer {
     }
 }
 
+/// The union of the occupied cells `levels` below the root of a 3.0 file (`None` when it is
+/// empty): the cells `sdfmo_trace::occupied_bounds` unions for the same octree in 1.x (the
+/// same nodes, walked through [`BrickOctree::child`]), so tiles are culled as for that file.
+fn brick_occupied_bounds<B: AsRef<[u8]>>(
+    bricks: &BrickOctree<B>,
+    levels: u8,
+) -> Option<(Vec3, Vec3)> {
+    let root = bricks.root()?;
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    let mut stack: Vec<(BrickNode, Vec3, f32, u8)> = vec![(root, Vec3::splat(-1.0), 2.0, 0)];
+    while let Some((node, min, size, level)) = stack.pop() {
+        if level >= levels || bricks.is_leaf(node) {
+            lo = lo.min(min);
+            hi = hi.max(min + Vec3::splat(size));
+            continue;
+        }
+        let half = 0.5 * size;
+        for oct in 0..8u8 {
+            if let Some(child) = bricks.child(node, oct) {
+                let offset = Vec3::new(
+                    f32::from(oct >> 2),
+                    f32::from((oct >> 1) & 1),
+                    f32::from(oct & 1),
+                );
+                stack.push((child, min + offset * half, half, level + 1));
+            }
+        }
+    }
+    Some((lo, hi))
+}
+
 /// [`GpuError::Render`] with [`RenderError::InvalidSettings`].
 fn invalid_settings(what: String) -> GpuError {
     GpuError::Render(RenderError::InvalidSettings(what))
@@ -1004,6 +1069,28 @@ mod tests {
         assert_eq!(grid(0, 65535), Some((1, 0)));
         assert_eq!(grid(70_000, 65535), Some((65535, 2)));
         assert_eq!(grid(10, 3), None);
+    }
+
+    /// A 3.0 file's occupied box (the tiles the GPU culls) is its 1.x file's, at every number
+    /// of levels below the root: the sphere's octree at depths 2 to 6, the empty one too.
+    #[test]
+    fn brick_bounds_are_the_octree_bounds() {
+        use sdfmo_format::{testing::sphere_leaves, OctreeMeta, ValueBits};
+        for depth in 2..=6u8 {
+            for leaves in [sphere_leaves(depth, 0.6), Vec::new()] {
+                let meta = OctreeMeta::unit(depth, ValueBits::Eight);
+                let octree = PackedOctree::from_leaves(meta, leaves).unwrap();
+                let bricks = BrickOctree::encode(&octree).unwrap();
+                for levels in 0..=depth + 1 {
+                    assert_eq!(
+                        brick_occupied_bounds(&bricks, levels),
+                        sdfmo_trace::occupied_bounds(&octree, levels),
+                        "depth {depth}, {levels} levels, {} leaves",
+                        octree.leaf_count()
+                    );
+                }
+            }
+        }
     }
 
     /// `smo_lod_level_info` (sdfmo.wgsl) derives level k's dequantisation factor from the

@@ -1,4 +1,4 @@
-// sdfmo.wgsl: ray tracing a packed SDF multi-octree (`.smo` 1.x) in WGSL.
+// sdfmo.wgsl: ray tracing a packed SDF multi-octree (`.smo` 1.x, or 3.0 bricks) in WGSL.
 //
 // A port of `sdfmo-trace` (traversal.rs, ray_voxel.rs, normal.rs) with the same hit rules:
 // front-to-back traversal, first leaf with a hit; in a leaf every voxel is tested and the
@@ -14,7 +14,8 @@
 // for a file with levels of detail (`.smo` 2.0, bound as saved), `smo_lod` and
 // `smo_intersect_lod` (each ray at the level its screen-space error needs, as
 // sdfmo_trace::intersect_lod), then `smo_hit_normal` over `smo_lod_level_info` of the hit's
-// level.
+// level. A 3.0 brick file (FORMAT.md, "Bricks (version 3.0)") is bound and traced as it is:
+// `smo_info` tells it by its major version (see "Bricks" below).
 //
 // BINDING LAYOUT (one binding; change the group/binding numbers on the next line if your
 // pipeline needs that slot):
@@ -87,6 +88,16 @@ struct SmoInfo {
     /// Word offset of the clip bitmap, 0 when the file has no clip voxels.
     clip: u32,
     dequant: f32,
+    /// A 3.0 brick file (see "Bricks" below): then `inner_count` counts the nodes above the
+    /// bricks, `voxel_count` the private voxels, `leaves`, `surface` (= `clip`, when it has clip
+    /// voxels) and `corners` are its private leaves, flags and corners, and these are set:
+    v3: bool,
+    /// Word offset of the brick records, their count, and the level of the bricks (depth − 2).
+    bricks: u32,
+    brick_count: u32,
+    brick_level: u32,
+    /// Byte offset of the residuals section.
+    residuals: u32,
 }
 
 /// A ray `origin + t·dir`, `dir` of unit length.
@@ -128,10 +139,16 @@ fn smo_info(dequant: f32) -> SmoInfo {
 }
 
 /// Reads the header of the 1.x octree that starts at word `base` of the bound buffer (0 for a
-/// 1.x file; a level of a 2.0 file, `smo_lod_level_info`): its section offsets, relative to
-/// its own start, become word offsets in the buffer.
+/// 1.x or 3.0 file; a level of a 2.0 file, `smo_lod_level_info`): its section offsets,
+/// relative to its own start, become word offsets in the buffer. A 3.0 file is read by
+/// `smo_v3_info`.
 fn smo_info_at(base: u32, dequant: f32) -> SmoInfo {
+    let major = (smo[base + SMO_HEADER_VERSION_MAJOR] >> SMO_HEADER_VERSION_MAJOR_SHIFT) & 0xffffu;
+    if major == SMO_V3_MAJOR {
+        return smo_v3_info(dequant);
+    }
     var info: SmoInfo;
+    info.v3 = false;
     info.depth = (smo[base + SMO_HEADER_DEPTH] >> SMO_HEADER_DEPTH_SHIFT) & 0xffu;
     info.value_bits = (smo[base + SMO_HEADER_VALUE_BITS] >> SMO_HEADER_VALUE_BITS_SHIFT) & 0xffu;
     info.inner_count = smo[base + SMO_HEADER_INNER_COUNT];
@@ -181,9 +198,16 @@ fn smo_first_child(info: SmoInfo, node: u32) -> u32 {
     return smo[at] + smo_popcount_low(smo[at + 1u], smo[at + 2u], (node & 7u) * 8u);
 }
 
-/// A leaf's voxels: (first voxel, count).
+/// A leaf's voxels: (first voxel, count). In a 3.0 file, `smo_v3_leaf_voxels`.
 fn smo_leaf_voxels(info: SmoInfo, node: u32) -> vec2<u32> {
-    let j = node - info.inner_count;
+    if info.v3 {
+        return smo_v3_leaf_voxels(info, node);
+    }
+    return smo_leaf_group_voxels(info, node - info.inner_count);
+}
+
+/// Leaf `j`'s voxels in the leaf groups at `info.leaves` (1.x leaves, 3.0 private leaves).
+fn smo_leaf_group_voxels(info: SmoInfo, j: u32) -> vec2<u32> {
     let at = info.leaves + (j >> 3u) * 3u;
     let lo = smo[at + 1u];
     let hi = smo[at + 2u];
@@ -197,6 +221,9 @@ fn smo_leaf_voxels(info: SmoInfo, node: u32) -> vec2<u32> {
 
 /// The voxel's dequantised corners (corner order 4x + 2y + z), normalised units.
 fn smo_voxel_corners(info: SmoInfo, voxel: u32) -> array<f32, 8> {
+    if info.v3 && (voxel & SMO_SHARED_VOXEL) != 0u {
+        return smo_v3_shared_corners(info, voxel & ~SMO_SHARED_VOXEL);
+    }
     var c: array<f32, 8>;
     if info.value_bits == 8u {
         let at = info.corners + voxel * 2u;
@@ -216,6 +243,9 @@ fn smo_voxel_corners(info: SmoInfo, voxel: u32) -> array<f32, 8> {
 
 /// Whether the voxel is a surface (thin) voxel.
 fn smo_voxel_is_surface(info: SmoInfo, voxel: u32) -> bool {
+    if info.v3 {
+        return (smo_v3_voxel_flags(info, voxel) & 1u) != 0u;
+    }
     return ((smo[info.surface + (voxel >> 5u)] >> (voxel & 31u)) & 1u) != 0u;
 }
 
@@ -223,6 +253,9 @@ fn smo_voxel_is_surface(info: SmoInfo, voxel: u32) -> bool {
 fn smo_voxel_is_clip(info: SmoInfo, voxel: u32) -> bool {
     if info.clip == 0u {
         return false;
+    }
+    if info.v3 {
+        return (smo_v3_voxel_flags(info, voxel) & 2u) != 0u;
     }
     return ((smo[info.clip + (voxel >> 5u)] >> (voxel & 31u)) & 1u) != 0u;
 }
@@ -239,6 +272,253 @@ fn smo_any_clip(info: SmoInfo, first: u32, count: u32) -> bool {
         }
     }
     return false;
+}
+
+// ---- Bricks (.smo 3.0; sdfmo-format brick.rs, FORMAT.md "Bricks (version 3.0)") ----
+//
+// A 3.0 file bound as it is (decompressed first when it was compressed): node groups above the
+// bricks (levels 0 … depth − 3, as 1.x's), one 32-byte record per brick (the node at level
+// depth − 2, 4³ leaf cells: occupancy, private mask, plane, residual word, first private leaf),
+// the residuals, and the private leaves, flags (two bits per voxel: surface, clip) and corners
+// (as 1.x's leaf groups and corners). The walk is `smo_intersect`'s, the same cells in the same
+// order with the same spans; only the nodes' children and voxels are found differently:
+//   level < depth − 2   node = breadth-first index k of the upper tree (a brick from k ≥
+//                       inner_count on: brick k − inner_count), children as in 1.x
+//   level = depth − 2   node = inner_count + brick (the root at depth 2: node 0 = brick 0);
+//                       child mask: the occupancy bytes that are non-zero
+//   level = depth − 1   node = brick · 8 + octant; child mask: occupancy byte `octant`
+//   level = depth       node = brick · 64 + cell (the cell's Morton index in its brick), a leaf
+// A shared leaf's one voxel is SMO_SHARED_VOXEL | its leaf node (the host refuses a file with
+// more bricks than that leaves room for); a private voxel is its index in the private sections.
+// Header and record fields are read at the SMO_V3_HEADER_* and SMO_BRICK_* words generated from
+// sdfmo_format's V3_HEADER_FIELDS and BRICK_RECORD_FIELDS.
+
+/// Reads the header of the bound 3.0 file (it starts at word 0).
+fn smo_v3_info(dequant: f32) -> SmoInfo {
+    var info: SmoInfo;
+    info.v3 = true;
+    info.depth = (smo[SMO_V3_HEADER_DEPTH] >> SMO_V3_HEADER_DEPTH_SHIFT) & 0xffu;
+    info.value_bits = (smo[SMO_V3_HEADER_VALUE_BITS] >> SMO_V3_HEADER_VALUE_BITS_SHIFT) & 0xffu;
+    info.inner_count = smo[SMO_V3_HEADER_UPPER_COUNT];
+    info.leaf_count = smo[SMO_V3_HEADER_LEAF_COUNT];
+    info.voxel_count = smo[SMO_V3_HEADER_PRIVATE_VOXEL_COUNT];
+    info.nodes = smo[SMO_V3_HEADER_NODES_OFFSET] >> 2u;
+    info.leaves = smo[SMO_V3_HEADER_PRIVATE_LEAVES_OFFSET] >> 2u;
+    info.surface = smo[SMO_V3_HEADER_PRIVATE_FLAGS_OFFSET] >> 2u;
+    info.corners = smo[SMO_V3_HEADER_PRIVATE_CORNERS_OFFSET] >> 2u;
+    info.clip = 0u;
+    if (smo[SMO_V3_HEADER_FLAGS] & SMO_FLAG_CLIP_VOXELS) != 0u {
+        info.clip = info.surface;
+    }
+    info.dequant = dequant;
+    info.bricks = smo[SMO_V3_HEADER_BRICKS_OFFSET] >> 2u;
+    info.brick_count = smo[SMO_V3_HEADER_BRICK_COUNT];
+    info.brick_level = info.depth - SMO_BRICK_LEVELS;
+    info.residuals = smo[SMO_V3_HEADER_RESIDUALS_OFFSET];
+    return info;
+}
+
+/// Whether the node at `level` is a leaf.
+fn smo_is_leaf(info: SmoInfo, node: u32, level: u32) -> bool {
+    if info.v3 {
+        return level == info.depth;
+    }
+    return node >= info.inner_count;
+}
+
+/// Word `k` of brick `b`'s record.
+fn smo_brick_word(info: SmoInfo, b: u32, k: u32) -> u32 {
+    return smo[info.bricks + b * SMO_BRICK_WORDS + k];
+}
+
+/// The bits of the 4 bytes of `w` that are non-zero (bit k: byte k).
+fn smo_nonzero_bytes(w: u32) -> u32 {
+    var x = w | (w >> 4u);
+    x = x | (x >> 2u);
+    x = (x | (x >> 1u)) & 0x01010101u;
+    return (x | (x >> 7u) | (x >> 14u) | (x >> 21u)) & 0xfu;
+}
+
+/// Child mask of the node at `level` (bit 4x + 2y + z); 0 for a leaf.
+fn smo_node_mask(info: SmoInfo, node: u32, level: u32) -> u32 {
+    if !info.v3 || level < info.brick_level {
+        return smo_child_mask(info, node);
+    }
+    if level == info.brick_level {
+        let b = node - info.inner_count;
+        let lo = smo_brick_word(info, b, SMO_BRICK_OCCUPANCY);
+        let hi = smo_brick_word(info, b, SMO_BRICK_OCCUPANCY + 1u);
+        return smo_nonzero_bytes(lo) | (smo_nonzero_bytes(hi) << 4u);
+    }
+    if level < info.depth {
+        let b = node >> 3u;
+        let lo = smo_brick_word(info, b, SMO_BRICK_OCCUPANCY);
+        let hi = smo_brick_word(info, b, SMO_BRICK_OCCUPANCY + 1u);
+        return smo_byte(lo, hi, node & 7u);
+    }
+    return 0u;
+}
+
+/// The child in octant `oct` (present in `mask`, the node's child mask) of the node at `level`.
+fn smo_node_child(info: SmoInfo, node: u32, level: u32, mask: u32, oct: u32) -> u32 {
+    if !info.v3 || level < info.brick_level {
+        return smo_first_child(info, node) + countOneBits(mask & ((1u << oct) - 1u));
+    }
+    if level == info.brick_level {
+        return ((node - info.inner_count) << 3u) | oct;
+    }
+    return (node << 3u) | oct;
+}
+
+/// A 3.0 leaf's voxels: (first voxel, count); a shared leaf's one voxel is
+/// SMO_SHARED_VOXEL | leaf.
+fn smo_v3_leaf_voxels(info: SmoInfo, leaf: u32) -> vec2<u32> {
+    let b = leaf >> 6u;
+    let cell = leaf & 63u;
+    let lo = smo_brick_word(info, b, SMO_BRICK_PRIVATE);
+    let hi = smo_brick_word(info, b, SMO_BRICK_PRIVATE + 1u);
+    if ((select(lo, hi, cell >= 32u) >> (cell & 31u)) & 1u) == 0u {
+        return vec2<u32>(SMO_SHARED_VOXEL | leaf, 1u);
+    }
+    let j = smo_brick_word(info, b, SMO_BRICK_FIRST_PRIVATE_LEAF) + smo_popcount_low(lo, hi, cell);
+    return smo_leaf_group_voxels(info, j);
+}
+
+/// The two flag bits of a 3.0 voxel (bit 0 surface, bit 1 clip); 0 for a shared voxel.
+fn smo_v3_voxel_flags(info: SmoInfo, voxel: u32) -> u32 {
+    if (voxel & SMO_SHARED_VOXEL) != 0u {
+        return 0u;
+    }
+    return (smo[info.surface + (voxel >> 4u)] >> ((voxel & 15u) * 2u)) & 3u;
+}
+
+/// Whether `voxel` names a voxel of the bound file.
+fn smo_voxel_exists(info: SmoInfo, voxel: u32) -> bool {
+    if info.v3 && (voxel & SMO_SHARED_VOXEL) != 0u {
+        return ((voxel & ~SMO_SHARED_VOXEL) >> 6u) < info.brick_count;
+    }
+    return voxel < info.voxel_count;
+}
+
+/// The 128-bit `v` (word i: bits 32i … 32i + 31) shifted left by `n` (0..128) bits.
+fn smo_shl128(v: vec4<u32>, n: u32) -> vec4<u32> {
+    let ws = n >> 5u;
+    let bs = n & 31u;
+    var out = vec4<u32>(0u);
+    for (var i = ws; i < 4u; i++) {
+        let j = i - ws;
+        var w = v[j] << bs;
+        if bs != 0u && j > 0u {
+            w = w | (v[j - 1u] >> (32u - bs));
+        }
+        out[i] = w;
+    }
+    return out;
+}
+
+/// Grid index (25x + 5y + z) of the lowest corner of brick cell `cell` (Morton index: the
+/// half-brick octant in bits 3–5, the octant in it in bits 0–2): sdfmo_format::cell_grid_index.
+fn smo_cell_grid_index(cell: u32) -> u32 {
+    let hi = cell >> 3u;
+    let lo = cell & 7u;
+    let x = ((hi >> 2u) & 1u) * 2u + ((lo >> 2u) & 1u);
+    let y = ((hi >> 1u) & 1u) * 2u + ((lo >> 1u) & 1u);
+    let z = (hi & 1u) * 2u + (lo & 1u);
+    return (x * SMO_BRICK_POINT_EDGE + y) * SMO_BRICK_POINT_EDGE + z;
+}
+
+/// The points of a brick whose shared cells are `lo:hi` (sdfmo_format::point_mask): the cells
+/// placed in the 5³ grid and dilated by one along +x, +y and +z, in four words.
+fn smo_point_mask(lo: u32, hi: u32) -> vec4<u32> {
+    var cells = vec4<u32>(0u);
+    for (var half = 0u; half < 8u; half++) {
+        let m = smo_byte(lo, hi, half);
+        // The eight cells of a half-brick sit at the corner offsets of its lowest cell.
+        let spread = (m & 0x3u) | ((m & 0xcu) << 3u) | ((m & 0x30u) << 21u) | ((m & 0xc0u) << 24u);
+        cells = cells | smo_shl128(vec4<u32>(spread, 0u, 0u, 0u), smo_cell_grid_index(half << 3u));
+    }
+    let e = SMO_BRICK_POINT_EDGE;
+    var d = cells | smo_shl128(cells, 1u);
+    d = d | smo_shl128(d, e);
+    return d | smo_shl128(d, e * e);
+}
+
+/// Points of `mask` below grid index `g` (< 128): a point's rank.
+fn smo_rank_below(mask: vec4<u32>, g: u32) -> u32 {
+    var n = 0u;
+    let wi = g >> 5u;
+    for (var i = 0u; i < wi; i++) {
+        n += countOneBits(mask[i]);
+    }
+    let bs = g & 31u;
+    if bs != 0u {
+        n += countOneBits(mask[wi] & ((1u << bs) - 1u));
+    }
+    return n;
+}
+
+/// Byte `at` of the bound buffer.
+fn smo_byte_at(at: u32) -> u32 {
+    return (smo[at >> 2u] >> ((at & 3u) * 8u)) & 0xffu;
+}
+
+/// The `w`-bit residual (0, 2, 4, 8 or 16 bits; fields below 16 bits never straddle a byte) of
+/// point `rank` of the residuals starting at byte `start`, sign-extended.
+fn smo_residual(start: u32, rank: u32, w: u32) -> i32 {
+    if w == 0u {
+        return 0;
+    }
+    if w == 16u {
+        let at = start + 2u * rank;
+        return extractBits(bitcast<i32>(smo_byte_at(at) | (smo_byte_at(at + 1u) << 8u)), 0u, 16u);
+    }
+    let bit = rank * w;
+    let field = smo_byte_at(start + (bit >> 3u)) >> (bit & 7u);
+    return extractBits(bitcast<i32>(field), 0u, w);
+}
+
+/// Half `shift / 16` of word `k` of brick `b`'s record, as the i16 it holds.
+fn smo_brick_i16(info: SmoInfo, b: u32, k: u32, shift: u32) -> i32 {
+    return extractBits(bitcast<i32>(smo_brick_word(info, b, k)), shift, 16u);
+}
+
+/// The dequantised corners of the shared leaf `leaf` (brick · 64 + cell), as
+/// sdfmo_format's BrickOctree::voxel_codes decodes them, in the same integer arithmetic: each
+/// corner is a point of the brick's grid, its rank a popcount of the point mask below it, its
+/// code the plane's prediction clamp(floor((a + b·x + c·y + d·z + 2^f / 2) / 2^f), −Q, Q) plus
+/// its residual, modulo 2^bits.
+fn smo_v3_shared_corners(info: SmoInfo, leaf: u32) -> array<f32, 8> {
+    let b = leaf >> 6u;
+    let occ_lo = smo_brick_word(info, b, SMO_BRICK_OCCUPANCY);
+    let occ_hi = smo_brick_word(info, b, SMO_BRICK_OCCUPANCY + 1u);
+    let prv_lo = smo_brick_word(info, b, SMO_BRICK_PRIVATE);
+    let prv_hi = smo_brick_word(info, b, SMO_BRICK_PRIVATE + 1u);
+    let points = smo_point_mask(occ_lo & ~prv_lo, occ_hi & ~prv_hi);
+    let pa = smo_brick_i16(info, b, SMO_BRICK_PLANE_A, SMO_BRICK_PLANE_A_SHIFT);
+    let pb = smo_brick_i16(info, b, SMO_BRICK_PLANE_B, SMO_BRICK_PLANE_B_SHIFT);
+    let pc = smo_brick_i16(info, b, SMO_BRICK_PLANE_C, SMO_BRICK_PLANE_C_SHIFT);
+    let pd = smo_brick_i16(info, b, SMO_BRICK_PLANE_D, SMO_BRICK_PLANE_D_SHIFT);
+    let word = smo_brick_word(info, b, SMO_BRICK_RESIDUALS);
+    let start = info.residuals + (word & ((1u << SMO_RESIDUAL_OFFSET_BITS) - 1u));
+    let code = word >> SMO_RESIDUAL_OFFSET_BITS;
+    let eight = info.value_bits == 8u;
+    let w = (select(SMO_RESIDUAL_WIDTHS_16, SMO_RESIDUAL_WIDTHS_8, eight) >> (code * 8u)) & 0xffu;
+    let f = select(SMO_PLANE_FRACTION_BITS_16, SMO_PLANE_FRACTION_BITS_8, eight);
+    let q = select(SMO_MAX_CODE_16, SMO_MAX_CODE_8, eight);
+    let g = smo_cell_grid_index(leaf & 63u);
+    let e = SMO_BRICK_POINT_EDGE;
+    var c: array<f32, 8>;
+    for (var k = 0u; k < 8u; k++) {
+        let p = g + (((k >> 2u) & 1u) * e + ((k >> 1u) & 1u)) * e + (k & 1u);
+        let x = i32(p / (e * e));
+        let y = i32((p / e) % e);
+        let z = i32(p % e);
+        let t = pa + pb * x + pc * y + pd * z;
+        let predicted = clamp((t + ((1i << f) >> 1u)) >> f, -q, q);
+        let value = extractBits(predicted + smo_residual(start, smo_rank_below(points, p), w), 0u, info.value_bits);
+        c[k] = f32(value) * info.dequant;
+    }
+    return c;
 }
 
 // ---- The interpolant (sdfmo-format interpolant.rs) ----
@@ -657,13 +937,17 @@ fn smo_root_span(ray: SmoRay, t_min: f32, t_max: f32) -> vec2<f32> {
 /// `smo_next_child`'s `after` for a node just entered: its nearest present child.
 const SMO_FIRST_CHILD: u32 = 8u;
 
-/// The present child of the inner node `cell` that follows, in ray order, its child of octant
-/// `after` (the nearest present child for SMO_FIRST_CHILD): that child's cell, or a cell of node
-/// 0 (the root, never a child) when none follows. The node's span is split at its mid-planes as
+/// `smo_next_child`'s node when no child follows (no node has this index: a file is shorter
+/// than 4 GiB, and a 3.0 file's node numbers stay below 2^31, see "Bricks").
+const SMO_NO_NODE: u32 = 0xffffffffu;
+
+/// The present child of the inner node `cell` at `level` that follows, in ray order, its child
+/// of octant `after` (the nearest present child for SMO_FIRST_CHILD): that child's cell, or a
+/// cell of node SMO_NO_NODE when none follows. The node's span is split at its mid-planes as
 /// sdfmo_trace's split_span and inner_step split it (entry octant from the planes behind the
 /// entry point, the planes crossed inside the span flipping their bit in crossing order, equal
 /// times in axis order x, y, z), so a child's span is the same whenever it is derived.
-fn smo_next_child(info: SmoInfo, cell: SmoCell, o: vec3<f32>, inv: vec3<f32>, negative: u32, after: u32) -> SmoCell {
+fn smo_next_child(info: SmoInfo, cell: SmoCell, level: u32, o: vec3<f32>, inv: vec3<f32>, negative: u32, after: u32) -> SmoCell {
     let half = 0.5 * cell.size;
     let mid = cell.min + vec3<f32>(half);
     let tm = (mid - o) * inv;
@@ -702,18 +986,18 @@ fn smo_next_child(info: SmoInfo, cell: SmoCell, o: vec3<f32>, inv: vec3<f32>, ne
             i = j + 1u;
         }
     }
-    let mask = smo_child_mask(info, cell.node);
+    let mask = smo_node_mask(info, cell.node, level);
     for (; i < 4u; i++) {
         let oct = octants[i];
         if valid[i] && ((mask >> oct) & 1u) != 0u {
-            let node = smo_first_child(info, cell.node) + countOneBits(mask & ((1u << oct) - 1u));
+            let node = smo_node_child(info, cell.node, level, mask, oct);
             // `min + half` is `mid`, so selecting is exact (as sdfmo_trace's child_at).
             let upper = (vec3<u32>(oct) >> vec3<u32>(2u, 1u, 0u)) & vec3<u32>(1u);
             let min = select(cell.min, mid, upper != vec3<u32>(0u));
             return SmoCell(node, min, half, starts[i], ends[i]);
         }
     }
-    return SmoCell(0u, cell.min, half, te, tx);
+    return SmoCell(SMO_NO_NODE, cell.min, half, te, tx);
 }
 
 /// The first hit along the ray in [t_min, t_max] (sdfmo_trace::intersect). Pass SMO_FAR for
@@ -737,6 +1021,7 @@ fn smo_intersect(info: SmoInfo, ray: SmoRay, t_min: f32, t_max: f32) -> SmoHit {
     let negative = select(0u, 4u, inv.x < 0.0) | select(0u, 2u, inv.y < 0.0) | select(0u, 1u, inv.z < 0.0);
 
     // The ancestors of `cell`, one per level (see "Traversal stack" above): node and span.
+    // `level` is the cell's level (the root's is 0).
     var nodes: array<u32, SMO_MAX_DEPTH>;
     var spans: array<vec2<f32>, SMO_MAX_DEPTH>;
     var level = 0u;
@@ -745,11 +1030,11 @@ fn smo_intersect(info: SmoInfo, ray: SmoRay, t_min: f32, t_max: f32) -> SmoHit {
         // Down to the first leaf along the ray (a loop of its own: lavapipe runs every branch of
         // a loop's body for its whole SIMD group, so the leaf test stays out of this one).
         loop {
-            if cell.node >= info.inner_count {
+            if smo_is_leaf(info, cell.node, level) {
                 break;
             }
-            let child = smo_next_child(info, cell, o, inv, negative, SMO_FIRST_CHILD);
-            if child.node == 0u {
+            let child = smo_next_child(info, cell, level, o, inv, negative, SMO_FIRST_CHILD);
+            if child.node == SMO_NO_NODE {
                 break;
             }
             nodes[level] = cell.node;
@@ -757,7 +1042,7 @@ fn smo_intersect(info: SmoInfo, ray: SmoRay, t_min: f32, t_max: f32) -> SmoHit {
             level += 1u;
             cell = child;
         }
-        if cell.node >= info.inner_count {
+        if smo_is_leaf(info, cell.node, level) {
             let hit = smo_leaf_hit(info, cell, o, d);
             if hit.hit {
                 return hit;
@@ -775,8 +1060,8 @@ fn smo_intersect(info: SmoInfo, ray: SmoRay, t_min: f32, t_max: f32) -> SmoHit {
             let parent_min = select(cell.min, cell.min - vec3<f32>(cell.size), upper != vec3<u32>(0u));
             let parent = SmoCell(nodes[level], parent_min, 2.0 * cell.size, spans[level].x, spans[level].y);
             let octant = (upper.x << 2u) | (upper.y << 1u) | upper.z;
-            let sibling = smo_next_child(info, parent, o, inv, negative, octant);
-            if sibling.node != 0u {
+            let sibling = smo_next_child(info, parent, level, o, inv, negative, octant);
+            if sibling.node != SMO_NO_NODE {
                 level += 1u;
                 cell = sibling;
                 break;
@@ -805,7 +1090,7 @@ fn smo_try_normalize(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
 /// (sdfmo_trace::hit_normal); −dir where the gradient vanishes.
 fn smo_hit_normal(info: SmoInfo, ray: SmoRay, hit: SmoHit) -> vec3<f32> {
     let facing = smo_try_normalize(-ray.dir, vec3<f32>(0.0, 0.0, 1.0));
-    if hit.voxel >= info.voxel_count || !(hit.cell_size > 0.0) {
+    if !smo_voxel_exists(info, hit.voxel) || !(hit.cell_size > 0.0) {
         return facing;
     }
     let corners = smo_voxel_corners(info, hit.voxel);

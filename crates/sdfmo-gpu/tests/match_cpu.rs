@@ -56,7 +56,7 @@ use glam::Vec3;
 use sdfmo_build::{build, BuildSettings, Method};
 use sdfmo_format::testing::{convex_cell_voxels, cube_planes, leaves_by_cell};
 use sdfmo_format::{
-    cell_corners, cell_size, LodOctree, OctreeMeta, PackedOctree, ValueBits, Voxel,
+    cell_corners, cell_size, BrickOctree, LodOctree, OctreeMeta, PackedOctree, ValueBits, Voxel,
 };
 use sdfmo_gpu::GpuRenderer;
 use sdfmo_mesh::TriMesh;
@@ -643,6 +643,134 @@ fn all_zero_voxels_are_never_hit() {
                 bits(&a.2) == bits(&b.2),
                 "{kind}: GPU depth of view {view} differs"
             );
+        }
+    }
+}
+
+/// Format 3.0 (issue 34): `octree`'s brick file ([`BrickOctree::encode`]), uploaded as it is
+/// (`upload_bytes`: no expansion to 1.x; `compressed`: the compressed container, decoded to the
+/// 3.0 bytes on upload) and traced by the kernel's brick path, renders on the GPU exactly as
+/// the 1.x file does (lambert, normal and depth on the paper views: the colours byte for byte,
+/// depths and normals bit for bit), and so matches the CPU's images of the 1.x file with this
+/// file's tolerances ([`compare_views`]). Returns the brick file.
+fn bricks_match(
+    gpu: &mut GpuRenderer,
+    octree: &PackedOctree,
+    compressed: bool,
+    label: &str,
+) -> BrickOctree {
+    let bricks = BrickOctree::encode(octree).expect("encode 3.0");
+    let bytes = if compressed {
+        sdfmo_format::compressed::compress(bricks.as_bytes()).expect("compress")
+    } else {
+        bricks.as_bytes().to_vec()
+    };
+    let plain = gpu.upload(octree).expect("upload 1.x");
+    let on_gpu = gpu.upload_bytes(&bytes).expect("upload 3.0");
+    // The buffer is the 3.0 file (not its 1.x expansion).
+    assert_eq!(on_gpu.byte_size(), bricks.as_bytes().len() as u64);
+    let bits = |v: &Option<Vec<f32>>| {
+        v.as_ref()
+            .map(|d| d.iter().map(|t| t.to_bits()).collect::<Vec<_>>())
+    };
+    let normal_bits = |v: &Option<Vec<Vec3>>| {
+        v.as_ref().map(|n| {
+            n.iter()
+                .flat_map(|n| n.to_array().map(f32::to_bits))
+                .collect::<Vec<_>>()
+        })
+    };
+    let cams = Camera::paper_views(SIZE, SIZE);
+    for (view, cam) in cams.iter().enumerate() {
+        for mode in [Mode::Lambert, Mode::Normal, Mode::Depth] {
+            let settings = RenderSettings::new(mode);
+            let a = gpu.render(&plain, cam, &settings).expect("GPU 1.x");
+            let b = gpu.render(&on_gpu, cam, &settings).expect("GPU 3.0");
+            let what = format!("{label} view {view} {mode:?}");
+            assert!(a.counters.hits > 0, "{what}: nothing hit");
+            assert!(a.rgb == b.rgb, "{what}: colours differ");
+            assert!(bits(&a.depth) == bits(&b.depth), "{what}: depths differ");
+            assert!(
+                normal_bits(&a.normals) == normal_bits(&b.normals),
+                "{what}: normals differ"
+            );
+        }
+    }
+    let mut draw = |gpu: &mut GpuRenderer, cam: &Camera, mode: Mode| {
+        gpu.render(&on_gpu, cam, &RenderSettings::new(mode))
+            .expect("GPU render")
+    };
+    compare_views(gpu, &mut draw, octree, &cams, &format!("{label} 3.0"));
+    eprintln!(
+        "{label}: {} bricks, {} of {} leaves private, {} surface and {} clip voxels; {} bytes \
+         on the GPU (1.x {})",
+        bricks.brick_count(),
+        bricks.private_leaf_count(),
+        bricks.leaf_count(),
+        bricks.surface_voxel_count(),
+        bricks.clip_voxel_count(),
+        on_gpu.byte_size(),
+        plain.byte_size()
+    );
+    bricks
+}
+
+/// [`bricks_match`] on octrees whose brick files use every part of the layout: shared and
+/// private leaves, several residual widths, 8- and 16-bit codes, surface voxels (the
+/// multi-octree's thin walls) and clip voxels ([`clip_octree`]), plain and compressed.
+#[test]
+fn bricks_match_their_octree() {
+    let Some(mut gpu) = gpu() else { return };
+    eprintln!("adapter: {}", gpu.adapter_name());
+    let demo = sdfmo_mesh::procedural::demo_part();
+    for (depth, (method, m), bits) in [
+        (6, methods()[0], ValueBits::Eight),
+        (7, methods()[1], ValueBits::Eight),
+        (7, methods()[1], ValueBits::Sixteen),
+    ] {
+        let octree = build_octree(&demo, depth, method, bits);
+        let label = format!("demo {m} d{depth} {}-bit", bits.bits());
+        let b = bricks_match(&mut gpu, &octree, depth == 6, &label);
+        // The SVO's leaves are all shared; the multi-octree's thin walls make private ones.
+        assert!(
+            b.private_leaf_count() < b.leaf_count(),
+            "{label}: shared leaves"
+        );
+        assert_eq!(
+            b.private_leaf_count() > 0,
+            m == "multi",
+            "{label}: private leaves"
+        );
+    }
+    for (depth, bits) in [(5, ValueBits::Sixteen), (6, ValueBits::Eight)] {
+        let octree = clip_octree(depth, bits);
+        let b = bricks_match(
+            &mut gpu,
+            &octree,
+            false,
+            &format!("clip d{depth} {}-bit", bits.bits()),
+        );
+        assert!(b.clip_voxel_count() > 0 && b.surface_voxel_count() > 0);
+    }
+}
+
+/// [`bricks_match`] on the open teapot (surface voxels) and abc5 (thin walls: many private
+/// leaves), depth 7, both methods.
+#[test]
+#[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
+fn bricks_of_models_match_their_octree() {
+    let Some(mut gpu) = gpu() else { return };
+    for name in ["teapot.obj", "abc5.stl"] {
+        let mesh = load(name);
+        for (method, m) in methods() {
+            let octree = build_octree(&mesh, 7, method, ValueBits::Eight);
+            let b = bricks_match(&mut gpu, &octree, false, &format!("{name} {m} d7"));
+            if name == "teapot.obj" && m == "multi" {
+                assert!(
+                    b.surface_voxel_count() > 0,
+                    "the open teapot has surface voxels"
+                );
+            }
         }
     }
 }

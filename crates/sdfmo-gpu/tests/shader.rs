@@ -73,6 +73,7 @@ fn const_value(m: &naga::Module, name: &str) -> u64 {
     match m.global_expressions[c.init] {
         naga::Expression::Literal(naga::Literal::F32(v)) => u64::from(v.to_bits()),
         naga::Expression::Literal(naga::Literal::U32(v)) => u64::from(v),
+        naga::Expression::Literal(naga::Literal::I32(v)) => v as u64,
         ref e => panic!("{name} is {e:?}"),
     }
 }
@@ -117,13 +118,14 @@ fn shared_constants_have_the_rust_values() {
     let generated = sdfmo_gpu::kernel_constants_wgsl();
     assert_eq!(
         generated.matches("const ").count(),
-        expected.len() + HEADER_WORDS.len() + 1 // and SMO_FLAG_CLIP_VOXELS
+        expected.len() + HEADER_WORDS.len() + BRICK_WORDS.len() + 1 // and SMO_FLAG_CLIP_VOXELS
     );
     let written = sdfmo_gpu::shader_source().replace(&generated, "");
     let names = expected
         .iter()
         .map(|e| e.0)
         .chain(HEADER_WORDS.iter().map(|e| e.0))
+        .chain(BRICK_WORDS.iter().map(|e| e.0))
         .chain(["SMO_FLAG_CLIP_VOXELS"]);
     for name in names {
         assert!(
@@ -157,6 +159,66 @@ const HEADER_WORDS: [(&str, u64); 20] = [
     ("SMO_LOD_TABLE", 16),
     ("SMO_LOD_ENTRY", 4),
 ];
+
+/// What the kernel reads of a 3.0 file, as FORMAT.md ("Bricks (version 3.0)") places it: header
+/// words (and bit shifts), brick-record words relative to the record, and the layout's
+/// constants (the residual widths one byte per width code). Generated from `sdfmo_format`'s
+/// `V3_HEADER_FIELDS`, `BRICK_RECORD_FIELDS` and definitions.
+const BRICK_WORDS: [(&str, u64); 41] = [
+    ("SMO_HEADER_VERSION_MAJOR", 2),
+    ("SMO_HEADER_VERSION_MAJOR_SHIFT", 0),
+    ("SMO_V3_HEADER_FLAGS", 4),
+    ("SMO_V3_HEADER_DEPTH", 5),
+    ("SMO_V3_HEADER_DEPTH_SHIFT", 0),
+    ("SMO_V3_HEADER_VALUE_BITS", 5),
+    ("SMO_V3_HEADER_VALUE_BITS_SHIFT", 8),
+    ("SMO_V3_HEADER_UPPER_COUNT", 10),
+    ("SMO_V3_HEADER_BRICK_COUNT", 11),
+    ("SMO_V3_HEADER_LEAF_COUNT", 12),
+    ("SMO_V3_HEADER_PRIVATE_VOXEL_COUNT", 17),
+    ("SMO_V3_HEADER_NODES_OFFSET", 20),
+    ("SMO_V3_HEADER_BRICKS_OFFSET", 24),
+    ("SMO_V3_HEADER_RESIDUALS_OFFSET", 28),
+    ("SMO_V3_HEADER_PRIVATE_LEAVES_OFFSET", 32),
+    ("SMO_V3_HEADER_PRIVATE_FLAGS_OFFSET", 36),
+    ("SMO_V3_HEADER_PRIVATE_CORNERS_OFFSET", 40),
+    ("SMO_BRICK_OCCUPANCY", 0),
+    ("SMO_BRICK_PRIVATE", 2),
+    ("SMO_BRICK_PLANE_A", 4),
+    ("SMO_BRICK_PLANE_A_SHIFT", 0),
+    ("SMO_BRICK_PLANE_B", 4),
+    ("SMO_BRICK_PLANE_B_SHIFT", 16),
+    ("SMO_BRICK_PLANE_C", 5),
+    ("SMO_BRICK_PLANE_C_SHIFT", 0),
+    ("SMO_BRICK_PLANE_D", 5),
+    ("SMO_BRICK_PLANE_D_SHIFT", 16),
+    ("SMO_BRICK_RESIDUALS", 6),
+    ("SMO_BRICK_FIRST_PRIVATE_LEAF", 7),
+    ("SMO_V3_MAJOR", 3),
+    ("SMO_BRICK_WORDS", 8),
+    ("SMO_BRICK_LEVELS", 2),
+    ("SMO_BRICK_POINT_EDGE", 5),
+    ("SMO_RESIDUAL_OFFSET_BITS", 30),
+    ("SMO_SHARED_VOXEL", 1 << 31),
+    ("SMO_RESIDUAL_WIDTHS_8", 0x0804_0200),
+    ("SMO_PLANE_FRACTION_BITS_8", 4),
+    ("SMO_MAX_CODE_8", 127),
+    ("SMO_RESIDUAL_WIDTHS_16", 0x1008_0400),
+    ("SMO_PLANE_FRACTION_BITS_16", 0),
+    ("SMO_MAX_CODE_16", 32767),
+];
+
+/// The 3.0 words and constants are the format's (FORMAT.md's offsets, checked as literals),
+/// and a shared leaf's voxel number (`SMO_SHARED_VOXEL | brick · 64 + cell`) has room for every
+/// brick the host uploads (`MAX_GPU_BRICKS`) below its marker bit, the top bit of a u32.
+#[test]
+fn brick_words_are_the_format_tables() {
+    let m = module(&sdfmo_gpu::shader_source());
+    for (name, value) in BRICK_WORDS {
+        assert_eq!(const_value(&m, name), value, "{name}");
+    }
+    assert_eq!(u64::from(sdfmo_gpu::MAX_GPU_BRICKS) * 64, 1 << 31);
+}
 
 /// The header word indices come from `sdfmo_format`'s tables and equal what the kernel read
 /// before (so images are unchanged); the clip flag is the format's.
