@@ -86,7 +86,7 @@ pub fn point_mask(shared: u64) -> u128 {
 
 /// Points of `mask` below grid index `g`.
 #[inline]
-fn rank_below(mask: u128, g: u32) -> u32 {
+pub(crate) fn rank_below(mask: u128, g: u32) -> u32 {
     (mask & ((1u128 << g) - 1)).count_ones()
 }
 
@@ -105,7 +105,7 @@ pub fn plane_predict(plane: [i16; 4], p: [u32; 3], bits: ValueBits) -> i32 {
 
 /// `x` taken modulo 2^bits as a two's complement value (how a full-width residual wraps).
 #[inline]
-fn wrap(x: i32, bits: ValueBits) -> i32 {
+pub(crate) fn wrap(x: i32, bits: ValueBits) -> i32 {
     match bits {
         ValueBits::Eight => i32::from(x as i8),
         ValueBits::Sixteen => i32::from(x as i16),
@@ -115,7 +115,7 @@ fn wrap(x: i32, bits: ValueBits) -> i32 {
 /// The `w`-bit residual of point `rank` in `res` (a brick's residual bytes, LSB first),
 /// sign-extended. `w` is 0, 2, 4, 8 or 16; fields never straddle a byte below 16 bits.
 #[inline]
-fn residual_at(res: &[u8], rank: u32, w: u32) -> i32 {
+pub(crate) fn residual_at(res: &[u8], rank: u32, w: u32) -> i32 {
     match w {
         0 => 0,
         16 => i32::from(i16::from_le_bytes(bytes_at::<2>(res, 2 * rank as usize))),
@@ -130,7 +130,7 @@ fn residual_at(res: &[u8], rank: u32, w: u32) -> i32 {
 
 /// Point `(x, y, z)` of grid index `g`.
 #[inline]
-fn grid_point(g: u32) -> [u32; 3] {
+pub(crate) fn grid_point(g: u32) -> [u32; 3] {
     [g / 25, g / 5 % 5, g % 5]
 }
 
@@ -370,7 +370,7 @@ impl BrickLeaf {
 }
 
 /// What a brick's residual width costs (for the encoder's choice).
-fn fits(residuals: &[i32], w: u32) -> bool {
+pub(crate) fn fits(residuals: &[i32], w: u32) -> bool {
     match w {
         0 => residuals.iter().all(|&r| r == 0),
         _ => {
@@ -430,7 +430,10 @@ pub fn fit_brick_plane(samples: &[([u32; 3], i32)], bits: ValueBits) -> [i16; 4]
 /// The plane, width code and residuals (in point order) that store `samples` losslessly with
 /// the fewest bits: the least-squares plane, then the same plane moved by whole codes so its
 /// residuals are centred, whichever needs the narrower width (the first on a tie).
-fn encode_points(samples: &[([u32; 3], i32)], bits: ValueBits) -> ([i16; 4], u32, Vec<i32>) {
+pub(crate) fn encode_points(
+    samples: &[([u32; 3], i32)],
+    bits: ValueBits,
+) -> ([i16; 4], u32, Vec<i32>) {
     let residuals = |plane: [i16; 4]| -> Vec<i32> {
         samples
             .iter()
@@ -467,7 +470,7 @@ fn encode_points(samples: &[([u32; 3], i32)], bits: ValueBits) -> ([i16; 4], u32
 
 /// Appends `residuals` at `w` bits each (LSB first, two's complement; 16 bits little-endian)
 /// to `out`, starting at a new byte.
-fn put_residuals(out: &mut Vec<u8>, residuals: &[i32], w: u32) {
+pub(crate) fn put_residuals(out: &mut Vec<u8>, residuals: &[i32], w: u32) {
     if w == 0 {
         return;
     }
@@ -484,12 +487,63 @@ fn put_residuals(out: &mut Vec<u8>, residuals: &[i32], w: u32) {
 }
 
 /// The encoder's record of one brick while it is filled.
-struct BrickBuild {
-    code: u64,
-    occupancy: u64,
-    private: u64,
+pub(crate) struct BrickBuild {
+    /// Morton code of the brick (a node at `depth − 2`).
+    pub(crate) code: u64,
+    /// Which cells are leaves (Morton bits).
+    pub(crate) occupancy: u64,
+    /// Which leaves are private.
+    pub(crate) private: u64,
     /// Code at each grid point set by a shared leaf.
-    points: [Option<i32>; 125],
+    pub(crate) points: [Option<i32>; 125],
+}
+
+/// The bricks of `octree` (a 1.x octree) in Morton order, with each brick's shared points, and
+/// the voxel ranges of its private leaves in Morton order: how [`BrickOctree::encode`] splits
+/// the leaves (a leaf is shared when it holds one volume voxel whose corners agree with the
+/// codes the brick's earlier shared leaves put at the same points). The 4.0 level coder splits
+/// them alike.
+pub(crate) fn gather_bricks<B: AsRef<[u8]>>(
+    octree: &Octree<B>,
+) -> (Vec<BrickBuild>, Vec<std::ops::Range<u32>>) {
+    let inner = octree.inner_node_count() as u32;
+    let mut bricks: Vec<BrickBuild> = Vec::new();
+    // Private leaves in Morton order: (voxel range in the 1.x octree).
+    let mut private_leaves: Vec<std::ops::Range<u32>> = Vec::new();
+    for (j, coord) in octree.leaf_coords().into_iter().enumerate() {
+        let code = morton::encode(coord);
+        let brick_code = code >> (3 * BRICK_LEVELS);
+        if bricks.last().is_none_or(|b| b.code != brick_code) {
+            bricks.push(BrickBuild {
+                code: brick_code,
+                occupancy: 0,
+                private: 0,
+                points: [None; 125],
+            });
+        }
+        let Some(brick) = bricks.last_mut() else {
+            unreachable!("a brick was pushed above");
+        };
+        let cell = (code & 63) as u32;
+        brick.occupancy |= 1 << cell;
+        let voxels = octree.leaf_voxels(NodeRef::from_index(inner + j as u32));
+        let v = voxels.start;
+        let g = cell_grid_index(cell);
+        let shared = voxels.len() == 1 && !octree.voxel_is_surface(v) && !octree.voxel_is_clip(v);
+        let codes = octree.voxel_codes(v).map(i32::from);
+        let agrees = (0..8).all(|k| {
+            brick.points[(g + CORNER_POINT_OFFSETS[k]) as usize].is_none_or(|c| c == codes[k])
+        });
+        if shared && agrees {
+            for k in 0..8 {
+                brick.points[(g + CORNER_POINT_OFFSETS[k]) as usize] = Some(codes[k]);
+            }
+        } else {
+            brick.private |= 1 << cell;
+            private_leaves.push(voxels);
+        }
+    }
+    (bricks, private_leaves)
 }
 
 impl BrickOctree<Vec<u8>> {
@@ -515,44 +569,7 @@ impl BrickOctree<Vec<u8>> {
                 reason: format!("depth {depth} is below the brick's {BRICK_LEVELS} levels"),
             });
         }
-        let inner = octree.inner_node_count() as u32;
-        let mut bricks: Vec<BrickBuild> = Vec::new();
-        // Private leaves in Morton order: (voxel range in the 1.x octree).
-        let mut private_leaves: Vec<std::ops::Range<u32>> = Vec::new();
-        for (j, coord) in octree.leaf_coords().into_iter().enumerate() {
-            let code = morton::encode(coord);
-            let brick_code = code >> (3 * BRICK_LEVELS);
-            if bricks.last().is_none_or(|b| b.code != brick_code) {
-                bricks.push(BrickBuild {
-                    code: brick_code,
-                    occupancy: 0,
-                    private: 0,
-                    points: [None; 125],
-                });
-            }
-            let Some(brick) = bricks.last_mut() else {
-                unreachable!("a brick was pushed above");
-            };
-            let cell = (code & 63) as u32;
-            brick.occupancy |= 1 << cell;
-            let voxels = octree.leaf_voxels(NodeRef::from_index(inner + j as u32));
-            let v = voxels.start;
-            let g = cell_grid_index(cell);
-            let shared =
-                voxels.len() == 1 && !octree.voxel_is_surface(v) && !octree.voxel_is_clip(v);
-            let codes = octree.voxel_codes(v).map(i32::from);
-            let agrees = (0..8).all(|k| {
-                brick.points[(g + CORNER_POINT_OFFSETS[k]) as usize].is_none_or(|c| c == codes[k])
-            });
-            if shared && agrees {
-                for k in 0..8 {
-                    brick.points[(g + CORNER_POINT_OFFSETS[k]) as usize] = Some(codes[k]);
-                }
-            } else {
-                brick.private |= 1 << cell;
-                private_leaves.push(voxels);
-            }
-        }
+        let (bricks, private_leaves) = gather_bricks(octree);
 
         // Planes, widths and residuals, brick by brick.
         let mut records = Vec::with_capacity(bricks.len());

@@ -57,6 +57,7 @@
 #![deny(missing_docs)]
 
 mod brick;
+mod brick_lod;
 pub mod compressed;
 mod crc32;
 mod error;
@@ -78,6 +79,10 @@ use glam::Vec3;
 pub use brick::{
     cell_grid_index, fit_brick_plane, is_v3, plane_predict, point_mask, BrickLeaf, BrickNode,
     BrickOctree, BrickOctreeView, BrickSectionSizes, CORNER_POINT_OFFSETS,
+};
+pub use brick_lod::{
+    decode_levels, decode_levels_prefix, decode_levels_stats, encode_levels, is_brick_levels,
+    LevelBlockStats, BRICK_LOD_VERSION_MAJOR, BRICK_LOD_VERSION_MINOR, LEVEL_BLOCK_HEAD,
 };
 pub use crc32::crc32;
 pub use error::{FormatError, Result};

@@ -71,12 +71,41 @@ impl LodPrefix {
     }
 }
 
-/// The description a 2.0 header gives (validated, CRC checked).
-struct LodHeader {
-    meta: OctreeMeta,
-    coarsest: u8,
-    entries: Vec<LevelEntry>,
-    file_size: u64,
+/// The description a 2.0 or 4.0 header gives (validated, CRC checked).
+pub(crate) struct LodHeader {
+    pub(crate) meta: OctreeMeta,
+    pub(crate) coarsest: u8,
+    pub(crate) entries: Vec<LevelEntry>,
+    pub(crate) file_size: u64,
+}
+
+/// The two files with levels share their header (`FORMAT.md`, "Levels of detail"): 2.0 holds a
+/// 1.x octree per level, 4.0 a level block of bricks ([`crate::brick_lod`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct LevelsVersion {
+    pub(crate) major: u16,
+    pub(crate) minor: u16,
+    /// The fewest bytes a level of this version has.
+    pub(crate) min_block: u64,
+}
+
+/// Version 2.0: a level is a 1.x octree.
+pub(crate) const LEVELS_V2: LevelsVersion = LevelsVersion {
+    major: LOD_VERSION_MAJOR,
+    minor: LOD_VERSION_MINOR,
+    min_block: MIN_BLOCK,
+};
+
+/// The version of a file with levels that `bytes` start like (magic, then major 2 or 4).
+pub(crate) fn levels_version(bytes: &[u8]) -> Option<LevelsVersion> {
+    if bytes.len() < 10 || bytes[..8] != MAGIC {
+        return None;
+    }
+    match fixed_header(bytes).version_major {
+        LOD_VERSION_MAJOR => Some(LEVELS_V2),
+        crate::brick_lod::BRICK_LOD_VERSION_MAJOR => Some(crate::brick_lod::LEVELS_V4),
+        _ => None,
+    }
 }
 
 fn corrupt<T>(field: &'static str, reason: impl Into<String>) -> Result<T> {
@@ -93,9 +122,9 @@ fn fixed_header(bytes: &[u8]) -> LodHeaderValues {
     LodHeaderValues::read(&fixed)
 }
 
-/// Reads and checks a 2.0 header from the first bytes of `bytes` (which may be a prefix of
-/// the file: only the header must be complete). O(levels).
-fn read_header(bytes: &[u8]) -> Result<LodHeader> {
+/// Reads and checks a header of `version` from the first bytes of `bytes` (which may be a
+/// prefix of the file: only the header must be complete). O(levels).
+pub(crate) fn read_header(bytes: &[u8], version: LevelsVersion) -> Result<LodHeader> {
     let len = bytes.len();
     check_magic(bytes, LOD_HEADER_FIXED)?;
     if len < 12 {
@@ -107,7 +136,7 @@ fn read_header(bytes: &[u8]) -> Result<LodHeader> {
     // Zero-padded: the version is read (and a newer major refused) before the length check.
     let h = fixed_header(bytes);
     let (major, minor) = (h.version_major, h.version_minor);
-    check_major(major, minor, LOD_VERSION_MAJOR)?;
+    check_major(major, minor, version.major)?;
     if len < LOD_HEADER_FIXED {
         return Err(FormatError::Truncated {
             len,
@@ -134,7 +163,7 @@ fn read_header(bytes: &[u8]) -> Result<LodHeader> {
     if header_size != expected {
         return corrupt(
             "header_size",
-            format!("{header_size} (a 2.0 header with {count} levels has {expected} bytes)"),
+            format!("{header_size} (a {major}.0 header with {count} levels has {expected} bytes)"),
         );
     }
     if (len as u64) < header_size {
@@ -159,7 +188,7 @@ fn read_header(bytes: &[u8]) -> Result<LodHeader> {
     if h.flags != 0 {
         return corrupt(
             "flags",
-            format!("{:#x} (a 2.0 header defines no flag)", h.flags),
+            format!("{:#x} (a {major}.0 header defines no flag)", h.flags),
         );
     }
     let Some(bits) = ValueBits::from_bits(h.value_bits) else {
@@ -196,7 +225,7 @@ fn read_header(bytes: &[u8]) -> Result<LodHeader> {
                 ),
             );
         }
-        if !(MIN_BLOCK..=MAX_FILE_SIZE).contains(&size) {
+        if !(version.min_block..=MAX_FILE_SIZE).contains(&size) {
             return corrupt(
                 "level table",
                 format!("level {} of {size} bytes", coarsest as usize + i),
@@ -226,10 +255,10 @@ fn read_header(bytes: &[u8]) -> Result<LodHeader> {
     })
 }
 
-/// Validates the level at `entry` (complete in `bytes`) and checks it against the header.
-fn read_level(bytes: &[u8], entry: &LevelEntry, meta: &OctreeMeta) -> Result<PackedOctree> {
-    let (from, to) = (entry.offset as usize, entry.end() as usize);
-    let view = PackedOctreeView::new(&bytes[from..to]).map_err(|e| FormatError::Corrupt {
+/// Validates the 1.x octree of 2.0 level `entry` (its bytes: `block`) and checks it against
+/// the header.
+fn read_level(block: &[u8], entry: &LevelEntry, meta: &OctreeMeta) -> Result<PackedOctree> {
+    let view = PackedOctreeView::new(block).map_err(|e| FormatError::Corrupt {
         field: "level",
         reason: format!("level {}: {e}", entry.level),
     })?;
@@ -259,7 +288,7 @@ fn read_level(bytes: &[u8], entry: &LevelEntry, meta: &OctreeMeta) -> Result<Pac
 }
 
 /// That `len` bytes of data do not run past the `file_size` the header declares.
-fn check_no_trailing(header: &LodHeader, len: u64) -> Result<()> {
+pub(crate) fn check_no_trailing(header: &LodHeader, len: u64) -> Result<()> {
     if len > header.file_size {
         return corrupt(
             "file_size",
@@ -274,7 +303,7 @@ fn check_no_trailing(header: &LodHeader, len: u64) -> Result<()> {
 
 /// The zero padding between the end of level `entry` and the next level (or nothing after the
 /// last), as far as `bytes` reaches.
-fn check_gap(bytes: &[u8], entry: &LevelEntry, next: Option<&LevelEntry>) -> Result<()> {
+pub(crate) fn check_gap(bytes: &[u8], entry: &LevelEntry, next: Option<&LevelEntry>) -> Result<()> {
     if let Some(n) = next {
         let to = (n.offset as usize).min(bytes.len());
         if bytes[entry.end() as usize..to].iter().any(|&b| b != 0) {
@@ -285,6 +314,87 @@ fn check_gap(bytes: &[u8], entry: &LevelEntry, next: Option<&LevelEntry>) -> Res
         }
     }
     Ok(())
+}
+
+/// Writes the header of a file with levels of `version` (its level table and CRC-32) into the
+/// start of `out`, whose length is the file size.
+pub(crate) fn write_header(
+    out: &mut [u8],
+    version: LevelsVersion,
+    meta: &OctreeMeta,
+    entries: &[LevelEntry],
+) {
+    let hs = lod_header_size(entries.len());
+    LodHeaderValues {
+        magic: MAGIC,
+        version_major: version.major,
+        version_minor: version.minor,
+        header_size: hs as u32,
+        flags: 0,
+        depth: meta.depth,
+        coarsest: entries.first().map_or(meta.depth, |e| e.level),
+        level_count: entries.len() as u8,
+        value_bits: meta.bits.bits(),
+        center_x: meta.center.x,
+        center_y: meta.center.y,
+        center_z: meta.center.z,
+        scale: meta.scale,
+        file_size: out.len() as u64,
+        reserved: [0; 16],
+    }
+    .write(out);
+    for (i, e) in entries.iter().enumerate() {
+        let at = LOD_HEADER_FIXED + i * LOD_LEVEL_ENTRY;
+        LevelValues {
+            offset: e.offset,
+            size: e.size,
+        }
+        .write(&mut out[at..at + LOD_LEVEL_ENTRY]);
+    }
+    let crc_at = hs - LOD_HEADER_TRAILER;
+    TrailerValues {
+        header_crc: crc32(&out[..crc_at]),
+        trailer_zero: 0,
+    }
+    .write(&mut out[crc_at..hs]);
+}
+
+/// The complete levels of a prefix of a file with levels of `version`, each read by
+/// `read_level(level bytes, entry, header meta)` coarsest first (a 4.0 level needs the one
+/// before it), with the checks both versions share: the header, no trailing bytes, zero
+/// padding between levels, at least the coarsest level.
+pub(crate) fn read_prefix(
+    bytes: &[u8],
+    version: LevelsVersion,
+    mut read_level: impl FnMut(&[u8], &LevelEntry, &OctreeMeta) -> Result<PackedOctree>,
+) -> Result<LodPrefix> {
+    let header = read_header(bytes, version)?;
+    let len = bytes.len() as u64;
+    check_no_trailing(&header, len)?;
+    let mut levels = Vec::new();
+    for (i, e) in header.entries.iter().enumerate() {
+        if e.end() > len {
+            break;
+        }
+        levels.push(read_level(
+            &bytes[e.offset as usize..e.end() as usize],
+            e,
+            &header.meta,
+        )?);
+        check_gap(bytes, e, header.entries.get(i + 1))?;
+    }
+    if levels.is_empty() {
+        return Err(FormatError::Truncated {
+            len: bytes.len(),
+            needed: header.entries[0].end(),
+        });
+    }
+    debug_assert_eq!(levels[0].depth(), header.coarsest);
+    Ok(LodPrefix {
+        octree: LodOctree { levels },
+        declared: header.entries,
+        file_size: header.file_size,
+    })
 }
 
 impl LodOctree {
@@ -385,42 +495,8 @@ impl LodOctree {
     /// and its CRC-32, then each level's 1.x octree, coarsest first, each at a multiple of 8.
     pub fn to_bytes(&self) -> Vec<u8> {
         let entries = self.entries();
-        let size = self.byte_size() as usize;
-        let mut out = vec![0u8; size];
-        let meta = self.meta();
-        let hs = lod_header_size(entries.len());
-        LodHeaderValues {
-            magic: MAGIC,
-            version_major: LOD_VERSION_MAJOR,
-            version_minor: LOD_VERSION_MINOR,
-            header_size: hs as u32,
-            flags: 0,
-            depth: meta.depth,
-            coarsest: self.coarsest(),
-            level_count: entries.len() as u8,
-            value_bits: meta.bits.bits(),
-            center_x: meta.center.x,
-            center_y: meta.center.y,
-            center_z: meta.center.z,
-            scale: meta.scale,
-            file_size: size as u64,
-            reserved: [0; 16],
-        }
-        .write(&mut out);
-        for (i, e) in entries.iter().enumerate() {
-            let at = LOD_HEADER_FIXED + i * LOD_LEVEL_ENTRY;
-            LevelValues {
-                offset: e.offset,
-                size: e.size,
-            }
-            .write(&mut out[at..at + LOD_LEVEL_ENTRY]);
-        }
-        let crc_at = hs - LOD_HEADER_TRAILER;
-        TrailerValues {
-            header_crc: crc32(&out[..crc_at]),
-            trailer_zero: 0,
-        }
-        .write(&mut out[crc_at..hs]);
+        let mut out = vec![0u8; self.byte_size() as usize];
+        write_header(&mut out, LEVELS_V2, &self.meta(), &entries);
         for (e, l) in entries.iter().zip(&self.levels) {
             out[e.offset as usize..e.end() as usize].copy_from_slice(l.as_bytes());
         }
@@ -432,7 +508,7 @@ impl LodOctree {
     /// depth, bits and transform, and zero padding between levels. A file shorter or longer
     /// than its `file_size` is refused. O(bytes.len()) time and memory.
     pub fn from_bytes(bytes: &[u8]) -> Result<LodOctree> {
-        let header = read_header(bytes)?;
+        let header = read_header(bytes, LEVELS_V2)?;
         let len = bytes.len() as u64;
         if len < header.file_size {
             return Err(FormatError::Truncated {
@@ -451,29 +527,7 @@ impl LodOctree {
     /// [`FormatError::Truncated`] that names the bytes the coarsest level needs), a corrupt
     /// header or complete level, non-zero padding, or more bytes than the file declares.
     pub fn from_prefix(bytes: &[u8]) -> Result<LodPrefix> {
-        let header = read_header(bytes)?;
-        let len = bytes.len() as u64;
-        check_no_trailing(&header, len)?;
-        let mut levels = Vec::new();
-        for (i, e) in header.entries.iter().enumerate() {
-            if e.end() > len {
-                break;
-            }
-            levels.push(read_level(bytes, e, &header.meta)?);
-            check_gap(bytes, e, header.entries.get(i + 1))?;
-        }
-        if levels.is_empty() {
-            return Err(FormatError::Truncated {
-                len: bytes.len(),
-                needed: header.entries[0].end(),
-            });
-        }
-        debug_assert_eq!(levels[0].depth(), header.coarsest);
-        Ok(LodPrefix {
-            octree: LodOctree { levels },
-            declared: header.entries,
-            file_size: header.file_size,
-        })
+        read_prefix(bytes, LEVELS_V2, read_level)
     }
 
     /// Reads and validates a whole version-2.0 file of at most [`MAX_FILE_SIZE`] bytes.
@@ -515,11 +569,11 @@ pub fn check_smo_head(head: &[u8], len: u64, read: SmoRead) -> Result<()> {
         crate::brick::check_v3_head(head, len)?;
         return Ok(());
     }
-    if !SmoFile::has_levels(head) {
+    let Some(version) = levels_version(head) else {
         check_header_size(head, len)?;
         return Ok(());
-    }
-    let header = read_header(head)?;
+    };
+    let header = read_header(head, version)?;
     if len < header.file_size && read == SmoRead::Whole {
         return Err(FormatError::Truncated {
             len: usize::try_from(len).unwrap_or(usize::MAX),
@@ -588,7 +642,8 @@ pub enum SmoFile {
 
 impl SmoFile {
     /// Reads either kind from bytes, by the major version (bytes 8..10): 1 → [`PackedOctree::from_bytes`],
-    /// 2 → [`LodOctree::from_bytes`], 3 → [`BrickOctree::new`](crate::BrickOctree::new) decoded
+    /// 2 → [`LodOctree::from_bytes`], 4 → [`decode_levels`](crate::decode_levels) (levels of
+    /// bricks, each decoded to its 1.x octree), 3 → [`BrickOctree::new`](crate::BrickOctree::new) decoded
     /// to its 1.x octree ([`BrickOctree::to_octree`](crate::BrickOctree::to_octree): an interim
     /// step until the tracers read bricks); anything else is the 1.x reader's error. A compressed
     /// container ([`crate::compressed`]) is decoded first (to at most [`MAX_FILE_SIZE`] bytes).
@@ -598,6 +653,10 @@ impl SmoFile {
         }
         if SmoFile::has_levels(bytes) {
             return Ok(SmoFile::Levels(LodOctree::from_bytes(bytes)?));
+        }
+        if crate::brick_lod::is_brick_levels(bytes) {
+            // Levels of bricks are decoded to the 1.x octree of each level (as 3.0 files are).
+            return Ok(SmoFile::Levels(crate::brick_lod::decode_levels(bytes)?));
         }
         if crate::brick::is_v3(bytes) {
             // For now the tracers read 1.x: a 3.0 file is validated and decoded to its 1.x
@@ -632,12 +691,15 @@ impl SmoFile {
             // A compressed file is whole or refused (its CRC-32): no prefix of it decodes.
             return SmoFile::from_prefix(&crate::compressed::decompress(bytes, MAX_FILE_SIZE)?);
         }
-        if !SmoFile::has_levels(bytes) {
+        let p = if SmoFile::has_levels(bytes) {
+            LodOctree::from_prefix(bytes)?
+        } else if crate::brick_lod::is_brick_levels(bytes) {
+            crate::brick_lod::decode_levels_prefix(bytes)?
+        } else {
             let file = SmoFile::from_bytes(bytes)?;
             let declared = file.level_range();
             return Ok(SmoPrefix { file, declared });
-        }
-        let p = LodOctree::from_prefix(bytes)?;
+        };
         let len = bytes.len() as u64;
         if let Some(next) = p.declared.get(p.octree.levels.len()) {
             if len > next.offset {

@@ -23,6 +23,24 @@ pub fn encode(c: [u32; 3]) -> u64 {
     split3(c[0]) << 2 | split3(c[1]) << 1 | split3(c[2])
 }
 
+/// Gathers every third bit of `x` (from bit 0) into the low bits: the inverse of `split3`.
+#[inline]
+fn compact3(v: u64) -> u32 {
+    let mut x = v & 0x1249_2492_4924_9249;
+    x = (x | x >> 2) & 0x10c3_0c30_c30c_30c3;
+    x = (x | x >> 4) & 0x100f_00f0_0f00_f00f;
+    x = (x | x >> 8) & 0x001f_0000_ff00_00ff;
+    x = (x | x >> 16) & 0x001f_0000_0000_ffff;
+    x = (x | x >> 32) & 0x1f_ffff;
+    x as u32
+}
+
+/// The cell coordinate of a Morton code: `decode(encode(c)) == c` (each component < 2^21).
+#[inline]
+pub fn decode(code: u64) -> [u32; 3] {
+    [compact3(code >> 2), compact3(code >> 1), compact3(code)]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -36,6 +54,18 @@ mod tests {
             code |= (4 * x + 2 * y + z) << (3 * b);
         }
         code
+    }
+
+    #[test]
+    fn decode_inverts_encode() {
+        for c in [
+            [0, 0, 0],
+            [1, 2, 3],
+            [0x1f_ffff, 0, 0x1f_ffff],
+            [12345, 678, 2_000_000],
+        ] {
+            assert_eq!(decode(encode(c)), c);
+        }
     }
 
     #[test]
