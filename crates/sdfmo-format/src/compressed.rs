@@ -41,6 +41,9 @@ pub const COMPRESSED_VERSION_MAJOR: u16 = 1;
 pub const COMPRESSED_VERSION_MINOR: u16 = 1;
 /// The minor version written for 1.x and 2.0 files (their streams are unchanged since 1.0).
 const COMPRESSED_VERSION_MINOR_1X: u16 = 0;
+/// The minor version written for a 4.0 file (levels of bricks): the whole file as its prelude,
+/// one zstd frame (it is already a coded stream, with nothing left to split out).
+const COMPRESSED_VERSION_MINOR_BRICK_LEVELS: u16 = 2;
 /// Bytes of the container's fixed header (before the stream table).
 pub const COMPRESSED_HEADER_SIZE: usize = 32;
 /// Bytes per entry of the stream table: compressed size, decoded size (two `u64`).
@@ -104,6 +107,10 @@ pub fn compress_with_level(smo: &[u8], level: i32) -> Result<Vec<u8>> {
     if is_v3(smo) {
         encode_bricks(BrickOctreeView::new(smo)?.as_bytes(), &mut raw)?;
         minor = COMPRESSED_VERSION_MINOR;
+    } else if crate::is_brick_levels(smo) {
+        crate::decode_levels(smo)?;
+        raw.push(smo.to_vec());
+        minor = COMPRESSED_VERSION_MINOR_BRICK_LEVELS;
     } else if crate::SmoFile::has_levels(smo) {
         let lod = LodOctree::from_bytes(smo)?;
         raw.push(smo[..lod_header_size(lod.levels().len())].to_vec());
@@ -181,6 +188,9 @@ pub fn decompress(bytes: &[u8], max_decoded: u64) -> Result<Vec<u8>> {
             ));
         }
         decode_bricks(&streams[1..], &mut out)?
+    } else if streams.len() == 1 && crate::is_brick_levels(&out[..prelude]) {
+        // A 4.0 file is its prelude.
+        prelude
     } else {
         decode_levels(&streams, &mut out)?
     };

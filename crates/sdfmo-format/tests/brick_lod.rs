@@ -157,3 +157,21 @@ fn hostile_bytes_are_typed_errors() {
         }
     }
 }
+
+#[test]
+fn a_compressed_file_decodes_to_its_bytes() {
+    let l = lod(ValueBits::Eight, 2, 6, shell_leaves);
+    let bytes = encode_levels(&l).unwrap();
+    let z = sdfmo_format::compressed::compress(&bytes).unwrap();
+    assert!(z.len() < bytes.len());
+    assert_eq!(
+        sdfmo_format::compressed::decompress(&z, bytes.len() as u64).unwrap(),
+        bytes
+    );
+    assert_eq!(SmoFile::from_bytes(&z).unwrap(), SmoFile::Levels(l));
+    // A damaged 4.0 file is refused before it is compressed.
+    let mut bad = bytes.clone();
+    let last = bad.len() - 1;
+    bad[last] ^= 1;
+    assert!(sdfmo_format::compressed::compress(&bad).is_err());
+}

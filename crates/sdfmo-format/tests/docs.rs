@@ -3,10 +3,11 @@
 
 use glam::Vec3;
 use sdfmo_format::{
-    plane_predict, point_mask, BrickNode, BrickOctree, BrickOctreeView, FormatError, HeaderField,
-    LeafInput, LodOctree, OctreeMeta, PackedOctree, ValueBits, Voxel, BRICK_RECORD_FIELDS,
-    HEADER_FIELDS, HEADER_SIZE, LOD_HEADER_FIELDS, LOD_HEADER_FIXED, LOD_LEVEL_ENTRY,
-    LOD_LEVEL_FIELDS, LOD_TRAILER_FIELDS, V3_HEADER_FIELDS, V3_HEADER_SIZE,
+    decode_levels_prefix, encode_levels, plane_predict, point_mask, BrickNode, BrickOctree,
+    BrickOctreeView, FormatError, HeaderField, LeafInput, LodOctree, OctreeMeta, PackedOctree,
+    ValueBits, Voxel, BRICK_RECORD_FIELDS, HEADER_FIELDS, HEADER_SIZE, LOD_HEADER_FIELDS,
+    LOD_HEADER_FIXED, LOD_LEVEL_ENTRY, LOD_LEVEL_FIELDS, LOD_TRAILER_FIELDS, V3_HEADER_FIELDS,
+    V3_HEADER_SIZE,
 };
 
 fn format_md() -> String {
@@ -297,4 +298,47 @@ fn docs_brick_example_matches_writer() {
     assert_eq!(private.first_private_voxel(), Some(0));
     assert_eq!(v.voxel_codes(&private, 0), [-5, 1, 7, 9, -3, 2, 8, 10]);
     assert!(v.voxel_is_surface(&private, 1) && !v.voxel_is_surface(&private, 0));
+}
+
+/// The 4.0 worked example: levels 2 (the 3.0 example's octree) and 3 (eight leaves under its
+/// cell (0, 0, 0), codes twice the coarse field), encoded byte for byte as the dump, decoded
+/// back, and its level-boundary prefix holding level 2.
+#[test]
+fn docs_brick_lod_example_matches_writer() {
+    let coarse = brick_example();
+    let meta = OctreeMeta {
+        depth: 3,
+        ..*coarse.meta()
+    };
+    let code = |x: u32, y: u32| 20.0 + 20.0 * x as f32 - 4.0 * y as f32;
+    let leaves = (0..8u32)
+        .map(|i| {
+            let c = [i >> 2 & 1, i >> 1 & 1, i & 1];
+            let corners = std::array::from_fn(|k| {
+                let k = k as u32;
+                code(c[0] + (k >> 2 & 1), c[1] + (k >> 1 & 1)) * meta.dmax() / 127.0
+            });
+            LeafInput {
+                coord: c,
+                voxels: vec![Voxel {
+                    corners,
+                    surface: false,
+                    clip: false,
+                }],
+            }
+        })
+        .collect();
+    let fine = PackedOctree::from_leaves(meta, leaves).unwrap();
+    let lod = LodOctree::from_levels(vec![coarse.clone(), fine]).unwrap();
+    let bytes = encode_levels(&lod).unwrap();
+    assert_eq!(bytes, documented_hex(&format_md(), "brick-lod-example-hex"));
+    let p = decode_levels_prefix(&bytes).unwrap();
+    let places: Vec<(u64, u64)> = p.declared.iter().map(|e| (e.offset, e.size)).collect();
+    assert_eq!(places, [(104, 67), (176, 33)]);
+    assert_eq!(p.octree, lod);
+    assert_eq!(bytes.len(), 209);
+    let two = decode_levels_prefix(&bytes[..171]).unwrap();
+    assert_eq!(two.octree.levels(), std::slice::from_ref(&coarse));
+    // Level 3's record as the text reads it: mode, then one byte per coarse leaf above.
+    assert_eq!(bytes[0xc8..0xcd], [0x01, 0x0c, 0xff, 0x00, 0x00]);
 }
