@@ -145,7 +145,9 @@ pub enum FormatArg {
     #[value(name = "1")]
     V1,
     /// Version 3.0: bricks of 4³ cells that store each shared corner once (FORMAT.md, "Bricks
-    /// (version 3.0)"); depth ≥ 2, one level. Loaded as its 1.x octree for now.
+    /// (version 3.0)"); depth ≥ 2. With `--lod`, version 4.0: the levels as bricks, each finer
+    /// level coded from the one before it (FORMAT.md, "Levels of bricks (version 4.0)");
+    /// coarsest level ≥ 2. Loaded as 1.x octrees for now.
     #[value(name = "3")]
     V3,
 }
@@ -187,8 +189,9 @@ pub struct BuildArgs {
     /// The coarsest level written with `--lod`, 1..=DEPTH (default: DEPTH − 4, at least 1).
     #[arg(long, value_name = "LEVEL", requires = "lod", value_parser = parse_depth)]
     pub coarsest: Option<u8>,
-    /// File format: 1 (1.x) or 3 (3.0 bricks, a third of the bytes; not with `--lod`).
-    #[arg(long, value_enum, default_value_t = FormatArg::V1, conflicts_with = "lod")]
+    /// File format: 1 (1.x; 2.0 with `--lod`) or 3 (3.0 bricks, a third of the bytes; with
+    /// `--lod`, 4.0: levels of bricks, about the bytes of the finest level alone).
+    #[arg(long, value_enum, default_value_t = FormatArg::V1)]
     pub format: FormatArg,
     /// Write the compressed container (FORMAT.md, "Compressed files"): the same octree in
     /// about a tenth of the bytes, decoded on load by every reader. LEVEL is zstd's, 1..=22

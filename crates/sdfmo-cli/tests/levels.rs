@@ -198,3 +198,75 @@ fn a_file_without_levels_has_its_depth_only() {
     let json: Value = serde_json::from_slice(&o.stdout).unwrap();
     assert!(json["levels"].is_null(), "{json}");
 }
+
+/// Levels 3..=5 of the demo part as format 4.0 (`--format 3`): each prefix cut where a level
+/// ends renders that level as a separate build of its depth renders, byte for byte, on its own
+/// and through `--lod`; `info` describes the blocks; a coarsest level below 2 is refused.
+#[test]
+fn brick_level_prefixes_render_their_levels() {
+    let dir = tempfile::Builder::new()
+        .prefix("sdfmo-levels4-")
+        .tempdir()
+        .unwrap();
+    let whole = dir.path().join("lod4.smo");
+    let w = whole.display().to_string();
+    let o = sdfmo(&[
+        "build",
+        "-d",
+        "5",
+        "--lod",
+        "--coarsest",
+        "3",
+        "--format",
+        "3",
+        "-o",
+        &w,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let bytes = std::fs::read(&whole).unwrap();
+    assert!(sdf_multioctree::format::is_brick_levels(&bytes));
+    let o = sdfmo(&["info", &w, "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let info: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(info["version"], "4.0 (levels of bricks)");
+    let levels = info["levels"].as_array().unwrap();
+    assert_eq!(levels.len(), 3);
+    assert!(
+        levels.iter().all(|l| l["bricks"].as_u64().unwrap() > 0),
+        "{info}"
+    );
+    let png = dir.path().join("out.png");
+    for l in levels {
+        let k = l["level"].as_u64().unwrap().to_string();
+        let end = (l["offset"].as_u64().unwrap() + l["bytes"].as_u64().unwrap()) as usize;
+        let cut = dir.path().join(format!("cut{k}.smo"));
+        std::fs::write(&cut, &bytes[..end]).unwrap();
+        let single = dir.path().join(format!("d{k}.smo"));
+        let s = single.display().to_string();
+        assert!(sdfmo(&["build", "-d", &k, "-o", &s]).status.success());
+        let (_, _, want) = render(&single, &png, &[]);
+        let (json, _, image) = render(&cut, &png, &[]);
+        assert_eq!(
+            json["levels"]["drawn"],
+            list(k.parse().unwrap()..=k.parse().unwrap())
+        );
+        assert_eq!(image, want, "prefix to level {k}");
+        let (_, _, image) = render(&whole, &png, &["--lod", &k]);
+        assert_eq!(image, want, "--lod {k} of the whole file");
+    }
+    fails_with(
+        &sdfmo(&[
+            "build",
+            "-d",
+            "4",
+            "--lod",
+            "--coarsest",
+            "1",
+            "--format",
+            "3",
+            "-o",
+            &w,
+        ]),
+        "coarsest level of at least 2",
+    );
+}

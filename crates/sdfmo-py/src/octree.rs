@@ -10,8 +10,8 @@ use rayon::prelude::*;
 use sdf_multioctree::build::BuildStats;
 use sdf_multioctree::format::compressed::{compress_with_level, is_compressed};
 use sdf_multioctree::format::{
-    is_v3, FormatError, PackedOctree, SmoFile, SmoPrefix, ValueBits, FILE_EXTENSION, MAX_DEPTH,
-    MAX_FILE_SIZE,
+    is_brick_levels, is_v3, FormatError, PackedOctree, SmoFile, SmoPrefix, ValueBits,
+    FILE_EXTENSION, MAX_DEPTH, MAX_FILE_SIZE,
 };
 use sdf_multioctree::io::Naming;
 use sdf_multioctree::render::LevelRequest;
@@ -125,7 +125,10 @@ impl Octree {
         let data = match data {
             // A 1.x file keeps the copy as its buffer (no second one).
             arrays::BytesArg::Copied(v)
-                if !SmoFile::has_levels(&v) && !is_compressed(&v) && !is_v3(&v) =>
+                if !SmoFile::has_levels(&v)
+                    && !is_compressed(&v)
+                    && !is_v3(&v)
+                    && !is_brick_levels(&v) =>
             {
                 py.detach(|| PackedOctree::from_vec(v))
                     .map(|o| Octree::new(o, None).data)

@@ -4,7 +4,7 @@ use std::fmt::Write as _;
 
 use anyhow::Context;
 use sdf_multioctree::build::{self, BuildRequest, BuildSettings, BuildStats};
-use sdf_multioctree::format::{BrickOctree, BRICK_LEVELS};
+use sdf_multioctree::format::{decode_levels_prefix, encode_levels, BrickOctree, BRICK_LEVELS};
 use serde_json::json;
 
 use crate::args::{BuildArgs, FormatArg};
@@ -25,6 +25,13 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
             "--format 3 needs a depth of at least {BRICK_LEVELS} (a brick spans {BRICK_LEVELS} levels), got {}",
             args.depth
         );
+    }
+    if let Some(coarsest) = args.coarsest_level() {
+        if args.format == FormatArg::V3 && coarsest < BRICK_LEVELS {
+            anyhow::bail!(
+                "--lod --format 3 needs a coarsest level of at least {BRICK_LEVELS} (a brick spans {BRICK_LEVELS} levels), got {coarsest}"
+            );
+        }
     }
     let input = load_input(args.mesh.as_deref())?;
     let settings = BuildSettings::new(args.depth, args.method.method(args.max_voxels))
@@ -167,7 +174,7 @@ fn stored_note(args: &BuildArgs, traced: usize, stored: usize, voxels: usize) ->
 }
 
 /// `sdfmo build --lod`: every level from the coarsest to the depth, one build each, in one
-/// version-2.0 file.
+/// version-2.0 file (4.0 with `--format 3`).
 fn run_lod(
     args: &BuildArgs,
     input: &crate::commands::InputMesh,
@@ -191,8 +198,19 @@ fn run_lod(
     let (lod, stats) =
         built.with_context(|| format!("cannot build the levels of {}", input.source))?;
     ensure_parent(&args.output)?;
-    let stored = save(args, &lod.to_bytes())?;
-    let entries = lod.entries();
+    let (file, entries) = match args.format {
+        FormatArg::V1 => (lod.to_bytes(), lod.entries()),
+        FormatArg::V3 => {
+            let file = encode_levels(&lod).context("cannot encode the levels as format 4.0")?;
+            // The header's level table; decoding also checks the file before it is written.
+            let declared = decode_levels_prefix(&file)
+                .context("the 4.0 encoding does not decode")?
+                .declared;
+            (file, declared)
+        }
+    };
+    let stored = save(args, &file)?;
+    let bytes = file.len() as u64;
     let total_ms: f64 = stats.iter().map(|s| s.build_ms).sum();
     if args.json {
         let levels: Vec<serde_json::Value> = stats
@@ -211,7 +229,8 @@ fn run_lod(
             "depth": args.depth,
             "coarsest": coarsest,
             "bits": args.bits.count(),
-            "bytes": lod.byte_size(),
+            "bytes": bytes,
+            "format": if args.format == FormatArg::V3 { "4.0" } else { "2.0" },
             "build_ms": total_ms,
             "levels": levels,
             "output": args.output.display().to_string(),
@@ -223,13 +242,16 @@ fn run_lod(
     let mut s = headline(args, input, &format!("levels {coarsest}..={}", args.depth));
     let _ = writeln!(
         s,
-        ": {} bytes ({:.3} MB), {:.1} ms",
-        lod.byte_size(),
-        lod.byte_size() as f64 / 1e6,
-        total_ms
+        ": {bytes} bytes ({:.3} MB, format {}), {total_ms:.1} ms",
+        bytes as f64 / 1e6,
+        if args.format == FormatArg::V3 {
+            "4.0"
+        } else {
+            "2.0"
+        },
     );
     let voxels: usize = stats.iter().map(|st| st.voxels).sum();
-    s.push_str(&stored_note(args, lod.byte_size() as usize, stored, voxels));
+    s.push_str(&stored_note(args, bytes as usize, stored, voxels));
     for (st, e) in stats.iter().zip(&entries) {
         let _ = writeln!(
             s,

@@ -7,8 +7,9 @@ use std::path::Path;
 use anyhow::Context;
 use sdf_multioctree::format::compressed::COMPRESSED_MAGIC;
 use sdf_multioctree::format::{
-    is_v3, read_smo, BrickOctree, BrickOctreeView, FormatError, LevelEntry, LodOctree,
-    PackedOctree, SmoFile, SmoRead, MAGIC, MAX_FILE_SIZE,
+    decode_levels_stats, is_brick_levels, is_v3, read_smo, BrickOctree, BrickOctreeView,
+    FormatError, LevelBlockStats, LevelEntry, LodOctree, PackedOctree, SmoFile, SmoRead, MAGIC,
+    MAX_FILE_SIZE,
 };
 use serde_json::json;
 
@@ -145,8 +146,16 @@ fn run_smo(path: &Path, as_json: bool) -> anyhow::Result<()> {
             .with_context(cannot)?;
         return print_v3(path, &b, as_json);
     }
+    // 4.0: how each level block was coded (bricks, and how many were predicted).
+    let mut blocks: Vec<LevelBlockStats> = Vec::new();
     let (version, file_size, levels): (&str, u64, Vec<(LevelEntry, Option<PackedOctree>)>) =
-        if SmoFile::has_levels(&bytes) {
+        if is_brick_levels(&bytes) {
+            let (p, stats) = decode_levels_stats(&bytes).with_context(cannot)?;
+            blocks = stats;
+            let mut loaded = p.octree.levels().to_vec().into_iter();
+            let rows = p.declared.iter().map(|e| (*e, loaded.next())).collect();
+            ("4.0 (levels of bricks)", p.file_size, rows)
+        } else if SmoFile::has_levels(&bytes) {
             let p = LodOctree::from_prefix(&bytes).with_context(cannot)?;
             let loaded = p.octree.levels().to_vec();
             let mut loaded = loaded.into_iter();
@@ -175,7 +184,19 @@ fn run_smo(path: &Path, as_json: bool) -> anyhow::Result<()> {
             "bytes_read": bytes.len(),
             "compressed": compressed,
             "stored_bytes": stored,
-            "levels": levels.iter().map(|(e, o)| level_json(e, o.as_ref())).collect::<Vec<_>>(),
+            "levels": levels
+                .iter()
+                .enumerate()
+                .map(|(i, (e, o))| {
+                    let mut j = level_json(e, o.as_ref());
+                    if let Some(b) = blocks.get(i) {
+                        j["bricks"] = json!(b.bricks);
+                        j["bricks_relative_occupancy"] = json!(b.relative_bricks);
+                        j["bricks_coarse_points"] = json!(b.coarse_bricks);
+                    }
+                    j
+                })
+                .collect::<Vec<_>>(),
         }));
     }
     let mut s = format!(
@@ -190,10 +211,10 @@ fn run_smo(path: &Path, as_json: bool) -> anyhow::Result<()> {
             bytes.len() as f64 / stored.max(1) as f64
         );
     }
-    for (e, o) in &levels {
+    for (i, (e, o)) in levels.iter().enumerate() {
         match o {
             Some(o) => {
-                let _ = writeln!(
+                let _ = write!(
                     s,
                     "  level {:>2}  leaves {:>9}  voxels {:>9} ({} surface)  {:>10} bytes",
                     e.level,
@@ -202,6 +223,20 @@ fn run_smo(path: &Path, as_json: bool) -> anyhow::Result<()> {
                     o.surface_voxel_count(),
                     e.size
                 );
+                match blocks.get(i) {
+                    // The coarsest level has no level before it.
+                    Some(b) if i == 0 => {
+                        let _ = writeln!(s, "  {} bricks", b.bricks);
+                    }
+                    Some(b) => {
+                        let _ = writeln!(
+                            s,
+                            "  {} bricks ({} with occupancy and {} with points from the level before)",
+                            b.bricks, b.relative_bricks, b.coarse_bricks
+                        );
+                    }
+                    None => s.push('\n'),
+                }
             }
             None => {
                 let _ = writeln!(
