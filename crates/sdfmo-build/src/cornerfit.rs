@@ -17,7 +17,8 @@
 //! values `v`, the samples `p` are the leaf decision's points of the true surface in the cell
 //! (`leaf::samples`, `N_L` of them) and `d` is the exact signed distance. It is solved for the
 //! moves `v − d` by a fixed number of conjugate-gradient steps from zero; each value is rounded
-//! to its code within [`FitParams::max_shift_steps`] of `d`, and then a few sweeps of greedy
+//! to its code within [`FitParams::max_shift_steps`] of `d` (an inside value at most
+//! [`FitParams::max_inside_drop_steps`] below), and then a few sweeps of greedy
 //! descent move codes by one step where that lowers the same energy (the quantised values are
 //! what the file stores).
 //!
@@ -54,11 +55,21 @@ use crate::subdivide::Subdivision;
 /// - Steps and shift: 40 steps, shift 3 → +1.09 / +0.72 / +0.93; 120 steps, shift 4 → +1.22 /
 ///   +1.15 / +1.21; 120 steps, shift 6 → +1.23 / +1.47 / +1.29 (the values below).
 ///
-/// With these values 48 of the 50 cells of the paper sweep gain (+0.03 to +2.64 dB); abc5 loses
-/// 1.04 dB (SVO, depth 6) and 0.30 dB (multi, depth 7). Keeping the exact corners where the
-/// exact voxel misses a sample by more than 0.05 of a cell restored abc5's depth 6 but took
-/// most of the gain elsewhere (depth 9 multi: teapot +0.79, abc1 +0.78, abc3 +0.16 dB); at 0.1
-/// of a cell, or only where the samples lie on several components, abc5 still lost 1.0 dB.
+/// Without a bound on the inside values 48 of the 50 cells of the paper sweep gained (+0.03 to
+/// +2.64 dB, depth-9 multi median +1.29); abc5 lost 1.04 dB (SVO, depth 6) and 0.30 dB (multi,
+/// depth 7): seen edge-on, a face's silhouette column flipped where lowered values moved the
+/// zero set out by 0.01–0.03 of a cell (one or two codes). Against abc5 depths 6/7, SVO/multi,
+/// dB over exact:
+/// - every value at most one code below its exact code: within −0.05 dB, but a depth-9 multi
+///   median of +0.71;
+/// - only outside values (`d > 0`) bounded to one code below: −1.13 / +0.14 / +0.29 / −0.46;
+/// - only inside values bounded, to 2 codes: −0.98 / +0.24 / +0.58 / +0.28; to 0: +0.25 / +0.14
+///   / +0.56 / +0.23; **to 1** (`max_inside_drop_steps`): +0.25 / +0.21 / +0.47 / +0.30, and
+///   SVO and multi gain in 49 of the 50 cells (abc5 SVO depth 9 −0.01), depth-9 multi median
+///   SWEEP_MEDIAN (`docs/results/sweep.md`);
+/// - extra rows pinning `f` at points `δ` off the surface along the face normal to their exact
+///   distance (outside only or both sides, `δ` 0.1–0.5 of a cell, weight 1–16 against the
+///   surface samples' 1): abc5 SVO depth 6 stayed at −0.9 to −1.0 dB.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct FitParams {
     /// Weight `λ` of a value's squared move away from its exact distance.
@@ -70,6 +81,9 @@ pub(crate) struct FitParams {
     /// Sweeps of the greedy descent over the quantised codes (one code up or down per point
     /// and sweep where that lowers the energy).
     pub code_sweeps: usize,
+    /// Largest move of an inside value (exact distance at or below zero) below its exact code,
+    /// in codes.
+    pub max_inside_drop_steps: i32,
 }
 
 impl FitParams {
@@ -79,6 +93,7 @@ impl FitParams {
         iterations: 120,
         max_shift_steps: 6.0,
         code_sweeps: 4,
+        max_inside_drop_steps: 1,
     };
 }
 
@@ -329,6 +344,12 @@ pub(crate) fn fit_values(
             hi = hi.min(-1);
         }
         let exact = code_of(d);
+        // An inside point's value goes at most `max_inside_drop_steps` codes deeper than its
+        // exact code: deeper inside values push the zero set outward, past the surface, which
+        // is where the fit lost (abc5's silhouettes seen edge-on; see `FitParams`).
+        if d <= 0.0 {
+            lo = lo.max(exact - fp.max_inside_drop_steps);
+        }
         (lo.min(exact), hi.max(exact))
     };
     let mut codes: Vec<i32> = values
