@@ -109,3 +109,23 @@ def test_level_errors_name_what_is_held(cli, lod_file, tmp_path):
         o.render(16, lod=4)
     with pytest.raises(ValueError, match="has no levels of detail"):
         o.render(16, pixel_error=1.0)
+
+
+def test_levels_of_bricks_load_as_their_levels(cli, lod_file, tmp_path):
+    """A format-4.0 file (``sdfmo build --lod --format 3``) and each of its level-boundary
+    prefixes load from a path and from bytes with the levels of the 2.0 file, and render alike."""
+    path, _ = lod_file
+    v4 = tmp_path / "demo.v4.smo"
+    run(cli, "build", "-d", "6", "--lod", "--coarsest", "4", "--format", "3", "-o", v4)
+    info = json.loads(run(cli, "info", v4, "--json").stdout)
+    assert info["version"] == "4.0 (levels of bricks)"
+    data = v4.read_bytes()
+    two = sdfmo.Octree.load(path)
+    for row in info["levels"]:
+        k = row["level"]
+        cut = data[: row["offset"] + row["bytes"]]
+        octree = sdfmo.Octree.from_bytes(cut)
+        assert octree.levels == list(range(4, k + 1))
+        assert octree.file_levels == [4, 5, 6]
+        np.testing.assert_array_equal(octree.render(40, 32, lod=k), two.render(40, 32, lod=k))
+    assert sdfmo.Octree.load(v4).levels == [4, 5, 6]
