@@ -145,7 +145,7 @@ use std::fmt;
 use std::path::Path;
 
 use distance::{MeshDistance, SignMode};
-use render::MeshScene;
+use render::{MeshScene, OctreeScene};
 
 // The types and functions the high-level API takes and returns, at the root so that a caller
 // of these functions (and the examples) needs no layer path.
@@ -464,6 +464,33 @@ impl Renderer {
         })
     }
 
+    /// Prepares a 3.0 brick file ([`format::BrickOctree`]) for renders, traced as it is: on a
+    /// GPU its bytes are uploaded unchanged and the WGSL kernel walks the bricks; on the CPU
+    /// the tracer reads the same bytes in place ([`format::TracedOctree`]). Nothing is expanded
+    /// to 1.x; the images are those of the 1.x file of the same octree on the same device.
+    ///
+    /// # Errors
+    /// On a GPU, `Error::Gpu` when the upload fails (a file over the adapter's limits).
+    pub fn prepare_bricks<'a>(
+        &'a mut self,
+        bricks: &'a format::BrickOctree,
+    ) -> Result<Prepared<'a>> {
+        #[cfg(feature = "gpu")]
+        let gpu = match self.gpu.as_mut() {
+            None => None,
+            Some(g) => {
+                let upload = Upload::Octree(g.upload_bricks(bricks)?);
+                Some((g, upload))
+            }
+        };
+        Ok(Prepared {
+            source: Source::Bricks(bricks),
+            #[cfg(feature = "gpu")]
+            gpu,
+            _renderer: std::marker::PhantomData,
+        })
+    }
+
     /// Prepares the source mesh (model units) as the reference image: normalised exactly as
     /// the builder does ([`DEFAULT_MARGIN`], [`mesh_frame`]), the same cameras and shading as
     /// its octrees, face normals. On the CPU only (the GPU kernel traces octrees).
@@ -507,6 +534,8 @@ enum Source<'a> {
     },
     /// The source mesh's ray queries, in the normalised frame.
     Mesh(Box<MeshDistance>),
+    /// A 3.0 file, traced as it is (on a GPU, as uploaded).
+    Bricks(&'a format::BrickOctree),
 }
 
 impl fmt::Debug for Source<'_> {
@@ -514,6 +543,7 @@ impl fmt::Debug for Source<'_> {
         match self {
             Source::File { level, .. } => write!(f, "File({level:?})"),
             Source::Mesh(_) => f.write_str("Mesh"),
+            Source::Bricks(_) => f.write_str("Bricks"),
         }
     }
 }
@@ -559,6 +589,13 @@ impl Prepared<'_> {
             Source::File { file, level } => (*file, *level),
             Source::Mesh(dist) => {
                 return on_cpu(&MeshScene(dist), camera, settings, progress, cancel)
+            }
+            Source::Bricks(bricks) => {
+                #[cfg(feature = "gpu")]
+                if let Some((g, Upload::Octree(o))) = self.gpu.as_mut() {
+                    return Ok(g.render(o, camera, settings)?);
+                }
+                return on_cpu(&OctreeScene(*bricks), camera, settings, progress, cancel);
             }
         };
         let scene = level.scene(file, camera)?;

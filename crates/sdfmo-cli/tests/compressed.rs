@@ -92,8 +92,8 @@ fn a_level_outside_zstd_is_refused() {
 
 #[test]
 fn a_format_3_build_renders_as_the_1x_one() {
-    // Until the tracers read bricks, a 3.0 file (plain or compressed) is loaded as the 1.x
-    // octree it encodes: the same image byte for byte, and `info` names its bricks.
+    // A 3.0 file (plain or compressed) is traced in place by the CPU tracer (`run_bricks`):
+    // the image of the 1.x octree it encodes byte for byte, and `info` names its bricks.
     let dir = tempfile::tempdir().unwrap();
     let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
     let v1 = json(&ok(&["build", "-d", "6", "-o", &p("v1.smo"), "--json"]));

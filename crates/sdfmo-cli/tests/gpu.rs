@@ -238,3 +238,71 @@ fn gpu_pixel_error_matches_cpu() {
         "has no levels of detail",
     );
 }
+
+/// Issue 34: a 3.0 file (`build --format 3`, plain and `--compress`ed) renders on the GPU from
+/// its bricks (no 1.x octree is made: `run_bricks`) exactly as the 1.x file of the same octree
+/// renders on the GPU: the same PNG bytes, the same hits, `levels` its one depth; a level or a
+/// pixel error it does not hold is refused in one line, as for a 1.x file.
+#[test]
+fn gpu_renders_a_v3_file_as_its_octree() {
+    let dir = tmp("v3");
+    let p = |name: &str| dir.join(name).display().to_string();
+    let build = |out: &str, extra: &[&str]| {
+        let mut args = vec!["build", "-d", "6", "--method", "multi", "-o", out];
+        args.extend_from_slice(extra);
+        let o = sdfmo(&args, &[]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
+    build(&p("v1.smo"), &[]);
+    build(&p("v3.smo"), &["--format", "3"]);
+    build(&p("v3z.smo"), &["--format", "3", "--compress"]);
+    let render = |smo: &str, png: &str, mode: &str| {
+        sdfmo(
+            &[
+                "render", smo, "--device", "gpu", "--size", "96x64", "--views", "paper", "--mode",
+                mode, "-o", png, "--json",
+            ],
+            &[],
+        )
+    };
+    for mode in ["lambert", "normal", "depth"] {
+        let o = render(&p("v1.smo"), &p(&format!("v1-{mode}.png")), mode);
+        if no_adapter(&o) {
+            return;
+        }
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v1: Value = serde_json::from_slice(&o.stdout).unwrap();
+        for name in ["v3", "v3z"] {
+            let o = render(
+                &p(&format!("{name}.smo")),
+                &p(&format!("{name}-{mode}.png")),
+                mode,
+            );
+            assert!(o.status.success(), "{}", stderr(&o));
+            let v3: Value = serde_json::from_slice(&o.stdout).unwrap();
+            assert_eq!(v3["counters"], v1["counters"], "{name} {mode}");
+            assert!(v3["counters"]["hits"].as_u64().unwrap() > 0);
+            assert_eq!(v3["levels"], json_levels(6), "{name}");
+            assert_eq!(v3["device"], v1["device"]);
+            for view in 0..4 {
+                let png = |n: &str| std::fs::read(dir.join(format!("{n}-{mode}_{view}.png")));
+                let (a, b) = (png("v1").unwrap(), png(name).unwrap());
+                assert!(a == b, "{name} {mode} view {view}: the PNGs differ");
+            }
+        }
+    }
+    let (png, v3) = (p("x.png"), p("v3.smo"));
+    for (extra, needle) in [
+        (&["--lod", "5"][..], "level 5"),
+        (&["--pixel-error", "1"][..], "has no levels of detail"),
+    ] {
+        let mut args = vec!["render", v3.as_str(), "--device", "gpu", "-o", png.as_str()];
+        args.extend_from_slice(extra);
+        fails_cleanly(&sdfmo(&args, &[]), needle);
+    }
+}
+
+/// `--json`'s `levels` of a file of one level `d`.
+fn json_levels(d: u8) -> Value {
+    serde_json::json!({ "file": [d], "held": [d], "drawn": [d] })
+}

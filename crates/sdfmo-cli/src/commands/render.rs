@@ -6,7 +6,9 @@ use std::path::PathBuf;
 use anyhow::Context;
 use glam::Vec3;
 use sdf_multioctree::distance::{reshape_fans, MeshDistance, SignMode};
-use sdf_multioctree::format::{FormatError, SmoFile, SmoPrefix};
+use sdf_multioctree::format::{
+    compressed, is_v3, read_smo, BrickOctree, FormatError, SmoFile, SmoPrefix, SmoRead,
+};
 use sdf_multioctree::mesh::Normalization;
 use sdf_multioctree::metrics;
 use sdf_multioctree::render::{
@@ -35,13 +37,11 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
         }
     };
     let mut renderer = open_renderer(args, device)?;
-    let data =
-        SmoFile::load_prefix(&args.octree, renderer.max_file_bytes()).map_err(|e| match e {
-            // I/O errors name the file already; format errors do not.
-            FormatError::Io(io) => anyhow::Error::new(io),
-            e => anyhow::Error::new(e)
-                .context(format!("cannot load octree {}", args.octree.display())),
-        })?;
+    if let Some(bricks) = brick_file(args, renderer.max_file_bytes())? {
+        return run_bricks(args, device, &mut renderer, &bricks, &outputs);
+    }
+    let data = SmoFile::load_prefix(&args.octree, renderer.max_file_bytes())
+        .map_err(|e| load_error(args, e))?;
     let request = match (args.lod, args.pixel_error) {
         (Some(level), _) => LevelRequest::Level(level),
         (None, Some(pixels)) => LevelRequest::PixelError(pixels),
@@ -70,7 +70,7 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
         );
     }
     let frame = sdf_multioctree::octree_frame(data.file.finest());
-    let levels = FileLevels {
+    let levels = FileLevels::File {
         data: &data,
         request,
     };
@@ -101,6 +101,90 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
     render_all(&mut view, &by, &args.opts, &frame, &outputs)
 }
 
+/// A load error: I/O errors name the file already; format errors do not.
+fn load_error(args: &RenderArgs, e: FormatError) -> anyhow::Error {
+    match e {
+        FormatError::Io(io) => anyhow::Error::new(io),
+        e => anyhow::Error::new(e).context(format!("cannot load octree {}", args.octree.display())),
+    }
+}
+
+/// The input as a 3.0 brick file, plain or compressed, which either device traces as it is
+/// (no 1.x octree is made); `None` for any other file (only its first bytes are read then,
+/// unless it is compressed).
+fn brick_file(args: &RenderArgs, max_bytes: u64) -> anyhow::Result<Option<BrickOctree>> {
+    use std::io::Read as _;
+    let mut head = Vec::with_capacity(16);
+    std::fs::File::open(&args.octree)
+        .and_then(|f| f.take(16).read_to_end(&mut head))
+        .with_context(|| format!("cannot read {}", args.octree.display()))?;
+    if !is_v3(&head) && !compressed::is_compressed(&head) {
+        return Ok(None);
+    }
+    let mut bytes =
+        read_smo(&args.octree, max_bytes, SmoRead::Whole).map_err(|e| load_error(args, e))?;
+    if compressed::is_compressed(&bytes) {
+        bytes = compressed::decompress(&bytes, max_bytes).map_err(|e| load_error(args, e))?;
+    }
+    if !is_v3(&bytes) {
+        return Ok(None);
+    }
+    Ok(Some(
+        BrickOctree::new(bytes).map_err(|e| load_error(args, e))?,
+    ))
+}
+
+/// `run_octree` for a 3.0 file ([`brick_file`]), traced in place: one level, its depth.
+fn run_bricks(
+    args: &RenderArgs,
+    device: Device,
+    renderer: &mut Renderer,
+    bricks: &BrickOctree,
+    outputs: &[ViewOutputs],
+) -> anyhow::Result<()> {
+    let source = args.octree.display().to_string();
+    let depth = bricks.depth();
+    let refused = match (args.lod, args.pixel_error) {
+        (Some(level), _) if level != depth => Some(render::RenderError::LevelNotHeld {
+            level,
+            coarsest: depth,
+            finest: depth,
+        }),
+        (None, Some(_)) => Some(render::RenderError::NoLevels { depth }),
+        _ => None,
+    };
+    if let Some(e) = refused {
+        return Err(anyhow::Error::new(e).context(format!("cannot render {source}")));
+    }
+    let meta = bricks.meta();
+    let frame = Normalization {
+        center: meta.center,
+        scale: meta.scale,
+    };
+    let device_name = renderer.device_name().to_owned();
+    let by = RenderedBy {
+        source: &source,
+        device: &device_name,
+        timing: renderer.gpu().map(|g| g.timing().name()),
+        levels: Some(FileLevels::Bricks { depth }),
+    };
+    let on = match device {
+        Device::Cpu => String::new(),
+        Device::Gpu => format!(" on {device_name}"),
+    };
+    let mut prepared = renderer
+        .prepare_bricks(bricks)
+        .with_context(|| format!("cannot render {source}{on}"))?;
+    let settings = settings(&args.opts);
+    let workers = Workers::new(args.opts.threads)?;
+    let mut view = |cam: &Camera, progress: &Progress<'_>| -> anyhow::Result<Rendered> {
+        workers
+            .install(|| prepared.render_with(cam, &settings, Some(progress), None))
+            .with_context(|| format!("cannot render {source}{on}"))
+    };
+    render_all(&mut view, &by, &args.opts, &frame, outputs)
+}
+
 /// "levels 6-8", or "level 8" for one.
 fn levels_text((coarsest, finest): (u8, u8)) -> String {
     if coarsest == finest {
@@ -121,9 +205,14 @@ fn range_text((coarsest, finest): (u8, u8)) -> String {
 
 /// The levels of the file a render draws from, for `--json`'s `levels`.
 #[derive(Clone, Copy)]
-struct FileLevels<'a> {
-    data: &'a SmoPrefix,
-    request: LevelRequest,
+enum FileLevels<'a> {
+    /// A 1.x or 2.0 file (or a 3.0 file read as its 1.x octree) and the level request.
+    File {
+        data: &'a SmoPrefix,
+        request: LevelRequest,
+    },
+    /// A 3.0 file traced as it is: its one level.
+    Bricks { depth: u8 },
 }
 
 /// What a render's summary says of where its images come from: the input, the device that
@@ -156,17 +245,21 @@ impl<'a> RenderedBy<'a> {
 /// pixel error every level the rule can choose for each view's eye), each a list of levels.
 fn levels_json(levels: &FileLevels<'_>, cams: &[Camera]) -> anyhow::Result<serde_json::Value> {
     let list = |(a, b): (u8, u8)| (a..=b).collect::<Vec<u8>>();
+    let (data, request) = match *levels {
+        FileLevels::File { data, request } => (data, request),
+        FileLevels::Bricks { depth } => {
+            let one = list((depth, depth));
+            return Ok(json!({ "file": one, "held": one, "drawn": one }));
+        }
+    };
     let mut drawn = std::collections::BTreeSet::new();
     for cam in cams {
-        let (a, b) = levels
-            .request
-            .scene(&levels.data.file, cam)?
-            .levels(cam.eye);
+        let (a, b) = request.scene(&data.file, cam)?.levels(cam.eye);
         drawn.extend(a..=b);
     }
     Ok(json!({
-        "file": list(levels.data.declared),
-        "held": list(levels.data.held()),
+        "file": list(data.declared),
+        "held": list(data.held()),
         "drawn": drawn,
     }))
 }
