@@ -598,18 +598,9 @@ fn decode_bricks(streams: &[(&[u8], usize)], out: &mut [u8]) -> Result<usize> {
 fn records_to_stream(records: &[u8]) -> Vec<u8> {
     let n = records.len() / BRICK_RECORD_SIZE;
     let mut deltas = records.to_vec();
+    // Last to first, so that each record is taken from the one before while that is intact.
     for i in (1..n).rev() {
-        let (before, here) = deltas.split_at_mut(i * BRICK_RECORD_SIZE);
-        let prev = &before[(i - 1) * BRICK_RECORD_SIZE..];
-        let (p_res, p_first) = (u32_at(prev, RECORD_RESIDUALS), u32_at(prev, RECORD_FIRST));
-        let (res, first) = (u32_at(here, RECORD_RESIDUALS), u32_at(here, RECORD_FIRST));
-        let offset = (res & RESIDUAL_OFFSET).wrapping_sub(p_res & RESIDUAL_OFFSET);
-        put_u32(
-            here,
-            RECORD_RESIDUALS,
-            res & !RESIDUAL_OFFSET | offset & RESIDUAL_OFFSET,
-        );
-        put_u32(here, RECORD_FIRST, first.wrapping_sub(p_first));
+        delta_step(&mut deltas, i, u32::wrapping_sub);
     }
     let mut out = vec![0u8; records.len()];
     for (i, record) in deltas.chunks_exact(BRICK_RECORD_SIZE).enumerate() {
@@ -628,19 +619,27 @@ fn stream_to_records(stream: &[u8], records: &mut [u8]) {
             *b = stream[j * n + i];
         }
     }
+    // First to last, so that each record is added to the one before once that is restored.
     for i in 1..n {
-        let (before, here) = records.split_at_mut(i * BRICK_RECORD_SIZE);
-        let prev = &before[(i - 1) * BRICK_RECORD_SIZE..];
-        let (p_res, p_first) = (u32_at(prev, RECORD_RESIDUALS), u32_at(prev, RECORD_FIRST));
-        let (res, first) = (u32_at(here, RECORD_RESIDUALS), u32_at(here, RECORD_FIRST));
-        let offset = (res & RESIDUAL_OFFSET).wrapping_add(p_res & RESIDUAL_OFFSET);
-        put_u32(
-            here,
-            RECORD_RESIDUALS,
-            res & !RESIDUAL_OFFSET | offset & RESIDUAL_OFFSET,
-        );
-        put_u32(here, RECORD_FIRST, first.wrapping_add(p_first));
+        delta_step(records, i, u32::wrapping_add);
     }
+}
+
+/// One step of the records' delta coding: record `i`'s residual offset and first private leaf
+/// become `op` of themselves and record `i - 1`'s (`wrapping_sub` to code, `wrapping_add` to
+/// decode); the rest of the record stays.
+fn delta_step(records: &mut [u8], i: usize, op: fn(u32, u32) -> u32) {
+    let (before, here) = records.split_at_mut(i * BRICK_RECORD_SIZE);
+    let prev = &before[(i - 1) * BRICK_RECORD_SIZE..];
+    let (p_res, p_first) = (u32_at(prev, RECORD_RESIDUALS), u32_at(prev, RECORD_FIRST));
+    let (res, first) = (u32_at(here, RECORD_RESIDUALS), u32_at(here, RECORD_FIRST));
+    let offset = op(res & RESIDUAL_OFFSET, p_res & RESIDUAL_OFFSET);
+    put_u32(
+        here,
+        RECORD_RESIDUALS,
+        res & !RESIDUAL_OFFSET | offset & RESIDUAL_OFFSET,
+    );
+    put_u32(here, RECORD_FIRST, op(first, p_first));
 }
 
 /// Private voxels' codes (eight per voxel) to residuals, in place: corner `o > 0` minus corner

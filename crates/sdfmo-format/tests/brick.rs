@@ -332,45 +332,27 @@ fn bad_header_fields_are_named() {
             ..
         }
     ));
-    assert_eq!(corrupt_field(edit(&|b| put(b, "depth", 1))), "depth");
-    assert_eq!(
-        corrupt_field(edit(&|b| put(b, "value_bits", 12))),
-        "value_bits"
-    );
-    assert_eq!(corrupt_field(edit(&|b| put(b, "flags", 1 << 9))), "flags");
-    assert_eq!(
-        corrupt_field(edit(&|b| put(b, "header_size", 100))),
-        "header_size"
-    );
-    let leaves = read_u64(&bytes, "leaf_count");
-    assert_eq!(
-        corrupt_field(edit(&|b| put(b, "leaf_count", leaves + 1))),
-        "voxel_count"
-    );
-    let bricks = read_u64(&bytes, "brick_count");
-    assert_eq!(
-        corrupt_field(edit(&|b| put(b, "brick_count", bricks + 1))),
-        "file_size"
-    );
-    let pv = read_u64(&bytes, "private_voxel_count");
-    assert_eq!(
-        corrupt_field(edit(&|b| put(b, "private_voxel_count", pv + 1))),
-        "voxel_count"
-    );
-    let size = read_u64(&bytes, "residuals_size");
-    assert_eq!(
-        corrupt_field(edit(&|b| put(b, "residuals_size", size + 8))),
-        "file_size"
-    );
-    assert_eq!(
-        corrupt_field(edit(&|b| put(b, "residuals_size", u64::MAX))),
-        "residuals_size"
-    );
-    let off = read_u64(&bytes, "bricks_offset");
-    assert_eq!(
-        corrupt_field(edit(&|b| put(b, "bricks_offset", off + 8))),
-        "bricks_offset"
-    );
+    let read = |name| read_u64(&bytes, name);
+    // (field, the value written there, the field the error names)
+    for (name, value, named) in [
+        ("depth", 1, "depth"),
+        ("value_bits", 12, "value_bits"),
+        ("flags", 1 << 9, "flags"),
+        ("header_size", 100, "header_size"),
+        ("leaf_count", read("leaf_count") + 1, "voxel_count"),
+        ("brick_count", read("brick_count") + 1, "file_size"),
+        (
+            "private_voxel_count",
+            read("private_voxel_count") + 1,
+            "voxel_count",
+        ),
+        ("residuals_size", read("residuals_size") + 8, "file_size"),
+        ("residuals_size", u64::MAX, "residuals_size"),
+        ("bricks_offset", read("bricks_offset") + 8, "bricks_offset"),
+    ] {
+        let e = edit(&|b| put(b, name, value));
+        assert_eq!(corrupt_field(e), named, "{name} = {value}");
+    }
 }
 
 #[test]
