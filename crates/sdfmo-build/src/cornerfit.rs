@@ -66,7 +66,7 @@ use crate::subdivide::Subdivision;
 /// - only inside values bounded, to 2 codes: −0.98 / +0.24 / +0.58 / +0.28; to 0: +0.25 / +0.14
 ///   / +0.56 / +0.23; **to 1** (`max_inside_drop_steps`): +0.25 / +0.21 / +0.47 / +0.30, and
 ///   SVO and multi gain in 49 of the 50 cells (abc5 SVO depth 9 −0.01), depth-9 multi median
-///   SWEEP_MEDIAN (`docs/results/sweep.md`);
+///   +1.13 dB (`docs/results/sweep.md`);
 /// - extra rows pinning `f` at points `δ` off the surface along the face normal to their exact
 ///   distance (outside only or both sides, `δ` 0.1–0.5 of a cell, weight 1–16 against the
 ///   surface samples' 1): abc5 SVO depth 6 stayed at −0.9 to −1.0 dB.
