@@ -18,11 +18,11 @@
 //! --coarsest 2 --format 3 -o fuzz/corpus/fuzz_brick_lod/demo.smo` (`*.smo` is git-ignored).
 #![no_main]
 
+mod smo_common;
+
 use libfuzzer_sys::fuzz_target;
-use sdfmo_format::{
-    crc32, decode_levels, decode_levels_prefix, encode_levels, lod_header_size, LodOctree,
-    BRICK_LEVELS, LOD_HEADER_FIXED, LOD_LEVEL_ENTRY, MAGIC,
-};
+use smo_common::forced_levels;
+use sdfmo_format::{decode_levels, decode_levels_prefix, encode_levels, LodOctree, BRICK_LEVELS};
 
 fn check(bytes: &[u8]) {
     let whole = decode_levels(bytes);
@@ -53,36 +53,6 @@ fn check(bytes: &[u8]) {
     }
 }
 
-/// `data` behind the magic and version `major`.0, with the header CRC-32 and each level's
-/// CRC-32 resealed where the data's own level table puts them.
-fn forced(data: &[u8], major: u8) -> Vec<u8> {
-    let mut b = MAGIC.to_vec();
-    b.extend_from_slice(&[major, 0]);
-    b.extend_from_slice(data);
-    if b.len() < LOD_HEADER_FIXED {
-        return b;
-    }
-    let count = b[22] as usize;
-    let hs = lod_header_size(count);
-    if b.len() < hs {
-        return b;
-    }
-    for i in 0..count {
-        let at = LOD_HEADER_FIXED + i * LOD_LEVEL_ENTRY;
-        let off = u64::from_le_bytes(b[at..at + 8].try_into().unwrap()) as usize;
-        let size = u64::from_le_bytes(b[at + 8..at + 16].try_into().unwrap()) as usize;
-        if let Some(end) = off.checked_add(size) {
-            if off >= hs && size >= 4 && end <= b.len() {
-                let crc = crc32(&b[off..end - 4]);
-                b[end - 4..end].copy_from_slice(&crc.to_le_bytes());
-            }
-        }
-    }
-    let crc = crc32(&b[..hs - 8]);
-    b[hs - 8..hs - 4].copy_from_slice(&crc.to_le_bytes());
-    b
-}
-
 /// A valid 2.0 file with a coarsest level ≥ 2 encodes to 4.0 and decodes to the same levels.
 fn check_encode(bytes: &[u8]) {
     let Ok(lod) = LodOctree::from_bytes(bytes) else {
@@ -98,8 +68,8 @@ fn check_encode(bytes: &[u8]) {
 
 fuzz_target!(|data: &[u8]| {
     check(data);
-    check(&forced(data, 4));
+    check(&forced_levels(data, 4));
     // The 4.0 seeds' bodies behind a 2.0 header rarely make a valid 2.0 file; 2.0 seeds do.
     check_encode(data);
-    check_encode(&forced(data, 2));
+    check_encode(&forced_levels(data, 2));
 });

@@ -16,8 +16,11 @@
 //! fuzz/corpus/fuzz_lod/demo.smo` (`*.smo` is git-ignored).
 #![no_main]
 
+mod smo_common;
+
 use libfuzzer_sys::fuzz_target;
-use sdfmo_format::{crc32, lod_header_size, LodOctree, LOD_HEADER_FIXED, LOD_LEVEL_ENTRY, MAGIC};
+use smo_common::forced_levels;
+use sdfmo_format::LodOctree;
 
 fn check(bytes: &[u8]) {
     let whole = LodOctree::from_bytes(bytes);
@@ -47,37 +50,7 @@ fn check(bytes: &[u8]) {
     }
 }
 
-/// `data` behind the magic and version 2.0, with the header CRC-32 and each level's CRC-32
-/// resealed where the data's own level table puts them.
-fn forced(data: &[u8]) -> Vec<u8> {
-    let mut b = MAGIC.to_vec();
-    b.extend_from_slice(&[2, 0]);
-    b.extend_from_slice(data);
-    if b.len() < LOD_HEADER_FIXED {
-        return b;
-    }
-    let count = b[22] as usize;
-    let hs = lod_header_size(count);
-    if b.len() < hs {
-        return b;
-    }
-    for i in 0..count {
-        let at = LOD_HEADER_FIXED + i * LOD_LEVEL_ENTRY;
-        let off = u64::from_le_bytes(b[at..at + 8].try_into().unwrap()) as usize;
-        let size = u64::from_le_bytes(b[at + 8..at + 16].try_into().unwrap()) as usize;
-        if let Some(end) = off.checked_add(size) {
-            if off >= hs && size >= 4 && end <= b.len() {
-                let crc = crc32(&b[off..end - 4]);
-                b[end - 4..end].copy_from_slice(&crc.to_le_bytes());
-            }
-        }
-    }
-    let crc = crc32(&b[..hs - 8]);
-    b[hs - 8..hs - 4].copy_from_slice(&crc.to_le_bytes());
-    b
-}
-
 fuzz_target!(|data: &[u8]| {
     check(data);
-    check(&forced(data));
+    check(&forced_levels(data, 2));
 });

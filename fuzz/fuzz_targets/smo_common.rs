@@ -1,9 +1,12 @@
 //! What the `.smo` targets share: trying an input as given and *resealed* (its last four bytes
 //! replaced by the CRC-32 of the rest). Random bytes almost never carry a valid CRC-32; the
 //! resealed copy lets the fuzzer reach the structural checks behind the checksum, where a
-//! hostile file would attack.
+//! hostile file would attack. The level targets (2.0, 4.0) also put a fuzzed level table behind
+//! a valid header ([`forced_levels`]).
+// Each target uses some of these.
+#![allow(dead_code)]
 
-use sdfmo_format::crc32;
+use sdfmo_format::{crc32, lod_header_size, LOD_HEADER_FIXED, LOD_LEVEL_ENTRY, MAGIC};
 
 /// Runs `check` on `data`, then (inputs of at least 4 bytes) on `data` resealed.
 pub fn with_resealed(data: &[u8], mut check: impl FnMut(&[u8])) {
@@ -15,4 +18,35 @@ pub fn with_resealed(data: &[u8], mut check: impl FnMut(&[u8])) {
         sealed[n - 4..].copy_from_slice(&crc.to_le_bytes());
         check(&sealed);
     }
+}
+
+/// `data` behind the magic and version `major`.0 (2: levels of detail, 4: levels of bricks),
+/// with the header's CRC-32 and each level's CRC-32 resealed where the data's own level table
+/// puts them, so that random bytes reach the level table's checks and each level's own.
+pub fn forced_levels(data: &[u8], major: u8) -> Vec<u8> {
+    let mut b = MAGIC.to_vec();
+    b.extend_from_slice(&[major, 0]);
+    b.extend_from_slice(data);
+    if b.len() < LOD_HEADER_FIXED {
+        return b;
+    }
+    let count = b[22] as usize;
+    let hs = lod_header_size(count);
+    if b.len() < hs {
+        return b;
+    }
+    for i in 0..count {
+        let at = LOD_HEADER_FIXED + i * LOD_LEVEL_ENTRY;
+        let off = u64::from_le_bytes(b[at..at + 8].try_into().unwrap()) as usize;
+        let size = u64::from_le_bytes(b[at + 8..at + 16].try_into().unwrap()) as usize;
+        if let Some(end) = off.checked_add(size) {
+            if off >= hs && size >= 4 && end <= b.len() {
+                let crc = crc32(&b[off..end - 4]);
+                b[end - 4..end].copy_from_slice(&crc.to_le_bytes());
+            }
+        }
+    }
+    let crc = crc32(&b[..hs - 8]);
+    b[hs - 8..hs - 4].copy_from_slice(&crc.to_le_bytes());
+    b
 }
