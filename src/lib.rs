@@ -743,6 +743,42 @@ pub fn camera_from_model(frame: &mesh::Normalization, camera: &Camera) -> Camera
     }
 }
 
+/// `camera` (a paper view, say) with the parts given replaced: `eye` and `target` in model units
+/// mapped through `frame` (as [`camera_from_model`] maps them), or in the normalised frame
+/// where `frame` is `None`, and the vertical field of view `fov_y_deg`. The command line's
+/// `--eye`, `--target`, `--fov` (`--normalized`) and Python's `RenderOptions` make their one
+/// camera with it, so that one eye gives one image in every front-end.
+///
+/// ```
+/// use sdf_multioctree::{demo_mesh, mesh_frame, paper_views, placed_camera, Vec3};
+///
+/// let frame = mesh_frame(&demo_mesh());
+/// let view = paper_views(32)[0];
+/// let far = placed_camera(view, Some([0.0, 0.0, 40.0]), None, Some(30.0), Some(&frame));
+/// assert_eq!(far.eye, frame.point_to_normalized(Vec3::new(0.0, 0.0, 40.0).as_dvec3()));
+/// assert_eq!((far.target, far.fov_y_deg), (view.target, 30.0));
+/// let near = placed_camera(view, Some([0.0, 0.0, 2.0]), None, None, None);
+/// assert_eq!((near.eye, near.fov_y_deg), (Vec3::new(0.0, 0.0, 2.0), view.fov_y_deg));
+/// ```
+pub fn placed_camera(
+    camera: Camera,
+    eye: Option<[f32; 3]>,
+    target: Option<[f32; 3]>,
+    fov_y_deg: Option<f32>,
+    frame: Option<&mesh::Normalization>,
+) -> Camera {
+    let place = |p: [f32; 3]| match frame {
+        None => Vec3::from_array(p),
+        Some(f) => f.point_to_normalized(Vec3::from_array(p).as_dvec3()),
+    };
+    Camera {
+        eye: eye.map_or(camera.eye, place),
+        target: target.map_or(camera.target, place),
+        fov_y_deg: fov_y_deg.unwrap_or(camera.fov_y_deg),
+        ..camera
+    }
+}
+
 /// Image quality of a test image against a reference.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Comparison {

@@ -174,7 +174,11 @@ fn bricks_render_as_their_octree_on_both_devices() {
                 let label = format!("{device:?} view {view} {mode:?}");
                 assert!(a.counters.hits > 100, "{label}");
                 assert!(a.rgb == b.rgb, "{label}: colours differ");
-                let bits = |r: &Rendered| r.depth.as_ref().map(|d| d.iter().map(|t| t.to_bits()).collect::<Vec<_>>());
+                let bits = |r: &Rendered| {
+                    r.depth
+                        .as_ref()
+                        .map(|d| d.iter().map(|t| t.to_bits()).collect::<Vec<_>>())
+                };
                 assert!(bits(&a) == bits(&b), "{label}: depths differ");
             }
         }

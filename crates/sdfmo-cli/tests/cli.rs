@@ -1,13 +1,15 @@
 //! Runs the real `sdfmo` binary on generated files and on `../shared/data`: JSON shapes, exit
 //! codes and messages of failures, file naming, and a tiny sweep writing every output.
 
+mod common;
+
 use std::io::Read;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 
 use serde_json::Value;
 
-const SDFMO: &str = env!("CARGO_BIN_EXE_sdfmo");
+use common::{refused, sdfmo, stderr, SDFMO};
 
 /// Command-line arguments of mixed kinds (`&str`, paths) as one `[&OsStr; N]`.
 macro_rules! os {
@@ -46,17 +48,6 @@ fn with_cube(name: &str) -> (TestDir, PathBuf) {
     (dir, cube)
 }
 
-fn sdfmo<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
-    Command::new(SDFMO)
-        .args(args)
-        .output()
-        .expect("cannot run sdfmo")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
 /// Run with `--json` appended (every JSON test wants it last): succeeds and prints exactly one
 /// JSON object on stdout.
 fn json_ok<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Value {
@@ -80,21 +71,10 @@ fn json_ok<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Value {
     v
 }
 
-/// Fails cleanly: exit code 2, one line on stderr naming `needle`, no panic, nothing on stdout.
-fn fails_cleanly<S: AsRef<std::ffi::OsStr>>(args: &[S], needle: &str) {
+/// Fails cleanly: [`refused`] naming `needle`, and nothing on stdout.
+fn fails_cleanly<S: AsRef<std::ffi::OsStr> + std::fmt::Debug>(args: &[S], needle: &str) {
     let o = sdfmo(args);
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
-    assert!(
-        !err.contains("panicked") && !err.contains("RUST_BACKTRACE"),
-        "{err}"
-    );
-    assert_eq!(
-        err.trim_end().lines().count(),
-        1,
-        "one line expected: {err}"
-    );
-    assert!(err.contains(needle), "{needle:?} not in {err:?}");
+    refused(&o, needle, &format!("{args:?}"));
     assert!(o.stdout.is_empty());
 }
 

@@ -1,23 +1,9 @@
 //! `sdfmo build --compress`: the compressed container written by the CLI, read back by `info`
 //! and `render` as the same octree (same image, byte for byte), and its level checked.
 
-use std::process::{Command, Output};
+mod common;
 
-const SDFMO: &str = env!("CARGO_BIN_EXE_sdfmo");
-
-fn sdfmo(args: &[&str]) -> Output {
-    Command::new(SDFMO).args(args).output().unwrap()
-}
-
-fn ok(args: &[&str]) -> String {
-    let o = sdfmo(args);
-    assert!(
-        o.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8(o.stdout).unwrap()
-}
+use common::{ok, refused, sdfmo};
 
 fn json(text: &str) -> serde_json::Value {
     serde_json::from_str(text).unwrap()
@@ -134,33 +120,14 @@ fn a_format_3_build_renders_as_the_1x_one() {
 fn format_3_below_depth_2_or_with_levels_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.smo");
-    let o = sdfmo(&[
-        "build",
-        "-d",
-        "1",
-        "--format",
-        "3",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(err.trim().lines().count(), 1, "{err}");
-    assert!(
-        err.contains("--format 3 needs a depth of at least 2"),
-        "{err}"
-    );
-    assert!(!out.exists());
-    let o = sdfmo(&[
-        "build",
-        "-d",
-        "4",
-        "--lod",
-        "--format",
-        "3",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(!out.exists());
+    let out_arg = out.to_str().unwrap();
+    for (depth, lod, needle) in [
+        ("1", None, "--format 3 needs a depth of at least 2"),
+        ("4", Some("--lod"), ""),
+    ] {
+        let mut args = vec!["build", "-d", depth, "--format", "3", "-o", out_arg];
+        args.extend(lod);
+        refused(&sdfmo(&args), needle, &format!("{args:?}"));
+        assert!(!out.exists());
+    }
 }

@@ -5,15 +5,18 @@
 //! writes nothing outside its output folder, or, for the stale-ledger cases, merges what the
 //! manifest now says. docs/hardening.md, "Issue 32", lists every case.
 
+mod common;
+
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::Output;
 use std::sync::OnceLock;
 
 use sdf_multioctree::mesh::{procedural::box_mesh, write::to_obj};
 use sdf_multioctree::Vec3;
 use serde_json::Value;
 
-const SDFMO: &str = env!("CARGO_BIN_EXE_sdfmo");
+use common::{refused, stderr};
 
 /// The sweep's settings in every run here: one depth, tiny views, one frame.
 const FLAGS: [&str; 8] = [
@@ -27,25 +30,9 @@ const FLAGS: [&str; 8] = [
     "1",
 ];
 
-fn sdfmo(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Output {
-    Command::new(SDFMO)
-        .args(args)
-        .stdin(Stdio::null())
-        .output()
-        .expect("cannot run sdfmo")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// Exit 2, one line on stderr containing `needle`, no panic.
-fn refused(o: &Output, needle: &str, what: &str) {
-    let err = stderr(o);
-    assert_eq!(o.status.code(), Some(2), "{what}: {err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "{what}: {err}");
-    assert!(err.contains(needle), "{what}: {needle:?} not in {err:?}");
-    assert!(!err.contains("internal error"), "{what}: {err}");
+/// [`common::sdfmo`] of arguments of mixed kinds (`&str`, paths).
+fn sdfmo(args: &[&dyn AsRef<OsStr>]) -> Output {
+    common::sdfmo(args)
 }
 
 /// A closed box of `size` as OBJ.
@@ -85,7 +72,7 @@ fn dataset_with_manifest(name: &str, text: &str) -> (tempfile::TempDir, PathBuf)
 /// Runs shard `k` of 2 of `manifest` into `out`.
 fn run_shard(manifest: &Path, k: usize, out: &Path) -> Output {
     let shard = format!("{k}/2");
-    let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![
+    let mut args: Vec<&dyn AsRef<OsStr>> = vec![
         &"sweep",
         &"--manifest",
         &manifest,
@@ -566,13 +553,13 @@ fn shards_run_under_a_lower_inherited_address_space_limit() {
     let (t, m) = dataset_with_manifest("one.txt", "a.obj\n");
     // 8 GiB: below the default cap on any machine with more than 7 GiB.
     let limit: u64 = 8 << 30;
-    let mut cmd = Command::new(SDFMO);
+    let mut cmd = std::process::Command::new(common::SDFMO);
     cmd.args(["sweep", "--manifest"])
         .arg(&m)
         .args(FLAGS)
         .args(["--json", "-o"])
         .arg(t.path().join("out"))
-        .stdin(Stdio::null());
+        .stdin(std::process::Stdio::null());
     // SAFETY: prctl and `limit_address_space` (setrlimit) are async-signal-safe and allocate
     // nothing.
     unsafe {

@@ -2,8 +2,9 @@
 //! units, as the library (the facade) and Python do, and gives the same numbers and images.
 //! (Python's side is `crates/sdfmo-py/tests/test_frame.py`, against this binary.)
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use sdf_multioctree::distance::{MeshDistance, SignMode};
 use sdf_multioctree::glam::{DVec3, Vec3};
@@ -12,7 +13,7 @@ use sdf_multioctree::DEFAULT_MARGIN;
 use sdf_multioctree::{camera_from_model, load_mesh, load_octree, mesh_frame, octree_frame};
 use sdf_multioctree::{Camera, Device, LevelRequest, Mode, RenderSettings, Renderer};
 
-const SDFMO: &str = env!("CARGO_BIN_EXE_sdfmo");
+use common::ok as run;
 
 /// A box far from the origin with a non-trivial scale (model units [10, 14] × [−3, −1] × [5, 6]),
 /// so that a front-end that skipped the conversion would answer differently.
@@ -31,16 +32,6 @@ fn tmp(name: &str) -> tempfile::TempDir {
         .prefix(&format!("sdfmo-frame-{name}-"))
         .tempdir()
         .unwrap()
-}
-
-fn run(args: &[&std::ffi::OsStr]) -> String {
-    let o = Command::new(SDFMO).args(args).output().unwrap();
-    assert!(
-        o.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8(o.stdout).unwrap()
 }
 
 macro_rules! os {

@@ -4,8 +4,9 @@
 //! pixel error without levels are one-line errors. (Python's side is
 //! `crates/sdfmo-py/tests/test_levels.py`, against this binary.)
 
+mod common;
+
 use std::path::Path;
-use std::process::{Command, Output};
 
 use sdf_multioctree::format::LodOctree;
 use sdf_multioctree::render::encode_png;
@@ -13,23 +14,7 @@ use sdf_multioctree::{load_octree, Camera, Device, LevelRequest, Mode, Vec3};
 use sdf_multioctree::{RenderSettings, Renderer};
 use serde_json::Value;
 
-const SDFMO: &str = env!("CARGO_BIN_EXE_sdfmo");
-
-fn sdfmo(args: &[&str]) -> Output {
-    Command::new(SDFMO).args(args).output().unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// A failure as the CLI reports one: exit 2, one line on stderr containing `needle`.
-fn fails_with(o: &Output, needle: &str) {
-    let err = stderr(o);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
-    assert!(err.contains(needle), "{needle:?} not in {err}");
-}
+use common::{refused, sdfmo, stderr, succeeded};
 
 /// `sdfmo render FILE ARGS --size 40x32 -o PNG --json`: the JSON, stderr and the PNG's bytes.
 fn render(file: &Path, png: &Path, args: &[&str]) -> (Value, String, Vec<u8>) {
@@ -40,7 +25,7 @@ fn render(file: &Path, png: &Path, args: &[&str]) -> (Value, String, Vec<u8>) {
     ]
     .concat();
     let o = sdfmo(&all);
-    assert!(o.status.success(), "{all:?}: {}", stderr(&o));
+    succeeded(&o, &format!("{all:?}"));
     let json = serde_json::from_slice(&o.stdout).unwrap();
     (json, stderr(&o), std::fs::read(png).unwrap())
 }
@@ -81,7 +66,7 @@ fn every_level_boundary_prefix_renders_the_levels_it_holds() {
         "-o",
         &whole.display().to_string(),
     ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    succeeded(&o, "build --lod");
     let bytes = std::fs::read(&whole).unwrap();
     let entries = LodOctree::from_bytes(&bytes).unwrap().entries();
     assert_eq!(entries.len(), 3);
@@ -141,15 +126,17 @@ fn every_level_boundary_prefix_renders_the_levels_it_holds() {
         if finest < 6 {
             assert!(err.contains("by the pixel error"), "{err}");
             let missing = (finest + 1).to_string();
-            fails_with(
+            refused(
                 &sdfmo(&["render", &name, "--lod", &missing, "-o", "x.png"]),
                 &format!("level {missing} is not in the data: it holds level"),
+                "a level the prefix does not hold",
             );
             // Cut 9 bytes further: inside the next level (levels start 8-byte aligned).
             std::fs::write(&cut, &bytes[..e.end() as usize + 9]).unwrap();
-            fails_with(
+            refused(
                 &sdfmo(&["render", &name, "-o", "x.png"]),
                 &format!("end inside level {missing}"),
+                "a cut inside a level",
             );
         }
     }
@@ -165,7 +152,7 @@ fn a_file_without_levels_has_its_depth_only() {
         .unwrap();
     let smo = dir.path().join("flat.smo");
     let o = sdfmo(&["build", "-d", "5", "-o", &smo.display().to_string()]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    succeeded(&o, "build");
     let png = dir.path().join("flat.png");
     let (json, err, image) = render(&smo, &png, &["--lod", "5"]);
     assert_eq!(err, "");
@@ -178,13 +165,15 @@ fn a_file_without_levels_has_its_depth_only() {
         facade_png(&smo, &paper, Mode::Lambert, LevelRequest::Level(5))
     );
     let name = smo.display().to_string();
-    fails_with(
+    refused(
         &sdfmo(&["render", &name, "--lod", "4", "-o", "x.png"]),
         "level 4 is not in the data: it holds level 5 only",
+        "--lod of another level",
     );
-    fails_with(
+    refused(
         &sdfmo(&["render", &name, "--pixel-error", "1", "-o", "x.png"]),
         "has no levels of detail",
+        "--pixel-error without levels",
     );
     let o = sdfmo(&[
         "render-mesh",
@@ -194,7 +183,7 @@ fn a_file_without_levels_has_its_depth_only() {
         &png.display().to_string(),
         "--json",
     ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    succeeded(&o, "render-mesh");
     let json: Value = serde_json::from_slice(&o.stdout).unwrap();
     assert!(json["levels"].is_null(), "{json}");
 }
@@ -254,7 +243,7 @@ fn brick_level_prefixes_render_their_levels() {
         let (_, _, image) = render(&whole, &png, &["--lod", &k]);
         assert_eq!(image, want, "--lod {k} of the whole file");
     }
-    fails_with(
+    refused(
         &sdfmo(&[
             "build",
             "-d",
@@ -268,5 +257,6 @@ fn brick_level_prefixes_render_their_levels() {
             &w,
         ]),
         "coarsest level of at least 2",
+        "--lod --coarsest 1 --format 3",
     );
 }

@@ -261,6 +261,7 @@ fn _sdfmo(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add_class::<Mesh>()?;
     m.add_class::<Octree>()?;
+    m.add_class::<render::RenderOptions>()?;
     m.add_function(wrap_pyfunction!(sample_sdf, m)?)?;
     m.add_function(wrap_pyfunction!(psnr, m)?)?;
     m.add_function(wrap_pyfunction!(flip, m)?)?;

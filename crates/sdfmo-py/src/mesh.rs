@@ -8,7 +8,7 @@ use numpy::prelude::*;
 use numpy::{PyArray2, PyUntypedArray};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::PyTuple;
+use pyo3::types::{PyDict, PyTuple};
 use rayon::prelude::*;
 use sdf_multioctree::build::{self, BuildSettings, Method};
 use sdf_multioctree::distance::{MeshDistance, SignMode, MAX_QUERY_COORDINATE};
@@ -20,7 +20,7 @@ use sdf_multioctree::DEFAULT_MARGIN;
 use crate::arrays::{self, PointsArg, PointsView};
 use crate::errors;
 use crate::octree::Octree;
-use crate::render::{RenderArgs, RenderOptions};
+use crate::render::{RenderArgs, RenderCall, RenderOptions};
 use crate::run::{self, Cancel, Cancelled};
 
 /// Parses a `sign=` argument.
@@ -790,39 +790,27 @@ impl Mesh {
     /// Ray traces the mesh as ``sdfmo render-mesh`` does (the reference image of the paper's
     /// protocol): normalised exactly as the builder normalises it, so the images line up with
     /// ``Octree.render``'s, face normals, the same camera and shading. Returns uint8 of shape
-    /// ``(height, width, 3)``, numpy's order (``render(640, 480).shape == (480, 640, 3)``). See
-    /// ``Octree.render`` for the arguments.
-    #[pyo3(signature = (
-        width = 1024, height = None, *, mode = "lambert", view = 0, eye = None, target = None,
-        fov = None, frame = "model", shadows = false, ao = 0, threads = None
-    ))]
+    /// ``(height, width, 3)``, numpy's order (``render(640, 480).shape == (480, 640, 3)``;
+    /// ``height`` defaults to ``width``). ``options``: a ``RenderOptions`` (the camera, mode
+    /// and shading), or its keywords given here; see ``Octree.render``.
+    #[pyo3(signature = (width = 1024, height = None, *, options = None, threads = None, **kwargs))]
     fn render<'py>(
         &self,
         py: Python<'py>,
         width: i64,
         height: Option<i64>,
-        mode: &str,
-        view: i64,
-        eye: Option<Vec<f32>>,
-        target: Option<Vec<f32>>,
-        fov: Option<f32>,
-        frame: &str,
-        shadows: bool,
-        ao: i64,
+        options: Option<&Bound<'py, RenderOptions>>,
         threads: Option<i64>,
+        kwargs: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let options = RenderOptions {
-            mode,
-            view,
-            eye,
-            target,
-            fov,
-            frame,
-            shadows,
-            ao,
+        let call = RenderCall {
+            width,
+            height,
+            options,
             threads,
+            kwargs,
         };
-        let args = RenderArgs::parse(width, height, options, &self.data.norm)?;
+        let args = RenderArgs::parse(py, call, &self.data.norm)?;
         let data = &self.data;
         args.render(py, |settings, camera, cancel| {
             let dist = data.distance(SignMode::Auto)?;

@@ -20,7 +20,7 @@ use sdf_multioctree::{Device, Renderer};
 
 use crate::arrays;
 use crate::errors;
-use crate::render::{RenderArgs, RenderOptions};
+use crate::render::{RenderArgs, RenderCall, RenderOptions};
 use crate::run::{self, Cancelled};
 
 /// A sparse octree of trilinear signed-distance voxels (the ``.smo`` format), as built by
@@ -343,16 +343,10 @@ impl Octree {
     /// ``(height, width, 3)``, numpy's order (``render(640, 480).shape == (480, 640, 3)``;
     /// ``height`` defaults to ``width``).
     ///
-    /// The camera is the command-line tool's: one of the paper's four views (``view`` 0..3:
-    /// eye on a circle of radius 3 in the y = 0 plane of the normalised frame, the root cube
-    /// [-1, 1]^3, looking at its origin, 60 degrees vertical field of view), with ``eye``,
-    /// ``target`` (3 floats each, **in model units**, the mesh's own coordinates, like every
-    /// point this package takes; ``frame="normalized"`` for the root cube's) and ``fov``
-    /// (degrees) replacing its parts. ``mode``: ``"lambert"`` (the paper's shading),
-    /// ``"mask"``, ``"depth"`` or ``"normal"``; ``shadows`` and ``ao`` (ambient-occlusion
-    /// rays per pixel, 0..=1024) apply to lambert only. The image is the same for any
-    /// ``threads``. Releases the GIL; Ctrl-C raises ``KeyboardInterrupt`` (checked before each
-    /// tile of 32 x 32 pixels).
+    /// ``options``: a ``RenderOptions`` (the camera, ``mode``, ``shadows``, ``ao``; the
+    /// primary way), or its keywords given here (``render(64, mode="mask")``), not both. The
+    /// image is the same for any ``threads``. Releases the GIL; Ctrl-C raises
+    /// ``KeyboardInterrupt`` (checked before each tile of 32 x 32 pixels).
     ///
     /// Levels of detail, as ``sdfmo render --lod`` / ``--pixel-error``: by default the finest
     /// level held is drawn; ``lod`` draws one level of ``levels`` (another is a ``ValueError``
@@ -365,27 +359,20 @@ impl Octree {
     /// none): primary rays only (``shadows``, ``ao`` and ``threads`` are a ``ValueError``),
     /// hits within a few ulps of the CPU's, levels and ``pixel_error`` included.
     #[pyo3(signature = (
-        width = 1024, height = None, *, mode = "lambert", view = 0, eye = None, target = None,
-        fov = None, frame = "model", shadows = false, ao = 0, threads = None, lod = None,
-        pixel_error = None, device = "cpu"
+        width = 1024, height = None, *, options = None, lod = None, pixel_error = None,
+        device = "cpu", threads = None, **kwargs
     ))]
     fn render<'py>(
         &self,
         py: Python<'py>,
         width: i64,
         height: Option<i64>,
-        mode: &str,
-        view: i64,
-        eye: Option<Vec<f32>>,
-        target: Option<Vec<f32>>,
-        fov: Option<f32>,
-        frame: &str,
-        shadows: bool,
-        ao: i64,
-        threads: Option<i64>,
+        options: Option<&Bound<'py, RenderOptions>>,
         lod: Option<i64>,
         pixel_error: Option<f64>,
         device: &str,
+        threads: Option<i64>,
+        kwargs: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let request = level_request(lod, pixel_error)?;
         let device = match device {
@@ -397,23 +384,14 @@ impl Octree {
                 )))
             }
         };
-        let options = RenderOptions {
-            mode,
-            view,
-            eye,
-            target,
-            fov,
-            frame,
-            shadows,
-            ao,
-            threads,
-        };
-        let args = RenderArgs::parse(
+        let call = RenderCall {
             width,
             height,
             options,
-            &sdf_multioctree::octree_frame(self.finest()),
-        )?;
+            threads,
+            kwargs,
+        };
+        let args = RenderArgs::parse(py, call, &sdf_multioctree::octree_frame(self.finest()))?;
         if device == Device::Gpu && args.threads().is_some() {
             return Err(PyValueError::new_err(
                 "threads applies to device=\"cpu\" only (the GPU renders a frame in one dispatch)",

@@ -118,16 +118,17 @@ def test_every_public_name_has_a_docstring():
 
 
 def test_keyword_options_keep_pythons_errors_and_signatures():
-    # render, build and sample_sdf declare their keyword-only options in their PyO3 signatures
-    # (a hand-written **kwargs parser before): unknown or mistyped keywords fail as Python's own
-    # argument checks do, and help() / inspect.signature show every option and its default.
+    # build, sample_sdf and RenderOptions declare their keyword-only options in their PyO3
+    # signatures (a hand-written **kwargs parser before): unknown or mistyped keywords fail as
+    # Python's own argument checks do, and help() / inspect.signature show every option and its
+    # default. render passes the keywords it does not declare to RenderOptions.
     # A value of the wrong type: PyO3 (0.30) names the argument in a note of the TypeError
     # ("while processing 'x'", shown under the message), which needs Python >= 3.11.
     def naming(name):
         return f"while processing '{name}'" if sys.version_info >= (3, 11) else ""
 
     cases = [
-        (lambda: MESH.render(8, colour="red"), "render() got an unexpected keyword argument 'colour'"),
+        (lambda: MESH.render(8, colour="red"), "RenderOptions.__new__() got an unexpected keyword argument 'colour'"),
         (lambda: MESH.build(3).render(8, shadow=True), "unexpected keyword argument 'shadow'"),
         (lambda: MESH.build(4, method=1), naming("method")),
         (lambda: MESH.build(4, depth_max=5), "build() got an unexpected keyword argument 'depth_max'"),
@@ -140,7 +141,8 @@ def test_keyword_options_keep_pythons_errors_and_signatures():
             call()
     keyword_only = inspect.Parameter.KEYWORD_ONLY
     for function, name, default in [
-        (sdfmo.Mesh.render, "mode", "lambert"),
+        (sdfmo.RenderOptions, "mode", None),
+        (sdfmo.Mesh.render, "options", None),
         (sdfmo.Octree.render, "pixel_error", None),
         (sdfmo.Mesh.build, "max_memory", None),
         (sdfmo.sample_sdf, "near_fraction", 0.95),

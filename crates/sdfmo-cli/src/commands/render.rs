@@ -4,10 +4,9 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use glam::Vec3;
 use sdf_multioctree::distance::{reshape_fans, MeshDistance, SignMode};
 use sdf_multioctree::format::{
-    compressed, is_v3, read_smo, BrickOctree, FormatError, SmoFile, SmoPrefix, SmoRead,
+    is_v3, read_smo, BrickOctree, FormatError, SmoFile, SmoPrefix, SmoRead,
 };
 use sdf_multioctree::mesh::Normalization;
 use sdf_multioctree::metrics;
@@ -15,7 +14,7 @@ use sdf_multioctree::render::{
     self, Camera, Counters, LevelRequest, LevelScene, MeshScene, Mode, RenderSettings, Rendered,
     Traceable,
 };
-use sdf_multioctree::{Device, Renderer};
+use sdf_multioctree::{Device, Prepared, Renderer};
 use serde_json::json;
 
 use crate::args::{DeviceArg, ModeArg, RenderArgs, RenderMeshArgs, RenderOptions, ViewsArg};
@@ -37,11 +36,15 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
         }
     };
     let mut renderer = open_renderer(args, device)?;
-    if let Some(bricks) = brick_file(args, renderer.max_file_bytes())? {
+    // Read once, header first (a FIFO or device is refused unopened, a compressed file decoded);
+    // a 3.0 file is traced as it is, any other read as its levels.
+    let bytes = read_smo(&args.octree, renderer.max_file_bytes(), SmoRead::Prefix)
+        .map_err(|e| load_error(args, e))?;
+    if is_v3(&bytes) {
+        let bricks = BrickOctree::new(bytes).map_err(|e| load_error(args, e))?;
         return run_bricks(args, device, &mut renderer, &bricks, &outputs);
     }
-    let data = SmoFile::load_prefix(&args.octree, renderer.max_file_bytes())
-        .map_err(|e| load_error(args, e))?;
+    let data = SmoFile::from_prefix(&bytes).map_err(|e| load_error(args, e))?;
     let request = match (args.lod, args.pixel_error) {
         (Some(level), _) => LevelRequest::Level(level),
         (None, Some(pixels)) => LevelRequest::PixelError(pixels),
@@ -74,11 +77,29 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
         data: &data,
         request,
     };
+    render_prepared(args, device, &mut renderer, levels, &frame, &outputs, |r| {
+        r.prepare(&data.file, request)
+    })
+}
+
+/// The views of a file prepared on `renderer` by `prepare` (a file in its levels, or a 3.0
+/// file's bricks), rendered and written as `outputs` say.
+fn render_prepared<'r>(
+    args: &RenderArgs,
+    device: Device,
+    renderer: &'r mut Renderer,
+    levels: FileLevels<'_>,
+    frame: &Normalization,
+    outputs: &[ViewOutputs],
+    prepare: impl FnOnce(&'r mut Renderer) -> sdf_multioctree::Result<Prepared<'r>>,
+) -> anyhow::Result<()> {
+    let source = args.octree.display().to_string();
     let device_name = renderer.device_name().to_owned();
+    let timing = renderer.gpu().map(|g| g.timing().name());
     let by = RenderedBy {
         source: &source,
         device: &device_name,
-        timing: renderer.gpu().map(|g| g.timing().name()),
+        timing,
         levels: Some(levels),
     };
     // Errors on a GPU name its adapter.
@@ -86,9 +107,7 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
         Device::Cpu => String::new(),
         Device::Gpu => format!(" on {device_name}"),
     };
-    let mut prepared = renderer
-        .prepare(&data.file, request)
-        .with_context(|| format!("cannot render {source}{on}"))?;
+    let mut prepared = prepare(renderer).with_context(|| format!("cannot render {source}{on}"))?;
     let settings = settings(&args.opts);
     // `--threads` is a CPU option (`check_gpu_options`): a GPU render runs without a pool.
     let workers = Workers::new(args.opts.threads)?;
@@ -98,7 +117,7 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
             .install(|| prepared.render_with(cam, &settings, Some(progress), None))
             .with_context(|| format!("cannot render {source}{on}"))
     };
-    render_all(&mut view, &by, &args.opts, &frame, &outputs)
+    render_all(&mut view, &by, &args.opts, frame, outputs)
 }
 
 /// A load error: I/O errors name the file already; format errors do not.
@@ -109,32 +128,7 @@ fn load_error(args: &RenderArgs, e: FormatError) -> anyhow::Error {
     }
 }
 
-/// The input as a 3.0 brick file, plain or compressed, which either device traces as it is
-/// (no 1.x octree is made); `None` for any other file (only its first bytes are read then,
-/// unless it is compressed).
-fn brick_file(args: &RenderArgs, max_bytes: u64) -> anyhow::Result<Option<BrickOctree>> {
-    use std::io::Read as _;
-    let mut head = Vec::with_capacity(16);
-    std::fs::File::open(&args.octree)
-        .and_then(|f| f.take(16).read_to_end(&mut head))
-        .with_context(|| format!("cannot read {}", args.octree.display()))?;
-    if !is_v3(&head) && !compressed::is_compressed(&head) {
-        return Ok(None);
-    }
-    let mut bytes =
-        read_smo(&args.octree, max_bytes, SmoRead::Whole).map_err(|e| load_error(args, e))?;
-    if compressed::is_compressed(&bytes) {
-        bytes = compressed::decompress(&bytes, max_bytes).map_err(|e| load_error(args, e))?;
-    }
-    if !is_v3(&bytes) {
-        return Ok(None);
-    }
-    Ok(Some(
-        BrickOctree::new(bytes).map_err(|e| load_error(args, e))?,
-    ))
-}
-
-/// `run_octree` for a 3.0 file ([`brick_file`]), traced in place: one level, its depth.
+/// `run_octree` for a 3.0 file, traced in place: one level, its depth.
 fn run_bricks(
     args: &RenderArgs,
     device: Device,
@@ -161,28 +155,10 @@ fn run_bricks(
         center: meta.center,
         scale: meta.scale,
     };
-    let device_name = renderer.device_name().to_owned();
-    let by = RenderedBy {
-        source: &source,
-        device: &device_name,
-        timing: renderer.gpu().map(|g| g.timing().name()),
-        levels: Some(FileLevels::Bricks { depth }),
-    };
-    let on = match device {
-        Device::Cpu => String::new(),
-        Device::Gpu => format!(" on {device_name}"),
-    };
-    let mut prepared = renderer
-        .prepare_bricks(bricks)
-        .with_context(|| format!("cannot render {source}{on}"))?;
-    let settings = settings(&args.opts);
-    let workers = Workers::new(args.opts.threads)?;
-    let mut view = |cam: &Camera, progress: &Progress<'_>| -> anyhow::Result<Rendered> {
-        workers
-            .install(|| prepared.render_with(cam, &settings, Some(progress), None))
-            .with_context(|| format!("cannot render {source}{on}"))
-    };
-    render_all(&mut view, &by, &args.opts, &frame, outputs)
+    let levels = FileLevels::Bricks { depth };
+    render_prepared(args, device, renderer, levels, &frame, outputs, |r| {
+        r.prepare_bricks(bricks)
+    })
 }
 
 /// "levels 6-8", or "level 8" for one.
@@ -409,31 +385,22 @@ impl ModeArg {
 
 /// The cameras the options ask for: the paper's four views, or one camera (paper view 0 with
 /// `--eye`, `--target`, `--fov` overriding its parts). `--eye` and `--target` are model units
-/// mapped through `frame` (the source's normalisation; the same conversion as Python's and the
-/// facade's [`sdf_multioctree::camera_from_model`]) unless `--normalized`.
+/// mapped through `frame` (the source's normalisation, by [`sdf_multioctree::placed_camera`] as
+/// Python's) unless `--normalized`.
 pub fn cameras(opts: &RenderOptions, frame: &Normalization) -> Vec<Camera> {
     let (w, h) = opts.size;
     let mut paper = Camera::paper_views(w, h);
     if opts.views == Some(ViewsArg::Paper) {
         return paper;
     }
-    let mut cam = paper.swap_remove(0);
-    let place = |p: [f32; 3]| {
-        if opts.normalized {
-            Vec3::from_array(p)
-        } else {
-            frame.point_to_normalized(Vec3::from_array(p).as_dvec3())
-        }
-    };
-    if let Some(eye) = opts.eye {
-        cam.eye = place(eye);
-    }
-    if let Some(target) = opts.target {
-        cam.target = place(target);
-    }
-    if let Some(fov) = opts.fov {
-        cam.fov_y_deg = fov;
-    }
+    let frame = (!opts.normalized).then_some(frame);
+    let cam = sdf_multioctree::placed_camera(
+        paper.swap_remove(0),
+        opts.eye,
+        opts.target,
+        opts.fov,
+        frame,
+    );
     vec![cam]
 }
 

@@ -19,6 +19,8 @@ Names:
   ``ray_intersect``, ``build`` and ``render``.
 - ``Octree``: the packed octree (``Octree.load``, ``save``, ``stats``, ``distance``,
   ``render``).
+- ``RenderOptions``: the camera, mode and shading of a render, for both ``render`` methods
+  (``options=``).
 - ``sample_sdf(mesh, n, seed=...)``: training samples and their signed distances.
 - ``psnr(a, b)``, ``flip(a, b)``: image metrics; ``load_png``, ``save_png``: 8-bit RGB PNGs.
 - ``FormatError``: a corrupt or unsupported ``.smo`` file. ``MeshError``: a mesh file that
@@ -31,6 +33,7 @@ from ._sdfmo import (
     Mesh,
     MeshError,
     Octree,
+    RenderOptions,
     __version__,
     flip,
     load_png,
@@ -44,6 +47,7 @@ __all__ = [
     "Mesh",
     "MeshError",
     "Octree",
+    "RenderOptions",
     "__version__",
     "flip",
     "load_png",

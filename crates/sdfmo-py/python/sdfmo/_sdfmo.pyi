@@ -1,7 +1,7 @@
 """Type stubs of the compiled module ``sdfmo._sdfmo`` (re-exported by ``sdfmo``)."""
 
 import os
-from typing import List, Literal, Optional, Sequence, Tuple, Union, final, overload
+from typing import Any, List, Literal, Optional, Sequence, Tuple, Union, final, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -10,6 +10,7 @@ from typing_extensions import Buffer
 __all__ = [
     "Mesh",
     "Octree",
+    "RenderOptions",
     "sample_sdf",
     "psnr",
     "flip",
@@ -34,6 +35,40 @@ class FormatError(ValueError):
 
 class MeshError(ValueError):
     """A mesh file that is not a readable OBJ, glTF/GLB or STL file."""
+
+@final
+class RenderOptions:
+    """How to render an image (camera, mode, shading), for ``Mesh.render`` and
+    ``Octree.render`` as ``options=``; the same keywords given to ``render`` make one."""
+
+    def __new__(
+        cls,
+        *,
+        mode: Optional[_Mode] = None,
+        view: int = 0,
+        eye: Optional[Sequence[float]] = None,
+        target: Optional[Sequence[float]] = None,
+        fov: Optional[float] = None,
+        frame: Literal["model", "normalized"] = "model",
+        shadows: Optional[bool] = None,
+        ao: Optional[int] = None,
+    ) -> "RenderOptions": ...
+    @property
+    def mode(self) -> _Mode: ...
+    @property
+    def view(self) -> int: ...
+    @property
+    def eye(self) -> Optional[Tuple[float, float, float]]: ...
+    @property
+    def target(self) -> Optional[Tuple[float, float, float]]: ...
+    @property
+    def fov(self) -> Optional[float]: ...
+    @property
+    def frame(self) -> Literal["model", "normalized"]: ...
+    @property
+    def shadows(self) -> bool: ...
+    @property
+    def ao(self) -> int: ...
 
 @final
 class Mesh:
@@ -139,18 +174,12 @@ class Mesh:
         width: int = 1024,
         height: Optional[int] = None,
         *,
-        mode: _Mode = "lambert",
-        view: int = 0,
-        eye: Optional[Sequence[float]] = None,
-        target: Optional[Sequence[float]] = None,
-        fov: Optional[float] = None,
-        frame: Literal["model", "normalized"] = "model",
-        shadows: bool = False,
-        ao: int = 0,
+        options: Optional[RenderOptions] = None,
         threads: Optional[int] = None,
+        **kwargs: Any,
     ) -> _U8:
         """Ray traces the mesh (the reference image), uint8 of shape ``(height, width, 3)``:
-        ``render(640, 480).shape == (480, 640, 3)``."""
+        ``render(640, 480).shape == (480, 640, 3)``. ``options``, or its keywords here."""
 
 @final
 class Octree:
@@ -196,18 +225,12 @@ class Octree:
         width: int = 1024,
         height: Optional[int] = None,
         *,
-        mode: _Mode = "lambert",
-        view: int = 0,
-        eye: Optional[Sequence[float]] = None,
-        target: Optional[Sequence[float]] = None,
-        fov: Optional[float] = None,
-        frame: Literal["model", "normalized"] = "model",
-        shadows: bool = False,
-        ao: int = 0,
-        threads: Optional[int] = None,
+        options: Optional[RenderOptions] = None,
         lod: Optional[int] = None,
         pixel_error: Optional[float] = None,
         device: Literal["cpu", "gpu"] = "cpu",
+        threads: Optional[int] = None,
+        **kwargs: Any,
     ) -> _U8:
         """Ray traces the octree (a level, or by pixel error) on the CPU or, ``device="gpu"``,
         the GPU (primary rays only; ``RuntimeError`` without an adapter), uint8 of shape
