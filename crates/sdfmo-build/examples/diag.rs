@@ -65,8 +65,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 } else {
                     hr.normal
                 };
-                let ns = sdfmo_trace::hit_normal(&svo, &ray, &hs);
-                let nm = sdfmo_trace::hit_normal(&multi, &ray, &hm);
+                let ns = sdfmo_trace::hit_normal(&ray, &hs);
+                let nm = sdfmo_trace::hit_normal(&ray, &hm);
                 let (as_, am) = (
                     ns.dot(nr).clamp(-1.0, 1.0).acos(),
                     nm.dot(nr).clamp(-1.0, 1.0).acos(),

@@ -62,7 +62,7 @@ impl<O: TracedOctree + Sync> Traceable for OctreeScene<'_, O> {
     /// The analytic gradient of the hit voxel's trilinear interpolant.
     #[inline]
     fn normal(&self, origin: Vec3, dir: Vec3, hit: &Self::Hit) -> Vec3 {
-        hit_normal(self.0, &Ray { origin, dir }, hit)
+        hit_normal(&Ray { origin, dir }, hit)
     }
 
     #[inline]
@@ -122,7 +122,7 @@ impl Traceable for LodScene<'_> {
     /// The analytic gradient of the hit voxel's trilinear interpolant, in the hit's level.
     #[inline]
     fn normal(&self, origin: Vec3, dir: Vec3, hit: &LodHit) -> Vec3 {
-        hit_normal(hit.octree(self.lod), &Ray { origin, dir }, &hit.hit)
+        hit_normal(&Ray { origin, dir }, &hit.hit)
     }
 
     /// Shadow rays test the finest level (a shadow's level of detail is not chosen per ray).

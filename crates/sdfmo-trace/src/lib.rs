@@ -26,7 +26,7 @@
 //! let ray = Ray { origin: Vec3::new(-3.0, 0.5, 0.5), dir: Vec3::X };
 //! let hit = intersect(&octree, &ray, 0.0, f32::INFINITY).unwrap();
 //! assert!((hit.t - 3.5).abs() < 1e-4);
-//! assert!((hit_normal(&octree, &ray, &hit) - -Vec3::X).length() < 1e-4);
+//! assert!((hit_normal(&ray, &hit) - -Vec3::X).length() < 1e-4);
 //! ```
 
 #![deny(missing_docs)]

@@ -219,6 +219,10 @@ fn packet<O: TracedOctree, const STEP: u8>(
     }
 }
 
+/// A lane's nearest voxel so far in a leaf: the voxel, its surface flag and its corners (for
+/// the hit, see [`Hit::corners`]).
+type LaneBest<V> = (V, bool, [f32; 8]);
+
 /// A leaf for the lanes `lanes`: for each, exactly the single-ray leaf test (the nearest voxel
 /// hit in its span, voxels in storage order), with each voxel's corners read and prepared once
 /// for all lanes (of `rays`, those in `lanes`). Lanes that hit get their hit in `out` and leave
@@ -238,7 +242,7 @@ fn packet_leaf<O: TracedOctree>(
     let mut local_o = [Vec3::ZERO; PACKET_SIZE];
     let mut local_d = [Vec3::ZERO; PACKET_SIZE];
     let mut best_s = [0.0f32; PACKET_SIZE];
-    let mut best: [Option<(O::Voxel, bool)>; PACKET_SIZE] = [None; PACKET_SIZE];
+    let mut best: [Option<LaneBest<O::Voxel>>; PACKET_SIZE] = [None; PACKET_SIZE];
     let mut rest = lanes;
     while rest != 0 {
         let l = rest.trailing_zeros() as usize;
@@ -263,7 +267,7 @@ fn packet_leaf<O: TracedOctree>(
             );
             if let Some((s, voxel, surface)) = hit {
                 best_s[l] = s;
-                best[l] = Some((voxel, surface));
+                best[l] = Some((voxel, surface, octree.voxel_corners(voxel)));
             }
         }
     } else {
@@ -281,13 +285,14 @@ fn packet_leaf<O: TracedOctree>(
     while rest != 0 {
         let l = rest.trailing_zeros() as usize;
         rest &= rest - 1;
-        if let Some((voxel, surface)) = best[l] {
+        if let Some((voxel, surface, corners)) = best[l] {
             out[l] = Some(Hit {
                 t: (cell.t_enter[l] + best_s[l]).min(cell.t_exit[l]),
                 voxel,
                 cell_min: cell.min,
                 cell_size: cell.size,
                 surface,
+                corners,
             });
             *alive &= !(1 << l);
         }
@@ -304,10 +309,11 @@ fn packet_leaf_voxels<O: TracedOctree>(
     local_o: &[Vec3; PACKET_SIZE],
     local_d: &[Vec3; PACKET_SIZE],
     best_s: &mut [f32; PACKET_SIZE],
-    best: &mut [Option<(O::Voxel, bool)>; PACKET_SIZE],
+    best: &mut [Option<LaneBest<O::Voxel>>; PACKET_SIZE],
 ) {
     for voxel in voxels {
-        let prepared = prepare_voxel(&octree.voxel_corners(voxel));
+        let corners = octree.voxel_corners(voxel);
+        let prepared = prepare_voxel(&corners);
         if let PreparedVoxel::Miss = prepared {
             continue; // no lane can hit it
         }
@@ -326,7 +332,7 @@ fn packet_leaf_voxels<O: TracedOctree>(
             ) {
                 if best[l].is_none() || s < best_s[l] {
                     best_s[l] = s;
-                    best[l] = Some((voxel, surface));
+                    best[l] = Some((voxel, surface, corners));
                 }
             }
         }
