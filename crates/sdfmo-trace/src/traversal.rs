@@ -861,10 +861,7 @@ pub(crate) mod tests {
                     occluded(octree, &ray, t_min, t_max)
                 );
                 if let (Some(w), Some(g)) = (want, got) {
-                    let (nw, ng) = (
-                        crate::hit_normal(&ray, &w),
-                        crate::hit_normal(&ray, &g),
-                    );
+                    let (nw, ng) = (crate::hit_normal(&ray, &w), crate::hit_normal(&ray, &g));
                     assert_eq!(
                         nw.to_array().map(f32::to_bits),
                         ng.to_array().map(f32::to_bits)
@@ -1051,10 +1048,7 @@ pub(crate) mod tests {
             assert_eq!(owned, intersect(&view, &ray, 0.0, f32::INFINITY));
             assert_eq!(owned.is_some(), occluded(&view, &ray, 0.0, f32::INFINITY));
             if let Some(h) = owned {
-                assert_eq!(
-                    crate::hit_normal(&ray, &h),
-                    crate::hit_normal(&ray, &h)
-                );
+                assert_eq!(crate::hit_normal(&ray, &h), crate::hit_normal(&ray, &h));
                 hits += 1;
             }
         }
