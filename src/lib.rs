@@ -145,7 +145,7 @@ use std::fmt;
 use std::path::Path;
 
 use distance::{MeshDistance, SignMode};
-use render::{MeshScene, OctreeScene};
+use render::MeshScene;
 
 // The types and functions the high-level API takes and returns, at the root so that a caller
 // of these functions (and the examples) needs no layer path.
@@ -431,8 +431,9 @@ impl Renderer {
     }
 
     /// Prepares `file` drawn as `level` asks ([`LevelRequest`]) for renders: checks the
-    /// request, and on a GPU uploads what it draws (the level's octree, or every level for a
-    /// pixel error) once for every view.
+    /// request, and on a GPU uploads what it draws (the level's octree, every level for a
+    /// pixel error, or a 3.0 file's bytes as they are) once for every view. A 3.0 file
+    /// ([`SmoFile::Bricks`]) is traced in place on either device: nothing is expanded to 1.x.
     ///
     /// # Errors
     /// [`Error::Render`] for a level the file does not hold or a pixel error it cannot draw
@@ -451,6 +452,8 @@ impl Renderer {
             Some(g) => {
                 let upload = match _scene {
                     render::LevelScene::Level(s) => Upload::Octree(g.upload(s.0)?),
+                    // A 3.0 file's bytes as they are: the kernel traces the bricks.
+                    render::LevelScene::Bricks(s) => Upload::Octree(g.upload_bricks(s.0)?),
                     render::LevelScene::PixelError(s) => Upload::Levels(g.upload_lod(s.lod)?),
                 };
                 Some((g, upload))
@@ -458,33 +461,6 @@ impl Renderer {
         };
         Ok(Prepared {
             source: Source::File { file, level },
-            #[cfg(feature = "gpu")]
-            gpu,
-            _renderer: std::marker::PhantomData,
-        })
-    }
-
-    /// Prepares a 3.0 brick file ([`format::BrickOctree`]) for renders, traced as it is: on a
-    /// GPU its bytes are uploaded unchanged and the WGSL kernel walks the bricks; on the CPU
-    /// the tracer reads the same bytes in place ([`format::TracedOctree`]). Nothing is expanded
-    /// to 1.x; the images are those of the 1.x file of the same octree on the same device.
-    ///
-    /// # Errors
-    /// On a GPU, `Error::Gpu` when the upload fails (a file over the adapter's limits).
-    pub fn prepare_bricks<'a>(
-        &'a mut self,
-        bricks: &'a format::BrickOctree,
-    ) -> Result<Prepared<'a>> {
-        #[cfg(feature = "gpu")]
-        let gpu = match self.gpu.as_mut() {
-            None => None,
-            Some(g) => {
-                let upload = Upload::Octree(g.upload_bricks(bricks)?);
-                Some((g, upload))
-            }
-        };
-        Ok(Prepared {
-            source: Source::Bricks(bricks),
             #[cfg(feature = "gpu")]
             gpu,
             _renderer: std::marker::PhantomData,
@@ -534,8 +510,6 @@ enum Source<'a> {
     },
     /// The source mesh's ray queries, in the normalised frame.
     Mesh(Box<MeshDistance>),
-    /// A 3.0 file, traced as it is (on a GPU, as uploaded).
-    Bricks(&'a format::BrickOctree),
 }
 
 impl fmt::Debug for Source<'_> {
@@ -543,7 +517,6 @@ impl fmt::Debug for Source<'_> {
         match self {
             Source::File { level, .. } => write!(f, "File({level:?})"),
             Source::Mesh(_) => f.write_str("Mesh"),
-            Source::Bricks(_) => f.write_str("Bricks"),
         }
     }
 }
@@ -590,13 +563,6 @@ impl Prepared<'_> {
             Source::Mesh(dist) => {
                 return on_cpu(&MeshScene(dist), camera, settings, progress, cancel)
             }
-            Source::Bricks(bricks) => {
-                #[cfg(feature = "gpu")]
-                if let Some((g, Upload::Octree(o))) = self.gpu.as_mut() {
-                    return Ok(g.render(o, camera, settings)?);
-                }
-                return on_cpu(&OctreeScene(*bricks), camera, settings, progress, cancel);
-            }
         };
         let scene = level.scene(file, camera)?;
         #[cfg(feature = "gpu")]
@@ -617,6 +583,7 @@ impl Prepared<'_> {
         }
         match scene {
             render::LevelScene::Level(s) => on_cpu(&s, camera, settings, progress, cancel),
+            render::LevelScene::Bricks(s) => on_cpu(&s, camera, settings, progress, cancel),
             render::LevelScene::PixelError(s) => on_cpu(&s, camera, settings, progress, cancel),
         }
     }
@@ -695,12 +662,22 @@ pub fn octree_distance<B: AsRef<[u8]>>(octree: &format::Octree<B>, point: Vec3) 
 
 /// The octree's frame: model units (the mesh's own) ↔ the normalised root cube `[-1, 1]³` the
 /// octree and the renderer work in, from the normalisation stored in the file
-/// ([`format::OctreeMeta`]).
-pub fn octree_frame<B: AsRef<[u8]>>(octree: &format::Octree<B>) -> mesh::Normalization {
+/// ([`format::OctreeMeta`]), of any layout (a 1.x [`format::Octree`], a 3.0
+/// [`format::BrickOctree`]).
+pub fn octree_frame<O: format::TracedOctree>(octree: &O) -> mesh::Normalization {
     let meta = octree.meta();
     mesh::Normalization {
         center: meta.center,
         scale: meta.scale,
+    }
+}
+
+/// The frame of a loaded `.smo` file of any kind ([`octree_frame`] of its finest level: every
+/// level of a file shares one normalisation).
+pub fn file_frame(file: &SmoFile) -> mesh::Normalization {
+    match file.finest() {
+        format::SmoLevel::Octree(o) => octree_frame(o),
+        format::SmoLevel::Bricks(b) => octree_frame(b),
     }
 }
 

@@ -143,9 +143,9 @@ fn gpu_renders_levels_and_prefixes_as_the_cpu_does() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// Issue 34: a 3.0 brick file prepared with `prepare_bricks` draws on each device exactly what
-/// its 1.x octree draws there: on the GPU from the bricks as uploaded, on the CPU from the 1.x
-/// octree it is decoded to (the same colours and depths, bit for bit, per device).
+/// Issue 34: a 3.0 brick file (`SmoFile::Bricks`) prepared for renders draws on each device exactly what
+/// its 1.x octree draws there, traced in place on both: on the GPU from the bytes as uploaded,
+/// on the CPU from the same bytes in memory (the same colours and depths, bit for bit).
 #[test]
 fn bricks_render_as_their_octree_on_both_devices() {
     use sdf_multioctree::format::BrickOctree;
@@ -154,7 +154,7 @@ fn bricks_render_as_their_octree_on_both_devices() {
     let (octree, _) = BuildRequest::new(&demo_mesh(), settings)
         .octree()
         .expect("build");
-    let bricks = BrickOctree::encode(&octree).expect("encode 3.0");
+    let bricks = SmoFile::Bricks(BrickOctree::encode(&octree).expect("encode 3.0"));
     let file = SmoFile::Octree(octree);
     let mut renderers = vec![Renderer::new(Device::Cpu).unwrap()];
     renderers.extend(gpu());
@@ -168,7 +168,7 @@ fn bricks_render_as_their_octree_on_both_devices() {
                     .and_then(|mut p| p.render(cam, &settings))
                     .expect("1.x");
                 let b = r
-                    .prepare_bricks(&bricks)
+                    .prepare(&bricks, LevelRequest::Finest)
                     .and_then(|mut p| p.render(cam, &settings))
                     .expect("3.0");
                 let label = format!("{device:?} view {view} {mode:?}");

@@ -10,7 +10,7 @@ use sdf_multioctree::distance::{MeshDistance, SignMode};
 use sdf_multioctree::glam::{DVec3, Vec3};
 use sdf_multioctree::mesh::{procedural::box_mesh, write::to_obj};
 use sdf_multioctree::DEFAULT_MARGIN;
-use sdf_multioctree::{camera_from_model, load_mesh, load_octree, mesh_frame, octree_frame};
+use sdf_multioctree::{camera_from_model, file_frame, load_mesh, load_octree, mesh_frame};
 use sdf_multioctree::{Camera, Device, LevelRequest, Mode, RenderSettings, Renderer};
 
 use common::ok as run;
@@ -116,12 +116,11 @@ fn an_eye_in_model_units_gives_the_librarys_image() {
     camera.eye = Vec3::from_array(eye);
     camera.target = Vec3::from_array(target);
     let file = load_octree(&smo).unwrap().file;
-    let octree = file.finest();
     let lambert = RenderSettings::new(Mode::Lambert);
     let mut renderer = Renderer::new(Device::Cpu).unwrap();
     let image = renderer
         .prepare(&file, LevelRequest::Finest)
-        .and_then(|mut p| p.render(&camera_from_model(&octree_frame(octree), &camera), &lambert))
+        .and_then(|mut p| p.render(&camera_from_model(&file_frame(&file), &camera), &lambert))
         .unwrap();
     assert!(
         image.counters.hits > 30,
@@ -137,7 +136,7 @@ fn an_eye_in_model_units_gives_the_librarys_image() {
     assert_eq!(png_rgb(&mesh_png), image.rgb);
 
     // The same camera given in the normalised frame draws the same image.
-    let frame = octree_frame(octree);
+    let frame = file_frame(&file);
     let n = |p: [f32; 3]| frame.point_to_normalized(Vec3::from_array(p).as_dvec3());
     let (ne, nt) = (n(eye), n(target));
     let normalized_png = dir.path().join("normalized.png");

@@ -80,6 +80,7 @@ fn compressed_files(paths: Vec<String>, levels: &[i32]) -> Result<(), Box<dyn st
         let bytes = std::fs::read(path)?;
         let (finest, all) = match SmoFile::from_bytes(&bytes)? {
             SmoFile::Octree(o) => (o.voxel_count(), o.voxel_count()),
+            SmoFile::Bricks(b) => (b.voxel_count(), b.voxel_count()),
             SmoFile::Levels(l) => (
                 l.finest().voxel_count(),
                 l.levels().iter().map(|o| o.voxel_count()).sum(),

@@ -105,8 +105,9 @@ impl PackedOctree {
 
     /// Reads and validates a `.smo` file of at most [`MAX_FILE_SIZE`] bytes (a regular file:
     /// devices and FIFOs are refused without reading). A 3.0 file (plain or compressed) is
-    /// validated and decoded to its 1.x octree ([`BrickOctree::to_octree`](crate::BrickOctree::to_octree)),
-    /// an interim step until the tracers read bricks.
+    /// validated and decoded to its 1.x octree ([`BrickOctree::to_octree`](crate::BrickOctree::to_octree)):
+    /// this type is the 1.x layout (what the GPU kernel uploads). [`SmoFile::load`](crate::SmoFile::load)
+    /// keeps a 3.0 file as 3.0, traced in place.
     pub fn load(path: &Path) -> Result<PackedOctree> {
         PackedOctree::load_with_limit(path, MAX_FILE_SIZE)
     }
@@ -133,7 +134,7 @@ impl PackedOctree {
             bytes
         };
         if crate::brick::is_v3(&bytes) {
-            // An interim step until the tracers read bricks: the 1.x octree of a 3.0 file.
+            // The 1.x layout was asked for: the 1.x octree of a 3.0 file.
             return Ok(crate::BrickOctree::new(bytes)?.to_octree());
         }
         PackedOctree::from_vec(bytes)

@@ -100,8 +100,8 @@ pub use interpolant::{
     cell_corners, cell_size, child_coord, corner_offset, trilinear, trilinear_gradient,
 };
 pub use lod::{
-    check_smo_head, read_smo, LevelEntry, LodOctree, LodPrefix, SmoFile, SmoPrefix, SmoRead,
-    SMO_HEAD_BYTES,
+    check_smo_head, read_smo, LevelEntry, LodOctree, LodPrefix, SmoFile, SmoLevel, SmoPrefix,
+    SmoRead, SMO_HEAD_BYTES,
 };
 pub use octree::{NodeRef, Octree, PackedOctree, PackedOctreeView};
 pub use trace::{BrickVoxel, BrickVoxels, TracedOctree};

@@ -17,8 +17,8 @@ use crate::header::{
 };
 use crate::validate::{check_header_size, check_magic, check_major};
 use crate::{
-    OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, FORMAT_VERSION_MAJOR, MAX_DEPTH,
-    MAX_FILE_SIZE,
+    BrickOctree, OctreeMeta, PackedOctree, PackedOctreeView, ValueBits, FORMAT_VERSION_MAJOR,
+    MAX_DEPTH, MAX_FILE_SIZE,
 };
 
 /// The smallest 1.x file: a 128-byte header and the checksum (an empty octree).
@@ -631,22 +631,83 @@ impl SmoPrefix {
     }
 }
 
-/// A `.smo` file of either kind: one octree (version 1.x) or levels of detail (2.0).
+/// A `.smo` file of any kind: one octree (version 1.x), levels of detail (2.0) or one octree
+/// of bricks (3.0, traced as it is).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum SmoFile {
     /// A 1.x file: one octree, leaves at one depth.
     Octree(PackedOctree),
     /// A 2.0 file: one octree per level.
     Levels(LodOctree),
+    /// A 3.0 file: one octree in bricks, read and traced in place (`sdfmo-trace` through
+    /// [`TracedOctree`](crate::TracedOctree)).
+    Bricks(BrickOctree),
+}
+
+/// One octree of a [`SmoFile`], in the layout the file holds it (both are
+/// [`TracedOctree`](crate::TracedOctree)s: the tracers read either in place).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SmoLevel<'a> {
+    /// A 1.x octree (of a 1.x file, or a level of a 2.0 file).
+    Octree(&'a PackedOctree),
+    /// The octree of a 3.0 file.
+    Bricks(&'a BrickOctree),
+}
+
+impl SmoLevel<'_> {
+    /// Depth, quantisation and normalisation transform.
+    pub fn meta(&self) -> &OctreeMeta {
+        match self {
+            SmoLevel::Octree(o) => o.meta(),
+            SmoLevel::Bricks(b) => b.meta(),
+        }
+    }
+
+    /// Leaves sit at this level.
+    pub fn depth(&self) -> u8 {
+        self.meta().depth
+    }
+
+    /// Leaves.
+    pub fn leaf_count(&self) -> usize {
+        match self {
+            SmoLevel::Octree(o) => o.leaf_count(),
+            SmoLevel::Bricks(b) => b.leaf_count(),
+        }
+    }
+
+    /// Voxels in all leaves.
+    pub fn voxel_count(&self) -> usize {
+        match self {
+            SmoLevel::Octree(o) => o.voxel_count(),
+            SmoLevel::Bricks(b) => b.voxel_count(),
+        }
+    }
+
+    /// Voxels flagged surface (thin).
+    pub fn surface_voxel_count(&self) -> usize {
+        match self {
+            SmoLevel::Octree(o) => o.surface_voxel_count(),
+            SmoLevel::Bricks(b) => b.surface_voxel_count(),
+        }
+    }
+
+    /// Bytes of the octree's file.
+    pub fn byte_size(&self) -> usize {
+        match self {
+            SmoLevel::Octree(o) => o.byte_size(),
+            SmoLevel::Bricks(b) => b.as_bytes().len(),
+        }
+    }
 }
 
 impl SmoFile {
-    /// Reads either kind from bytes, by the major version (bytes 8..10): 1 → [`PackedOctree::from_bytes`],
-    /// 2 → [`LodOctree::from_bytes`], 4 → [`decode_levels`](crate::decode_levels) (levels of
-    /// bricks, each decoded to its 1.x octree), 3 → [`BrickOctree::new`](crate::BrickOctree::new) decoded
-    /// to its 1.x octree ([`BrickOctree::to_octree`](crate::BrickOctree::to_octree): an interim
-    /// step until the tracers read bricks); anything else is the 1.x reader's error. A compressed
-    /// container ([`crate::compressed`]) is decoded first (to at most [`MAX_FILE_SIZE`] bytes).
+    /// Reads any kind from bytes, by the major version (bytes 8..10): 1 → [`PackedOctree::from_bytes`],
+    /// 2 → [`LodOctree::from_bytes`], 3 → [`BrickOctree::new`] (kept as 3.0: the tracers read
+    /// it in place), 4 → [`decode_levels`](crate::decode_levels) (levels of bricks, each
+    /// decoded to its 1.x octree); anything else is the 1.x reader's error. A compressed
+    /// container ([`crate::compressed`]) is decoded first (to at most [`MAX_FILE_SIZE`] bytes:
+    /// a compressed 3.0 file to its 3.0 bytes).
     pub fn from_bytes(bytes: &[u8]) -> Result<SmoFile> {
         if crate::compressed::is_compressed(bytes) {
             return SmoFile::from_bytes(&crate::compressed::decompress(bytes, MAX_FILE_SIZE)?);
@@ -659,9 +720,7 @@ impl SmoFile {
             return Ok(SmoFile::Levels(crate::brick_lod::decode_levels(bytes)?));
         }
         if crate::brick::is_v3(bytes) {
-            // For now the tracers read 1.x: a 3.0 file is validated and decoded to its 1.x
-            // octree (the same voxels, codes and flags) until they trace bricks directly.
-            return Ok(SmoFile::Octree(crate::BrickOctree::new(bytes)?.to_octree()));
+            return Ok(SmoFile::Bricks(BrickOctree::new(bytes.to_vec())?));
         }
         debug_assert_eq!(FORMAT_VERSION_MAJOR, 1);
         Ok(SmoFile::Octree(PackedOctree::from_bytes(bytes)?))
@@ -732,14 +791,16 @@ impl SmoFile {
             && fixed_header(bytes).version_major == LOD_VERSION_MAJOR
     }
 
-    /// The octree to draw at `level`, or the finest one with `None`: a 1.x file has the one
-    /// level `depth`. `None` when the file has no such level.
-    pub fn level(&self, level: Option<u8>) -> Option<&PackedOctree> {
+    /// The octree to draw at `level`, or the finest one with `None`: a 1.x or 3.0 file has the
+    /// one level `depth`. `None` when the file has no such level.
+    pub fn level(&self, level: Option<u8>) -> Option<SmoLevel<'_>> {
         match (self, level) {
-            (SmoFile::Octree(o), None) => Some(o),
-            (SmoFile::Octree(o), Some(l)) => (l == o.depth()).then_some(o),
-            (SmoFile::Levels(l), None) => Some(l.finest()),
-            (SmoFile::Levels(l), Some(k)) => l.level(k),
+            (SmoFile::Octree(o), None) => Some(SmoLevel::Octree(o)),
+            (SmoFile::Octree(o), Some(l)) => (l == o.depth()).then_some(SmoLevel::Octree(o)),
+            (SmoFile::Levels(l), None) => Some(SmoLevel::Octree(l.finest())),
+            (SmoFile::Levels(l), Some(k)) => l.level(k).map(SmoLevel::Octree),
+            (SmoFile::Bricks(b), None) => Some(SmoLevel::Bricks(b)),
+            (SmoFile::Bricks(b), Some(l)) => (l == b.depth()).then_some(SmoLevel::Bricks(b)),
         }
     }
 
@@ -748,14 +809,26 @@ impl SmoFile {
         match self {
             SmoFile::Octree(o) => (o.depth(), o.depth()),
             SmoFile::Levels(l) => (l.coarsest(), l.depth()),
+            SmoFile::Bricks(b) => (b.depth(), b.depth()),
         }
     }
 
     /// The finest octree.
-    pub fn finest(&self) -> &PackedOctree {
+    pub fn finest(&self) -> SmoLevel<'_> {
         match self {
-            SmoFile::Octree(o) => o,
-            SmoFile::Levels(l) => l.finest(),
+            SmoFile::Octree(o) => SmoLevel::Octree(o),
+            SmoFile::Levels(l) => SmoLevel::Octree(l.finest()),
+            SmoFile::Bricks(b) => SmoLevel::Bricks(b),
+        }
+    }
+
+    /// The file's bytes (of a prefix of a file with levels: its levels as a file of their
+    /// own).
+    pub fn to_bytes(&self) -> std::borrow::Cow<'_, [u8]> {
+        match self {
+            SmoFile::Octree(o) => o.as_bytes().into(),
+            SmoFile::Levels(l) => l.to_bytes().into(),
+            SmoFile::Bricks(b) => b.as_bytes().into(),
         }
     }
 }
@@ -801,7 +874,7 @@ mod tests {
         assert!(back.level(0).is_none() && back.level(5).is_none());
         match SmoFile::from_bytes(&bytes).unwrap() {
             SmoFile::Levels(x) => assert_eq!(x, l),
-            SmoFile::Octree(_) => panic!("read as 1.x"),
+            SmoFile::Octree(_) | SmoFile::Bricks(_) => panic!("read as one octree"),
         }
     }
 
@@ -810,7 +883,7 @@ mod tests {
         let o = sphere(4);
         match SmoFile::from_bytes(o.as_bytes()).unwrap() {
             SmoFile::Octree(x) => assert_eq!(x.as_bytes(), o.as_bytes()),
-            SmoFile::Levels(_) => panic!("read as levels"),
+            SmoFile::Levels(_) | SmoFile::Bricks(_) => panic!("read as levels or bricks"),
         }
         // Neither reader takes the other's files.
         assert!(matches!(
@@ -877,7 +950,7 @@ mod tests {
                     assert_eq!(p.is_complete(), held == entries.len());
                     match p.file {
                         SmoFile::Levels(x) => assert_eq!(x.levels(), &l.levels()[..held]),
-                        SmoFile::Octree(_) => panic!("read as 1.x"),
+                        SmoFile::Octree(_) | SmoFile::Bricks(_) => panic!("read as one octree"),
                     }
                     boundaries += 1;
                 }

@@ -306,9 +306,9 @@ fn a_v3_header_with_sections_elsewhere_is_refused() {
 }
 
 #[test]
-fn every_reader_loads_a_v3_file_as_its_octree() {
-    // Until the tracers read bricks, a 3.0 file (plain or compressed) loads as the 1.x octree
-    // it encodes, through every reader.
+fn every_reader_loads_a_v3_file() {
+    // A 3.0 file (plain or compressed) loads as its bricks through the file readers (which the
+    // tracers read in place), and as the 1.x octree it encodes through the 1.x reader.
     let dir = tempfile::tempdir().unwrap();
     for (name, v3) in v3_files() {
         let octree = BrickOctree::new(&v3[..]).unwrap().to_octree();
@@ -319,7 +319,7 @@ fn every_reader_loads_a_v3_file_as_its_octree() {
             let path = dir.path().join("x.smo");
             std::fs::write(&path, &bytes).unwrap();
             assert_eq!(PackedOctree::load(&path).unwrap(), octree, "{name} {kind}");
-            let want = SmoFile::Octree(octree.clone());
+            let want = SmoFile::Bricks(BrickOctree::new(v3.clone()).unwrap());
             assert_eq!(SmoFile::load(&path).unwrap(), want, "{name} {kind}");
             assert_eq!(SmoFile::from_bytes(&bytes).unwrap(), want, "{name} {kind}");
             assert_eq!(

@@ -47,22 +47,28 @@ impl Octree {
         }
     }
 
-    /// A loaded file, whole or a prefix cut where a level ends.
-    fn loaded(data: SmoPrefix) -> Octree {
+    /// A loaded file, whole or a prefix cut where a level ends. A 3.0 file is held as its 1.x
+    /// octree (`BrickOctree::to_octree`, the same voxels): the package's queries, statistics
+    /// and `save` work on the 1.x layout.
+    fn loaded(mut data: SmoPrefix) -> Octree {
+        if let SmoFile::Bricks(b) = &data.file {
+            data.file = SmoFile::Octree(b.to_octree());
+        }
         Octree { data, stats: None }
     }
 
     /// The finest level held: what `distance`, `depth` and `stats` describe.
     fn finest(&self) -> &PackedOctree {
-        self.data.file.finest()
+        match &self.data.file {
+            SmoFile::Octree(o) => o,
+            SmoFile::Levels(l) => l.finest(),
+            SmoFile::Bricks(_) => unreachable!("Octree::loaded holds a 3.0 file as 1.x"),
+        }
     }
 
     /// The file of the levels held (a prefix's levels as a file of their own).
     fn file_bytes(&self) -> std::borrow::Cow<'_, [u8]> {
-        match &self.data.file {
-            SmoFile::Octree(o) => o.as_bytes().into(),
-            SmoFile::Levels(l) => l.to_bytes().into(),
-        }
+        self.data.file.to_bytes()
     }
 }
 
@@ -164,6 +170,8 @@ impl Octree {
                 .detach(|| match &self.data.file {
                     SmoFile::Octree(o) => o.save(&path),
                     SmoFile::Levels(l) => l.save(&path),
+                    SmoFile::Bricks(b) => sdf_multioctree::io::write_atomic(&path, b.as_bytes())
+                        .map_err(FormatError::from),
                 })
                 .map_err(|e| errors::format_error(&e));
         };
@@ -216,6 +224,7 @@ impl Octree {
         match &self.data.file {
             SmoFile::Octree(o) => o.byte_size(),
             SmoFile::Levels(l) => l.byte_size() as usize,
+            SmoFile::Bricks(b) => b.as_bytes().len(),
         }
     }
 

@@ -3,7 +3,7 @@
 //! `Renderer`.
 
 use glam::Vec3;
-use sdfmo_format::SmoFile;
+use sdfmo_format::{BrickOctree, SmoFile, SmoLevel};
 use sdfmo_trace::{eye_levels, pixel_angle, LevelChoice};
 
 use crate::{Camera, LodScene, OctreeScene, RenderError};
@@ -28,6 +28,8 @@ pub enum LevelRequest {
 pub enum LevelScene<'a> {
     /// One level.
     Level(OctreeScene<'a>),
+    /// The octree of a 3.0 file, traced in place.
+    Bricks(OctreeScene<'a, BrickOctree>),
     /// The levels held, each ray at the level its pixel error needs.
     PixelError(LodScene<'a>),
 }
@@ -46,9 +48,9 @@ impl LevelRequest {
         camera: &Camera,
     ) -> Result<LevelScene<'a>, RenderError> {
         match self {
-            LevelRequest::Finest => Ok(LevelScene::Level(OctreeScene(file.finest()))),
+            LevelRequest::Finest => Ok(LevelScene::one(file.finest())),
             LevelRequest::Level(level) => match file.level(Some(level)) {
-                Some(octree) => Ok(LevelScene::Level(OctreeScene(octree))),
+                Some(octree) => Ok(LevelScene::one(octree)),
                 None => {
                     let (coarsest, finest) = file.level_range();
                     Err(RenderError::LevelNotHeld {
@@ -65,7 +67,9 @@ impl LevelRequest {
                     )));
                 }
                 match file {
-                    SmoFile::Octree(o) => Err(RenderError::NoLevels { depth: o.depth() }),
+                    SmoFile::Octree(_) | SmoFile::Bricks(_) => Err(RenderError::NoLevels {
+                        depth: file.finest().depth(),
+                    }),
                     SmoFile::Levels(lod) => Ok(LevelScene::PixelError(LodScene {
                         lod,
                         choice: LevelChoice::PixelError {
@@ -79,13 +83,22 @@ impl LevelRequest {
     }
 }
 
-impl LevelScene<'_> {
+impl<'a> LevelScene<'a> {
+    /// The scene of one octree, in its layout.
+    fn one(level: SmoLevel<'a>) -> LevelScene<'a> {
+        match level {
+            SmoLevel::Octree(o) => LevelScene::Level(OctreeScene(o)),
+            SmoLevel::Bricks(b) => LevelScene::Bricks(OctreeScene(b)),
+        }
+    }
+
     /// The levels the rays from `eye` (a camera's, normalised frame) are drawn at, `(coarsest,
     /// finest)`: the one level, or by pixel error those [`eye_levels`] gives (every hit's level
     /// lies between them).
     pub fn levels(&self, eye: Vec3) -> (u8, u8) {
         match self {
             LevelScene::Level(s) => (s.0.depth(), s.0.depth()),
+            LevelScene::Bricks(s) => (s.0.depth(), s.0.depth()),
             LevelScene::PixelError(s) => match s.choice {
                 LevelChoice::PixelError {
                     pixels,

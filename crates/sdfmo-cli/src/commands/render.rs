@@ -5,16 +5,14 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use sdf_multioctree::distance::{reshape_fans, MeshDistance, SignMode};
-use sdf_multioctree::format::{
-    is_v3, read_smo, BrickOctree, FormatError, SmoFile, SmoPrefix, SmoRead,
-};
+use sdf_multioctree::format::{FormatError, SmoFile, SmoPrefix};
 use sdf_multioctree::mesh::Normalization;
 use sdf_multioctree::metrics;
 use sdf_multioctree::render::{
     self, Camera, Counters, LevelRequest, LevelScene, MeshScene, Mode, RenderSettings, Rendered,
     Traceable,
 };
-use sdf_multioctree::{Device, Prepared, Renderer};
+use sdf_multioctree::{Device, Renderer};
 use serde_json::json;
 
 use crate::args::{DeviceArg, ModeArg, RenderArgs, RenderMeshArgs, RenderOptions, ViewsArg};
@@ -36,15 +34,10 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
         }
     };
     let mut renderer = open_renderer(args, device)?;
-    // Read once, header first (a FIFO or device is refused unopened, a compressed file decoded);
-    // a 3.0 file is traced as it is, any other read as its levels.
-    let bytes = read_smo(&args.octree, renderer.max_file_bytes(), SmoRead::Prefix)
+    // Header first (a FIFO or device is refused unopened, a compressed file decoded); a 3.0
+    // file is kept as its bricks, which either device traces as they are.
+    let data = SmoFile::load_prefix(&args.octree, renderer.max_file_bytes())
         .map_err(|e| load_error(args, e))?;
-    if is_v3(&bytes) {
-        let bricks = BrickOctree::new(bytes).map_err(|e| load_error(args, e))?;
-        return run_bricks(args, device, &mut renderer, &bricks, &outputs);
-    }
-    let data = SmoFile::from_prefix(&bytes).map_err(|e| load_error(args, e))?;
     let request = match (args.lod, args.pixel_error) {
         (Some(level), _) => LevelRequest::Level(level),
         (None, Some(pixels)) => LevelRequest::PixelError(pixels),
@@ -59,6 +52,7 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
     if !data.is_complete() {
         let drawing = match first {
             LevelScene::Level(s) => format!("drawing level {}", s.0.depth()),
+            LevelScene::Bricks(s) => format!("drawing level {}", s.0.depth()),
             LevelScene::PixelError(_) => {
                 format!(
                     "choosing among {} by the pixel error",
@@ -72,28 +66,11 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
             range_text(data.declared)
         );
     }
-    let frame = sdf_multioctree::octree_frame(data.file.finest());
-    let levels = FileLevels::File {
+    let frame = sdf_multioctree::file_frame(&data.file);
+    let levels = FileLevels {
         data: &data,
         request,
     };
-    render_prepared(args, device, &mut renderer, levels, &frame, &outputs, |r| {
-        r.prepare(&data.file, request)
-    })
-}
-
-/// The views of a file prepared on `renderer` by `prepare` (a file in its levels, or a 3.0
-/// file's bricks), rendered and written as `outputs` say.
-fn render_prepared<'r>(
-    args: &RenderArgs,
-    device: Device,
-    renderer: &'r mut Renderer,
-    levels: FileLevels<'_>,
-    frame: &Normalization,
-    outputs: &[ViewOutputs],
-    prepare: impl FnOnce(&'r mut Renderer) -> sdf_multioctree::Result<Prepared<'r>>,
-) -> anyhow::Result<()> {
-    let source = args.octree.display().to_string();
     let device_name = renderer.device_name().to_owned();
     let timing = renderer.gpu().map(|g| g.timing().name());
     let by = RenderedBy {
@@ -107,7 +84,9 @@ fn render_prepared<'r>(
         Device::Cpu => String::new(),
         Device::Gpu => format!(" on {device_name}"),
     };
-    let mut prepared = prepare(renderer).with_context(|| format!("cannot render {source}{on}"))?;
+    let mut prepared = renderer
+        .prepare(&data.file, request)
+        .with_context(|| format!("cannot render {source}{on}"))?;
     let settings = settings(&args.opts);
     // `--threads` is a CPU option (`check_gpu_options`): a GPU render runs without a pool.
     let workers = Workers::new(args.opts.threads)?;
@@ -117,7 +96,7 @@ fn render_prepared<'r>(
             .install(|| prepared.render_with(cam, &settings, Some(progress), None))
             .with_context(|| format!("cannot render {source}{on}"))
     };
-    render_all(&mut view, &by, &args.opts, frame, outputs)
+    render_all(&mut view, &by, &args.opts, &frame, &outputs)
 }
 
 /// A load error: I/O errors name the file already; format errors do not.
@@ -126,39 +105,6 @@ fn load_error(args: &RenderArgs, e: FormatError) -> anyhow::Error {
         FormatError::Io(io) => anyhow::Error::new(io),
         e => anyhow::Error::new(e).context(format!("cannot load octree {}", args.octree.display())),
     }
-}
-
-/// `run_octree` for a 3.0 file, traced in place: one level, its depth.
-fn run_bricks(
-    args: &RenderArgs,
-    device: Device,
-    renderer: &mut Renderer,
-    bricks: &BrickOctree,
-    outputs: &[ViewOutputs],
-) -> anyhow::Result<()> {
-    let source = args.octree.display().to_string();
-    let depth = bricks.depth();
-    let refused = match (args.lod, args.pixel_error) {
-        (Some(level), _) if level != depth => Some(render::RenderError::LevelNotHeld {
-            level,
-            coarsest: depth,
-            finest: depth,
-        }),
-        (None, Some(_)) => Some(render::RenderError::NoLevels { depth }),
-        _ => None,
-    };
-    if let Some(e) = refused {
-        return Err(anyhow::Error::new(e).context(format!("cannot render {source}")));
-    }
-    let meta = bricks.meta();
-    let frame = Normalization {
-        center: meta.center,
-        scale: meta.scale,
-    };
-    let levels = FileLevels::Bricks { depth };
-    render_prepared(args, device, renderer, levels, &frame, outputs, |r| {
-        r.prepare_bricks(bricks)
-    })
 }
 
 /// "levels 6-8", or "level 8" for one.
@@ -181,14 +127,9 @@ fn range_text((coarsest, finest): (u8, u8)) -> String {
 
 /// The levels of the file a render draws from, for `--json`'s `levels`.
 #[derive(Clone, Copy)]
-enum FileLevels<'a> {
-    /// A 1.x or 2.0 file (or a 3.0 file read as its 1.x octree) and the level request.
-    File {
-        data: &'a SmoPrefix,
-        request: LevelRequest,
-    },
-    /// A 3.0 file traced as it is: its one level.
-    Bricks { depth: u8 },
+struct FileLevels<'a> {
+    data: &'a SmoPrefix,
+    request: LevelRequest,
 }
 
 /// What a render's summary says of where its images come from: the input, the device that
@@ -221,13 +162,7 @@ impl<'a> RenderedBy<'a> {
 /// pixel error every level the rule can choose for each view's eye), each a list of levels.
 fn levels_json(levels: &FileLevels<'_>, cams: &[Camera]) -> anyhow::Result<serde_json::Value> {
     let list = |(a, b): (u8, u8)| (a..=b).collect::<Vec<u8>>();
-    let (data, request) = match *levels {
-        FileLevels::File { data, request } => (data, request),
-        FileLevels::Bricks { depth } => {
-            let one = list((depth, depth));
-            return Ok(json!({ "file": one, "held": one, "drawn": one }));
-        }
-    };
+    let FileLevels { data, request } = *levels;
     let mut drawn = std::collections::BTreeSet::new();
     for cam in cams {
         let (a, b) = request.scene(&data.file, cam)?.levels(cam.eye);
