@@ -652,19 +652,18 @@ pub fn paper_views(size: u32) -> Vec<Camera> {
 /// assert!(octree_distance(&octree, Vec3::splat(1e3)).is_nan());
 /// # Ok::<(), sdf_multioctree::Error>(())
 /// ```
-pub fn octree_distance<B: AsRef<[u8]>>(octree: &format::Octree<B>, point: Vec3) -> f32 {
+pub fn octree_distance<O: OctreeRef>(octree: O, point: Vec3) -> f32 {
     let frame = octree_frame(octree);
-    match trace::distance_at(octree, frame.point_to_normalized(point.as_dvec3())) {
-        Some(sample) => frame.length_to_model(sample.distance),
+    match octree.stored_distance(frame.point_to_normalized(point.as_dvec3())) {
+        Some(d) => frame.length_to_model(d),
         None => f32::NAN,
     }
 }
 
 /// The octree's frame: model units (the mesh's own) ↔ the normalised root cube `[-1, 1]³` the
 /// octree and the renderer work in, from the normalisation stored in the file
-/// ([`format::OctreeMeta`]), of any layout (a 1.x [`format::Octree`], a 3.0
-/// [`format::BrickOctree`]).
-pub fn octree_frame<O: format::TracedOctree>(octree: &O) -> mesh::Normalization {
+/// ([`format::OctreeMeta`]), of any layout ([`OctreeRef`]).
+pub fn octree_frame<O: OctreeRef>(octree: O) -> mesh::Normalization {
     let meta = octree.meta();
     mesh::Normalization {
         center: meta.center,
@@ -675,9 +674,67 @@ pub fn octree_frame<O: format::TracedOctree>(octree: &O) -> mesh::Normalization 
 /// The frame of a loaded `.smo` file of any kind ([`octree_frame`] of its finest level: every
 /// level of a file shares one normalisation).
 pub fn file_frame(file: &SmoFile) -> mesh::Normalization {
-    match file.finest() {
-        format::SmoLevel::Octree(o) => octree_frame(o),
-        format::SmoLevel::Bricks(b) => octree_frame(b),
+    octree_frame(file.finest())
+}
+
+/// One octree as [`octree_frame`] and [`octree_distance`] take it, in any layout: a 1.x
+/// octree (`&`[`PackedOctree`], or any `&`[`format::Octree`]), a 3.0 one
+/// (`&`[`format::BrickOctree`]), or a level of a loaded file ([`format::SmoLevel`], what
+/// [`SmoFile::finest`] and [`SmoFile::level`] give). Implemented for these only.
+///
+/// ```
+/// use sdf_multioctree::format::BrickOctree;
+/// use sdf_multioctree::{build_octree, demo_mesh, octree_distance, Method, SmoFile};
+///
+/// let mesh = demo_mesh();
+/// let (octree, _) = build_octree(&mesh, 6, Method::Multi { max_voxels: 8 })?;
+/// let bricks = BrickOctree::encode(&octree)?;
+/// let file = SmoFile::from_bytes(bricks.as_bytes())?; // a 3.0 file stays 3.0
+/// for p in mesh.positions().iter().step_by(50) {
+///     let d = octree_distance(&octree, *p);
+///     assert_eq!(d.to_bits(), octree_distance(&bricks, *p).to_bits());
+///     assert_eq!(d.to_bits(), octree_distance(file.finest(), *p).to_bits());
+/// }
+/// # Ok::<(), sdf_multioctree::Error>(())
+/// ```
+pub trait OctreeRef: Copy {
+    /// Depth, quantisation and normalisation transform.
+    fn meta(&self) -> &format::OctreeMeta;
+    /// The stored signed distance at `p` (normalised frame; [`trace::distance_at`]), `None`
+    /// where no voxel holds `p`.
+    fn stored_distance(&self, p: Vec3) -> Option<f32>;
+}
+
+impl<B: AsRef<[u8]>> OctreeRef for &format::Octree<B> {
+    fn meta(&self) -> &format::OctreeMeta {
+        format::Octree::meta(self)
+    }
+
+    fn stored_distance(&self, p: Vec3) -> Option<f32> {
+        trace::distance_at(*self, p).map(|s| s.distance)
+    }
+}
+
+impl<B: AsRef<[u8]>> OctreeRef for &format::BrickOctree<B> {
+    fn meta(&self) -> &format::OctreeMeta {
+        format::BrickOctree::meta(self)
+    }
+
+    fn stored_distance(&self, p: Vec3) -> Option<f32> {
+        trace::distance_at(*self, p).map(|s| s.distance)
+    }
+}
+
+impl OctreeRef for format::SmoLevel<'_> {
+    fn meta(&self) -> &format::OctreeMeta {
+        format::SmoLevel::meta(self)
+    }
+
+    fn stored_distance(&self, p: Vec3) -> Option<f32> {
+        match *self {
+            format::SmoLevel::Octree(o) => o.stored_distance(p),
+            format::SmoLevel::Bricks(b) => b.stored_distance(p),
+        }
     }
 }
 
