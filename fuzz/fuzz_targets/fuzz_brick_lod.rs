@@ -21,36 +21,13 @@
 mod smo_common;
 
 use libfuzzer_sys::fuzz_target;
-use smo_common::forced_levels;
 use sdfmo_format::{decode_levels, decode_levels_prefix, encode_levels, LodOctree, BRICK_LEVELS};
+use smo_common::{check_levels, forced_levels};
 
 fn check(bytes: &[u8]) {
-    let whole = decode_levels(bytes);
-    let prefix = decode_levels_prefix(bytes);
-    if let Ok(w) = &whole {
-        let p = prefix.as_ref().expect("a whole file is also a prefix");
-        assert!(p.is_complete());
-        assert_eq!(&p.octree, w);
-    }
-    let Ok(p) = prefix else { return };
-    let o = &p.octree;
-    assert!(!o.levels().is_empty() && o.levels().len() <= p.declared.len());
-    for (i, l) in o.levels().iter().enumerate() {
-        assert_eq!(usize::from(l.depth()), usize::from(o.coarsest()) + i);
-        assert_eq!(p.declared[i].level, l.depth());
-    }
-    let again = decode_levels(&encode_levels(o).expect("decoded levels encode"))
-        .expect("re-encoded levels must decode");
-    assert_eq!(&again, o);
-    for (i, e) in p.declared.iter().enumerate().take(o.levels().len()) {
-        let end = e.end() as usize;
-        let q = decode_levels_prefix(&bytes[..end]).expect("a level boundary decodes");
-        assert_eq!(q.octree.levels(), &o.levels()[..=i]);
-        if i > 0 {
-            let q = decode_levels_prefix(&bytes[..end - 1]).expect("a cut decodes the levels before");
-            assert_eq!(q.octree.levels(), &o.levels()[..i]);
-        }
-    }
+    check_levels(bytes, decode_levels, decode_levels_prefix, |o| {
+        encode_levels(o).expect("decoded levels encode")
+    });
 }
 
 /// A valid 2.0 file with a coarsest level ≥ 2 encodes to 4.0 and decodes to the same levels.

@@ -19,35 +19,13 @@
 mod smo_common;
 
 use libfuzzer_sys::fuzz_target;
-use smo_common::forced_levels;
 use sdfmo_format::LodOctree;
+use smo_common::{check_levels, forced_levels};
 
 fn check(bytes: &[u8]) {
-    let whole = LodOctree::from_bytes(bytes);
-    let prefix = LodOctree::from_prefix(bytes);
-    if let Ok(w) = &whole {
-        let p = prefix.as_ref().expect("a whole file is also a prefix");
-        assert!(p.is_complete());
-        assert_eq!(&p.octree, w);
-    }
-    let Ok(p) = prefix else { return };
-    let o = &p.octree;
-    assert!(!o.levels().is_empty() && o.levels().len() <= p.declared.len());
-    for (i, l) in o.levels().iter().enumerate() {
-        assert_eq!(usize::from(l.depth()), usize::from(o.coarsest()) + i);
-        assert_eq!(p.declared[i].level, l.depth());
-    }
-    let again = LodOctree::from_bytes(&o.to_bytes()).expect("re-written levels must load");
-    assert_eq!(&again, o);
-    for (i, e) in p.declared.iter().enumerate().take(o.levels().len()) {
-        let end = e.end() as usize;
-        let q = LodOctree::from_prefix(&bytes[..end]).expect("a level boundary loads");
-        assert_eq!(q.octree.levels(), &o.levels()[..=i]);
-        if e.size > 1 && i > 0 {
-            let q = LodOctree::from_prefix(&bytes[..end - 1]).expect("a cut loads the levels before");
-            assert_eq!(q.octree.levels(), &o.levels()[..i]);
-        }
-    }
+    check_levels(bytes, LodOctree::from_bytes, LodOctree::from_prefix, |o| {
+        o.to_bytes()
+    });
 }
 
 fuzz_target!(|data: &[u8]| {
