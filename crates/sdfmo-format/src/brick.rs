@@ -855,52 +855,23 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
         self.meta.depth
     }
 
-    /// Nodes above the bricks (levels `0 … depth − 3`).
-    #[inline]
-    pub fn upper_node_count(&self) -> usize {
-        self.counts.upper as usize
-    }
-
-    /// Bricks (nodes at level `depth − 2`).
-    #[inline]
-    pub fn brick_count(&self) -> usize {
-        self.counts.bricks as usize
-    }
-
-    /// Leaves (level `depth`).
-    #[inline]
-    pub fn leaf_count(&self) -> usize {
-        self.counts.leaves as usize
-    }
-
-    /// Voxels in all leaves (a shared leaf holds one).
-    #[inline]
-    pub fn voxel_count(&self) -> usize {
-        self.counts.voxels as usize
-    }
-
-    /// Voxels flagged surface (all private).
-    #[inline]
-    pub fn surface_voxel_count(&self) -> usize {
-        self.counts.surface as usize
-    }
-
-    /// Voxels with the clip bit (all private).
-    #[inline]
-    pub fn clip_voxel_count(&self) -> usize {
-        self.counts.clip as usize
-    }
-
-    /// Leaves whose voxels are stored whole.
-    #[inline]
-    pub fn private_leaf_count(&self) -> usize {
-        self.counts.private_leaves as usize
-    }
-
-    /// Voxels of the private leaves.
-    #[inline]
-    pub fn private_voxel_count(&self) -> usize {
-        self.counts.private_voxels as usize
+    count_getters! {
+        /// Nodes above the bricks (levels `0 … depth − 3`).
+        upper_node_count => upper,
+        /// Bricks (nodes at level `depth − 2`).
+        brick_count => bricks,
+        /// Leaves (level `depth`).
+        leaf_count => leaves,
+        /// Voxels in all leaves (a shared leaf holds one).
+        voxel_count => voxels,
+        /// Voxels flagged surface (all private).
+        surface_voxel_count => surface,
+        /// Voxels with the clip bit (all private).
+        clip_voxel_count => clip,
+        /// Leaves whose voxels are stored whole.
+        private_leaf_count => private_leaves,
+        /// Voxels of the private leaves.
+        private_voxel_count => private_voxels,
     }
 
     /// `dmax / Q`: multiply a code by this to get a distance in normalised units.

@@ -56,6 +56,19 @@
 
 #![deny(missing_docs)]
 
+/// Public getters of an octree's counts, one per `doc name => field` row: `name` returns
+/// `self.counts.field` (a `u32`) as `usize`. The 1.x octree and the 3.0 brick octree list theirs
+/// through it.
+macro_rules! count_getters {
+    ($($(#[$doc:meta])* $name:ident => $field:ident,)*) => {$(
+        $(#[$doc])*
+        #[inline]
+        pub fn $name(&self) -> usize {
+            self.counts.$field as usize
+        }
+    )*};
+}
+
 mod brick;
 mod brick_lod;
 pub mod compressed;

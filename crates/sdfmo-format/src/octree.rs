@@ -460,34 +460,17 @@ impl<B: AsRef<[u8]>> Octree<B> {
         self.counts.inner as usize + self.counts.leaves as usize
     }
 
-    /// Inner nodes only (levels `0..depth`).
-    #[inline]
-    pub fn inner_node_count(&self) -> usize {
-        self.counts.inner as usize
-    }
-
-    /// Leaves (level `depth`).
-    #[inline]
-    pub fn leaf_count(&self) -> usize {
-        self.counts.leaves as usize
-    }
-
-    /// Voxels in all leaves.
-    #[inline]
-    pub fn voxel_count(&self) -> usize {
-        self.counts.voxels as usize
-    }
-
-    /// Voxels flagged surface (thin).
-    #[inline]
-    pub fn surface_voxel_count(&self) -> usize {
-        self.counts.surface as usize
-    }
-
-    /// Voxels with the clip bit (intersect and clip-only voxels); 0 in a 1.0 file.
-    #[inline]
-    pub fn clip_voxel_count(&self) -> usize {
-        self.counts.clip as usize
+    count_getters! {
+        /// Inner nodes only (levels `0..depth`).
+        inner_node_count => inner,
+        /// Leaves (level `depth`).
+        leaf_count => leaves,
+        /// Voxels in all leaves.
+        voxel_count => voxels,
+        /// Voxels flagged surface (thin).
+        surface_voxel_count => surface,
+        /// Voxels with the clip bit (intersect and clip-only voxels); 0 in a 1.0 file.
+        clip_voxel_count => clip,
     }
 
     /// Whether any voxel has the clip bit (header flag [`FLAG_CLIP_VOXELS`](crate::FLAG_CLIP_VOXELS)):
