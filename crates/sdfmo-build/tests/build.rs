@@ -15,14 +15,6 @@ use sdfmo_mesh::{procedural, TriMesh};
 const MULTI: Method = Method::Multi { max_voxels: 8 };
 
 /// `f` run on a pool of `threads` workers (the builder runs on the caller's pool).
-fn on_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .expect("a pool")
-        .install(f)
-}
-
 fn settings(depth: u8, method: Method) -> BuildSettings {
     BuildSettings::new(depth, method)
 }
@@ -78,15 +70,7 @@ fn locate(depth: u8, p: Vec3) -> ([u32; 3], Vec3) {
 fn identical_bytes_for_1_2_and_4_threads() {
     let mesh = procedural::demo_part();
     for method in [Method::Svo, MULTI] {
-        let bytes: Vec<Vec<u8>> = [1, 2, 4]
-            .iter()
-            .map(|&t| {
-                on_threads(t, || build(&mesh, &settings(6, method)))
-                    .expect("build")
-                    .0
-                    .to_bytes()
-            })
-            .collect();
+        let bytes = common::bytes_on_threads(&mesh, &settings(6, method), &[1, 2, 4]);
         assert!(bytes[0].len() > 1000);
         assert_eq!(bytes[0], bytes[1], "{method:?}: 1 vs 2 threads");
         assert_eq!(bytes[0], bytes[2], "{method:?}: 1 vs 4 threads");
@@ -124,13 +108,8 @@ fn leaf_presets_are_build_settings() {
 #[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
 fn identical_bytes_for_1_and_4_threads_on_abc5() {
     let abc5 = load("abc5.stl");
-    let with_threads = |t| {
-        on_threads(t, || build(&abc5, &settings(6, MULTI)))
-            .unwrap()
-            .0
-            .to_bytes()
-    };
-    assert_eq!(with_threads(1), with_threads(4));
+    let bytes = common::bytes_on_threads(&abc5, &settings(6, MULTI), &[1, 4]);
+    assert_eq!(bytes[0], bytes[1]);
 }
 
 #[test]

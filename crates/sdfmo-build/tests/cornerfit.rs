@@ -120,21 +120,8 @@ fn fitted_corners_follow_the_surface_closer() {
 fn fitted_corners_are_identical_for_1_2_and_3_threads() {
     let mesh = procedural::demo_part();
     for method in [Method::Svo, MULTI] {
-        let bytes: Vec<Vec<u8>> = [1, 2, 3]
-            .iter()
-            .map(|&t| {
-                let s = BuildSettings::new(6, method).with_fit_corners(true);
-                // The builder runs on the caller's pool.
-                rayon::ThreadPoolBuilder::new()
-                    .num_threads(t)
-                    .build()
-                    .expect("a pool")
-                    .install(|| build(&mesh, &s))
-                    .expect("build")
-                    .0
-                    .to_bytes()
-            })
-            .collect();
+        let s = BuildSettings::new(6, method).with_fit_corners(true);
+        let bytes = common::bytes_on_threads(&mesh, &s, &[1, 2, 3]);
         assert_eq!(bytes[0], bytes[1], "{method:?}: 1 vs 2 threads");
         assert_eq!(bytes[0], bytes[2], "{method:?}: 1 vs 3 threads");
     }

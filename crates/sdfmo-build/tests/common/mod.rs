@@ -1,6 +1,7 @@
 //! Fixtures shared by the builder's integration tests.
 
 use glam::Vec3;
+use sdfmo_build::{build, BuildSettings};
 use sdfmo_mesh::{procedural, TriMesh};
 
 /// A rotated thin plate beside a sphere, and the same part with one vertex coordinate moved by
@@ -15,4 +16,27 @@ pub fn plate_and_sphere_moved_one_ulp() -> (TriMesh, TriMesh) {
     positions[0].x = f32::from_bits(positions[0].x.to_bits() + 1);
     let moved = TriMesh::new(positions, triangles, parts).unwrap();
     (part, moved)
+}
+
+/// The file bytes of `mesh` built with `settings` on a pool of each size in `threads`, in
+/// order (the builder runs on the caller's pool): what the thread-count determinism tests
+/// compare.
+pub fn bytes_on_threads(
+    mesh: &TriMesh,
+    settings: &BuildSettings,
+    threads: &[usize],
+) -> Vec<Vec<u8>> {
+    threads
+        .iter()
+        .map(|&t| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .expect("a pool")
+                .install(|| build(mesh, settings))
+                .expect("build")
+                .0
+                .to_bytes()
+        })
+        .collect()
 }
