@@ -18,31 +18,43 @@ fn load(name: &str) -> sdfmo_mesh::TriMesh {
         .mesh
 }
 
-/// Builds, encodes and checks every model and method at `depth`; the 3.0 bytes per voxel.
-fn check_depth(depth: u8) -> Vec<(String, f64)> {
-    let mut sizes = Vec::new();
+/// `measure(model, mesh, method, what)` on every model and method, `what` naming the three
+/// (`"{model} {method:?} {setting}"`); each label with what `measure` returned.
+fn on_every_model(
+    setting: &str,
+    mut measure: impl FnMut(&str, &sdfmo_mesh::TriMesh, Method, &str) -> f64,
+) -> Vec<(String, f64)> {
+    let mut out = Vec::new();
     for model in MODELS {
         let mesh = load(model);
         for method in METHODS {
-            let (o, _) = build(&mesh, &BuildSettings::new(depth, method)).expect("build");
-            let what = format!("{model} {method:?} depth {depth}");
-            let b = BrickOctree::encode(&o).expect("encode");
-            let v = BrickOctreeView::new(b.as_bytes()).expect("valid 3.0 bytes");
-            assert_eq!(v.first_difference(&o), None, "{what}");
-            assert_eq!(b.to_octree(), o, "{what}: decodes to the same 1.x file");
-            let bpv = b.as_bytes().len() as f64 / o.voxel_count() as f64;
-            // docs/format-3.md: ≤ 5.0 bytes per voxel but on abc5's multi-octree at depths
-            // 8 and 9 (5.60 and 5.13 measured: a third of its voxels are private).
-            let bar = if model == "abc5.stl" && method != Method::Svo && depth < 10 {
-                5.7
-            } else {
-                5.0
-            };
-            assert!(bpv <= bar, "{what}: {bpv:.2} bytes per voxel");
-            sizes.push((what, bpv));
+            let what = format!("{model} {method:?} {setting}");
+            let value = measure(model, &mesh, method, &what);
+            out.push((what, value));
         }
     }
-    sizes
+    out
+}
+
+/// Builds, encodes and checks every model and method at `depth`; the 3.0 bytes per voxel.
+fn check_depth(depth: u8) -> Vec<(String, f64)> {
+    on_every_model(&format!("depth {depth}"), |model, mesh, method, what| {
+        let (o, _) = build(mesh, &BuildSettings::new(depth, method)).expect("build");
+        let b = BrickOctree::encode(&o).expect("encode");
+        let v = BrickOctreeView::new(b.as_bytes()).expect("valid 3.0 bytes");
+        assert_eq!(v.first_difference(&o), None, "{what}");
+        assert_eq!(b.to_octree(), o, "{what}: decodes to the same 1.x file");
+        let bpv = b.as_bytes().len() as f64 / o.voxel_count() as f64;
+        // docs/format-3.md: ≤ 5.0 bytes per voxel but on abc5's multi-octree at depths
+        // 8 and 9 (5.60 and 5.13 measured: a third of its voxels are private).
+        let bar = if model == "abc5.stl" && method != Method::Svo && depth < 10 {
+            5.7
+        } else {
+            5.0
+        };
+        assert!(bpv <= bar, "{what}: {bpv:.2} bytes per voxel");
+        bpv
+    })
 }
 
 #[test]
@@ -69,36 +81,31 @@ fn shared_models_depth_10_are_lossless_in_format_3() {
 /// every level-boundary prefix decodes to exactly its levels, and, with a `bar`, that the file
 /// costs at most that many times the leaf-only 3.0 file of its finest level. The ratios.
 fn check_levels(depth: u8, coarsest: u8, bar: Option<f64>) -> Vec<(String, f64)> {
-    let mut ratios = Vec::new();
-    for model in MODELS {
-        let mesh = load(model);
-        for method in METHODS {
-            let what = format!("{model} {method:?} levels {coarsest}..={depth}");
-            let (lod, _) = sdfmo_build::BuildRequest::new(&mesh, BuildSettings::new(depth, method))
-                .levels(coarsest)
-                .expect("build");
-            let bytes = encode_levels(&lod).expect("encode");
-            let p = decode_levels_prefix(&bytes).expect("decode");
-            assert_eq!(
-                p.octree, lod,
-                "{what}: every level decodes to its 1.x octree"
-            );
-            for (i, e) in p.declared.iter().enumerate() {
-                let q = decode_levels_prefix(&bytes[..e.end() as usize]).expect("a prefix");
-                assert_eq!(q.octree.levels(), &lod.levels()[..=i], "{what}: prefix {i}");
-            }
-            let leaf_only = BrickOctree::encode(lod.finest())
-                .expect("3.0")
-                .as_bytes()
-                .len();
-            let ratio = bytes.len() as f64 / leaf_only as f64;
-            if let Some(bar) = bar {
-                assert!(ratio <= bar, "{what}: {ratio:.3}× the leaf-only 3.0 file");
-            }
-            ratios.push((what, ratio));
+    let setting = format!("levels {coarsest}..={depth}");
+    on_every_model(&setting, |_, mesh, method, what| {
+        let (lod, _) = sdfmo_build::BuildRequest::new(mesh, BuildSettings::new(depth, method))
+            .levels(coarsest)
+            .expect("build");
+        let bytes = encode_levels(&lod).expect("encode");
+        let p = decode_levels_prefix(&bytes).expect("decode");
+        assert_eq!(
+            p.octree, lod,
+            "{what}: every level decodes to its 1.x octree"
+        );
+        for (i, e) in p.declared.iter().enumerate() {
+            let q = decode_levels_prefix(&bytes[..e.end() as usize]).expect("a prefix");
+            assert_eq!(q.octree.levels(), &lod.levels()[..=i], "{what}: prefix {i}");
         }
-    }
-    ratios
+        let leaf_only = BrickOctree::encode(lod.finest())
+            .expect("3.0")
+            .as_bytes()
+            .len();
+        let ratio = bytes.len() as f64 / leaf_only as f64;
+        if let Some(bar) = bar {
+            assert!(ratio <= bar, "{what}: {ratio:.3}× the leaf-only 3.0 file");
+        }
+        ratio
+    })
 }
 
 /// Levels 4–7: lossless, every prefix (no size bar: the coarse levels weigh more at low depths,
