@@ -616,6 +616,16 @@ pub(crate) mod tests {
         best
     }
 
+    /// The interval `(t_min, t_max)` a test ray is traced over: `[0.3, 2.5]` when `bounded`,
+    /// else the whole ray `[0, ∞)`.
+    fn test_interval(bounded: bool) -> (f32, f32) {
+        if bounded {
+            (0.3, 2.5)
+        } else {
+            (0.0, f32::INFINITY)
+        }
+    }
+
     fn random_ray(rng: &mut ChaCha8Rng) -> Ray {
         let mut dir = Vec3::new(
             rng.random_range(-1.0..1.0),
@@ -656,11 +666,7 @@ pub(crate) mod tests {
         let mut hits = 0;
         for i in 0..rays {
             let ray = random_ray(&mut rng);
-            let (t_min, t_max) = if i % 4 == 0 {
-                (0.3, 2.5)
-            } else {
-                (0.0, f32::INFINITY)
-            };
+            let (t_min, t_max) = test_interval(i % 4 == 0);
             let got = intersect(octree, &ray, t_min, t_max);
             let expected = brute_force(octree, &ray, t_min, t_max);
             match (got, expected) {
@@ -839,11 +845,7 @@ pub(crate) mod tests {
             );
             for i in 0..3000 {
                 let ray = random_ray(&mut rng);
-                let (t_min, t_max) = if i % 3 == 0 {
-                    (0.3, 2.5)
-                } else {
-                    (0.0, f32::INFINITY)
-                };
+                let (t_min, t_max) = test_interval(i % 3 == 0);
                 let want = intersect(octree, &ray, t_min, t_max);
                 let got = intersect(&bricks, &ray, t_min, t_max);
                 assert!(
