@@ -311,7 +311,7 @@ fn sweep_model(
         bar,
         report_of,
     } = *sweep;
-    let (methods, depths, budget) = (&plan.methods, &plan.depths, plan.budget);
+    let (methods, depths) = (&plan.methods, &plan.depths);
     let workers = &plan.workers;
     let name = &input.name;
     let img_dir: PathBuf =
@@ -349,40 +349,33 @@ fn sweep_model(
         if args.levels {
             // One file with every level; each level is scored as a build of its depth.
             let (first, last) = (depths[0], depths[depths.len() - 1]);
-            let settings = build_settings(args, method, last);
             let stage = format!("{name}: {} levels {first}..={last}: build", method.name());
-            bar.set_message(stage.clone());
-            let on_progress = |f: f32| bar.set_message(format!("{stage} {:.0}%", f * 100.0));
-            let (lod, stats) = workers
-                .install(|| {
-                    BuildRequest::new(&input.mesh, settings)
-                        .memory_budget(budget)
-                        .progress(&on_progress)
-                        .levels(first)
-                })
-                .map_err(build_failed(
-                    method,
-                    format!("with levels {first}..={last}"),
-                    input,
-                ))?;
+            let settings = build_settings(args, method, last);
+            let (lod, stats) = build_in_stage(sweep, &stage, &input.mesh, settings, |request| {
+                request.levels(first)
+            })
+            .map_err(build_failed(
+                method,
+                format!("with levels {first}..={last}"),
+                input,
+            ))?;
             for ((octree, stats), entry) in lod.levels().iter().zip(&stats).zip(lod.entries()) {
                 bar.set_message(format!("{name}: {} level {}", method.name(), entry.level));
                 add_row(run.score(method, octree, stats, Some(entry.end()))?)?;
             }
         } else {
             for &depth in depths {
-                bar.set_message(format!("{name}: {} depth {depth}: build", method.name()));
-                let build_settings = build_settings(args, method, depth);
                 let stage = format!("{name}: {} depth {depth}: build", method.name());
-                let on_progress = |f: f32| bar.set_message(format!("{stage} {:.0}%", f * 100.0));
-                let (octree, stats) = workers
-                    .install(|| {
-                        BuildRequest::new(&input.mesh, build_settings)
-                            .memory_budget(budget)
-                            .progress(&on_progress)
-                            .octree()
+                let settings = build_settings(args, method, depth);
+                let (octree, stats) =
+                    build_in_stage(sweep, &stage, &input.mesh, settings, |request| {
+                        request.octree()
                     })
-                    .map_err(build_failed(method, format!("depth {depth}"), input))?;
+                    .map_err(build_failed(
+                        method,
+                        format!("depth {depth}"),
+                        input,
+                    ))?;
                 bar.set_message(format!("{name}: {} depth {depth}: render", method.name()));
                 add_row(run.score(method, &octree, &stats, None)?)?;
             }
@@ -393,6 +386,28 @@ fn sweep_model(
         source: input.source.clone(),
         triangles: input.mesh.triangle_count(),
         reference_render_ms: protocol.reference_ms(),
+    })
+}
+
+/// Builds `mesh` with `settings` on the sweep's workers within its memory budget, the bar
+/// showing `stage` and then the build's progress in percent; `finish` asks the request for one
+/// octree or for levels.
+fn build_in_stage<T: Send>(
+    sweep: &Sweep,
+    stage: &str,
+    mesh: &sdf_multioctree::mesh::TriMesh,
+    settings: BuildSettings,
+    finish: impl FnOnce(&BuildRequest<'_>) -> std::result::Result<T, build::BuildError> + Send,
+) -> std::result::Result<T, build::BuildError> {
+    let bar = sweep.bar;
+    bar.set_message(stage.to_owned());
+    let on_progress = |f: f32| bar.set_message(format!("{stage} {:.0}%", f * 100.0));
+    sweep.plan.workers.install(|| {
+        finish(
+            &BuildRequest::new(mesh, settings)
+                .memory_budget(sweep.plan.budget)
+                .progress(&on_progress),
+        )
     })
 }
 
