@@ -273,6 +273,7 @@ pub fn html(r: &DatasetReport) -> Result<String, askama::Error> {
 
 #[cfg(test)]
 mod tests {
+    use super::super::assert_contains_all;
     use super::super::dataset::{depth_stats, time_fit, Failure, ShardSummary};
     use super::super::model::{Model, Report, Row};
     use super::super::results_json;
@@ -372,20 +373,15 @@ mod tests {
             "{md}"
         );
         // a gains 3.5 dB, b loses 1: the median of two is the lower (nearest rank).
-        assert!(
-            md.contains("| 4 | 2 | -1.00 | 0.0000 | 1.000 | 50 % | 0 % | – |"),
-            "{md}"
-        );
-        for title in [
-            "\nΔPSNR (dB):\n\n",
-            "\nΔFLIP:\n\n",
-            "\nsize ratio multi / SVO:\n\n",
-        ] {
-            assert!(md.contains(title), "{md}");
-        }
-        assert!(
-            md.contains("mean 200 ms over 2 models, 0.4 s in all"),
-            "{md}"
+        assert_contains_all(
+            &md,
+            &[
+                "| 4 | 2 | -1.00 | 0.0000 | 1.000 | 50 % | 0 % | – |",
+                "\nΔPSNR (dB):\n\n",
+                "\nΔFLIP:\n\n",
+                "\nsize ratio multi / SVO:\n\n",
+                "mean 200 ms over 2 models, 0.4 s in all",
+            ],
         );
         assert!(
             md.ends_with("| c | <script>c\\|d.obj | bad \\| \"mesh\" second line |\n"),
@@ -397,18 +393,17 @@ mod tests {
     fn the_page_escapes_what_a_shard_folder_says() {
         let html = html(&report()).unwrap();
         assert!(!html.contains("<script>"), "{html}");
-        assert!(html.contains("<code>m&#60;1&#62;.csv</code>"), "{html}");
-        assert!(html.contains("<td>&#60;script&#62;c|d.obj</td>"), "{html}");
-        assert!(html.contains("<b>1 not run</b>"), "{html}");
-        assert!(html.contains("<h3>Size ratio multi / SVO</h3>"), "{html}");
-        // The worst model of depth 4 (b, −1 dB) with its images, relative links.
-        assert!(
-            html.contains("<div><b>b</b> (12 triangles): ΔPSNR -1.00 dB<br>"),
-            "{html}"
-        );
-        assert!(
-            html.contains("<img src=\"images/b/multi_d4_0_flip.png\" alt=\"multi FLIP\">"),
-            "{html}"
+        assert_contains_all(
+            &html,
+            &[
+                "<code>m&#60;1&#62;.csv</code>",
+                "<td>&#60;script&#62;c|d.obj</td>",
+                "<b>1 not run</b>",
+                "<h3>Size ratio multi / SVO</h3>",
+                // The worst model of depth 4 (b, −1 dB) with its images, relative links.
+                "<div><b>b</b> (12 triangles): ΔPSNR -1.00 dB<br>",
+                "<img src=\"images/b/multi_d4_0_flip.png\" alt=\"multi FLIP\">",
+            ],
         );
         assert!(html.ends_with("</body></html>\n"), "{html}");
     }
