@@ -14,6 +14,7 @@ use sdf_multioctree::{camera_from_model, file_frame, load_mesh, load_octree, mes
 use sdf_multioctree::{Camera, Device, LevelRequest, Mode, RenderSettings, Renderer};
 
 use common::ok as run;
+use common::temp_dir;
 
 /// A box far from the origin with a non-trivial scale (model units [10, 14] × [−3, −1] × [5, 6]),
 /// so that a front-end that skipped the conversion would answer differently.
@@ -27,13 +28,6 @@ fn box_obj(dir: &Path) -> PathBuf {
     p
 }
 
-fn tmp(name: &str) -> tempfile::TempDir {
-    tempfile::Builder::new()
-        .prefix(&format!("sdfmo-frame-{name}-"))
-        .tempdir()
-        .unwrap()
-}
-
 macro_rules! os {
     ($($arg:expr),* $(,)?) => {
         &[$(std::ffi::OsStr::new(&$arg)),*]
@@ -42,7 +36,7 @@ macro_rules! os {
 
 #[test]
 fn distance_in_model_units_is_the_librarys() {
-    let dir = tmp("distance");
+    let dir = temp_dir("frame-distance");
     let obj = box_obj(dir.path());
     let points = [
         [12.0, -2.0, 5.5],
@@ -86,7 +80,7 @@ fn png_rgb(path: &Path) -> Vec<u8> {
 
 #[test]
 fn an_eye_in_model_units_gives_the_librarys_image() {
-    let dir = tmp("render");
+    let dir = temp_dir("frame-render");
     let obj = box_obj(dir.path());
     let smo = dir.path().join("box.smo");
     run(os!["build", obj, "-d", "5", "-o", smo]);

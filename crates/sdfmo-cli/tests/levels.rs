@@ -14,7 +14,7 @@ use sdf_multioctree::{load_octree, Camera, Device, LevelRequest, Mode, Vec3};
 use sdf_multioctree::{RenderSettings, Renderer};
 use serde_json::Value;
 
-use common::{refused, sdfmo, stderr, succeeded};
+use common::{refused, sdfmo, stderr, succeeded, temp_dir};
 
 /// `sdfmo render FILE ARGS --size 40x32 -o PNG --json`: the JSON, stderr and the PNG's bytes.
 fn render(file: &Path, png: &Path, args: &[&str]) -> (Value, String, Vec<u8>) {
@@ -51,10 +51,7 @@ fn list(levels: std::ops::RangeInclusive<u8>) -> Value {
 /// the facade's byte for byte; the note on stderr names the missing levels.
 #[test]
 fn every_level_boundary_prefix_renders_the_levels_it_holds() {
-    let dir = tempfile::Builder::new()
-        .prefix("sdfmo-levels-")
-        .tempdir()
-        .unwrap();
+    let dir = temp_dir("levels");
     let whole = dir.path().join("lod.smo");
     let o = sdfmo(&[
         "build",
@@ -146,10 +143,7 @@ fn every_level_boundary_prefix_renders_the_levels_it_holds() {
 /// error are refused; `render-mesh` has no levels (`null`).
 #[test]
 fn a_file_without_levels_has_its_depth_only() {
-    let dir = tempfile::Builder::new()
-        .prefix("sdfmo-levels-flat-")
-        .tempdir()
-        .unwrap();
+    let dir = temp_dir("levels-flat");
     let smo = dir.path().join("flat.smo");
     let o = sdfmo(&["build", "-d", "5", "-o", &smo.display().to_string()]);
     succeeded(&o, "build");
@@ -193,10 +187,7 @@ fn a_file_without_levels_has_its_depth_only() {
 /// and through `--lod`; `info` describes the blocks; a coarsest level below 2 is refused.
 #[test]
 fn brick_level_prefixes_render_their_levels() {
-    let dir = tempfile::Builder::new()
-        .prefix("sdfmo-levels4-")
-        .tempdir()
-        .unwrap();
+    let dir = temp_dir("levels4");
     let whole = dir.path().join("lod4.smo");
     let w = whole.display().to_string();
     let o = sdfmo(&[

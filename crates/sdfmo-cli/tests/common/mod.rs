@@ -9,6 +9,14 @@ use std::process::{Command, Output};
 /// The binary under test.
 pub const SDFMO: &str = env!("CARGO_BIN_EXE_sdfmo");
 
+/// A fresh temporary folder named `sdfmo-{name}-…`, removed when dropped.
+pub fn temp_dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("sdfmo-{name}-"))
+        .tempdir()
+        .unwrap()
+}
+
 /// Runs `sdfmo` with `args` (`&str`, paths, or a mix through `&dyn AsRef<OsStr>`); stdin
 /// closed, stdout and stderr captured.
 pub fn sdfmo<S: AsRef<OsStr>>(args: &[S]) -> Output {
