@@ -43,6 +43,30 @@ pyo3::create_exception!(
      ValueError; the message names the file and the element."
 );
 
+/// The `ValueError` of an argument `what` given as `given`, which is none of `choices`:
+/// `{what} must be "a", "b" or "c", got "given"`.
+pub fn choice_error(what: &str, choices: &[&str], given: &str) -> PyErr {
+    let quoted: Vec<String> = choices.iter().map(|c| format!("\"{c}\"")).collect();
+    let listed = match quoted.split_last() {
+        Some((last, [])) => last.clone(),
+        Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+        None => String::new(),
+    };
+    PyValueError::new_err(format!("{what} must be {listed}, got {given:?}"))
+}
+
+/// The value `choices` pairs with the name `given` of argument `what`, else its
+/// [`choice_error`].
+pub fn choice<T: Copy>(what: &str, given: &str, choices: &[(&str, T)]) -> PyResult<T> {
+    match choices.iter().find(|(name, _)| *name == given) {
+        Some(&(_, value)) => Ok(value),
+        None => {
+            let names: Vec<&str> = choices.iter().map(|&(name, _)| name).collect();
+            Err(choice_error(what, &names, given))
+        }
+    }
+}
+
 /// The message of an error and its sources, joined with `: ` (each source once).
 pub use sdf_multioctree::error_chain as chain;
 

@@ -25,14 +25,8 @@ use crate::run::{self, Cancel, Cancelled};
 
 /// Parses a `sign=` argument.
 pub fn sign_arg(sign: &str) -> PyResult<SignMode> {
-    match sign {
-        "auto" => Ok(SignMode::Auto),
-        "pseudonormal" => Ok(SignMode::PseudoNormal),
-        "winding" => Ok(SignMode::Winding),
-        other => Err(PyValueError::new_err(format!(
-            "sign must be \"auto\", \"pseudonormal\" or \"winding\", got {other:?}"
-        ))),
-    }
+    let modes = [SignMode::Auto, SignMode::PseudoNormal, SignMode::Winding];
+    errors::choice("sign", sign, &modes.map(|m| (sign_name(m), m)))
 }
 
 /// The name of a resolved sign mode.
@@ -745,11 +739,7 @@ impl Mesh {
                     })?,
             },
             "svo" => Method::Svo,
-            other => {
-                return Err(PyValueError::new_err(format!(
-                    "method must be \"multi\" or \"svo\", got {other:?}"
-                )))
-            }
+            other => return Err(errors::choice_error("method", &["multi", "svo"], other)),
         };
         let bits = match bits {
             8 => ValueBits::Eight,

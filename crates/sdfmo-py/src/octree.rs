@@ -384,15 +384,11 @@ impl Octree {
         kwargs: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let request = level_request(lod, pixel_error)?;
-        let device = match device {
-            "cpu" => Device::Cpu,
-            "gpu" => Device::Gpu,
-            other => {
-                return Err(PyValueError::new_err(format!(
-                    "device must be \"cpu\" or \"gpu\", got {other:?}"
-                )))
-            }
-        };
+        let device = errors::choice(
+            "device",
+            device,
+            &[("cpu", Device::Cpu), ("gpu", Device::Gpu)],
+        )?;
         let call = RenderCall {
             width,
             height,

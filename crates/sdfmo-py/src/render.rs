@@ -10,6 +10,7 @@ use sdf_multioctree::render::{
 };
 
 use crate::arrays;
+use crate::errors;
 use crate::run;
 
 /// How to render an image, given to ``Mesh.render`` and ``Octree.render`` as ``options=``
@@ -70,14 +71,11 @@ impl RenderOptions {
         let ao = ao.unwrap_or(i64::from(defaults.ao_samples));
         let mode = match mode {
             None => defaults.mode,
-            Some(name) => Mode::ALL
-                .into_iter()
-                .find(|m| m.name() == name)
-                .ok_or_else(|| {
-                    PyValueError::new_err(format!(
-                        "mode must be \"lambert\", \"mask\", \"depth\" or \"normal\", got {name:?}"
-                    ))
-                })?,
+            // Listed in the order of the message (Mode::ALL starts with the mask).
+            Some(name) => {
+                let modes = [Mode::Lambert, Mode::Mask, Mode::Depth, Mode::Normal];
+                errors::choice("mode", name, &modes.map(|m| (m.name(), m)))?
+            }
         };
         if !(0..=3).contains(&view) {
             return Err(PyValueError::new_err(format!(
