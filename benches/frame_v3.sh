@@ -7,7 +7,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DATA=${SDFMO_TEST_DATA:-../shared/data}
-cargo build --release -q -p sdfmo-cli -p sdfmo-render --example cpu_frame
+cargo build --release -q -p sdfmo-cli
+cargo build --release -q -p sdfmo-render --example cpu_frame
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
 for m in abc1 abc5; do
