@@ -654,10 +654,11 @@ pub enum SmoLevel<'a> {
     Bricks(&'a BrickOctree),
 }
 
-impl SmoLevel<'_> {
-    /// Depth, quantisation and normalisation transform.
-    pub fn meta(&self) -> &OctreeMeta {
-        match self {
+impl<'a> SmoLevel<'a> {
+    /// Depth, quantisation and normalisation transform (borrowed from the file, not from this
+    /// handle).
+    pub fn meta(&self) -> &'a OctreeMeta {
+        match *self {
             SmoLevel::Octree(o) => o.meta(),
             SmoLevel::Bricks(b) => b.meta(),
         }
@@ -666,6 +667,14 @@ impl SmoLevel<'_> {
     /// Leaves sit at this level.
     pub fn depth(&self) -> u8 {
         self.meta().depth
+    }
+
+    /// Inner nodes plus leaves (of a 3.0 octree, its 1.x octree's: [`BrickOctree::node_count`]).
+    pub fn node_count(&self) -> usize {
+        match self {
+            SmoLevel::Octree(o) => o.node_count(),
+            SmoLevel::Bricks(b) => b.node_count(),
+        }
     }
 
     /// Leaves.

@@ -241,6 +241,20 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
         )
     }
 
+    /// Inner nodes plus leaves of the same octree in the 1.x layout
+    /// ([`Octree::node_count`]), counted without expanding it: the nodes above the bricks,
+    /// the bricks, each brick's occupied half-bricks (its non-zero occupancy bytes) and the
+    /// leaves. One pass over the brick records.
+    pub fn node_count(&self) -> usize {
+        let halves: usize = (0..self.brick_count() as u32)
+            .map(|b| {
+                let occupancy = self.occupancy(b);
+                (0..8).filter(|k| occupancy >> (8 * k) & 0xff != 0).count()
+            })
+            .sum();
+        self.upper_node_count() + self.brick_count() + halves + self.leaf_count()
+    }
+
     /// The occupancy of `brick` (one load).
     #[inline(always)]
     fn occupancy(&self, brick: u32) -> u64 {
@@ -502,6 +516,15 @@ mod tests {
     use super::*;
     use crate::testing::sphere_leaves;
     use crate::{BrickOctreeView, LeafInput, PackedOctree, Voxel};
+
+    /// The node count read from the bricks is the 1.x octree's.
+    #[test]
+    fn node_count_is_the_1x_octrees() {
+        for octree in octrees() {
+            let bricks = BrickOctree::encode(&octree).unwrap();
+            assert_eq!(bricks.node_count(), octree.node_count());
+        }
+    }
 
     /// Spheres at 8 and 16 bits, some leaves with a second (surface, or clip) voxel: bricks of
     /// every residual width and both kinds of leaf.

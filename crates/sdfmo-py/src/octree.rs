@@ -10,12 +10,12 @@ use rayon::prelude::*;
 use sdf_multioctree::build::BuildStats;
 use sdf_multioctree::format::compressed::{compress_with_level, is_compressed};
 use sdf_multioctree::format::{
-    is_brick_levels, is_v3, FormatError, PackedOctree, SmoFile, SmoPrefix, ValueBits,
+    is_brick_levels, is_v3, FormatError, PackedOctree, SmoFile, SmoLevel, SmoPrefix, ValueBits,
     FILE_EXTENSION, MAX_DEPTH, MAX_FILE_SIZE,
 };
 use sdf_multioctree::io::Naming;
 use sdf_multioctree::render::LevelRequest;
-use sdf_multioctree::trace::distance_at;
+use sdf_multioctree::OctreeRef as _;
 use sdf_multioctree::{Device, Renderer};
 
 use crate::arrays;
@@ -47,23 +47,15 @@ impl Octree {
         }
     }
 
-    /// A loaded file, whole or a prefix cut where a level ends. A 3.0 file is held as its 1.x
-    /// octree (`BrickOctree::to_octree`, the same voxels): the package's queries, statistics
-    /// and `save` work on the 1.x layout.
-    fn loaded(mut data: SmoPrefix) -> Octree {
-        if let SmoFile::Bricks(b) = &data.file {
-            data.file = SmoFile::Octree(b.to_octree());
-        }
+    /// A loaded file, whole or a prefix cut where a level ends (a 3.0 file kept as its bricks,
+    /// which the queries and the renderer read in place).
+    fn loaded(data: SmoPrefix) -> Octree {
         Octree { data, stats: None }
     }
 
     /// The finest level held: what `distance`, `depth` and `stats` describe.
-    fn finest(&self) -> &PackedOctree {
-        match &self.data.file {
-            SmoFile::Octree(o) => o,
-            SmoFile::Levels(l) => l.finest(),
-            SmoFile::Bricks(_) => unreachable!("Octree::loaded holds a 3.0 file as 1.x"),
-        }
+    fn finest(&self) -> SmoLevel<'_> {
+        self.data.file.finest()
     }
 
     /// The file of the levels held (a prefix's levels as a file of their own).
@@ -106,8 +98,10 @@ impl Octree {
     /// Loads and validates a ``.smo`` file (header, sizes, checksum, every node and voxel):
     /// one octree, or levels of detail (``sdfmo build --lod``), whole or cut where a level ends
     /// (a download in progress; ``levels`` and ``file_levels`` say what it holds). A 3.0 file
-    /// (``sdfmo build --format 3``, plain or compressed) loads as the 1.x octree it encodes, for
-    /// now: ``to_bytes`` gives that 1.x file. Raises
+    /// (``sdfmo build --format 3``, plain or compressed) is kept as its bricks, which
+    /// ``distance`` and ``render`` read in place (a third to a half of the 1.x octree's
+    /// memory): the same distances and images as the 1.x file; ``to_bytes`` and ``save`` give
+    /// the 3.0 file (decompressed), ``stats`` the same counts as the 1.x octree's. Raises
     /// ``FileNotFoundError`` / ``PermissionError`` / ``IsADirectoryError`` / ``OSError`` when
     /// the file cannot be read and ``sdfmo.FormatError`` when its bytes are not a valid octree
     /// (a file cut inside a level included).
@@ -338,8 +332,8 @@ impl Octree {
                     .with_min_len(256)
                     .for_each(|(k, o)| {
                         let p: Vec3 = frame.point_to_normalized(view.get(start + k));
-                        *o = match distance_at(octree, p) {
-                            Some(s) => frame.length_to_model(s.distance),
+                        *o = match octree.stored_distance(p) {
+                            Some(d) => frame.length_to_model(d),
                             None => f32::NAN,
                         };
                     });

@@ -55,15 +55,23 @@ def test_a_damaged_compressed_file_is_a_format_error(cli, tmp_path):
 
 
 @pytest.mark.parametrize("compress", [False, True])
-def test_a_format_3_file_loads_as_its_1x_octree(cli, tmp_path, compress):
-    # Until the tracers read bricks, a 3.0 file is loaded as the 1.x octree it encodes: the
-    # same 1.x bytes and the same distances as the 1.x build.
-    v1, v3 = tmp_path / "v1.smo", tmp_path / "v3.smo"
+def test_a_format_3_file_is_read_in_place(cli, tmp_path, compress):
+    # A 3.0 file is kept as its bricks (its own bytes, a fraction of the 1.x file's), with the
+    # distances, images and counts of the 1.x build.
+    v1, v3, plain = tmp_path / "v1.smo", tmp_path / "v3.smo", tmp_path / "plain.smo"
     run(cli, "build", "-d", "6", "-o", v1)
     run(cli, "build", "-d", "6", "--format", "3", "-o", v3, *(["--compress"] if compress else []))
+    run(cli, "build", "-d", "6", "--format", "3", "-o", plain)
     assert v3.read_bytes()[:10] != v1.read_bytes()[:10]
     a, b = sdfmo.Octree.load(v1), sdfmo.Octree.load(v3)
-    assert a.to_bytes() == b.to_bytes()
+    assert b.to_bytes() == plain.read_bytes()
+    assert b.nbytes == len(plain.read_bytes()) < a.nbytes
+    b.save(tmp_path / "again.smo")
+    assert (tmp_path / "again.smo").read_bytes() == plain.read_bytes()
+    for key in ("depth", "bits", "nodes", "leaves", "voxels", "surface_voxels", "center", "scale"):
+        assert a.stats[key] == b.stats[key], key
+    assert np.array_equal(a.render(48, 32), b.render(48, 32))
+    assert np.array_equal(a.render(48, 32, mode="depth"), b.render(48, 32, mode="depth"))
     points = np.random.default_rng(34).uniform(-1.2, 1.2, size=(2000, 3)).astype(np.float32)
     # (Points outside the octree are NaN in both.)
     assert np.array_equal(a.distance(points), b.distance(points), equal_nan=True)
