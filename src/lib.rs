@@ -680,7 +680,7 @@ pub fn file_frame(file: &SmoFile) -> mesh::Normalization {
 /// One octree as [`octree_frame`] and [`octree_distance`] take it, in any layout: a 1.x
 /// octree (`&`[`PackedOctree`], or any `&`[`format::Octree`]), a 3.0 one
 /// (`&`[`format::BrickOctree`]), or a level of a loaded file ([`format::SmoLevel`], what
-/// [`SmoFile::finest`] and [`SmoFile::level`] give). Implemented for these only.
+/// [`SmoFile::finest`] and [`SmoFile::level`] give).
 ///
 /// ```
 /// use sdf_multioctree::format::BrickOctree;
@@ -705,19 +705,11 @@ pub trait OctreeRef: Copy {
     fn stored_distance(&self, p: Vec3) -> Option<f32>;
 }
 
-impl<B: AsRef<[u8]>> OctreeRef for &format::Octree<B> {
+/// Both layouts the tracers read ([`format::TracedOctree`]: the 1.x `Octree`, the 3.0
+/// `BrickOctree`).
+impl<O: format::TracedOctree> OctreeRef for &O {
     fn meta(&self) -> &format::OctreeMeta {
-        format::Octree::meta(self)
-    }
-
-    fn stored_distance(&self, p: Vec3) -> Option<f32> {
-        trace::distance_at(*self, p).map(|s| s.distance)
-    }
-}
-
-impl<B: AsRef<[u8]>> OctreeRef for &format::BrickOctree<B> {
-    fn meta(&self) -> &format::OctreeMeta {
-        format::BrickOctree::meta(self)
+        format::TracedOctree::meta(*self)
     }
 
     fn stored_distance(&self, p: Vec3) -> Option<f32> {

@@ -36,8 +36,13 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
     let mut renderer = open_renderer(args, device)?;
     // Header first (a FIFO or device is refused unopened, a compressed file decoded); a 3.0
     // file is kept as its bricks, which either device traces as they are.
-    let data = SmoFile::load_prefix(&args.octree, renderer.max_file_bytes())
-        .map_err(|e| load_error(args, e))?;
+    let data =
+        SmoFile::load_prefix(&args.octree, renderer.max_file_bytes()).map_err(|e| match e {
+            // I/O errors name the file already; format errors do not.
+            FormatError::Io(io) => anyhow::Error::new(io),
+            e => anyhow::Error::new(e)
+                .context(format!("cannot load octree {}", args.octree.display())),
+        })?;
     let request = match (args.lod, args.pixel_error) {
         (Some(level), _) => LevelRequest::Level(level),
         (None, Some(pixels)) => LevelRequest::PixelError(pixels),
@@ -72,11 +77,10 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
         request,
     };
     let device_name = renderer.device_name().to_owned();
-    let timing = renderer.gpu().map(|g| g.timing().name());
     let by = RenderedBy {
         source: &source,
         device: &device_name,
-        timing,
+        timing: renderer.gpu().map(|g| g.timing().name()),
         levels: Some(levels),
     };
     // Errors on a GPU name its adapter.
@@ -97,14 +101,6 @@ pub fn run_octree(args: &RenderArgs) -> anyhow::Result<()> {
             .with_context(|| format!("cannot render {source}{on}"))
     };
     render_all(&mut view, &by, &args.opts, &frame, &outputs)
-}
-
-/// A load error: I/O errors name the file already; format errors do not.
-fn load_error(args: &RenderArgs, e: FormatError) -> anyhow::Error {
-    match e {
-        FormatError::Io(io) => anyhow::Error::new(io),
-        e => anyhow::Error::new(e).context(format!("cannot load octree {}", args.octree.display())),
-    }
 }
 
 /// "levels 6-8", or "level 8" for one.
