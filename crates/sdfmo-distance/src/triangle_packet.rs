@@ -130,6 +130,147 @@ impl TrianglePacket {
     }
 }
 
+/// Two packets at once in 256-bit AVX lanes (a leaf holds up to eight triangles, two packets):
+/// the same operations in the same order as [`TrianglePacket::any_box_within`] and
+/// [`TrianglePacket::dist2_or_zero`], so every lane's bits are those of the 4-wide code (IEEE
+/// add, multiply, divide, min, max and ordered compares round alike at any width; no FMA).
+/// Called only where `is_x86_feature_detected!("avx")` said yes.
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod avx {
+    use std::arch::x86_64::*;
+
+    use glam::{Vec3, Vec4};
+
+    use super::TrianglePacket;
+
+    /// Lanes 0–3 from `lo`, 4–7 from `hi`.
+    #[inline]
+    #[target_feature(enable = "avx")]
+    fn join(lo: Vec4, hi: Vec4) -> __m256 {
+        _mm256_set_m128(hi.into(), lo.into())
+    }
+
+    /// The two packets' corners, eight lanes per coordinate.
+    struct Pair {
+        a: [__m256; 3],
+        b: [__m256; 3],
+        c: [__m256; 3],
+    }
+
+    impl Pair {
+        #[inline]
+        #[target_feature(enable = "avx")]
+        fn new(lo: &TrianglePacket, hi: &TrianglePacket) -> Pair {
+            let both = |x: &[Vec4; 3], y: &[Vec4; 3]| {
+                [join(x[0], y[0]), join(x[1], y[1]), join(x[2], y[2])]
+            };
+            Pair {
+                a: both(&lo.a, &hi.a),
+                b: both(&lo.b, &hi.b),
+                c: both(&lo.c, &hi.c),
+            }
+        }
+    }
+
+    /// Bit `i` set: lane `i`'s triangle box lies within squared distance `bound` of `p`
+    /// ([`TrianglePacket::any_box_within`] per lane; lanes 4–7 are `hi`'s).
+    #[inline]
+    #[target_feature(enable = "avx")]
+    pub(crate) fn boxes_within(
+        lo: &TrianglePacket,
+        hi: &TrianglePacket,
+        p: Vec3,
+        bound: f32,
+    ) -> u32 {
+        let t = Pair::new(lo, hi);
+        let axis = |k: usize, v: f32| {
+            let lo = _mm256_min_ps(_mm256_min_ps(t.a[k], t.b[k]), t.c[k]);
+            let hi = _mm256_max_ps(_mm256_max_ps(t.a[k], t.b[k]), t.c[k]);
+            let v = _mm256_set1_ps(v);
+            let d = _mm256_max_ps(
+                _mm256_max_ps(_mm256_sub_ps(lo, v), _mm256_sub_ps(v, hi)),
+                _mm256_setzero_ps(),
+            );
+            _mm256_mul_ps(d, d)
+        };
+        let d2 = _mm256_add_ps(_mm256_add_ps(axis(0, p.x), axis(1, p.y)), axis(2, p.z));
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(d2, _mm256_set1_ps(bound))) as u32
+    }
+
+    /// [`TrianglePacket::dist2_or_zero`] of both packets: lanes 0–3 `lo`'s, 4–7 `hi`'s.
+    #[inline]
+    #[target_feature(enable = "avx")]
+    pub(crate) fn dist2_or_zero(lo: &TrianglePacket, hi: &TrianglePacket, p: Vec3) -> [f32; 8] {
+        let t = Pair::new(lo, hi);
+        let [ax, ay, az] = t.a;
+        let [bx, by, bz] = t.b;
+        let [cx, cy, cz] = t.c;
+        let add = |x, y| _mm256_add_ps(x, y);
+        let sub = |x, y| _mm256_sub_ps(x, y);
+        let mul = |x, y| _mm256_mul_ps(x, y);
+        let le = |x, y| _mm256_cmp_ps::<_CMP_LE_OQ>(x, y);
+        let ge = |x, y| _mm256_cmp_ps::<_CMP_GE_OQ>(x, y);
+        let and = |x, y| _mm256_and_ps(x, y);
+        let select = |mask, x, y| _mm256_blendv_ps(y, x, mask);
+        let (px, py, pz) = (
+            _mm256_set1_ps(p.x),
+            _mm256_set1_ps(p.y),
+            _mm256_set1_ps(p.z),
+        );
+        // glam's scalar Vec3::dot: (x·x' + y·y') + z·z', left to right.
+        let dot = |x, y, z, u, v, w| add(add(mul(x, u), mul(y, v)), mul(z, w));
+        let (abx, aby, abz) = (sub(bx, ax), sub(by, ay), sub(bz, az));
+        let (acx, acy, acz) = (sub(cx, ax), sub(cy, ay), sub(cz, az));
+        let (apx, apy, apz) = (sub(px, ax), sub(py, ay), sub(pz, az));
+        let d1 = dot(abx, aby, abz, apx, apy, apz);
+        let d2 = dot(acx, acy, acz, apx, apy, apz);
+        let (bpx, bpy, bpz) = (sub(px, bx), sub(py, by), sub(pz, bz));
+        let d3 = dot(abx, aby, abz, bpx, bpy, bpz);
+        let d4 = dot(acx, acy, acz, bpx, bpy, bpz);
+        let (cpx, cpy, cpz) = (sub(px, cx), sub(py, cy), sub(pz, cz));
+        let d5 = dot(abx, aby, abz, cpx, cpy, cpz);
+        let d6 = dot(acx, acy, acz, cpx, cpy, cpz);
+        let vc = sub(mul(d1, d4), mul(d3, d2));
+        let vb = sub(mul(d5, d2), mul(d1, d6));
+        let va = sub(mul(d3, d6), mul(d5, d4));
+        let e4 = sub(d4, d3);
+        let e5 = sub(d5, d6);
+        let zero = _mm256_setzero_ps();
+        let on_edge = |out, inside, o: [__m256; 3], e: [__m256; 3], num, den| {
+            let t = _mm256_div_ps(num, den);
+            let (dx, dy, dz) = (
+                sub(px, add(o[0], mul(e[0], t))),
+                sub(py, add(o[1], mul(e[1], t))),
+                sub(pz, add(o[2], mul(e[2], t))),
+            );
+            let d2 = select(
+                _mm256_cmp_ps::<_CMP_GT_OQ>(den, zero),
+                dot(dx, dy, dz, dx, dy, dz),
+                zero,
+            );
+            select(inside, d2, out)
+        };
+        let mut out = zero;
+        let cb = [sub(cx, bx), sub(cy, by), sub(cz, bz)];
+        let in_bc = and(and(le(va, zero), ge(e4, zero)), ge(e5, zero));
+        out = on_edge(out, in_bc, t.b, cb, e4, add(e4, e5));
+        let in_ca = and(and(le(vb, zero), ge(d2, zero)), le(d6, zero));
+        out = on_edge(out, in_ca, t.a, [acx, acy, acz], d2, sub(d2, d6));
+        let in_c = and(ge(d6, zero), le(d5, d6));
+        out = select(in_c, dot(cpx, cpy, cpz, cpx, cpy, cpz), out);
+        let in_ab = and(and(le(vc, zero), ge(d1, zero)), le(d3, zero));
+        out = on_edge(out, in_ab, t.a, [abx, aby, abz], d1, sub(d1, d3));
+        let in_b = and(ge(d3, zero), le(d4, d3));
+        out = select(in_b, dot(bpx, bpy, bpz, bpx, bpy, bpz), out);
+        let in_a = and(le(d1, zero), le(d2, zero));
+        out = select(in_a, dot(apx, apy, apz, apx, apy, apz), out);
+        let mut lanes = [0.0f32; 8];
+        // SAFETY: `lanes` is 8 writable f32s; the store is unaligned.
+        unsafe { _mm256_storeu_ps(lanes.as_mut_ptr(), out) };
+        lanes
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -180,6 +321,38 @@ mod tests {
                     prop_assert_eq!(got, 0.0);
                 }
             }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+        /// The 8-wide AVX pass gives each packet's lanes to the bit and the same box verdicts
+        /// as the 4-wide code (on a CPU without AVX the search never calls it).
+        #[cfg(target_arch = "x86_64")]
+        #[test]
+        fn avx_pairs_match_the_4_wide_code(
+            lo in prop::collection::vec((point(), point(), point()), 1..=4),
+            hi in prop::collection::vec((point(), point(), point()), 1..=4),
+            p in point(),
+            bound in prop_oneof![0.0f32..4.0, Just(f32::INFINITY)],
+        ) {
+            if !std::is_x86_feature_detected!("avx") {
+                return Ok(());
+            }
+            let pack = |t: &[(Vec3, Vec3, Vec3)]| {
+                TrianglePacket::new(&t.iter().map(|&(a, b, c)| [a, b, c]).collect::<Vec<_>>())
+            };
+            let (lo, hi) = (pack(&lo), pack(&hi));
+            // SAFETY: AVX was detected above.
+            let (lanes, boxes) = unsafe {
+                (avx::dist2_or_zero(&lo, &hi, p), avx::boxes_within(&lo, &hi, p, bound))
+            };
+            let four = [lo.dist2_or_zero(p).to_array(), hi.dist2_or_zero(p).to_array()].concat();
+            for (lane, (x, y)) in lanes.iter().zip(&four).enumerate() {
+                prop_assert_eq!(x.to_bits(), y.to_bits(), "lane {}", lane);
+            }
+            prop_assert_eq!(boxes & 0xF != 0, lo.any_box_within(p, bound));
+            prop_assert_eq!(boxes & 0xF0 != 0, hi.any_box_within(p, bound));
         }
     }
 
