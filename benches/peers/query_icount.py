@@ -26,8 +26,9 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 
 
-def child(mesh, peer, n, total):
-    """Runs `peer` on the first n of `total` points (inside valgrind)."""
+def child(mesh, peer, n, total, warm):
+    """Runs `peer` on the first n of `total` points (inside valgrind); with `warm`, on all
+    `total` points first (in both runs, so it cancels: the steady state, one-time data made)."""
     import numpy as np
 
     sys.path.insert(0, str(HERE))
@@ -40,28 +41,32 @@ def child(mesh, peer, n, total):
     setup, query, *_ = python_sdf.peers(m.vertices, m.faces)[peer]
     state = setup()
     query(state, pts32[:1])
+    if warm:
+        query(state, pts32)
     query(state, pts32[:n])
 
 
-def instructions(mesh, peer, n, total):
-    """callgrind's total instruction count of `child(mesh, peer, n, total)`."""
+def instructions(mesh, peer, n, total, warm):
+    """callgrind's total instruction count of `child(mesh, peer, n, total, warm)`."""
     run = subprocess.run(
         ["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", sys.executable,
-         __file__, "--child", mesh, peer, str(n), str(total)],
+         __file__, "--child", mesh, peer, str(n), str(total), str(int(warm))],
         capture_output=True, text=True, env={**os.environ, "OMP_NUM_THREADS": "1"}, check=True)
     return int(re.search(r"Collected : (\d+)", run.stderr).group(1))
 
 
 def main():
     if len(sys.argv) > 1 and sys.argv[1] == "--child":
-        mesh, peer, n, total = sys.argv[2:6]
-        child(mesh, peer, int(n), int(total))
+        mesh, peer, n, total, warm = sys.argv[2:7]
+        child(mesh, peer, int(n), int(total), warm == "1")
         return
     ap = argparse.ArgumentParser()
     ap.add_argument("meshes", nargs="+")
     ap.add_argument("--peers", default="sdfmo (auto sign),FCPW unsigned",
                     help="comma-separated peer names of python_sdf.py")
     ap.add_argument("--points", type=int, default=5000)
+    ap.add_argument("--warm", action="store_true",
+                    help="the steady state: both runs query all 2N points first (see child)")
     a = ap.parse_args()
     peers = a.peers.split(",")
     print("| mesh | " + " | ".join(f"{p}: instructions/point" for p in peers) + " |")
@@ -69,8 +74,8 @@ def main():
     for mesh in a.meshes:
         row = []
         for peer in peers:
-            once = instructions(mesh, peer, a.points, 2 * a.points)
-            twice = instructions(mesh, peer, 2 * a.points, 2 * a.points)
+            once = instructions(mesh, peer, a.points, 2 * a.points, a.warm)
+            twice = instructions(mesh, peer, 2 * a.points, 2 * a.points, a.warm)
             row.append(f"{(twice - once) / a.points:,.0f}")
         print(f"| {Path(mesh).name} | " + " | ".join(row) + " |", flush=True)
 
