@@ -26,13 +26,17 @@ use glam::Vec3;
 use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
 use crate::header::{
-    align8, field_in, plane_fraction_bits, residual_widths, BrickRecord, Counts, V3Header,
-    BRICK_LEVELS, BRICK_POINT_EDGE, BRICK_RECORD_FIELDS, BRICK_RECORD_SIZE, CHECKSUM_SIZE,
-    FLAG_CLIP_VOXELS, FLAG_MULTI_VOXEL, FLAG_SURFACE_VOXELS, KNOWN_FLAGS, MAGIC,
-    RESIDUAL_OFFSET_BITS, V3_HEADER_SIZE, V3_VERSION_MAJOR, V3_VERSION_MINOR,
+    align8, field_in, plane_fraction_bits, private_group_leaves, private_group_size,
+    residual_widths, BrickRecord, Counts, V3Header, BRICK_LEVELS, BRICK_POINT_EDGE,
+    BRICK_RECORD_FIELDS, BRICK_RECORD_SIZE, CHECKSUM_SIZE, FLAG_CLIP_VOXELS, FLAG_MULTI_VOXEL,
+    FLAG_SURFACE_VOXELS, KNOWN_FLAGS, MAGIC, RESIDUAL_OFFSET_BITS, V31_MAX_LEAF_VOXELS,
+    V3_HEADER_SIZE, V3_VERSION_MAJOR, V3_VERSION_MINOR,
+};
+use crate::narrow::{
+    corner_offset, fits_narrow, private_codes, private_leaf_at, put_narrow, slots, WIDE_BIT,
 };
 use crate::octree::{
-    byte_sum, bytes_at, group_at, inner_levels, low_bits, put_group, to_u32, write_node_groups,
+    bytes_at, group_at, inner_levels, low_bits, put_group, to_u32, write_node_groups,
 };
 use crate::quant::{dequant_scale, max_code};
 use crate::validate::{
@@ -199,12 +203,47 @@ struct V3Counts {
     clip: u32,
     private_leaves: u32,
     private_voxels: u32,
+    /// Minor version: 0 (every private voxel wide, groups of 8) or 1 (groups of 16).
+    minor: u16,
+    /// Wide private voxels (all of them in 3.0); in 3.1 implied by the private corners' size.
+    wide_voxels: u32,
 }
 
 impl V3Counts {
-    /// The counts `h` declares (not yet checked against anything).
-    fn declared_by(h: &V3Header) -> V3Counts {
-        V3Counts {
+    /// The counts `h` declares (not yet checked against anything but the minor version, and
+    /// in 3.1 that the private corners' size is `6·b·W + 2·b·X` for some `X ≤ W`: the wide
+    /// voxels).
+    fn declared_by(h: &V3Header, bits: ValueBits) -> Result<V3Counts> {
+        if h.version_minor > V3_VERSION_MINOR {
+            return Err(FormatError::UnsupportedVersion {
+                major: h.version_major,
+                minor: h.version_minor,
+                supported: V3_VERSION_MAJOR,
+            });
+        }
+        let w = u64::from(h.private_voxel_count);
+        let unit = 2 * bits.bytes() as u64;
+        let wide_voxels = if h.version_minor == 0 {
+            h.private_voxel_count
+        } else {
+            let narrow = 3 * unit * w;
+            let extra = h.private_corners_size.checked_sub(narrow);
+            match extra {
+                Some(x) if x % unit == 0 && x / unit <= w => (x / unit) as u32,
+                _ => {
+                    return corrupt(
+                        "private_corners_size",
+                        format!(
+                            "{} is not {narrow} + {unit}·(wide voxels ≤ {w})",
+                            h.private_corners_size
+                        ),
+                    )
+                }
+            }
+        };
+        Ok(V3Counts {
+            minor: h.version_minor,
+            wide_voxels,
             upper: h.upper_node_count,
             bricks: h.brick_count,
             leaves: h.leaf_count,
@@ -213,7 +252,7 @@ impl V3Counts {
             clip: h.clip_voxel_count,
             private_leaves: h.private_leaf_count,
             private_voxels: h.private_voxel_count,
-        }
+        })
     }
 
     fn flags(&self) -> u32 {
@@ -249,10 +288,12 @@ impl V3Layout {
             u64::from(c.upper).div_ceil(8) * 12,
             u64::from(c.bricks) * BRICK_RECORD_SIZE as u64,
             residual_bytes,
-            u64::from(c.private_leaves).div_ceil(8) * 12,
+            u64::from(c.private_leaves).div_ceil(private_group_leaves(c.minor) as u64)
+                * private_group_size(c.minor) as u64,
             // Two flag bits per private voxel, in whole 64-bit words.
             u64::from(c.private_voxels).div_ceil(32) * 8,
-            u64::from(c.private_voxels) * 8 * bits.bytes() as u64,
+            // 6·b bytes per private voxel and 2·b more per wide one (3.0: all wide).
+            (3 * u64::from(c.private_voxels) + u64::from(c.wide_voxels)) * 2 * bits.bytes() as u64,
         ];
         let mut at = align8(header_size);
         let mut s = [(0u64, 0u64); 6];
@@ -333,6 +374,10 @@ pub struct BrickLeaf {
     count: u8,
     /// Index of the private leaf's first private voxel (0 for a shared leaf).
     first_voxel: u32,
+    /// Wide private voxels before the leaf's first (0 for a shared leaf).
+    wide_before: u32,
+    /// Whether the private leaf's voxels are stored whole (3.0: always).
+    wide: bool,
 }
 
 impl BrickLeaf {
@@ -547,8 +592,18 @@ pub(crate) fn gather_bricks<B: AsRef<[u8]>>(
 }
 
 impl BrickOctree<Vec<u8>> {
-    /// Writes `octree` (a 1.x octree) as a 3.0 brick file, losslessly: every voxel's codes
-    /// and flags read back as `octree` has them.
+    /// Writes `octree` (a 1.x octree) as a 3.1 brick file ([`V3_VERSION_MINOR`]), or as 3.0
+    /// when a private leaf holds more than [`V31_MAX_LEAF_VOXELS`] voxels, losslessly: every
+    /// voxel's codes and flags read back as `octree` has them. See
+    /// [`encode_minor`](Self::encode_minor).
+    ///
+    /// Errors: as [`encode_minor`](Self::encode_minor).
+    pub fn encode<B: AsRef<[u8]>>(octree: &Octree<B>) -> Result<BrickOctree> {
+        Self::encode_with(octree, None)
+    }
+
+    /// Writes `octree` (a 1.x octree) as a 3.x brick file of minor version `minor` (0 or 1),
+    /// losslessly: every voxel's codes and flags read back as `octree` has them.
     ///
     /// A leaf is *shared* when it holds one volume voxel (not surface, not clip) whose eight
     /// codes agree with every code the brick's earlier shared leaves (in Morton order) put at
@@ -557,9 +612,25 @@ impl BrickOctree<Vec<u8>> {
     /// (see [`residual_widths`](crate::residual_widths)). Deterministic: the same octree gives
     /// the same bytes.
     ///
-    /// Errors: [`FormatError::Unrepresentable`] for a depth below 2 or more than 1 GiB of
-    /// residuals; [`FormatError::TooLarge`] when a count overflows 32 bits.
-    pub fn encode<B: AsRef<[u8]>>(octree: &Octree<B>) -> Result<BrickOctree> {
+    /// In 3.1 a private leaf whose every voxel's mixed differences fit half-width fields is
+    /// *narrow* (each voxel `6·b` bytes instead of `8·b`), the others *wide*.
+    ///
+    /// Errors: [`FormatError::Unrepresentable`] for a depth below 2, more than 1 GiB of
+    /// residuals, a minor version other than 0 or 1, or at minor 1 a private leaf of more than
+    /// [`V31_MAX_LEAF_VOXELS`] voxels; [`FormatError::TooLarge`] when a count overflows 32 bits.
+    pub fn encode_minor<B: AsRef<[u8]>>(octree: &Octree<B>, minor: u16) -> Result<BrickOctree> {
+        if minor > V3_VERSION_MINOR {
+            return Err(FormatError::Unrepresentable {
+                major: V3_VERSION_MAJOR,
+                reason: format!("minor version {minor} (this writer knows 0 and 1)"),
+            });
+        }
+        Self::encode_with(octree, Some(minor))
+    }
+
+    /// [`encode_minor`](Self::encode_minor) at `minor`, or when `None` the newest minor that
+    /// holds the octree.
+    fn encode_with<B: AsRef<[u8]>>(octree: &Octree<B>, minor: Option<u16>) -> Result<BrickOctree> {
         let meta = *octree.meta();
         let bits = meta.bits;
         let depth = meta.depth;
@@ -570,6 +641,35 @@ impl BrickOctree<Vec<u8>> {
             });
         }
         let (bricks, private_leaves) = gather_bricks(octree);
+        let largest = private_leaves.iter().map(|r| r.len()).max().unwrap_or(0);
+        let minor = match minor {
+            Some(1) if largest > V31_MAX_LEAF_VOXELS => {
+                return Err(FormatError::Unrepresentable {
+                    major: V3_VERSION_MAJOR,
+                    reason: format!(
+                        "a private leaf of {largest} voxels in 3.1 (at most {V31_MAX_LEAF_VOXELS})"
+                    ),
+                })
+            }
+            Some(m) => m,
+            None if largest > V31_MAX_LEAF_VOXELS => 0,
+            None => V3_VERSION_MINOR,
+        };
+        // Which private leaves are narrow: in 3.1, those whose every voxel fits.
+        let narrow: Vec<bool> = private_leaves
+            .iter()
+            .map(|r| {
+                minor > 0
+                    && r.clone()
+                        .all(|v| fits_narrow(octree.voxel_codes(v).map(i32::from), bits))
+            })
+            .collect();
+        let wide_voxels: u64 = private_leaves
+            .iter()
+            .zip(&narrow)
+            .filter(|(_, &n)| !n)
+            .map(|(r, _)| r.len() as u64)
+            .sum();
 
         // Planes, widths and residuals, brick by brick.
         let mut records = Vec::with_capacity(bricks.len());
@@ -618,6 +718,8 @@ impl BrickOctree<Vec<u8>> {
             clip: octree.clip_voxel_count() as u32,
             private_leaves: to_u32(private_leaves.len() as u64, "private leaves")?,
             private_voxels: to_u32(private_voxels, "private voxels")?,
+            minor,
+            wide_voxels: wide_voxels as u32,
             ..V3Counts::default()
         };
         let levels = inner_levels(
@@ -649,29 +751,46 @@ impl BrickOctree<Vec<u8>> {
 
         // Private leaf groups, flags and corners, in Morton order.
         let code_bytes = bits.bytes();
-        let mut voxel = 0u32;
-        for (g, group) in private_leaves.chunks(8).enumerate() {
-            let mut counts8 = [0u8; 8];
-            for (slot, range) in group.iter().enumerate() {
-                counts8[slot] = range.len() as u8; // 1..=255 in a valid 1.x octree
-            }
-            put_group(
-                &mut out,
-                layout.private_leaves.0 as usize + 12 * g,
-                voxel,
-                counts8,
-            );
-            for v in group.iter().flat_map(|r| r.clone()) {
-                let flags =
-                    u8::from(octree.voxel_is_surface(v)) | u8::from(octree.voxel_is_clip(v)) << 1;
-                let bit = 2 * voxel as usize;
-                out[layout.private_flags.0 as usize + bit / 8] |= flags << (bit % 8);
-                let at = layout.private_corners.0 as usize + voxel as usize * 8 * code_bytes;
-                for (k, c) in octree.voxel_codes(v).into_iter().enumerate() {
-                    let at = at + k * code_bytes;
-                    out[at..at + code_bytes].copy_from_slice(&c.to_le_bytes()[..code_bytes]);
+        let (per_group, group_size) = (private_group_leaves(minor), private_group_size(minor));
+        let (mut voxel, mut wide_before) = (0u32, 0u32);
+        for (g, group) in private_leaves.chunks(per_group).enumerate() {
+            let at = layout.private_leaves.0 as usize + group_size * g;
+            let narrow = &narrow[g * per_group..g * per_group + group.len()];
+            if minor == 0 {
+                let mut counts8 = [0u8; 8];
+                for (slot, range) in group.iter().enumerate() {
+                    counts8[slot] = range.len() as u8; // 1..=255 in a valid 1.x octree
                 }
-                voxel += 1;
+                put_group(&mut out, at, voxel, counts8);
+            } else {
+                out[at..at + 4].copy_from_slice(&voxel.to_le_bytes());
+                out[at + 4..at + 8].copy_from_slice(&wide_before.to_le_bytes());
+                for (slot, (range, &n)) in group.iter().zip(narrow).enumerate() {
+                    // 1..=127, checked above.
+                    out[at + 8 + slot] = range.len() as u8 | if n { 0 } else { WIDE_BIT };
+                }
+            }
+            for (range, &n) in group.iter().zip(narrow) {
+                for v in range.clone() {
+                    let flags = u8::from(octree.voxel_is_surface(v))
+                        | u8::from(octree.voxel_is_clip(v)) << 1;
+                    let bit = 2 * voxel as usize;
+                    out[layout.private_flags.0 as usize + bit / 8] |= flags << (bit % 8);
+                    let at =
+                        layout.private_corners.0 as usize + corner_offset(voxel, wide_before, bits);
+                    let codes = octree.voxel_codes(v);
+                    if n {
+                        put_narrow(&mut out[at..], codes.map(i32::from), bits);
+                    } else {
+                        for (k, c) in codes.into_iter().enumerate() {
+                            let at = at + k * code_bytes;
+                            out[at..at + code_bytes]
+                                .copy_from_slice(&c.to_le_bytes()[..code_bytes]);
+                        }
+                        wide_before += 1;
+                    }
+                    voxel += 1;
+                }
             }
         }
         let crc_at = file_size - CHECKSUM_SIZE;
@@ -687,12 +806,12 @@ impl BrickOctree<Vec<u8>> {
     }
 }
 
-/// The header the writer puts in front of a 3.0 file.
+/// The header the writer puts in front of a 3.x file.
 fn header(meta: &OctreeMeta, c: &V3Counts, l: &V3Layout) -> V3Header {
     V3Header {
         magic: MAGIC,
         version_major: V3_VERSION_MAJOR,
-        version_minor: V3_VERSION_MINOR,
+        version_minor: c.minor,
         header_size: V3_HEADER_SIZE as u32,
         flags: c.flags(),
         depth: meta.depth,
@@ -731,10 +850,16 @@ fn header(meta: &OctreeMeta, c: &V3Counts, l: &V3Layout) -> V3Header {
 pub(crate) struct V3Sections {
     /// Code width.
     pub(crate) bits: ValueBits,
+    /// Minor version (0 or 1): the private leaf groups' and corners' layout.
+    pub(crate) minor: u16,
     /// Node groups above the bricks: how many nodes.
     pub(crate) upper: u32,
     /// Private leaves: how many.
     pub(crate) private_leaves: u32,
+    /// Private voxels: how many.
+    pub(crate) private_voxels: u32,
+    /// Wide private voxels (3.0: all).
+    pub(crate) wide_voxels: u32,
     /// `(offset, size)` of nodes, bricks, residuals, private leaves, private flags and private
     /// corners, in file order.
     pub(crate) sections: [(u64, u64); 6],
@@ -762,7 +887,7 @@ pub(crate) fn v3_sections(header: &[u8], max_file: u64) -> Result<V3Sections> {
             ),
         );
     }
-    let c = V3Counts::declared_by(&h);
+    let c = V3Counts::declared_by(&h, bits)?;
     let layout = V3Layout::new(V3_HEADER_SIZE as u64, &c, h.residuals_size, bits);
     let declared = [
         (h.nodes_offset, h.nodes_size),
@@ -786,8 +911,11 @@ pub(crate) fn v3_sections(header: &[u8], max_file: u64) -> Result<V3Sections> {
     }
     Ok(V3Sections {
         bits,
+        minor: c.minor,
         upper: c.upper,
         private_leaves: c.private_leaves,
+        private_voxels: c.private_voxels,
+        wide_voxels: c.wide_voxels,
         sections: layout.sections(),
         file_size: layout.file_size,
     })
@@ -979,8 +1107,10 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
             private_leaves: self.layout.private_leaves.0 as usize,
             private_flags: self.layout.private_flags.0 as usize,
             private_corners: self.layout.private_corners.0 as usize,
+            minor: self.counts.minor,
             brick_count: self.counts.bricks,
             private_voxels: self.counts.private_voxels,
+            wide_voxels: self.counts.wide_voxels,
             clip: self.counts.clip,
         }
     }
@@ -1017,17 +1147,24 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
                 cell,
                 count: 0,
                 first_voxel: 0,
+                wide_before: 0,
+                wide: false,
             });
         }
         let j = r.first_private_leaf + low_bits(r.private, u32::from(cell)).count_ones();
-        let at = self.layout.private_leaves.0 as usize + (j as usize >> 3) * 12;
-        let (first, counts) = group_at(self.as_bytes(), at);
-        let shift = (j & 7) * 8;
+        let span = private_leaf_at(
+            self.as_bytes(),
+            self.layout.private_leaves.0 as usize,
+            self.counts.minor,
+            j,
+        );
         Some(BrickLeaf {
             brick,
             cell,
-            count: (counts >> shift) as u8,
-            first_voxel: first + byte_sum(low_bits(counts, shift)),
+            count: span.count as u8,
+            first_voxel: span.first,
+            wide_before: span.wide_before,
+            wide: span.wide,
         })
     }
 
@@ -1061,14 +1198,10 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
                 v < self.counts.private_voxels as usize,
                 "voxel {v} out of range"
             );
-            let at = self.layout.private_corners.0 as usize;
-            return match bits {
-                ValueBits::Eight => bytes_at::<8>(b, at + v * 8).map(|c| i16::from(c as i8)),
-                ValueBits::Sixteen => {
-                    let c = bytes_at::<16>(b, at + v * 16);
-                    std::array::from_fn(|i| i16::from_le_bytes([c[2 * i], c[2 * i + 1]]))
-                }
-            };
+            let wide_before = leaf.wide_before + if leaf.wide { k } else { 0 };
+            let at =
+                self.layout.private_corners.0 as usize + corner_offset(v as u32, wide_before, bits);
+            return private_codes(b, at, leaf.wide, bits).map(|c| c as i16);
         }
         let r = self.brick(leaf.brick);
         let points = point_mask(r.shared());
@@ -1236,6 +1369,20 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
         PackedOctree::from_leaves(self.meta, leaves).expect("a valid 3.0 file is a valid octree")
     }
 
+    /// The file's minor version: 0 (every private voxel stored whole) or 1 (narrow private
+    /// voxels, `FORMAT.md` "Narrow private voxels (version 3.1)").
+    #[inline]
+    pub fn version_minor(&self) -> u16 {
+        self.counts.minor
+    }
+
+    /// Private voxels stored whole (*wide*): all of them in a 3.0 file; in 3.1 those of the
+    /// private leaves whose mixed differences do not all fit.
+    #[inline]
+    pub fn wide_voxel_count(&self) -> usize {
+        self.counts.wide_voxels as usize
+    }
+
     /// Bytes per section of the file.
     pub fn section_sizes(&self) -> BrickSectionSizes {
         let l = &self.layout;
@@ -1375,7 +1522,7 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, V3Counts, V3Layout)> {
         center,
         scale: h.scale,
     };
-    let c = V3Counts::declared_by(&h);
+    let c = V3Counts::declared_by(&h, bits)?;
     let (upper, bricks, leaves) = (u64::from(c.upper), u64::from(c.bricks), u64::from(c.leaves));
     let (pl, pv) = (u64::from(c.private_leaves), u64::from(c.private_voxels));
     if upper + bricks > u64::from(u32::MAX) {
@@ -1487,6 +1634,11 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, V3Counts, V3Layout)> {
     validate_node_groups(section(layout.nodes), top, c.upper, c.bricks)?;
     validate_bricks(section(layout.bricks), section(layout.residuals), &c, bits)?;
     let private_leaves = section(layout.private_leaves);
+    if c.minor > 0 {
+        validate_private_v31(private_leaves, section(layout.private_corners), &c, bits)?;
+        validate_flags(section(layout.private_flags), private_leaves, &c)?;
+        return Ok((meta, c, layout));
+    }
     let total = walk_groups(
         "private_leaves",
         private_leaves,
@@ -1615,6 +1767,79 @@ fn validate_bricks(records: &[u8], residuals: &[u8], c: &V3Counts, bits: ValueBi
     Ok(())
 }
 
+/// The private leaf groups and corners of a 3.1 file: each group's first voxel and wide voxels
+/// before it equal the running sums, each real slot's count 1..=127, each padding slot 0, the
+/// sums equal the header's private voxels and the wide voxels its corners' size implies, and
+/// every private voxel's codes (narrow ones decoded) in −Q..=Q.
+fn validate_private_v31(
+    groups: &[u8],
+    corners: &[u8],
+    c: &V3Counts,
+    bits: ValueBits,
+) -> Result<()> {
+    let q = max_code(bits);
+    let pl = u64::from(c.private_leaves);
+    let (mut voxel, mut wide) = (0u64, 0u64);
+    for (g, rec) in groups.chunks_exact(private_group_size(1)).enumerate() {
+        let (first, before, _) = crate::narrow::group31_at(rec, 0);
+        if (u64::from(first), u64::from(before)) != (voxel, wide) {
+            return corrupt(
+                "private_leaves",
+                format!(
+                    "group {g}: first voxel {first}, wide before {before}; expected {voxel}, {wide}"
+                ),
+            );
+        }
+        for (s, &byte) in rec[8..].iter().enumerate() {
+            let j = (g * 16 + s) as u64;
+            let n = u64::from(byte & !WIDE_BIT);
+            if j >= pl {
+                if byte != 0 {
+                    return corrupt("private_leaves", format!("padding slot {j} is {byte:#x}"));
+                }
+                continue;
+            }
+            if n == 0 {
+                return corrupt("private_leaves", format!("private leaf {j} has no voxel"));
+            }
+            let is_wide = byte & WIDE_BIT != 0;
+            if voxel + n > u64::from(c.private_voxels)
+                || (is_wide && wide + n > u64::from(c.wide_voxels))
+            {
+                return corrupt(
+                    "private_leaves",
+                    format!("private leaf {j} runs past the private voxels or wide voxels"),
+                );
+            }
+            for _ in 0..n {
+                let at = corner_offset(voxel as u32, wide as u32, bits);
+                let codes = private_codes(corners, at, is_wide, bits);
+                if let Some(k) = codes.iter().position(|x| x.abs() > q) {
+                    return corrupt(
+                        "private_corners",
+                        format!(
+                            "private voxel {voxel} corner {k} is {}, outside ±{q}",
+                            codes[k]
+                        ),
+                    );
+                }
+                voxel += 1;
+                wide += u64::from(is_wide);
+            }
+        }
+    }
+    if voxel != u64::from(c.private_voxels) || wide != u64::from(c.wide_voxels) {
+        return corrupt(
+            "private_leaves",
+            format!(
+                "counts sum to {voxel} voxels, {wide} wide; the header implies {} and {}",
+                c.private_voxels, c.wide_voxels
+            ),
+        );
+    }
+    Ok(())
+}
+
 /// The private flags: padding bits 0, popcounts equal to the surface and clip counts, every
 /// private leaf with a voxel that is not clip-only and at most
 /// [`MAX_CLIP_VOXELS_PER_LEAF`] clip voxels (the private leaf groups are valid).
@@ -1644,26 +1869,23 @@ fn validate_flags(flags: &[u8], private_leaves: &[u8], c: &V3Counts) -> Result<(
         return Ok(());
     }
     let mut v = 0u64;
-    for (g, rec) in private_leaves.chunks_exact(12).enumerate() {
-        for (s, &n) in rec[4..].iter().enumerate() {
-            let (start, end) = (v, v + u64::from(n));
-            v = end;
-            if n > 0 && (start..end).all(|x| flag(x) == 3) {
-                return corrupt(
-                    "private_flags",
-                    format!("private leaf {} has only clip-only voxels", g * 8 + s),
-                );
-            }
-            let clips = (start..end).filter(|&x| flag(x) & 2 != 0).count();
-            if clips > MAX_CLIP_VOXELS_PER_LEAF {
-                return corrupt(
-                    "private_flags",
-                    format!(
-                        "private leaf {} has {clips} clip voxels (at most {MAX_CLIP_VOXELS_PER_LEAF})",
-                        g * 8 + s
-                    ),
-                );
-            }
+    for (j, (n, _)) in slots(private_leaves, c.minor).enumerate() {
+        let (start, end) = (v, v + u64::from(n));
+        v = end;
+        if n > 0 && (start..end).all(|x| flag(x) == 3) {
+            return corrupt(
+                "private_flags",
+                format!("private leaf {j} has only clip-only voxels"),
+            );
+        }
+        let clips = (start..end).filter(|&x| flag(x) & 2 != 0).count();
+        if clips > MAX_CLIP_VOXELS_PER_LEAF {
+            return corrupt(
+                "private_flags",
+                format!(
+                    "private leaf {j} has {clips} clip voxels (at most {MAX_CLIP_VOXELS_PER_LEAF})"
+                ),
+            );
         }
     }
     Ok(())

@@ -28,6 +28,7 @@ use crate::header::{
     HEADER_SIZE, MAGIC, RESIDUAL_OFFSET_BITS, V3_HEADER_SIZE,
 };
 use crate::lod::{LodOctree, SmoFile};
+use crate::narrow::{corner_offset, slots, WIDE_BIT};
 use crate::validate::check_major;
 use crate::{BrickOctreeView, PackedOctreeView, ValueBits, MAX_DEPTH};
 
@@ -493,7 +494,12 @@ fn encode_bricks(file: &[u8], raw: &mut Vec<Vec<u8>>) -> Result<()> {
     let mut head = file[..V3_HEADER_SIZE].to_vec();
     head.extend_from_slice(&file[file.len() - CHECKSUM_SIZE..]);
     let mut codes = section(file, corners).to_vec();
+    let counts: Vec<u8> = slots(section(file, leaves), v3.minor)
+        .take(v3.private_leaves as usize)
+        .map(|(n, wide)| n as u8 | if wide && v3.minor > 0 { WIDE_BIT } else { 0 })
+        .collect();
     match v3.bits {
+        _ if v3.minor > 0 => predict_corners31(&counts, &mut codes, &v3, false)?,
         ValueBits::Eight => predict_voxels(&mut codes),
         ValueBits::Sixteen => {
             let mut values = words(&codes);
@@ -506,7 +512,7 @@ fn encode_bricks(file: &[u8], raw: &mut Vec<Vec<u8>>) -> Result<()> {
         group_bytes(section(file, nodes), v3.upper),
         records_to_stream(section(file, bricks)),
         section(file, residuals).to_vec(),
-        group_bytes(section(file, leaves), v3.private_leaves),
+        counts,
         section(file, flags).to_vec(),
         codes,
     ]);
@@ -571,7 +577,11 @@ fn decode_bricks(streams: &[(&[u8], usize)], out: &mut [u8]) -> Result<usize> {
     )?;
     let mut counts = vec![0u8; leaves_s.1];
     unpack(leaves_s.0, &mut counts, "compressed private leaves stream")?;
-    write_groups(section_mut(out, leaves), &counts, u64::from, 0)?;
+    if v3.minor == 0 {
+        write_groups(section_mut(out, leaves), &counts, u64::from, 0)?;
+    } else {
+        write_groups31(section_mut(out, leaves), &counts, &v3)?;
+    }
     unpack(
         flags_s.0,
         section_mut(out, flags),
@@ -580,6 +590,7 @@ fn decode_bricks(streams: &[(&[u8], usize)], out: &mut [u8]) -> Result<usize> {
     let codes = section_mut(out, corners);
     unpack(corners_s.0, codes, "compressed private corners stream")?;
     match v3.bits {
+        _ if v3.minor > 0 => predict_corners31(&counts, codes, &v3, true)?,
         ValueBits::Eight => unpredict_voxels(codes),
         ValueBits::Sixteen => {
             let mut values = words(codes);
@@ -588,6 +599,108 @@ fn decode_bricks(streams: &[(&[u8], usize)], out: &mut [u8]) -> Result<usize> {
         }
     }
     Ok(size)
+}
+
+/// Private corners of a 3.1 file to residuals, in place (`forward`) or back: the 3.0
+/// prediction ([`predict_voxels`]) on each wide voxel; on a narrow voxel its base codes
+/// `c001 c010 c100` minus its `c000`, its `c000` minus the voxel before's, its difference
+/// fields unchanged. `counts` are the private leaves' count bytes (their sums checked against
+/// `v3`, so every voxel lies in `corners`). Forwards (`forward = false`, decoding) each
+/// prediction reads codes already restored; coding runs backwards so it reads originals.
+fn predict_corners31(
+    counts: &[u8],
+    corners: &mut [u8],
+    v3: &crate::brick::V3Sections,
+    forward: bool,
+) -> Result<()> {
+    let bits = v3.bits;
+    let b = bits.bytes();
+    let total: u64 = counts.iter().map(|&c| u64::from(c & !WIDE_BIT)).sum();
+    let wide: u64 = counts
+        .iter()
+        .filter(|&&c| c & WIDE_BIT != 0)
+        .map(|&c| u64::from(c & !WIDE_BIT))
+        .sum();
+    if total != u64::from(v3.private_voxels) || wide != u64::from(v3.wide_voxels) {
+        return Err(FormatError::corrupt(
+            "compressed private leaves stream",
+            format!(
+                "{total} voxels, {wide} wide; the header implies {} and {}",
+                v3.private_voxels, v3.wide_voxels
+            ),
+        ));
+    }
+    // (byte offset, wide) of every private voxel, in order.
+    let mut voxels: Vec<(usize, bool)> = Vec::with_capacity(total as usize);
+    let (mut v, mut wide_before) = (0u32, 0u32);
+    for &c in counts {
+        let is_wide = c & WIDE_BIT != 0;
+        for _ in 0..c & !WIDE_BIT {
+            voxels.push((corner_offset(v, wide_before, bits), is_wide));
+            v += 1;
+            wide_before += u32::from(is_wide);
+        }
+    }
+    let read = |c: &[u8], at: usize| match bits {
+        ValueBits::Eight => i32::from(c[at] as i8),
+        ValueBits::Sixteen => i32::from(i16::from_le_bytes([c[at], c[at + 1]])),
+    };
+    let write = |c: &mut [u8], at: usize, x: i32| {
+        c[at..at + b].copy_from_slice(&(x as i16).to_le_bytes()[..b]);
+    };
+    // Code k's predictor within a voxel (code index, not corner, for a narrow voxel).
+    const NARROW_OWN: [usize; 4] = [0, 0, 0, 0];
+    let step = |c: &mut [u8], i: usize| {
+        let (at, is_wide) = voxels[i];
+        let own: &[usize] = if is_wide { &OWN_CORNER } else { &NARROW_OWN };
+        let prev = if i > 0 { read(c, voxels[i - 1].0) } else { 0 };
+        if forward {
+            let first = read(c, at) + prev;
+            write(c, at, first);
+            for (k, &o) in own.iter().enumerate().skip(1) {
+                let x = read(c, at + k * b) + read(c, at + o * b);
+                write(c, at + k * b, x);
+            }
+        } else {
+            for (k, &o) in own.iter().enumerate().skip(1).rev() {
+                let x = read(c, at + k * b) - read(c, at + o * b);
+                write(c, at + k * b, x);
+            }
+            let first = read(c, at) - prev;
+            write(c, at, first);
+        }
+    };
+    if forward {
+        for i in 0..voxels.len() {
+            step(corners, i);
+        }
+    } else {
+        for i in (0..voxels.len()).rev() {
+            step(corners, i);
+        }
+    }
+    Ok(())
+}
+
+/// Writes 3.1 private leaf groups (24 bytes, 16 leaves each): the running sums of voxels and
+/// of wide voxels, then the sixteen count bytes (zero past the end).
+fn write_groups31(groups: &mut [u8], counts: &[u8], v3: &crate::brick::V3Sections) -> Result<()> {
+    let (mut voxels, mut wide) = (0u64, 0u64);
+    for (group, chunk) in groups.chunks_exact_mut(24).zip(counts.chunks(16)) {
+        if voxels > u64::from(v3.private_voxels) {
+            break; // narrow_corners refuses the counts
+        }
+        group[..4].copy_from_slice(&(voxels as u32).to_le_bytes());
+        group[4..8].copy_from_slice(&(wide as u32).to_le_bytes());
+        group[8..8 + chunk.len()].copy_from_slice(chunk);
+        for &c in chunk {
+            voxels += u64::from(c & !WIDE_BIT);
+            if c & WIDE_BIT != 0 {
+                wide += u64::from(c & !WIDE_BIT);
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Brick records as a stream: the residual offset and first private leaf of each record as the

@@ -162,8 +162,34 @@ pub const LOD_TRAILER_FIELDS: [HeaderField; 2] =
 /// Major version of a brick file (format 3.0: `FORMAT.md`, section "Bricks"): the leaves of
 /// a 1.x octree regrouped into bricks of 4³ cells whose volume voxels share their corner codes.
 pub const V3_VERSION_MAJOR: u16 = 3;
-/// Minor version this crate writes for brick files.
-pub const V3_VERSION_MINOR: u16 = 0;
+/// Minor version this crate writes for brick files: 1 (*narrow* private voxels: a private leaf
+/// whose voxels are close to trilinear stores each in 6 codes' bytes instead of 8; `FORMAT.md`,
+/// "Narrow private voxels (version 3.1)"). It reads 3.0 and 3.1; the layouts differ only in the
+/// private leaf groups and the private corners.
+pub const V3_VERSION_MINOR: u16 = 1;
+/// Private leaves per private leaf group record: 8 in a 3.0 file (12 bytes, as 1.x's leaf
+/// groups), 16 in a 3.1 file ([`V31_GROUP_SIZE`] bytes).
+pub const fn private_group_leaves(minor: u16) -> usize {
+    if minor == 0 {
+        8
+    } else {
+        16
+    }
+}
+/// Bytes of a 3.1 private leaf group: `u32` first voxel, `u32` wide voxels before the group,
+/// sixteen count bytes (bits 0–6 the count 1..=127, bit 7 set when the leaf is wide).
+pub const V31_GROUP_SIZE: usize = 24;
+/// Bytes of one private leaf group record of a 3.x file of minor version `minor`.
+pub const fn private_group_size(minor: u16) -> usize {
+    if minor == 0 {
+        12
+    } else {
+        V31_GROUP_SIZE
+    }
+}
+/// The most voxels a private leaf of a 3.1 file holds (its count byte's low 7 bits); a 1.x
+/// octree with a larger leaf is written as 3.0.
+pub const V31_MAX_LEAF_VOXELS: usize = 127;
 /// Size of the version-3.0 header in bytes (a 3.x header may be longer; see `header_size`).
 pub const V3_HEADER_SIZE: usize = 176;
 

@@ -80,6 +80,7 @@ mod interpolant;
 pub mod kernel;
 mod lod;
 mod morton;
+mod narrow;
 mod octree;
 pub mod quant;
 #[cfg(any(test, feature = "test-support"))]
@@ -106,8 +107,8 @@ pub use header::{
     FLAG_MULTI_VOXEL, FLAG_SURFACE_VOXELS, FORMAT_VERSION_MAJOR, FORMAT_VERSION_MINOR,
     HEADER_FIELDS, HEADER_SIZE, KNOWN_FLAGS, LOD_HEADER_FIELDS, LOD_HEADER_FIXED,
     LOD_HEADER_TRAILER, LOD_LEVEL_ENTRY, LOD_LEVEL_FIELDS, LOD_TRAILER_FIELDS, LOD_VERSION_MAJOR,
-    LOD_VERSION_MINOR, MAGIC, RESIDUAL_OFFSET_BITS, V3_HEADER_FIELDS, V3_HEADER_SIZE,
-    V3_VERSION_MAJOR, V3_VERSION_MINOR,
+    LOD_VERSION_MINOR, MAGIC, RESIDUAL_OFFSET_BITS, V31_MAX_LEAF_VOXELS, V3_HEADER_FIELDS,
+    V3_HEADER_SIZE, V3_VERSION_MAJOR, V3_VERSION_MINOR,
 };
 pub use interpolant::{
     cell_corners, cell_size, child_coord, corner_offset, trilinear, trilinear_gradient,

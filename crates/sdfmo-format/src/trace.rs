@@ -15,7 +15,8 @@ use crate::header::{
     field_in, plane_fraction_bits, residual_widths, BRICK_RECORD_FIELDS, BRICK_RECORD_SIZE,
     RESIDUAL_OFFSET_BITS,
 };
-use crate::octree::{byte_sum, bytes_at, group_at, low_bits};
+use crate::narrow::{corner_offset, private_codes, private_leaf_at};
+use crate::octree::{bytes_at, low_bits};
 use crate::quant::max_code;
 use crate::{
     cell_grid_index, point_mask, BrickNode, BrickOctree, NodeRef, Octree, OctreeMeta, ValueBits,
@@ -150,8 +151,12 @@ pub(crate) struct BrickSections {
     pub(crate) private_leaves: usize,
     pub(crate) private_flags: usize,
     pub(crate) private_corners: usize,
+    /// Minor version: the layout of the private leaf groups and corners.
+    pub(crate) minor: u16,
     pub(crate) brick_count: u32,
     pub(crate) private_voxels: u32,
+    /// Wide private voxels (3.0: all).
+    pub(crate) wide_voxels: u32,
     pub(crate) clip: u32,
 }
 
@@ -172,8 +177,15 @@ pub enum BrickVoxel {
         /// The leaf's cell in it.
         cell: u8,
     },
-    /// Private voxel number `0` (of the private corner and flag sections).
-    Private(u32),
+    /// A private voxel.
+    Private {
+        /// Its number in the private flag section.
+        voxel: u32,
+        /// Wide private voxels before it (where its codes are: [`FORMAT.md`, 3.1]).
+        wide_before: u32,
+        /// Whether its eight codes are stored whole (else narrow; always in 3.0).
+        wide: bool,
+    },
 }
 
 /// The voxels of one [`BrickOctree`] leaf, in storage order.
@@ -183,6 +195,10 @@ pub struct BrickVoxels {
     shared: Option<BrickVoxel>,
     /// The private voxels not yet taken.
     private: Range<u32>,
+    /// Wide private voxels before the next one taken.
+    wide_before: u32,
+    /// Whether the leaf's voxels are wide.
+    wide: bool,
 }
 
 impl Iterator for BrickVoxels {
@@ -193,7 +209,14 @@ impl Iterator for BrickVoxels {
         if let Some(v) = self.shared.take() {
             return Some(v);
         }
-        self.private.next().map(BrickVoxel::Private)
+        let voxel = self.private.next()?;
+        let wide_before = self.wide_before;
+        self.wide_before += u32::from(self.wide);
+        Some(BrickVoxel::Private {
+            voxel,
+            wide_before,
+            wide: self.wide,
+        })
     }
 }
 
@@ -414,6 +437,8 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
         let none = BrickVoxels {
             shared: None,
             private: 0..0,
+            wide_before: 0,
+            wide: false,
         };
         let BrickNode::Leaf { brick, cell } = node else {
             return none;
@@ -429,15 +454,17 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
             return BrickVoxels {
                 shared: Some(BrickVoxel::Shared { brick, cell }),
                 private: 0..0,
+                wide_before: 0,
+                wide: false,
             };
         }
         let j = u32_in(&r, FIRST_PRIVATE_LEAF) + low_bits(private, u32::from(cell)).count_ones();
-        let (first, counts) = group_at(self.as_bytes(), s.private_leaves + (j as usize >> 3) * 12);
-        let shift = (j & 7) * 8;
-        let start = first + byte_sum(low_bits(counts, shift));
+        let span = private_leaf_at(self.as_bytes(), s.private_leaves, s.minor, j);
         BrickVoxels {
             shared: None,
-            private: start..start + (counts >> shift & 0xff) as u32,
+            private: span.first..span.first + span.count,
+            wide_before: span.wide_before,
+            wide: span.wide,
         }
     }
 
@@ -462,21 +489,21 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
                 }
                 out
             }
-            BrickVoxel::Private(v) => {
+            BrickVoxel::Private {
+                voxel,
+                wide_before,
+                wide,
+            } => {
                 let sec = self.traced_sections();
-                assert!(v < sec.private_voxels, "voxel {v} out of range");
-                let (b, at) = (self.as_bytes(), sec.private_corners);
-                match self.meta().bits {
-                    ValueBits::Eight => {
-                        bytes_at::<8>(b, at + v as usize * 8).map(|c| f32::from(c as i8) * s)
-                    }
-                    ValueBits::Sixteen => {
-                        let c = bytes_at::<16>(b, at + v as usize * 16);
-                        core::array::from_fn(|i| {
-                            f32::from(i16::from_le_bytes([c[2 * i], c[2 * i + 1]])) * s
-                        })
-                    }
+                assert!(voxel < sec.private_voxels, "voxel {voxel} out of range");
+                let bits = self.meta().bits;
+                let at = sec.private_corners + corner_offset(voxel, wide_before, bits);
+                let codes = private_codes(self.as_bytes(), at, wide, bits);
+                let mut out = [0.0f32; 8];
+                for (v, c) in out.iter_mut().zip(codes) {
+                    *v = c as f32 * s;
                 }
+                out
             }
         }
     }
@@ -485,7 +512,7 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
     fn voxel_is_surface(&self, voxel: BrickVoxel) -> bool {
         match voxel {
             BrickVoxel::Shared { .. } => false,
-            BrickVoxel::Private(v) => self.private_flags(v) & 1 != 0,
+            BrickVoxel::Private { voxel, .. } => self.private_flags(voxel) & 1 != 0,
         }
     }
 
@@ -493,7 +520,7 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
     fn voxel_is_clip(&self, voxel: BrickVoxel) -> bool {
         match voxel {
             BrickVoxel::Shared { .. } => false,
-            BrickVoxel::Private(v) => self.private_flags(v) & 2 != 0,
+            BrickVoxel::Private { voxel, .. } => self.private_flags(voxel) & 2 != 0,
         }
     }
 
@@ -506,7 +533,19 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
                     (u64_in(&r, OCCUPANCY) & !u64_in(&r, PRIVATE)) >> cell & 1 != 0
                 }
             }
-            BrickVoxel::Private(v) => v < s.private_voxels,
+            // The wide voxels before it and its own size within the corners (3.1: `3·W + X`
+            // units of 2·b bytes; 3.0: every voxel wide, `wide_before = voxel`).
+            BrickVoxel::Private {
+                voxel,
+                wide_before,
+                wide,
+            } => {
+                voxel < s.private_voxels
+                    && wide_before <= voxel
+                    && (s.minor > 0 || (wide && wide_before == voxel))
+                    && 3 * u64::from(voxel) + u64::from(wide_before) + 3 + u64::from(wide)
+                        <= 3 * u64::from(s.private_voxels) + u64::from(s.wide_voxels)
+            }
         }
     }
 }
@@ -589,7 +628,7 @@ mod tests {
                     );
                     match voxel {
                         BrickVoxel::Shared { .. } => shared += 1,
-                        BrickVoxel::Private(_) => private += 1,
+                        BrickVoxel::Private { .. } => private += 1,
                     }
                 }
             }
@@ -604,7 +643,11 @@ mod tests {
             ));
             assert!(!TracedOctree::has_voxel(
                 &v,
-                BrickVoxel::Private(b.private_voxel_count() as u32)
+                BrickVoxel::Private {
+                    voxel: b.private_voxel_count() as u32,
+                    wide_before: 0,
+                    wide: true,
+                }
             ));
         }
         assert!(

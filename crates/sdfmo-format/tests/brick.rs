@@ -45,7 +45,15 @@ fn assert_lossless<B: AsRef<[u8]>>(o: &PackedOctree, v: &BrickOctree<B>) {
 #[test]
 fn encoding_is_lossless_and_decodes_to_the_same_file() {
     for o in cases() {
+        // 3.0 still reads back alike (the reader takes both minors).
+        let b = BrickOctree::encode_minor(&o, 0).unwrap();
+        assert_eq!(b.version_minor(), 0);
+        assert_eq!(b.wide_voxel_count(), b.private_voxel_count());
+        let view = BrickOctreeView::new(b.as_bytes()).unwrap();
+        assert_lossless(&o, &view);
+        assert_eq!(b.to_octree(), o, "{o:?}");
         let b = BrickOctree::encode(&o).unwrap();
+        assert_eq!(b.version_minor(), 1);
         let view = BrickOctreeView::new(b.as_bytes()).unwrap();
         assert_eq!(view, b);
         assert_lossless(&o, &view);
@@ -281,9 +289,67 @@ fn every_truncation_is_a_typed_error() {
     }
 }
 
+/// A 3.1 file whose private leaves are narrow and wide, of 8 and 16 bits: narrow voxels
+/// are smaller, and a 3.0 file of the same octree reads back alike.
+#[test]
+fn narrow_private_voxels_save_bytes_and_read_back() {
+    for bits in [ValueBits::Eight, ValueBits::Sixteen] {
+        let o = octree(6, bits, clipped_shell_leaves(6));
+        let v31 = BrickOctree::encode(&o).unwrap();
+        let v30 = BrickOctree::encode_minor(&o, 0).unwrap();
+        let (w, x) = (v31.private_voxel_count(), v31.wide_voxel_count());
+        assert!(x < w, "{bits:?}: {x} wide of {w}");
+        let b = bits.bytes();
+        assert_eq!(
+            v31.section_sizes().private_corners,
+            2 * b * (3 * w + x),
+            "{bits:?}"
+        );
+        assert_eq!(v30.section_sizes().private_corners, 8 * b * w);
+        assert!(v31.as_bytes().len() < v30.as_bytes().len());
+        assert_eq!(v31.to_octree(), v30.to_octree());
+    }
+}
+
+/// A private leaf of 128 voxels does not fit a 3.1 count byte: `encode` writes 3.0,
+/// `encode_minor(1)` says why not, and a minor above 1 is refused both ways.
+#[test]
+fn a_leaf_of_128_voxels_is_written_as_3_0() {
+    let mut leaves = shell_leaves(3);
+    let extra = leaves[0].voxels[0];
+    leaves[0].voxels.resize(128, extra);
+    let o = octree(3, ValueBits::Eight, leaves);
+    let b = BrickOctree::encode(&o).unwrap();
+    assert_eq!(b.version_minor(), 0);
+    assert_lossless(&o, &b);
+    assert!(matches!(
+        BrickOctree::encode_minor(&o, 1),
+        Err(FormatError::Unrepresentable { .. })
+    ));
+    assert!(matches!(
+        BrickOctree::encode_minor(&o, 2),
+        Err(FormatError::Unrepresentable { .. })
+    ));
+    let mut bytes = sample();
+    put(&mut bytes, "version_minor", 2);
+    assert!(matches!(
+        BrickOctreeView::new(&reseal(bytes)),
+        Err(FormatError::UnsupportedVersion { minor: 2, .. })
+    ));
+}
+
 #[test]
 fn every_resealed_byte_flip_is_refused_or_reads_without_panic() {
-    let bytes = sample();
+    byte_flips_are_refused_or_read(sample());
+    // And of the 3.0 layout.
+    let o = octree(4, ValueBits::Eight, clipped_shell_leaves(4));
+    byte_flips_are_refused_or_read(BrickOctree::encode_minor(&o, 0).unwrap().into_bytes());
+    // A 3.1 file of 16 bits.
+    let o = octree(4, ValueBits::Sixteen, clipped_shell_leaves(4));
+    byte_flips_are_refused_or_read(BrickOctree::encode(&o).unwrap().into_bytes());
+}
+
+fn byte_flips_are_refused_or_read(bytes: Vec<u8>) {
     let mut refused = 0;
     for i in 0..bytes.len() - CHECKSUM_SIZE {
         for flip in [0x01u8, 0x80, 0xff] {

@@ -253,7 +253,7 @@ fn docs_brick_example_matches_writer() {
     let b = BrickOctree::encode(&o).unwrap();
     let bytes = b.as_bytes();
     assert_eq!(bytes, documented_hex(&format_md(), "brick-example-hex"));
-    assert_eq!(bytes.len(), 260);
+    assert_eq!(bytes.len(), 268);
     // The sections as the table under the dump lists them.
     let sizes = b.section_sizes();
     assert_eq!(
@@ -264,7 +264,7 @@ fn docs_brick_example_matches_writer() {
             sizes.residuals,
             sizes.private_leaves
         ],
-        [176, 0, 32, 3, 12]
+        [176, 0, 32, 3, 24]
     );
     assert_eq!(
         [
@@ -274,10 +274,14 @@ fn docs_brick_example_matches_writer() {
             sizes.checksum,
             sizes.total
         ],
-        [8, 16, 9, 4, 260]
+        [8, 12, 9, 4, 268]
     );
     let v = BrickOctreeView::new(bytes).unwrap();
     assert_eq!(v.to_octree(), o);
+    // As 3.0 (every private voxel wide, groups of 8): 260 bytes, the same octree.
+    let v30 = BrickOctree::encode_minor(&o, 0).unwrap();
+    assert_eq!(v30.as_bytes().len(), 260);
+    assert_eq!(v30.to_octree(), o);
     let root = v.root().unwrap();
     assert_eq!(root, BrickNode::Brick(0));
     assert_eq!(v.child_mask(root), 0x01);
