@@ -63,7 +63,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     for path in std::env::args().skip(1) {
         let octree = PackedOctree::from_vec(std::fs::read(&path)?)?;
-        let brick = BrickOctree::encode(&octree)?;
+        let brick = BrickOctree::encode_minor(&octree, 0)?;
         let b = octree.meta().bits.bytes();
         let half = 4 * b as u32;
         let v3 = brick.as_bytes().len();

@@ -127,7 +127,7 @@ pub fn kernel_constants_wgsl() -> String {
 
 /// The header fields the kernel reads, as `(WGSL name, table, field)`: the word index of each
 /// comes from the format's field tables, never typed in the shader.
-const HEADER_WORDS: [(&str, &[sdfmo_format::HeaderField], &str); 36] = {
+const HEADER_WORDS: [(&str, &[sdfmo_format::HeaderField], &str); 37] = {
     use sdfmo_format::{
         BRICK_RECORD_FIELDS as BRICK, HEADER_FIELDS as V1, LOD_HEADER_FIELDS as V2,
         LOD_LEVEL_FIELDS as LEVEL, V3_HEADER_FIELDS as V3,
@@ -151,6 +151,7 @@ const HEADER_WORDS: [(&str, &[sdfmo_format::HeaderField], &str); 36] = {
         // Relative to a level-table entry, which starts at word SMO_LOD_TABLE + i · SMO_LOD_ENTRY.
         ("SMO_LOD_LEVEL_OFFSET", &LEVEL, "offset"),
         ("SMO_V3_HEADER_FLAGS", &V3, "flags"),
+        ("SMO_V3_HEADER_VERSION_MINOR", &V3, "version_minor"),
         ("SMO_V3_HEADER_DEPTH", &V3, "depth"),
         ("SMO_V3_HEADER_VALUE_BITS", &V3, "value_bits"),
         ("SMO_V3_HEADER_UPPER_COUNT", &V3, "upper_node_count"),

@@ -98,6 +98,8 @@ struct SmoInfo {
     brick_level: u32,
     /// Byte offset of the residuals section.
     residuals: u32,
+    /// The 3.x minor version: 1 for narrow private voxels (private leaf groups of 16).
+    minor: u32,
 }
 
 /// A ray `origin + t·dir`, `dir` of unit length.
@@ -111,6 +113,8 @@ struct SmoRay {
 struct SmoHit {
     t: f32,
     voxel: u32,
+    /// Where the voxel's codes are (3.x private voxels): its leaf's `smo_leaf_voxels`.
+    leaf: vec4<u32>,
     cell_min: vec3<f32>,
     cell_size: f32,
     surface: bool,
@@ -198,12 +202,15 @@ fn smo_first_child(info: SmoInfo, node: u32) -> u32 {
     return smo[at] + smo_popcount_low(smo[at + 1u], smo[at + 2u], (node & 7u) * 8u);
 }
 
-/// A leaf's voxels: (first voxel, count). In a 3.0 file, `smo_v3_leaf_voxels`.
-fn smo_leaf_voxels(info: SmoInfo, node: u32) -> vec2<u32> {
+/// A leaf's voxels: (first voxel, count, wide voxels before the first, 1 when they are wide).
+/// In a 3.x file, `smo_v3_leaf_voxels`; elsewhere every voxel is wide (3.0's rule: the wide
+/// voxels before voxel v are v).
+fn smo_leaf_voxels(info: SmoInfo, node: u32) -> vec4<u32> {
     if info.v3 {
         return smo_v3_leaf_voxels(info, node);
     }
-    return smo_leaf_group_voxels(info, node - info.inner_count);
+    let r = smo_leaf_group_voxels(info, node - info.inner_count);
+    return vec4<u32>(r.x, r.y, r.x, 1u);
 }
 
 /// Leaf `j`'s voxels in the leaf groups at `info.leaves` (1.x leaves, 3.0 private leaves).
@@ -219,10 +226,14 @@ fn smo_leaf_group_voxels(info: SmoInfo, j: u32) -> vec2<u32> {
     return vec2<u32>(start, smo_byte(lo, hi, slot));
 }
 
-/// The voxel's dequantised corners (corner order 4x + 2y + z), normalised units.
-fn smo_voxel_corners(info: SmoInfo, voxel: u32) -> array<f32, 8> {
+/// The voxel's dequantised corners (corner order 4x + 2y + z), normalised units; `leaf` is the
+/// `smo_leaf_voxels` of its leaf (where a 3.x private voxel's codes are).
+fn smo_voxel_corners(info: SmoInfo, voxel: u32, leaf: vec4<u32>) -> array<f32, 8> {
     if info.v3 && (voxel & SMO_SHARED_VOXEL) != 0u {
         return smo_v3_shared_corners(info, voxel & ~SMO_SHARED_VOXEL);
+    }
+    if info.v3 {
+        return smo_v3_private_corners(info, voxel, leaf);
     }
     var c: array<f32, 8>;
     if info.value_bits == 8u {
@@ -315,6 +326,7 @@ fn smo_v3_info(dequant: f32) -> SmoInfo {
     info.brick_count = smo[SMO_V3_HEADER_BRICK_COUNT];
     info.brick_level = info.depth - SMO_BRICK_LEVELS;
     info.residuals = smo[SMO_V3_HEADER_RESIDUALS_OFFSET];
+    info.minor = (smo[SMO_V3_HEADER_VERSION_MINOR] >> SMO_V3_HEADER_VERSION_MINOR_SHIFT) & 0xffffu;
     return info;
 }
 
@@ -372,16 +384,105 @@ fn smo_node_child(info: SmoInfo, node: u32, level: u32, mask: u32, oct: u32) -> 
 
 /// A 3.0 leaf's voxels: (first voxel, count); a shared leaf's one voxel is
 /// SMO_SHARED_VOXEL | leaf.
-fn smo_v3_leaf_voxels(info: SmoInfo, leaf: u32) -> vec2<u32> {
+fn smo_v3_leaf_voxels(info: SmoInfo, leaf: u32) -> vec4<u32> {
     let b = leaf >> 6u;
     let cell = leaf & 63u;
     let lo = smo_brick_word(info, b, SMO_BRICK_PRIVATE);
     let hi = smo_brick_word(info, b, SMO_BRICK_PRIVATE + 1u);
     if ((select(lo, hi, cell >= 32u) >> (cell & 31u)) & 1u) == 0u {
-        return vec2<u32>(SMO_SHARED_VOXEL | leaf, 1u);
+        return vec4<u32>(SMO_SHARED_VOXEL | leaf, 1u, 0u, 1u);
     }
     let j = smo_brick_word(info, b, SMO_BRICK_FIRST_PRIVATE_LEAF) + smo_popcount_low(lo, hi, cell);
-    return smo_leaf_group_voxels(info, j);
+    if info.minor == 0u {
+        let r = smo_leaf_group_voxels(info, j);
+        return vec4<u32>(r.x, r.y, r.x, 1u);
+    }
+    return smo_v31_leaf_voxels(info, j);
+}
+
+/// Private leaf `j` of a 3.1 file (FORMAT.md "Narrow private voxels (version 3.1)"): groups of
+/// 16 leaves in 6 words (first voxel, wide voxels before, 16 count bytes: bits 0–6 the count,
+/// bit 7 wide). (first voxel, count, wide voxels before it, 1 when wide).
+fn smo_v31_leaf_voxels(info: SmoInfo, j: u32) -> vec4<u32> {
+    let at = info.leaves + (j >> 4u) * 6u;
+    let slot = j & 15u;
+    var start = smo[at];
+    var wide = smo[at + 1u];
+    for (var k = 0u; k < slot; k++) {
+        let byte = (smo[at + 2u + (k >> 2u)] >> ((k & 3u) * 8u)) & 0xffu;
+        start += byte & 0x7fu;
+        wide += select(0u, byte & 0x7fu, byte >= 0x80u);
+    }
+    let byte = (smo[at + 2u + (slot >> 2u)] >> ((slot & 3u) * 8u)) & 0xffu;
+    return vec4<u32>(start, byte & 0x7fu, wide, byte >> 7u);
+}
+
+/// The eight codes of a 3.x private voxel of the leaf `leaf` (`smo_leaf_voxels`), dequantised:
+/// at byte 2·b·(3·voxel + wide voxels before it) of the private corners, whole (wide) or
+/// narrow (four base codes, four mixed differences in half-width fields).
+fn smo_v3_private_corners(info: SmoInfo, voxel: u32, leaf: vec4<u32>) -> array<f32, 8> {
+    let wide = leaf.w != 0u;
+    let before = leaf.z + select(0u, voxel - leaf.x, wide);
+    let b = info.value_bits / 8u;
+    let a = info.corners * 4u + 2u * b * (3u * voxel + before);
+    var k: array<i32, 8>;
+    if b == 1u {
+        if wide {
+            for (var i = 0u; i < 8u; i++) {
+                k[i] = bitcast<i32>(smo_byte_at(a + i) << 24u) >> 24u;
+            }
+        } else {
+            var base: array<i32, 4>;
+            for (var i = 0u; i < 4u; i++) {
+                base[i] = bitcast<i32>(smo_byte_at(a + i) << 24u) >> 24u;
+            }
+            let n = smo_byte_at(a + 4u) | (smo_byte_at(a + 5u) << 8u);
+            let d = vec4<i32>(
+                bitcast<i32>(n << 28u) >> 28u,
+                bitcast<i32>(n << 24u) >> 28u,
+                bitcast<i32>(n << 20u) >> 28u,
+                bitcast<i32>(n << 16u) >> 28u,
+            );
+            k = smo_narrow_codes(base, d);
+        }
+    } else {
+        let w = a >> 2u;
+        if wide {
+            for (var i = 0u; i < 8u; i++) {
+                k[i] = extractBits(bitcast<i32>(smo[w + (i >> 1u)]), (i & 1u) * 16u, 16u);
+            }
+        } else {
+            let w0 = bitcast<i32>(smo[w]);
+            let w1 = bitcast<i32>(smo[w + 1u]);
+            let w2 = bitcast<i32>(smo[w + 2u]);
+            let base = array<i32, 4>(
+                extractBits(w0, 0u, 16u), extractBits(w0, 16u, 16u),
+                extractBits(w1, 0u, 16u), extractBits(w1, 16u, 16u),
+            );
+            let d = vec4<i32>(extractBits(w2, 0u, 8u), extractBits(w2, 8u, 8u),
+                              extractBits(w2, 16u, 8u), extractBits(w2, 24u, 8u));
+            k = smo_narrow_codes(base, d);
+        }
+    }
+    var c: array<f32, 8>;
+    for (var i = 0u; i < 8u; i++) {
+        c[i] = f32(k[i]) * info.dequant;
+    }
+    return c;
+}
+
+/// A narrow voxel's eight codes from its base codes c000 c001 c010 c100 and its mixed
+/// differences (xy, xz, yz, xyz).
+fn smo_narrow_codes(base: array<i32, 4>, d: vec4<i32>) -> array<i32, 8> {
+    let c000 = base[0];
+    let c001 = base[1];
+    let c010 = base[2];
+    let c100 = base[3];
+    let c011 = c010 + c001 - c000 + d.z;
+    let c101 = c100 + c001 - c000 + d.y;
+    let c110 = c100 + c010 - c000 + d.x;
+    let c111 = c110 + c101 + c011 - c100 - c010 - c001 + c000 + d.w;
+    return array<i32, 8>(c000, c001, c010, c011, c100, c101, c110, c111);
 }
 
 /// The two flag bits of a 3.0 voxel (bit 0 surface, bit 1 clip); 0 for a shared voxel.
@@ -742,14 +843,17 @@ fn smo_min_max(c: array<f32, 8>) -> vec2<f32> {
 struct SmoLeafClips {
     voxels: array<u32, SMO_MAX_CLIP_VOXELS>,
     count: u32,
+    /// The leaf's `smo_leaf_voxels` (where its voxels' codes are).
+    leaf: vec4<u32>,
 }
 
 /// The clip voxels among the leaf's voxels [first, first + count), in order (at most
 /// SMO_MAX_CLIP_VOXELS in a validated file; any beyond would be ignored, never read out of
 /// bounds).
-fn smo_gather_clips(info: SmoInfo, first: u32, count: u32) -> SmoLeafClips {
+fn smo_gather_clips(info: SmoInfo, first: u32, count: u32, leaf: vec4<u32>) -> SmoLeafClips {
     var clips: SmoLeafClips;
     clips.count = 0u;
+    clips.leaf = leaf;
     for (var j = first; j < first + count; j++) {
         if smo_voxel_is_clip(info, j) && clips.count < SMO_MAX_CLIP_VOXELS {
             clips.voxels[clips.count] = j;
@@ -768,7 +872,7 @@ fn smo_clips_keep(info: SmoInfo, clips: SmoLeafClips, skip: u32, p: vec3<f32>, s
         if j == skip {
             continue;
         }
-        let c = smo_voxel_corners(info, j);
+        let c = smo_voxel_corners(info, j, clips.leaf);
         let f = smo_trilinear(c, p);
         var limit = 0.0;
         if slack {
@@ -875,7 +979,7 @@ fn smo_leaf_hit(info: SmoInfo, cell: SmoCell, o: vec3<f32>, d: vec3<f32>) -> Smo
     var clips: SmoLeafClips;
     clips.count = 0u;
     if clip {
-        clips = smo_gather_clips(info, range.x, range.y);
+        clips = smo_gather_clips(info, range.x, range.y, range);
     }
     var best_s = cell.t_exit - cell.t_enter;
     var hit: SmoHit;
@@ -885,7 +989,7 @@ fn smo_leaf_hit(info: SmoInfo, cell: SmoCell, o: vec3<f32>, d: vec3<f32>) -> Smo
         if clip && surface && smo_voxel_is_clip(info, v) {
             continue;
         }
-        let corners = smo_voxel_corners(info, v);
+        let corners = smo_voxel_corners(info, v, range);
         var s: f32;
         if clip {
             s = smo_clipped_voxel_hit(info, clips, v, corners, local_o, local_d, best_s, surface);
@@ -896,6 +1000,7 @@ fn smo_leaf_hit(info: SmoInfo, cell: SmoCell, o: vec3<f32>, d: vec3<f32>) -> Smo
             best_s = s;
             hit.hit = true;
             hit.voxel = v;
+            hit.leaf = range;
             hit.surface = surface;
         }
     }
@@ -1093,7 +1198,7 @@ fn smo_hit_normal(info: SmoInfo, ray: SmoRay, hit: SmoHit) -> vec3<f32> {
     if !smo_voxel_exists(info, hit.voxel) || !(hit.cell_size > 0.0) {
         return facing;
     }
-    let corners = smo_voxel_corners(info, hit.voxel);
+    let corners = smo_voxel_corners(info, hit.voxel, hit.leaf);
     let p = ray.origin + ray.dir * hit.t;
     let local = clamp((p - hit.cell_min) * smo_inv_pow2(hit.cell_size), vec3<f32>(0.0), vec3<f32>(1.0));
     let g = smo_trilinear_gradient(corners, local);

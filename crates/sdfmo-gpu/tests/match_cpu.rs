@@ -659,7 +659,23 @@ fn bricks_match(
     compressed: bool,
     label: &str,
 ) -> BrickOctree {
-    let bricks = BrickOctree::encode(octree).expect("encode 3.0");
+    bricks_match_minor(gpu, octree, compressed, label, None)
+}
+
+/// [`bricks_match`] of the file [`BrickOctree::encode_minor`] writes at `minor` (`None`: what
+/// `encode` writes, 3.1).
+fn bricks_match_minor(
+    gpu: &mut GpuRenderer,
+    octree: &PackedOctree,
+    compressed: bool,
+    label: &str,
+    minor: Option<u16>,
+) -> BrickOctree {
+    let bricks = match minor {
+        Some(m) => BrickOctree::encode_minor(octree, m),
+        None => BrickOctree::encode(octree),
+    }
+    .expect("encode 3.x");
     let bytes = if compressed {
         sdfmo_format::compressed::compress(bricks.as_bytes()).expect("compress")
     } else {
@@ -731,6 +747,16 @@ fn bricks_match_their_octree() {
         let octree = build_octree(&demo, depth, method, bits);
         let label = format!("demo {m} d{depth} {}-bit", bits.bits());
         let b = bricks_match(&mut gpu, &octree, depth == 6, &label);
+        // 3.1's narrow private voxels (most of a multi-octree's), beside wide ones.
+        if m == "multi" {
+            assert!(
+                b.wide_voxel_count() < b.private_voxel_count(),
+                "{label}: narrow voxels"
+            );
+            // And the 3.0 layout of the same octree (every private voxel wide).
+            let label = format!("{label} as 3.0");
+            bricks_match_minor(&mut gpu, &octree, depth == 7, &label, Some(0));
+        }
         // The SVO's leaves are all shared; the multi-octree's thin walls make private ones.
         assert!(
             b.private_leaf_count() < b.leaf_count(),

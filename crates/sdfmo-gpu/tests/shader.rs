@@ -164,10 +164,13 @@ const HEADER_WORDS: [(&str, u64); 20] = [
 /// words (and bit shifts), brick-record words relative to the record, and the layout's
 /// constants (the residual widths one byte per width code). Generated from `sdfmo_format`'s
 /// `V3_HEADER_FIELDS`, `BRICK_RECORD_FIELDS` and definitions.
-const BRICK_WORDS: [(&str, u64); 41] = [
+const BRICK_WORDS: [(&str, u64); 43] = [
     ("SMO_HEADER_VERSION_MAJOR", 2),
     ("SMO_HEADER_VERSION_MAJOR_SHIFT", 0),
     ("SMO_V3_HEADER_FLAGS", 4),
+    // 3.1 (narrow private voxels): the minor version picks the private layout.
+    ("SMO_V3_HEADER_VERSION_MINOR", 2),
+    ("SMO_V3_HEADER_VERSION_MINOR_SHIFT", 16),
     ("SMO_V3_HEADER_DEPTH", 5),
     ("SMO_V3_HEADER_DEPTH_SHIFT", 0),
     ("SMO_V3_HEADER_VALUE_BITS", 5),
