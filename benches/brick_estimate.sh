@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Traced bytes per voxel of the brick layout (format 3.0, docs/format-3.md): estimated from
+# Traced bytes per voxel of the brick layout (format 3.1, and 3.0 in the last columns; docs/format-3.md): estimated from
 # today's files and measured on their 3.0 encoding (checked lossless), the five shared models at
 # depths 8-10, both methods, built by the release CLI, then counted by sdfmo-format's
 # brick_estimate example; also the compressed container over the 3.0 and 1.x files (zstd 9) and

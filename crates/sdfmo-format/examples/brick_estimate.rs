@@ -22,14 +22,16 @@
 //! cargo run --release -p sdfmo-format --example brick_estimate -- FILE.smo… > estimate.csv
 //! ```
 //! One CSV row per file (8-bit `.smo` files with one level). The last columns are the file
-//! that [`BrickOctree::encode`] writes (format 3.0, the layout built): its bytes, bytes per
+//! that [`BrickOctree::encode`] writes (format 3.1, the layout built: 3.0 with narrow private
+//! voxels, `FORMAT.md`): its bytes, bytes per
 //! voxel, and its residual bytes beside the estimate's (the plane fits differ: see
 //! `docs/format-3.md`). Then the compressed container over it and over the 1.x file
 //! ([`compress_with_level`] at [`ZSTD_LEVEL`], `sdfmo build --compress`'s default), the whole
 //! 3.0 file as one zstd frame at the same
 //! level (what splitting it into streams saves), and the container's decode speed: MB/s of
 //! decoded 3.0 bytes, the median and the best of seven single-threaded [`decompress`] calls (a
-//! timing: under other load both are lower bounds).
+//! timing: under other load both are lower bounds). Last, the same octree as a 3.0 file
+//! ([`BrickOctree::encode_minor`] at 0): its bytes and bytes per voxel.
 
 use std::collections::{HashMap, HashSet};
 
@@ -200,7 +202,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
          points,points_per_voxel,bricks_w0,bricks_w2,bricks_w4,bricks_w8,plain_bpv,predicted_bpv,\
          v3_bytes,v3_bpv,estimated_residual_bytes,v3_residual_bytes,v3_compressed_bytes,\
          v3_compressed_bpv,v3_one_frame_bytes,v1_compressed_bytes,v1_compressed_bpv,\
-         v3_decode_mb_per_s,v3_decode_best_mb_per_s"
+         v3_decode_mb_per_s,v3_decode_best_mb_per_s,v30_bytes,v30_bpv"
     );
     for path in std::env::args().skip(1) {
         let bytes = std::fs::read(&path)?;
@@ -217,6 +219,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             return Err(format!("{path}: the 3.0 encoding does not decode to the file").into());
         }
         let v3 = brick.as_bytes().len();
+        let v30 = BrickOctree::encode_minor(&octree, 0)?.as_bytes().len();
         let packed = compress_with_level(brick.as_bytes(), ZSTD_LEVEL)?;
         let one_frame = zstd::bulk::compress(brick.as_bytes(), ZSTD_LEVEL)?.len();
         let v1_packed = compress_with_level(octree.as_bytes(), ZSTD_LEVEL)?.len();
@@ -237,7 +240,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .file_name()
             .map_or(path.clone(), |n| n.to_string_lossy().into_owned());
         println!(
-            "{name},{},{},{:.2},{},{},{},{},{},{:.2},{},{},{},{},{:.2},{:.2},{v3},{:.2},{},{v3_residuals},{},{:.2},{one_frame},{v1_packed},{:.2},{mb_per_s:.0},{best_mb_per_s:.0}",
+            "{name},{},{},{:.2},{},{},{},{},{},{:.2},{},{},{},{},{:.2},{:.2},{v3},{:.2},{},{v3_residuals},{},{:.2},{one_frame},{v1_packed},{:.2},{mb_per_s:.0},{best_mb_per_s:.0},{v30},{:.2}",
             e.voxels,
             e.traced_bytes,
             e.traced_bytes as f64 / e.voxels as f64,
@@ -258,6 +261,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             packed.len(),
             packed.len() as f64 / e.voxels as f64,
             v1_packed as f64 / e.voxels as f64,
+            v30 as f64 / e.voxels as f64,
         );
     }
     Ok(())
