@@ -97,7 +97,7 @@ fn a_format_3_build_renders_as_the_1x_one() {
         let file = v3["file_bytes"].as_u64().unwrap();
         assert!(file < v1["bytes"].as_u64().unwrap(), "{name}: {file}");
         let info = json(&ok(&["info", &p(name), "--json"]));
-        assert_eq!(info["version"], "3.0 (bricks)", "{name}");
+        assert_eq!(info["version"], "3.1 (bricks)", "{name}");
         assert_eq!(info["file_size"].as_u64(), Some(file), "{name}");
         assert_eq!(info["compressed"], !extra.is_empty(), "{name}");
         assert!(info["bricks"].as_u64().unwrap() > 0, "{name}");

@@ -18,6 +18,14 @@
 //! the brick's grid: eight masked popcounts of a 125-bit mask give their ranks) or *private*
 //! (voxels stored whole, found through a 1.x-style leaf group: one popcount and one byte sum).
 //! Every step is a fixed number of loads and popcounts: what a GPU kernel does in `u32` words.
+//!
+//! # 3.1
+//!
+//! The writer's minor version 1 stores a private leaf's voxels *narrow* when they are close to
+//! trilinear (four base codes and four mixed differences in half-width fields: `6·b` bytes
+//! instead of `8·b`), and groups private leaves by 16 with a count of the wide voxels before
+//! each group ([`crate::narrow`]'s module docs; `FORMAT.md`, "Narrow private voxels (version
+//! 3.1)"). The reader takes both minors.
 
 use std::fmt;
 
@@ -926,15 +934,16 @@ fn corrupt<T>(field: &'static str, reason: impl Into<String>) -> Result<T> {
 }
 
 impl<B: AsRef<[u8]>> BrickOctree<B> {
-    /// Validates `bytes` as a 3.0 brick file and reads it in place. Checked before anything
-    /// is used, in this order: magic, major version (3), header size, declared file size
+    /// Validates `bytes` as a 3.0 or 3.1 brick file and reads it in place. Checked before
+    /// anything is used, in this order: magic, major version (3), header size, declared file size
     /// against the length, the CRC-32, flags, depth (2..=16), value bits, reserved bytes,
     /// transform, counts (and the flags they imply), every section's offset and size (and zero
     /// padding), the node groups above the bricks (as in 1.x, with the bricks as their
     /// leaves), every brick record (occupancy non-zero, private mask within it, residual
     /// offset and first private leaf equal to the running sums, every point's code in
     /// −Q..=Q), the totals of leaves, private leaves and residual bytes, the private leaf
-    /// groups (counts 1..=255, bases, total), the private flags (padding bits 0, popcounts,
+    /// groups (3.0: counts 1..=255, bases, total; 3.1: counts 1..=127, both bases, both
+    /// totals, every private voxel's codes, narrow ones rebuilt, in −Q..=Q), the private flags (padding bits 0, popcounts,
     /// no leaf of clip-only voxels alone, at most
     /// [`MAX_CLIP_VOXELS_PER_LEAF`](crate::MAX_CLIP_VOXELS_PER_LEAF) clip voxels per leaf)
     /// and the private corner codes (−Q..=Q). O(len), no allocation but an error's message.

@@ -28,7 +28,7 @@ use crate::header::{
     HEADER_SIZE, MAGIC, RESIDUAL_OFFSET_BITS, V3_HEADER_SIZE,
 };
 use crate::lod::{LodOctree, SmoFile};
-use crate::narrow::{corner_offset, slots, WIDE_BIT};
+use crate::narrow::{slots, WIDE_BIT};
 use crate::validate::check_major;
 use crate::{BrickOctreeView, PackedOctreeView, ValueBits, MAX_DEPTH};
 
@@ -601,20 +601,17 @@ fn decode_bricks(streams: &[(&[u8], usize)], out: &mut [u8]) -> Result<usize> {
     Ok(size)
 }
 
-/// Private corners of a 3.1 file to residuals, in place (`forward`) or back: the 3.0
-/// prediction ([`predict_voxels`]) on each wide voxel; on a narrow voxel its base codes
-/// `c001 c010 c100` minus its `c000`, its `c000` minus the voxel before's, its difference
-/// fields unchanged. `counts` are the private leaves' count bytes (their sums checked against
-/// `v3`, so every voxel lies in `corners`). Forwards (`forward = false`, decoding) each
-/// prediction reads codes already restored; coding runs backwards so it reads originals.
+/// Private corners of a 3.1 file to residuals (`forward = false`, coding) or back
+/// (`forward = true`, decoding), in place: the 3.0 prediction ([`predict_voxels`]) on each
+/// wide voxel; on a narrow voxel its base codes `c001 c010 c100` minus its `c000`, its `c000`
+/// minus the voxel before's, its difference fields unchanged. `counts` are the private leaves'
+/// count bytes, whose sums are checked against `v3` first, so every voxel lies in `corners`.
 fn predict_corners31(
     counts: &[u8],
     corners: &mut [u8],
     v3: &crate::brick::V3Sections,
     forward: bool,
 ) -> Result<()> {
-    let bits = v3.bits;
-    let b = bits.bytes();
     let total: u64 = counts.iter().map(|&c| u64::from(c & !WIDE_BIT)).sum();
     let wide: u64 = counts
         .iter()
@@ -630,56 +627,45 @@ fn predict_corners31(
             ),
         ));
     }
-    // (byte offset, wide) of every private voxel, in order.
-    let mut voxels: Vec<(usize, bool)> = Vec::with_capacity(total as usize);
-    let (mut v, mut wide_before) = (0u32, 0u32);
-    for &c in counts {
-        let is_wide = c & WIDE_BIT != 0;
-        for _ in 0..c & !WIDE_BIT {
-            voxels.push((corner_offset(v, wide_before, bits), is_wide));
-            v += 1;
-            wide_before += u32::from(is_wide);
-        }
-    }
-    let read = |c: &[u8], at: usize| match bits {
-        ValueBits::Eight => i32::from(c[at] as i8),
-        ValueBits::Sixteen => i32::from(i16::from_le_bytes([c[at], c[at + 1]])),
-    };
-    let write = |c: &mut [u8], at: usize, x: i32| {
-        c[at..at + b].copy_from_slice(&(x as i16).to_le_bytes()[..b]);
-    };
-    // Code k's predictor within a voxel (code index, not corner, for a narrow voxel).
-    const NARROW_OWN: [usize; 4] = [0, 0, 0, 0];
-    let step = |c: &mut [u8], i: usize| {
-        let (at, is_wide) = voxels[i];
-        let own: &[usize] = if is_wide { &OWN_CORNER } else { &NARROW_OWN };
-        let prev = if i > 0 { read(c, voxels[i - 1].0) } else { 0 };
-        if forward {
-            let first = read(c, at) + prev;
-            write(c, at, first);
-            for (k, &o) in own.iter().enumerate().skip(1) {
-                let x = read(c, at + k * b) + read(c, at + o * b);
-                write(c, at + k * b, x);
-            }
-        } else {
-            for (k, &o) in own.iter().enumerate().skip(1).rev() {
-                let x = read(c, at + k * b) - read(c, at + o * b);
-                write(c, at + k * b, x);
-            }
-            let first = read(c, at) - prev;
-            write(c, at, first);
-        }
-    };
-    if forward {
-        for i in 0..voxels.len() {
-            step(corners, i);
-        }
-    } else {
-        for i in (0..voxels.len()).rev() {
-            step(corners, i);
+    match v3.bits {
+        ValueBits::Eight => code_corners31(counts, corners, forward),
+        ValueBits::Sixteen => {
+            let mut values = words(corners);
+            code_corners31(counts, &mut values, forward);
+            put_words(&values, corners);
         }
     }
     Ok(())
+}
+
+/// [`predict_corners31`] over codes `T` (a narrow voxel is 6 of them: four codes, then its
+/// difference fields as two more): forwards, each prediction from codes already restored;
+/// coding reads the originals from a copy.
+fn code_corners31<T: Code>(counts: &[u8], codes: &mut [T], forward: bool) {
+    let original = if forward { Vec::new() } else { codes.to_vec() };
+    let (mut at, mut prev) = (0usize, T::ZERO);
+    for &c in counts {
+        let (n, size): (usize, usize) = if c & WIDE_BIT != 0 { (8, 8) } else { (4, 6) };
+        let own: &[usize] = if n == 8 { &OWN_CORNER } else { &[0, 0, 0, 0] };
+        for _ in 0..c & !WIDE_BIT {
+            let v = &mut codes[at..at + size];
+            if forward {
+                v[0] = v[0].add(prev);
+                for k in 1..n {
+                    v[k] = v[k].add(v[own[k]]);
+                }
+                prev = v[0];
+            } else {
+                let o = &original[at..at + size];
+                v[0] = o[0].sub(prev);
+                for k in 1..n {
+                    v[k] = o[k].sub(o[own[k]]);
+                }
+                prev = o[0];
+            }
+            at += size;
+        }
+    }
 }
 
 /// Writes 3.1 private leaf groups (24 bytes, 16 leaves each): the running sums of voxels and

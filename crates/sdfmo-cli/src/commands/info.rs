@@ -253,7 +253,7 @@ fn run_smo(path: &Path, as_json: bool) -> anyhow::Result<()> {
     print_text(&s)
 }
 
-/// `sdfmo info` of a 3.0 file: its counts, bytes per voxel and section sizes.
+/// `sdfmo info` of a 3.x file: its counts, bytes per voxel and section sizes.
 fn print_v3(path: &Path, b: &BrickOctreeView<'_>, as_json: bool) -> anyhow::Result<()> {
     let stored = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
     let compressed = file_magic(path) == Some(COMPRESSED_MAGIC);
@@ -263,7 +263,7 @@ fn print_v3(path: &Path, b: &BrickOctreeView<'_>, as_json: bool) -> anyhow::Resu
         return print_json(&json!({
             "source": path.display().to_string(),
             "kind": "octree",
-            "version": "3.0 (bricks)",
+            "version": format!("3.{} (bricks)", b.version_minor()),
             "file_size": z.total,
             "compressed": compressed,
             "stored_bytes": stored,
@@ -275,6 +275,7 @@ fn print_v3(path: &Path, b: &BrickOctreeView<'_>, as_json: bool) -> anyhow::Resu
             "surface_voxels": b.surface_voxel_count(),
             "private_leaves": b.private_leaf_count(),
             "private_voxels": b.private_voxel_count(),
+            "wide_voxels": b.wide_voxel_count(),
             "bytes_per_voxel": z.total as f64 / voxels,
             "sections": {
                 "header": z.header,
@@ -290,8 +291,9 @@ fn print_v3(path: &Path, b: &BrickOctreeView<'_>, as_json: bool) -> anyhow::Resu
         }));
     }
     let mut s = format!(
-        "{}\n  .smo 3.0 (bricks), {} bytes, {:.2} bytes per voxel (loaded as its 1.x octree)\n",
+        "{}\n  .smo 3.{} (bricks), {} bytes, {:.2} bytes per voxel (loaded as its 1.x octree)\n",
         path.display(),
+        b.version_minor(),
         z.total,
         z.total as f64 / voxels
     );
@@ -305,7 +307,7 @@ fn print_v3(path: &Path, b: &BrickOctreeView<'_>, as_json: bool) -> anyhow::Resu
     }
     let _ = writeln!(
         s,
-        "  depth {}, {}-bit, bricks {}, leaves {}, voxels {} ({} surface), private {} leaves / {} voxels",
+        "  depth {}, {}-bit, bricks {}, leaves {}, voxels {} ({} surface), private {} leaves / {} voxels ({} wide)",
         b.depth(),
         b.meta().bits.bits(),
         b.brick_count(),
@@ -313,7 +315,8 @@ fn print_v3(path: &Path, b: &BrickOctreeView<'_>, as_json: bool) -> anyhow::Resu
         b.voxel_count(),
         b.surface_voxel_count(),
         b.private_leaf_count(),
-        b.private_voxel_count()
+        b.private_voxel_count(),
+        b.wide_voxel_count()
     );
     let _ = writeln!(
         s,
