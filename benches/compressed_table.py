@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The tables of docs/results/format.md, "Compressed files", from the committed
 docs/results/format/compressed.csv (written by benches/compressed_sizes.sh), and with
---v3 the table of "Format 3.0 compressed" from docs/results/format/brick-estimate.csv (written
+--v3 the table of "Format 3.x compressed" (the 3.1 file brick_estimate measures) from docs/results/format/brick-estimate.csv (written
 by benches/brick_estimate.sh).
 
     python3 benches/compressed_table.py [docs/results/format/compressed.csv]
@@ -13,7 +13,7 @@ import sys
 
 def v3_table(path):
     rows = list(csv.DictReader(open(path)))
-    print("| model | method | depth | 1.x B/voxel | 3.0 | **compressed 3.0** | compressed 1.x | 3.0 as one zstd frame | decode MB/s (median, best) |")
+    print("| model | method | depth | 1.x B/voxel | 3.1 | **compressed 3.1** | compressed 1.x | 3.1 as one zstd frame | decode MB/s (median, best) |")
     print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         model, method, depth = r["file"].rsplit(".", 1)[0].split("-")
@@ -23,7 +23,7 @@ def v3_table(path):
               f"{r['v3_decode_mb_per_s']}, {r['v3_decode_best_mb_per_s']} |")
     worst = max(float(r["v3_compressed_bpv"]) for r in rows)
     slowest = min(int(r["v3_decode_mb_per_s"]) for r in rows)
-    print(f"\nLargest compressed 3.0: {worst:.2f} B/voxel; slowest median decode: {slowest} MB/s.")
+    print(f"\nLargest compressed 3.1: {worst:.2f} B/voxel; slowest median decode: {slowest} MB/s.")
 
 
 if sys.argv[1:2] == ["--v3"]:
