@@ -13,7 +13,8 @@
 //! ```
 //! `--png DIR` saves each octree's first render (`DIR/<stem>.png`) for byte comparisons. A 3.0
 //! file is traced as it is (`BrickOctree`), any other as its 1.x octree. `--write-v3 DIR`
-//! renders nothing: it writes each 1.x file as 3.0 (`DIR/<stem>.v3.smo`, `BrickOctree::encode`).
+//! renders nothing: it writes each 1.x file as 3.1 (`DIR/<stem>.v3.smo`, `BrickOctree::encode`;
+//! with `--v3-minor 0` as 3.0, `BrickOctree::encode_minor`).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -69,6 +70,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut view = 0u32;
     let mut png: Option<PathBuf> = None;
     let mut write_v3: Option<PathBuf> = None;
+    let mut v3_minor: Option<u16> = None;
     let mut files = Vec::new();
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
@@ -85,6 +87,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--view" => view = value()?.parse()?,
             "--png" => png = Some(PathBuf::from(value()?)),
             "--write-v3" => write_v3 = Some(PathBuf::from(value()?)),
+            "--v3-minor" => v3_minor = Some(value()?.parse()?),
             _ => files.push(PathBuf::from(a)),
         }
     }
@@ -93,7 +96,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let stem = file
                 .file_stem()
                 .map_or("octree".into(), |s| s.to_string_lossy());
-            let v3 = BrickOctree::encode(&PackedOctree::load(file)?)?;
+            let octree = PackedOctree::load(file)?;
+            let v3 = match v3_minor {
+                Some(m) => BrickOctree::encode_minor(&octree, m)?,
+                None => BrickOctree::encode(&octree)?,
+            };
             std::fs::write(dir.join(format!("{stem}.v3.smo")), v3.as_bytes())?;
         }
         return Ok(());
