@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# Traced bytes per voxel of the brick layout (format 3.1, and 3.0 in the last columns; docs/format-3.md): estimated from
-# today's files and measured on their 3.0 encoding (checked lossless), the five shared models at
-# depths 8-10, both methods, built by the release CLI, then counted by sdfmo-format's
-# brick_estimate example; also the compressed container over the 3.0 and 1.x files (zstd 9) and
-# its single-threaded decode speed of the 3.0 file (the only timing: median and best of 7; under
+# Traced bytes per voxel of the brick layout (docs/format-3.md): estimated from today's files
+# and measured on their 3.1 encoding (checked lossless; the 3.0 file's size in the last two
+# columns), the five shared models at depths 8-10, both methods, built by the release CLI, then
+# counted by sdfmo-format's brick_estimate example; also the compressed container over the 3.1
+# and 1.x files (zstd 9) and its single-threaded decode speed of the 3.1 file (the only timing: median and best of 7; under
 # other load both are lower bounds). Tables: python3 benches/compressed_table.py --v3.
 #
 #   benches/brick_estimate.sh > docs/results/format/brick-estimate.csv
