@@ -92,7 +92,7 @@ fn a_format_3_build_renders_as_the_1x_one() {
         ]
         .concat();
         let v3 = json(&ok(&args));
-        assert_eq!(v3["format"], "3.0", "{name}");
+        assert_eq!(v3["format"], "3.1", "{name}");
         assert_eq!(v3["voxels"], v1["voxels"], "{name}");
         let file = v3["file_bytes"].as_u64().unwrap();
         assert!(file < v1["bytes"].as_u64().unwrap(), "{name}: {file}");

@@ -181,7 +181,8 @@ pub enum BrickVoxel {
     Private {
         /// Its number in the private flag section.
         voxel: u32,
-        /// Wide private voxels before it (where its codes are: [`FORMAT.md`, 3.1]).
+        /// Wide private voxels before it: its codes are at `2·b·(3·voxel + wide_before)` of the
+        /// private corners (`FORMAT.md`, "Narrow private voxels (version 3.1)").
         wide_before: u32,
         /// Whether its eight codes are stored whole (else narrow; always in 3.0).
         wide: bool,

@@ -59,7 +59,7 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
     let v3 = match args.format {
         FormatArg::V1 => None,
         FormatArg::V3 => {
-            Some(BrickOctree::encode(&octree).context("cannot encode the octree as format 3.0")?)
+            Some(BrickOctree::encode(&octree).context("cannot encode the octree as format 3")?)
         }
     };
     let file = v3.as_ref().map_or(octree.as_bytes(), |b| b.as_bytes());
@@ -75,7 +75,9 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
             j["max_voxels"] = json!(args.max_voxels);
         }
         j["output"] = json!(args.output.display().to_string());
-        j["format"] = json!(if v3.is_some() { "3.0" } else { "1.x" });
+        j["format"] = json!(v3
+            .as_ref()
+            .map_or("1.x".to_string(), |b| format!("3.{}", b.version_minor())));
         j["file_bytes"] = json!(file.len());
         j["compress_level"] = json!(args.compress_level());
         j["stored_bytes"] = json!(stored);
@@ -101,7 +103,8 @@ pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
     if let Some(b) = &v3 {
         let _ = writeln!(
             s,
-            "  format 3.0: {} bytes ({:.3} MB, {:.2} bytes per voxel; 1.x {:.2}), {} bricks, {} of {} voxels private",
+            "  format 3.{}: {} bytes ({:.3} MB, {:.2} bytes per voxel; 1.x {:.2}), {} bricks, {} of {} voxels private",
+            b.version_minor(),
             file.len(),
             file.len() as f64 / 1e6,
             file.len() as f64 / stats.voxels.max(1) as f64,
