@@ -113,9 +113,9 @@ def at_equal_psnr(curve: list[tuple[float, float]], p: float):
 
 
 def v3_sizes(docs: str) -> dict:
-    """(model, method, depth) -> {"traced": 1.x bytes, "v3": 3.0 bytes, "v3z": compressed 3.0 bytes}
+    """(model, method, depth) -> {"traced": 1.x bytes, "v3": 3.1 bytes, "v3z": compressed 3.1 bytes}
     from `benches/brick_estimate.sh`'s committed CSVs (depths 8-10, and 6-7 in their own file):
-    the same octrees as the sweep's rows, written as format 3.0 (lossless, so the same PSNR)."""
+    the same octrees as the sweep's rows, written as format 3.1 (lossless, so the same PSNR)."""
     import csv
     out = {}
     for name in ("brick-estimate.csv", "brick-estimate-d6-7.csv"):
@@ -593,8 +593,8 @@ def write_page(a, stems, cells, res) -> None:
                           for v, b, ls in (("float", 1, "g-"), ("fp8", 1, "c-"), ("fp4", 1, "m-"), ("fpn", 1, "y-"), ("fp4", 3, "m--"))]
         curves_ours += [(name, [(v3[(st, "multi", d)][key], ours[(st, "multi", d)]["psnr"], d) for d in depths
                                 if (st, "multi", d) in ours and (st, "multi", d) in v3], style)
-                        for name, key, style in (("multi-octree, format 3.0", "v3", "r--"),
-                                                 ("multi-octree, 3.0 compressed", "v3z", "r:"))]
+                        for name, key, style in (("multi-octree, format 3.1", "v3", "r--"),
+                                                 ("multi-octree, 3.1 compressed", "v3z", "r:"))]
         if st in nglod:
             curves_theirs.append(("NGLOD LOD 2–5", [(b, q, k) for b, q, k in nglod[st]], "k-."))
         png = f"psnr_vs_mb_{st}.png"
@@ -897,26 +897,26 @@ def write_page(a, stems, cells, res) -> None:
 
 
 def write_v3_section(w, stems, depths, ours, v3, nglod, cells) -> dict:
-    """The multi-octree written as format 3.0 (the same octrees, a third of the bytes) against every
+    """The multi-octree written as format 3.1 (the same octrees, a third of the bytes) against every
     NanoVDB grid and every NGLOD level: our PSNR at the peer's bytes. Returns, per file kind, the
     peer points counted and the ones below us or below our range (for docs/compare.md)."""
     out = {}
     if not v3:
         return out
-    w("## Format 3.0 against every NanoVDB grid and every NGLOD level")
+    w("## Format 3.1 against every NanoVDB grid and every NGLOD level")
     w("")
-    w("The same multi-octrees written as format 3.0 (`sdfmo build --format 3`; lossless, so the PSNR is the row's; "
+    w("The same multi-octrees written as format 3.1 (`sdfmo build --format 3`; lossless, so the PSNR is the row's; "
       f"sizes of {len(v3)} octrees from [`format/brick-estimate*.csv`](format/brick-estimate.csv), each checked to be "
       "the sweep row's octree by its 1.x byte count) and its compressed container (`--format 3 --compress`). For each "
       "peer point (a NanoVDB grid: variant, band 1–3, depth 6–10, file bytes; an NGLOD LOD 2–5 at its paper "
-      "schedule, seed 0, [nglod.md](nglod.md)), our PSNR at the peer's bytes on the 3.0 curve (linear in log bytes "
+      "schedule, seed 0, [nglod.md](nglod.md)), our PSNR at the peer's bytes on the 3.1 curve (linear in log bytes "
       "between our depths); *margin* = ours − theirs (≥ 0: at or above). A peer point smaller than our depth-6 file "
       "has no point of ours at its size: it counts as *below our range*, with our depth 6's lead and size ratio.")
     w("")
     w("| model | file | peer points | at or above | below (worst: point, margin) | below our range (ours d6 ÷ theirs bytes, dB lead) | median margin |")
     w("|---|---|---:|---:|---|---|---:|")
     for st in stems:
-        for key, label in (("v3", "3.0"), ("v3z", "3.0 compressed")):
+        for key, label in (("v3", "3.1"), ("v3z", "3.1 compressed")):
             curve = [(v3[(st, "multi", d)][key], ours[(st, "multi", d)]["psnr"]) for d in depths
                      if (st, "multi", d) in v3 and ours[(st, "multi", d)]["psnr"] is not None]
             if len(curve) < 2:
@@ -951,7 +951,7 @@ def write_v3_section(w, stems, depths, ours, v3, nglod, cells) -> dict:
             pts = [(d, v3[(st, "multi", d)][key], ours[(st, "multi", d)]["psnr"]) for d in depths if (st, "multi", d) in v3]
             lo = max((p for p in pts if p[1] <= b), key=lambda p: p[1])
             hi = min((p for p in pts if p[1] >= b), key=lambda p: p[1])
-            w(f"- Below ({'3.0' if key == 'v3' else '3.0 compressed'}, {st}): {name} ({mb(b)} MB, {q:.2f} dB) falls "
+            w(f"- Below ({'3.1' if key == 'v3' else '3.1 compressed'}, {st}): {name} ({mb(b)} MB, {q:.2f} dB) falls "
               f"between our depth {lo[0]} ({mb(lo[1])} MB, {lo[2]:.2f} dB) and depth {hi[0]} ({mb(hi[1])} MB, "
               f"{hi[2]:.2f} dB): a depth step costs 3–4× the bytes, and the line between our two points passes "
               f"{-margin:.2f} dB under the peer's.")
