@@ -76,10 +76,10 @@ fn shared_models_depth_10_are_lossless_in_format_3() {
     assert_eq!(check_depth(10).len(), 10);
 }
 
-/// Builds levels `coarsest..=depth` of every model and method, writes them as format 4.0
+/// Builds levels `coarsest..=depth` of every model and method, writes them as format 4.1
 /// (levels of bricks) and checks that every level decodes to the octree the 2.0 file holds, that
 /// every level-boundary prefix decodes to exactly its levels, and, with a `bar`, that the file
-/// costs at most that many times the leaf-only 3.0 file of its finest level. The ratios.
+/// costs at most that many times the leaf-only 3.1 file of its finest level. The ratios.
 fn check_levels(depth: u8, coarsest: u8, bar: Option<f64>) -> Vec<(String, f64)> {
     let setting = format!("levels {coarsest}..={depth}");
     on_every_model(&setting, |_, mesh, method, what| {
@@ -97,26 +97,26 @@ fn check_levels(depth: u8, coarsest: u8, bar: Option<f64>) -> Vec<(String, f64)>
             assert_eq!(q.octree.levels(), &lod.levels()[..=i], "{what}: prefix {i}");
         }
         let leaf_only = BrickOctree::encode(lod.finest())
-            .expect("3.0")
+            .expect("3.1")
             .as_bytes()
             .len();
         let ratio = bytes.len() as f64 / leaf_only as f64;
         if let Some(bar) = bar {
-            assert!(ratio <= bar, "{what}: {ratio:.3}× the leaf-only 3.0 file");
+            assert!(ratio <= bar, "{what}: {ratio:.3}× the leaf-only 3.1 file");
         }
         ratio
     })
 }
 
 /// Levels 4–7: lossless, every prefix (no size bar: the coarse levels weigh more at low depths,
-/// up to 1.28× the leaf-only 3.0 file; docs/results/lod.md measures 5–9 and 6–10 at ≤ 1.10×).
+/// above 1.10× the leaf-only 3.1 file; docs/results/lod.md measures 5–9 and 6–10 at ≤ 1.10×).
 #[test]
 #[cfg_attr(sdfmo_no_test_data, ignore = "no test data: set SDFMO_TEST_DATA")]
 fn shared_models_levels_are_lossless_in_format_4() {
     assert_eq!(check_levels(7, 4, None).len(), 10);
 }
 
-/// Levels 6–10 (the bar, ≤ 1.10× the leaf-only 3.0 file): `cargo test --release --
+/// Levels 6–10 (the bar, ≤ 1.10× the leaf-only 3.1 file): `cargo test --release --
 /// --ignored`.
 #[test]
 #[ignore = "release only: cargo test --release -p sdfmo-build --test format_v3 -- --ignored"]

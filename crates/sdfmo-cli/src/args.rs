@@ -146,8 +146,8 @@ pub enum FormatArg {
     V1,
     /// Version 3.1: bricks of 4³ cells that store each shared corner once (FORMAT.md, "Bricks
     /// (version 3.0)"), with narrow private voxels ("Narrow private voxels (version 3.1)"; 3.0
-    /// when a leaf holds more than 127 voxels); depth ≥ 2. With `--lod`, version 4.0: the levels as bricks, each finer
-    /// level coded from the one before it (FORMAT.md, "Levels of bricks (version 4.0)");
+    /// when a leaf holds more than 127 voxels); depth ≥ 2. With `--lod`, version 4.1: the levels as bricks, each finer
+    /// level coded from the one before it (FORMAT.md, "Levels of bricks");
     /// coarsest level ≥ 2. Loaded as 1.x octrees for now.
     #[value(name = "3")]
     V3,
@@ -191,7 +191,7 @@ pub struct BuildArgs {
     #[arg(long, value_name = "LEVEL", requires = "lod", value_parser = parse_depth)]
     pub coarsest: Option<u8>,
     /// File format: 1 (1.x; 2.0 with `--lod`) or 3 (3.1 bricks, a third of the bytes; with
-    /// `--lod`, 4.0: levels of bricks, about the bytes of the finest level alone).
+    /// `--lod`, 4.1: levels of bricks, about the bytes of the finest level alone).
     #[arg(long, value_enum, default_value_t = FormatArg::V1)]
     pub format: FormatArg,
     /// Write the compressed container (FORMAT.md, "Compressed files"): the same octree in

@@ -208,7 +208,7 @@ fn brick_level_prefixes_render_their_levels() {
     let o = sdfmo(&["info", &w, "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let info: Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert_eq!(info["version"], "4.0 (levels of bricks)");
+    assert_eq!(info["version"], "4.1 (levels of bricks)");
     let levels = info["levels"].as_array().unwrap();
     assert_eq!(levels.len(), 3);
     assert!(

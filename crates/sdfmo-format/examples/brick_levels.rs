@@ -1,14 +1,14 @@
-//! Sizes of files with levels in format 4.0 (levels of bricks) against the leaf-only files of
+//! Sizes of files with levels in format 4.1 (levels of bricks) against the leaf-only files of
 //! their finest level, from existing 2.0 files (`sdfmo build --lod`).
 //!
 //! ```text
 //! cargo run --release -p sdfmo-format --example brick_levels -- FILE.smo…
 //! ```
-//! For each 2.0 file: the 4.0 file [`encode_levels`] writes, checked to decode to the same
-//! levels byte for byte; the leaf-only 3.0 and 1.x files of its finest level; the ratios; then
-//! per level the block's bytes against that level's own 3.0 file, and how its bricks were
+//! For each 2.0 file: the 4.1 file [`encode_levels`] writes, checked to decode to the same
+//! levels byte for byte; the leaf-only 3.1 and 1.x files of its finest level; the ratios; then
+//! per level the block's bytes against that level's own 3.1 file, and how its bricks were
 //! coded. `--decode` also measures decoding in process CPU time (`/proc/self/stat`: CPU
-//! seconds, not wall time, so a loaded machine slows it less), as MB/s of the 4.0 file and of
+//! seconds, not wall time, so a loaded machine slows it less), as MB/s of the 4.1 file and of
 //! the 1.x octrees it decodes to.
 
 use std::path::PathBuf;
@@ -35,8 +35,8 @@ fn main() {
         }
     }
     println!(
-        "| file | levels | leaf-only 1.x | leaf-only 3.0 | leaf-only 4.0 | levels 2.0 | levels 4.0 | \
-         levels 4.0 / leaf-only 3.0 | / leaf-only 1.x | / leaf-only 4.0 |"
+        "| file | levels | leaf-only 1.x | leaf-only 3.1 | leaf-only 4.1 | levels 2.0 | levels 4.1 | \
+         levels 4.1 / leaf-only 3.1 | / leaf-only 1.x | / leaf-only 4.1 |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|");
     let mut details = Vec::new();
@@ -48,10 +48,10 @@ fn main() {
         assert_eq!(p.octree, lod, "{}: the levels decode alike", path.display());
         let leaf_1x = lod.finest().as_bytes().len() as f64;
         let leaf_3 = BrickOctree::encode(lod.finest())
-            .expect("3.0")
+            .expect("3.1")
             .as_bytes()
             .len() as f64;
-        // The finest level alone in the same coding: what the levels cost in 4.0 itself.
+        // The finest level alone in the same coding: what the levels cost in 4.1 itself.
         let finest = LodOctree::from_levels(vec![lod.finest().clone()]).expect("one level");
         let leaf_4 = encode_levels(&finest).expect("encode").len() as f64;
         let name = path.file_name().unwrap().to_string_lossy().to_string();
@@ -69,7 +69,7 @@ fn main() {
             v4.len() as f64 / leaf_4
         );
         for (s, o) in stats.iter().zip(lod.levels()) {
-            let own = BrickOctree::encode(o).expect("3.0").as_bytes().len();
+            let own = BrickOctree::encode(o).expect("3.1").as_bytes().len();
             details.push(format!(
                 "{name},{},{},{own},{:.3},{},{},{},{},{},{},{}",
                 s.level,
@@ -93,7 +93,7 @@ fn main() {
             }
             let per = (cpu_seconds() - t0) / f64::from(runs);
             details.push(format!(
-                "{name},decode,{runs} runs,{:.1} ms CPU,{:.0} MB/s of the 4.0 file,{:.0} MB/s of 1.x octrees",
+                "{name},decode,{runs} runs,{:.1} ms CPU,{:.0} MB/s of the 4.1 file,{:.0} MB/s of 1.x octrees",
                 per * 1e3,
                 v4.len() as f64 / per / 1e6,
                 traced as f64 / per / 1e6

@@ -24,6 +24,7 @@ use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
 use crate::header::{align8, lod_header_size, residual_widths, BRICK_LEVELS, CHECKSUM_SIZE};
 use crate::lod::{read_prefix, write_header, LevelsVersion};
+use crate::narrow::{fits_narrow, private_codes, put_narrow};
 use crate::quant::{dequant_scale, dequantize, max_code};
 use crate::{
     morton, LeafInput, LevelEntry, LodOctree, LodPrefix, OctreeMeta, PackedOctree, ValueBits,
@@ -32,8 +33,10 @@ use crate::{
 
 /// Major version of a file with levels of bricks.
 pub const BRICK_LOD_VERSION_MAJOR: u16 = 4;
-/// Minor version of a file with levels of bricks.
-pub const BRICK_LOD_VERSION_MINOR: u16 = 0;
+/// Minor version of a file with levels of bricks that the writer writes: 4.1 stores a level's
+/// private voxels narrow where they fit (as format 3.1 does, `FORMAT.md`); readers take 4.0
+/// (every private voxel whole) and 4.1.
+pub const BRICK_LOD_VERSION_MINOR: u16 = 1;
 
 /// Bytes of a level block's head: six `u32` counts and sizes.
 pub const LEVEL_BLOCK_HEAD: usize = 24;
@@ -384,9 +387,26 @@ fn encode_block(
         flags[2 * i / 8] |= f << (2 * i % 8);
     }
     out.extend(flags);
-    for (codes, _) in &level.private_voxels {
-        for c in codes {
-            out.extend(&c.to_le_bytes()[..code_bytes]);
+    // 4.1: a wide bit per private voxel, then each voxel narrow (6·b bytes) or whole (8·b).
+    let narrow: Vec<bool> = level
+        .private_voxels
+        .iter()
+        .map(|(codes, _)| fits_narrow(*codes, bits))
+        .collect();
+    let mut wide = vec![0u8; pv.div_ceil(8)];
+    for (i, &n) in narrow.iter().enumerate() {
+        wide[i / 8] |= u8::from(!n) << (i % 8);
+    }
+    out.extend(wide);
+    for ((codes, _), &n) in level.private_voxels.iter().zip(&narrow) {
+        if n {
+            let mut v = [0u8; 12];
+            put_narrow(&mut v, *codes, bits);
+            out.extend(&v[..6 * code_bytes]);
+        } else {
+            for c in codes {
+                out.extend(&c.to_le_bytes()[..code_bytes]);
+            }
         }
     }
     let crc = crc32(&out);
@@ -394,7 +414,7 @@ fn encode_block(
     Ok(out)
 }
 
-/// Writes `lod` as a version-4.0 file: the 2.0 header (version 4.0) with its level table, then
+/// Writes `lod` as a version-4.1 file: the 2.0 header (version 4.1) with its level table, then
 /// one level block per level, coarsest first, each at a multiple of 8 and coded from the one
 /// before it. Deterministic.
 ///
@@ -507,6 +527,19 @@ pub fn decode_levels_stats(bytes: &[u8]) -> Result<(LodPrefix, Vec<LevelBlockSta
 }
 
 fn decode_prefix(bytes: &[u8], stats: &mut Vec<LevelBlockStats>) -> Result<LodPrefix> {
+    // The minor version decides how private voxels are stored (read_prefix checks the rest of
+    // the header; a short prefix reads as 0 here and is refused there).
+    let minor = match bytes.get(10..12) {
+        Some(m) => u16::from_le_bytes([m[0], m[1]]),
+        None => 0,
+    };
+    if minor > BRICK_LOD_VERSION_MINOR && is_brick_levels(bytes) {
+        return Err(FormatError::UnsupportedVersion {
+            major: BRICK_LOD_VERSION_MAJOR,
+            minor,
+            supported: BRICK_LOD_VERSION_MAJOR,
+        });
+    }
     let mut coarse: Option<Coarse> = None;
     read_prefix(bytes, LEVELS_V4, |block, entry, meta| {
         let meta = OctreeMeta {
@@ -521,14 +554,15 @@ fn decode_prefix(bytes: &[u8], stats: &mut Vec<LevelBlockStats>) -> Result<LodPr
             bytes: entry.size,
             ..LevelBlockStats::default()
         };
-        let level =
-            decode_block(block, meta.depth, meta.bits, &coarse, &mut st).map_err(|e| match e {
+        let level = decode_block(block, meta.depth, meta.bits, minor, &coarse, &mut st).map_err(
+            |e| match e {
                 FormatError::Corrupt { field, reason } => FormatError::Corrupt {
                     field,
                     reason: format!("level {}: {reason}", entry.level),
                 },
                 e => e,
-            })?;
+            },
+        )?;
         let octree = level.to_octree(meta)?;
         coarse = Some(Coarse::of(&level));
         stats.push(st);
@@ -605,6 +639,7 @@ fn decode_block(
     block: &[u8],
     depth: u8,
     bits: ValueBits,
+    minor: u16,
     coarse: &Option<Coarse>,
     st: &mut LevelBlockStats,
 ) -> Result<Level> {
@@ -630,7 +665,20 @@ fn decode_block(
     let res = split(&mut rest, u64::from(res_bytes), "residuals")?;
     let counts = split(&mut rest, u64::from(private_leaves), "private leaves")?;
     let flags = split(&mut rest, (2 * pv).div_ceil(8), "private flags")?;
-    let corners = split(&mut rest, pv * 8 * code_bytes, "private corners")?;
+    // 4.0: every private voxel whole; 4.1: a wide bit per voxel, narrow voxels in 6·b bytes.
+    let wide_bits = if minor == 0 {
+        None
+    } else {
+        Some(split(&mut rest, pv.div_ceil(8), "private wide bits")?)
+    };
+    let wide_count = wide_bits.map_or(pv, |w| {
+        w.iter().map(|b| u64::from(b.count_ones())).sum::<u64>()
+    });
+    let corners = split(
+        &mut rest,
+        2 * code_bytes * (3 * pv + wide_count),
+        "private corners",
+    )?;
     if !rest.is_empty() {
         return corrupt(
             "level block",
@@ -641,7 +689,8 @@ fn decode_block(
     st.upper_bytes = masks.len() as u64;
     st.record_bytes = records.len() as u64;
     st.residual_bytes = res.len() as u64;
-    st.private_bytes = (counts.len() + flags.len() + corners.len()) as u64;
+    st.private_bytes =
+        (counts.len() + flags.len() + wide_bits.map_or(0, <[u8]>::len) + corners.len()) as u64;
 
     // Bricks: the child masks above them, breadth first.
     let mut codes: Vec<u64> = if bricks == 0 { Vec::new() } else { vec![0] };
@@ -780,13 +829,19 @@ fn decode_block(
     if !pv.is_multiple_of(4) && flags[flags.len() - 1] >> (2 * (pv % 4)) != 0 {
         return corrupt("private flags", "bits past the last voxel");
     }
+    if let Some(w) = wide_bits {
+        if !pv.is_multiple_of(8) && w[w.len() - 1] >> (pv % 8) != 0 {
+            return corrupt("private wide bits", "bits past the last voxel");
+        }
+    }
     level.private_counts = counts.to_vec();
     let cb = code_bytes as usize;
-    for (i, vc) in corners.chunks_exact(8 * cb).enumerate() {
-        let codes: [i32; 8] = std::array::from_fn(|k| match bits {
-            ValueBits::Eight => i32::from(vc[k] as i8),
-            ValueBits::Sixteen => i32::from(i16::from_le_bytes([vc[2 * k], vc[2 * k + 1]])),
-        });
+    let mut at = 0usize;
+    for i in 0..pv as usize {
+        let wide = wide_bits.is_none_or(|w| w[i / 8] >> (i % 8) & 1 != 0);
+        // In bounds: the section's size is the sum of the voxels' sizes (split above).
+        let codes = private_codes(corners, at, wide, bits);
+        at += if wide { 8 * cb } else { 6 * cb };
         if let Some(c) = codes.iter().find(|c| c.abs() > q) {
             return corrupt("private corners", format!("code {c} outside ±{q}"));
         }

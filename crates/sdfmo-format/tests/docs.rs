@@ -3,11 +3,11 @@
 
 use glam::Vec3;
 use sdfmo_format::{
-    decode_levels_prefix, encode_levels, plane_predict, point_mask, BrickNode, BrickOctree,
-    BrickOctreeView, FormatError, HeaderField, LeafInput, LodOctree, OctreeMeta, PackedOctree,
-    ValueBits, Voxel, BRICK_RECORD_FIELDS, HEADER_FIELDS, HEADER_SIZE, LOD_HEADER_FIELDS,
-    LOD_HEADER_FIXED, LOD_LEVEL_ENTRY, LOD_LEVEL_FIELDS, LOD_TRAILER_FIELDS, V3_HEADER_FIELDS,
-    V3_HEADER_SIZE,
+    decode_levels, decode_levels_prefix, encode_levels, plane_predict, point_mask, BrickNode,
+    BrickOctree, BrickOctreeView, FormatError, HeaderField, LeafInput, LodOctree, OctreeMeta,
+    PackedOctree, ValueBits, Voxel, BRICK_RECORD_FIELDS, HEADER_FIELDS, HEADER_SIZE,
+    LOD_HEADER_FIELDS, LOD_HEADER_FIXED, LOD_LEVEL_ENTRY, LOD_LEVEL_FIELDS, LOD_TRAILER_FIELDS,
+    V3_HEADER_FIELDS, V3_HEADER_SIZE,
 };
 
 fn format_md() -> String {
@@ -304,7 +304,39 @@ fn docs_brick_example_matches_writer() {
     assert!(v.voxel_is_surface(&private, 1) && !v.voxel_is_surface(&private, 0));
 }
 
-/// The 4.0 worked example: levels 2 (the 3.0 example's octree) and 3 (eight leaves under its
+/// A 4.0 file (every private voxel whole: the 4.0 worked example as FORMAT.md showed it before
+/// 4.1) still decodes to the levels of the 4.1 example; a minor version above 1 is refused.
+#[test]
+fn brick_lod_version_4_0_still_decodes() {
+    let hex = concat!(
+        "89534d4f0d0a1a0a040000006800000000000000030202080000803f00000000000000c00000003fd100000000000000",
+        "0000000000000000000000000000000068000000000000004300000000000000b0000000000000002100000000000000",
+        "148d2bd600000000000000000100000001000000020000001200000003000000111900000000000000029d004201c3ff",
+        "03000000400204fb010709fd02080a0404fcfc0404fcfcf0f9accf000000000001000000010000000000000000000000",
+        "0400000000000000010cff00007f444fc4",
+    );
+    let old: Vec<u8> = (0..hex.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap())
+        .collect();
+    assert_eq!(old.len(), 209);
+    assert_eq!(old[10], 0, "minor version 0");
+    let new = documented_hex(&format_md(), "brick-lod-example-hex");
+    assert_eq!(new[10], 1, "minor version 1");
+    assert_eq!(decode_levels(&old).unwrap(), decode_levels(&new).unwrap());
+    let mut newer = new.clone();
+    newer[10] = 2;
+    assert!(matches!(
+        decode_levels(&newer),
+        Err(FormatError::UnsupportedVersion {
+            major: 4,
+            minor: 2,
+            ..
+        })
+    ));
+}
+
+/// The 4.1 worked example: levels 2 (the 3.0 example's octree) and 3 (eight leaves under its
 /// cell (0, 0, 0), codes twice the coarse field), encoded byte for byte as the dump, decoded
 /// back, and its level-boundary prefix holding level 2.
 #[test]
@@ -338,11 +370,11 @@ fn docs_brick_lod_example_matches_writer() {
     assert_eq!(bytes, documented_hex(&format_md(), "brick-lod-example-hex"));
     let p = decode_levels_prefix(&bytes).unwrap();
     let places: Vec<(u64, u64)> = p.declared.iter().map(|e| (e.offset, e.size)).collect();
-    assert_eq!(places, [(104, 67), (176, 33)]);
+    assert_eq!(places, [(104, 64), (168, 33)]);
     assert_eq!(p.octree, lod);
-    assert_eq!(bytes.len(), 209);
-    let two = decode_levels_prefix(&bytes[..171]).unwrap();
+    assert_eq!(bytes.len(), 201);
+    let two = decode_levels_prefix(&bytes[..168]).unwrap();
     assert_eq!(two.octree.levels(), std::slice::from_ref(&coarse));
     // Level 3's record as the text reads it: mode, then one byte per coarse leaf above.
-    assert_eq!(bytes[0xc8..0xcd], [0x01, 0x0c, 0xff, 0x00, 0x00]);
+    assert_eq!(bytes[0xc0..0xc5], [0x01, 0x0c, 0xff, 0x00, 0x00]);
 }

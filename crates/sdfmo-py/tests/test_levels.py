@@ -112,13 +112,13 @@ def test_level_errors_name_what_is_held(cli, lod_file, tmp_path):
 
 
 def test_levels_of_bricks_load_as_their_levels(cli, lod_file, tmp_path):
-    """A format-4.0 file (``sdfmo build --lod --format 3``) and each of its level-boundary
+    """A format-4.1 file (``sdfmo build --lod --format 3``) and each of its level-boundary
     prefixes load from a path and from bytes with the levels of the 2.0 file, and render alike."""
     path, _ = lod_file
     v4 = tmp_path / "demo.v4.smo"
     run(cli, "build", "-d", "6", "--lod", "--coarsest", "4", "--format", "3", "-o", v4)
     info = json.loads(run(cli, "info", v4, "--json").stdout)
-    assert info["version"] == "4.0 (levels of bricks)"
+    assert info["version"] == "4.1 (levels of bricks)"
     data = v4.read_bytes()
     two = sdfmo.Octree.load(path)
     for row in info["levels"]:

@@ -4,13 +4,26 @@ use std::fmt::Write as _;
 
 use anyhow::Context;
 use sdf_multioctree::build::{self, BuildRequest, BuildSettings, BuildStats};
-use sdf_multioctree::format::{decode_levels_prefix, encode_levels, BrickOctree, BRICK_LEVELS};
+use sdf_multioctree::format::{
+    decode_levels_prefix, encode_levels, BrickOctree, BRICK_LEVELS, BRICK_LOD_VERSION_MAJOR,
+    BRICK_LOD_VERSION_MINOR,
+};
 use serde_json::json;
 
 use crate::args::{BuildArgs, FormatArg};
 use crate::commands::{load_input, memory_budget, Workers};
 use crate::output::{check_output, ensure_parent, print_json, print_text};
 use crate::progress;
+
+/// The version `--lod` writes, as `--json` and the summary name it: levels of bricks (4.1) with
+/// `--format 3`, else 2.0.
+fn levels_version(format: FormatArg) -> String {
+    if format == FormatArg::V3 {
+        format!("{BRICK_LOD_VERSION_MAJOR}.{BRICK_LOD_VERSION_MINOR}")
+    } else {
+        "2.0".to_string()
+    }
+}
 
 /// Builds the octree with a progress bar, saves it atomically and prints the statistics.
 pub fn run(args: &BuildArgs) -> anyhow::Result<()> {
@@ -204,7 +217,7 @@ fn run_lod(
     let (file, entries) = match args.format {
         FormatArg::V1 => (lod.to_bytes(), lod.entries()),
         FormatArg::V3 => {
-            let file = encode_levels(&lod).context("cannot encode the levels as format 4.0")?;
+            let file = encode_levels(&lod).context("cannot encode the levels as format 4")?;
             // The header's level table; decoding also checks the file before it is written.
             let declared = decode_levels_prefix(&file)
                 .context("the 4.0 encoding does not decode")?
@@ -233,7 +246,7 @@ fn run_lod(
             "coarsest": coarsest,
             "bits": args.bits.count(),
             "bytes": bytes,
-            "format": if args.format == FormatArg::V3 { "4.0" } else { "2.0" },
+            "format": levels_version(args.format),
             "build_ms": total_ms,
             "levels": levels,
             "output": args.output.display().to_string(),
@@ -247,11 +260,7 @@ fn run_lod(
         s,
         ": {bytes} bytes ({:.3} MB, format {}), {total_ms:.1} ms",
         bytes as f64 / 1e6,
-        if args.format == FormatArg::V3 {
-            "4.0"
-        } else {
-            "2.0"
-        },
+        levels_version(args.format),
     );
     let voxels: usize = stats.iter().map(|st| st.voxels).sum();
     s.push_str(&stored_note(args, bytes as usize, stored, voxels));

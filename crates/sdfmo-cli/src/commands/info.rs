@@ -148,19 +148,21 @@ fn run_smo(path: &Path, as_json: bool) -> anyhow::Result<()> {
     }
     // 4.0: how each level block was coded (bricks, and how many were predicted).
     let mut blocks: Vec<LevelBlockStats> = Vec::new();
-    let (version, file_size, levels): (&str, u64, Vec<(LevelEntry, Option<PackedOctree>)>) =
+    let (version, file_size, levels): (String, u64, Vec<(LevelEntry, Option<PackedOctree>)>) =
         if is_brick_levels(&bytes) {
             let (p, stats) = decode_levels_stats(&bytes).with_context(cannot)?;
             blocks = stats;
             let mut loaded = p.octree.levels().to_vec().into_iter();
             let rows = p.declared.iter().map(|e| (*e, loaded.next())).collect();
-            ("4.0 (levels of bricks)", p.file_size, rows)
+            // (Decoded above, so the header and its minor version are there.)
+            let minor = u16::from_le_bytes([bytes[10], bytes[11]]);
+            (format!("4.{minor} (levels of bricks)"), p.file_size, rows)
         } else if SmoFile::has_levels(&bytes) {
             let p = LodOctree::from_prefix(&bytes).with_context(cannot)?;
             let loaded = p.octree.levels().to_vec();
             let mut loaded = loaded.into_iter();
             let rows = p.declared.iter().map(|e| (*e, loaded.next())).collect();
-            ("2.0 (levels)", p.file_size, rows)
+            ("2.0 (levels)".to_string(), p.file_size, rows)
         } else {
             let o = PackedOctree::from_bytes(&bytes)
                 .map_err(|e: FormatError| anyhow::Error::new(e))
@@ -170,7 +172,7 @@ fn run_smo(path: &Path, as_json: bool) -> anyhow::Result<()> {
                 offset: 0,
                 size: o.byte_size() as u64,
             };
-            ("1.x", o.byte_size() as u64, vec![(e, Some(o))])
+            ("1.x".to_string(), o.byte_size() as u64, vec![(e, Some(o))])
         };
     // A compressed file is read whole and decoded: its size on disk beside the `.smo`'s.
     let stored = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
