@@ -293,7 +293,7 @@ fn print_v3(path: &Path, b: &BrickOctreeView<'_>, as_json: bool) -> anyhow::Resu
         }));
     }
     let mut s = format!(
-        "{}\n  .smo 3.{} (bricks), {} bytes, {:.2} bytes per voxel (loaded as its 1.x octree)\n",
+        "{}\n  .smo 3.{} (bricks), {} bytes, {:.2} bytes per voxel (traced as it is)\n",
         path.display(),
         b.version_minor(),
         z.total,
