@@ -1837,13 +1837,19 @@ fn validate_private_v31(
             }
         }
     }
-    if voxel != u64::from(c.private_voxels) || wide != u64::from(c.wide_voxels) {
+    if voxel != u64::from(c.private_voxels) {
+        let w = c.private_voxels;
         return corrupt(
             "private_leaves",
-            format!(
-                "counts sum to {voxel} voxels, {wide} wide; the header implies {} and {}",
-                c.private_voxels, c.wide_voxels
-            ),
+            format!("{voxel} voxels, the header says {w}"),
+        );
+    }
+    // (The wide voxels are implied by the private corners' size.)
+    if wide != u64::from(c.wide_voxels) {
+        let size_says = c.wide_voxels;
+        return corrupt(
+            "private_corners_size",
+            format!("{wide} wide voxels in the counts, {size_says} by the size"),
         );
     }
     Ok(())
