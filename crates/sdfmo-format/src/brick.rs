@@ -41,7 +41,7 @@ use crate::header::{
     V3_HEADER_SIZE, V3_VERSION_MAJOR, V3_VERSION_MINOR,
 };
 use crate::narrow::{
-    corner_offset, fits_narrow, private_codes, private_leaf_at, put_narrow, slots, WIDE_BIT,
+    corner_offset, fits_narrow, private_codes, private_leaf_at, put_private, slots, WIDE_BIT,
 };
 use crate::octree::{
     bytes_at, group_at, inner_levels, low_bits, put_group, to_u32, write_node_groups,
@@ -758,7 +758,6 @@ impl BrickOctree<Vec<u8>> {
         out[res..res + residual_bytes.len()].copy_from_slice(&residual_bytes);
 
         // Private leaf groups, flags and corners, in Morton order.
-        let code_bytes = bits.bytes();
         let (per_group, group_size) = (private_group_leaves(minor), private_group_size(minor));
         let (mut voxel, mut wide_before) = (0u32, 0u32);
         for (g, group) in private_leaves.chunks(per_group).enumerate() {
@@ -786,17 +785,13 @@ impl BrickOctree<Vec<u8>> {
                     out[layout.private_flags.0 as usize + bit / 8] |= flags << (bit % 8);
                     let at =
                         layout.private_corners.0 as usize + corner_offset(voxel, wide_before, bits);
-                    let codes = octree.voxel_codes(v);
-                    if n {
-                        put_narrow(&mut out[at..], codes.map(i32::from), bits);
-                    } else {
-                        for (k, c) in codes.into_iter().enumerate() {
-                            let at = at + k * code_bytes;
-                            out[at..at + code_bytes]
-                                .copy_from_slice(&c.to_le_bytes()[..code_bytes]);
-                        }
-                        wide_before += 1;
-                    }
+                    put_private(
+                        &mut out[at..],
+                        octree.voxel_codes(v).map(i32::from),
+                        !n,
+                        bits,
+                    );
+                    wide_before += u32::from(!n);
                     voxel += 1;
                 }
             }

@@ -24,7 +24,7 @@ use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
 use crate::header::{align8, lod_header_size, residual_widths, BRICK_LEVELS, CHECKSUM_SIZE};
 use crate::lod::{read_prefix, write_header, LevelsVersion};
-use crate::narrow::{fits_narrow, private_codes, put_narrow};
+use crate::narrow::{fits_narrow, private_codes, put_private};
 use crate::quant::{dequant_scale, dequantize, max_code};
 use crate::{
     morton, LeafInput, LevelEntry, LodOctree, LodPrefix, OctreeMeta, PackedOctree, ValueBits,
@@ -44,6 +44,8 @@ pub const LEVEL_BLOCK_HEAD: usize = 24;
 pub(crate) const LEVELS_V4: LevelsVersion = LevelsVersion {
     major: BRICK_LOD_VERSION_MAJOR,
     minor: BRICK_LOD_VERSION_MINOR,
+    // 4.1 changed the private voxels' layout: a newer minor may change it again.
+    max_minor: BRICK_LOD_VERSION_MINOR,
     min_block: (LEVEL_BLOCK_HEAD + CHECKSUM_SIZE) as u64,
 };
 
@@ -399,15 +401,9 @@ fn encode_block(
     }
     out.extend(wide);
     for ((codes, _), &n) in level.private_voxels.iter().zip(&narrow) {
-        if n {
-            let mut v = [0u8; 12];
-            put_narrow(&mut v, *codes, bits);
-            out.extend(&v[..6 * code_bytes]);
-        } else {
-            for c in codes {
-                out.extend(&c.to_le_bytes()[..code_bytes]);
-            }
-        }
+        let mut v = [0u8; 16];
+        let len = put_private(&mut v, *codes, !n, bits);
+        out.extend(&v[..len]);
     }
     let crc = crc32(&out);
     out.extend(crc.to_le_bytes());
@@ -527,25 +523,14 @@ pub fn decode_levels_stats(bytes: &[u8]) -> Result<(LodPrefix, Vec<LevelBlockSta
 }
 
 fn decode_prefix(bytes: &[u8], stats: &mut Vec<LevelBlockStats>) -> Result<LodPrefix> {
-    // The minor version decides how private voxels are stored (read_prefix checks the rest of
-    // the header; a short prefix reads as 0 here and is refused there).
-    let minor = match bytes.get(10..12) {
-        Some(m) => u16::from_le_bytes([m[0], m[1]]),
-        None => 0,
-    };
-    if minor > BRICK_LOD_VERSION_MINOR && is_brick_levels(bytes) {
-        return Err(FormatError::UnsupportedVersion {
-            major: BRICK_LOD_VERSION_MAJOR,
-            minor,
-            supported: BRICK_LOD_VERSION_MAJOR,
-        });
-    }
     let mut coarse: Option<Coarse> = None;
-    read_prefix(bytes, LEVELS_V4, |block, entry, meta| {
+    read_prefix(bytes, LEVELS_V4, |block, entry, header| {
         let meta = OctreeMeta {
             depth: entry.level,
-            ..*meta
+            ..header.meta
         };
+        // The minor decides how the block stores its private voxels (4.0: all whole).
+        let minor = header.minor;
         if meta.depth < BRICK_LEVELS {
             return corrupt("levels", format!("level {} is below depth 2", meta.depth));
         }

@@ -62,6 +62,8 @@ pub struct LodPrefix {
     pub declared: Vec<LevelEntry>,
     /// The whole file's size (from the header).
     pub file_size: u64,
+    /// The file's minor version (from the header): 2.0; 4.0 or 4.1 for levels of bricks.
+    pub minor_version: u16,
 }
 
 impl LodPrefix {
@@ -73,6 +75,8 @@ impl LodPrefix {
 
 /// The description a 2.0 or 4.0 header gives (validated, CRC checked).
 pub(crate) struct LodHeader {
+    /// The file's minor version (at most its [`LevelsVersion::max_minor`]).
+    pub(crate) minor: u16,
     pub(crate) meta: OctreeMeta,
     pub(crate) coarsest: u8,
     pub(crate) entries: Vec<LevelEntry>,
@@ -84,7 +88,11 @@ pub(crate) struct LodHeader {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct LevelsVersion {
     pub(crate) major: u16,
+    /// The minor version the writer writes.
     pub(crate) minor: u16,
+    /// The newest minor version a reader takes; a file of a newer one is
+    /// [`FormatError::UnsupportedVersion`].
+    pub(crate) max_minor: u16,
     /// The fewest bytes a level of this version has.
     pub(crate) min_block: u64,
 }
@@ -93,6 +101,8 @@ pub(crate) struct LevelsVersion {
 pub(crate) const LEVELS_V2: LevelsVersion = LevelsVersion {
     major: LOD_VERSION_MAJOR,
     minor: LOD_VERSION_MINOR,
+    // 2.x minors only add (FORMAT.md, "Versioning").
+    max_minor: u16::MAX,
     min_block: MIN_BLOCK,
 };
 
@@ -137,6 +147,13 @@ pub(crate) fn read_header(bytes: &[u8], version: LevelsVersion) -> Result<LodHea
     let h = fixed_header(bytes);
     let (major, minor) = (h.version_major, h.version_minor);
     check_major(major, minor, version.major)?;
+    if minor > version.max_minor {
+        return Err(FormatError::UnsupportedVersion {
+            major,
+            minor,
+            supported: version.major,
+        });
+    }
     if len < LOD_HEADER_FIXED {
         return Err(FormatError::Truncated {
             len,
@@ -248,6 +265,7 @@ pub(crate) fn read_header(bytes: &[u8], version: LevelsVersion) -> Result<LodHea
         );
     }
     Ok(LodHeader {
+        minor,
         meta,
         coarsest,
         entries,
@@ -257,7 +275,8 @@ pub(crate) fn read_header(bytes: &[u8], version: LevelsVersion) -> Result<LodHea
 
 /// Validates the 1.x octree of 2.0 level `entry` (its bytes: `block`) and checks it against
 /// the header.
-fn read_level(block: &[u8], entry: &LevelEntry, meta: &OctreeMeta) -> Result<PackedOctree> {
+fn read_level(block: &[u8], entry: &LevelEntry, header: &LodHeader) -> Result<PackedOctree> {
+    let meta = &header.meta;
     let view = PackedOctreeView::new(block).map_err(|e| FormatError::Corrupt {
         field: "level",
         reason: format!("level {}: {e}", entry.level),
@@ -360,13 +379,13 @@ pub(crate) fn write_header(
 }
 
 /// The complete levels of a prefix of a file with levels of `version`, each read by
-/// `read_level(level bytes, entry, header meta)` coarsest first (a 4.0 level needs the one
+/// `read_level(level bytes, entry, header)` coarsest first (a 4.0 level needs the one
 /// before it), with the checks both versions share: the header, no trailing bytes, zero
 /// padding between levels, at least the coarsest level.
 pub(crate) fn read_prefix(
     bytes: &[u8],
     version: LevelsVersion,
-    mut read_level: impl FnMut(&[u8], &LevelEntry, &OctreeMeta) -> Result<PackedOctree>,
+    mut read_level: impl FnMut(&[u8], &LevelEntry, &LodHeader) -> Result<PackedOctree>,
 ) -> Result<LodPrefix> {
     let header = read_header(bytes, version)?;
     let len = bytes.len() as u64;
@@ -379,7 +398,7 @@ pub(crate) fn read_prefix(
         levels.push(read_level(
             &bytes[e.offset as usize..e.end() as usize],
             e,
-            &header.meta,
+            &header,
         )?);
         check_gap(bytes, e, header.entries.get(i + 1))?;
     }
@@ -394,6 +413,7 @@ pub(crate) fn read_prefix(
         octree: LodOctree { levels },
         declared: header.entries,
         file_size: header.file_size,
+        minor_version: header.minor,
     })
 }
 

@@ -145,6 +145,21 @@ pub(crate) fn put_narrow(out: &mut [u8], c: [i32; 8], bits: ValueBits) {
     }
 }
 
+/// Writes private voxel `c` at the start of `out`, narrow (`6·b` bytes; it must
+/// [`fit`](fits_narrow)) or, `wide`, whole (`8·b`); returns the bytes written. The inverse of
+/// [`private_codes`].
+pub(crate) fn put_private(out: &mut [u8], c: [i32; 8], wide: bool, bits: ValueBits) -> usize {
+    let b = bits.bytes();
+    if !wide {
+        put_narrow(out, c, bits);
+        return 6 * b;
+    }
+    for (k, x) in c.into_iter().enumerate() {
+        out[k * b..(k + 1) * b].copy_from_slice(&(x as i16).to_le_bytes()[..b]);
+    }
+    8 * b
+}
+
 /// The eight codes of the narrow voxel at `at` of `b` (not range-checked: a validator checks
 /// them in −Q..=Q, where they fit an `i16`).
 #[inline(always)]

@@ -154,9 +154,8 @@ fn run_smo(path: &Path, as_json: bool) -> anyhow::Result<()> {
             blocks = stats;
             let mut loaded = p.octree.levels().to_vec().into_iter();
             let rows = p.declared.iter().map(|e| (*e, loaded.next())).collect();
-            // (Decoded above, so the header and its minor version are there.)
-            let minor = u16::from_le_bytes([bytes[10], bytes[11]]);
-            (format!("4.{minor} (levels of bricks)"), p.file_size, rows)
+            let version = format!("4.{} (levels of bricks)", p.minor_version);
+            (version, p.file_size, rows)
         } else if SmoFile::has_levels(&bytes) {
             let p = LodOctree::from_prefix(&bytes).with_context(cannot)?;
             let loaded = p.octree.levels().to_vec();
