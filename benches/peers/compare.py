@@ -252,16 +252,16 @@ def rows():
               prose("results/python.md", "measured 2026-12-03, load 1.4–2.4")))
 
     # ---- FCPW
-    quote("results/python.md", "| abc1.stl | **1.48× / 1.50×** (0.216 / 0.146) | 1.04× / 1.07× (0.163 / 0.156) |")
-    quote("results/python.md", "| abc5.stl | **1.73× / 1.82×** (1.410 / 0.814) | 1.48× / 1.79× (1.140 / 0.768) |")
-    quote("results/python.md", "| teapot.obj | **1.52× / 1.61×** (0.741 / 0.487) | 1.35× / 1.34× (0.656 / 0.487) |")
-    quote("results/python.md", "| stanford-bunny.obj | **2.54× / 2.28×** (0.452 / 0.178) | 1.21× / 1.04× (0.209 / 0.173) |")
+    quote("results/python.md", "| abc1.stl | **1.43× / 1.60×** (0.222 / 0.155) | 1.07× / 1.16× (0.163 / 0.152) |")
+    quote("results/python.md", "| abc5.stl | **1.87× / 1.82×** (1.549 / 0.830) | 1.83× / 1.80× (1.498 / 0.820) |")
+    quote("results/python.md", "| teapot.obj | **1.64× / 1.68×** (0.796 / 0.486) | 1.35× / 1.33× (0.662 / 0.489) |")
+    quote("results/python.md", "| stanford-bunny.obj | **2.34× / 3.05×** (0.454 / 0.194) | 1.05× / 1.34× (0.215 / 0.205) |")
     quote("results/python.md", "The double-walled soup stays our\nknown slow case (0.04×")
     R.append(("FCPW 1.2 (vectorised BVH; unsigned closest point only)",
               "our signed distance against its unsigned closest point, points per core, same points",
-              "ours ÷ FCPW in the steady state **1.48–2.54×** on abc1, abc5, the teapot and the bunny (two runs), "
-              "closest on abc1 (1.48–1.50×); a first call, which also makes our winding sign's per-leaf data, "
-              "1.04–1.79× (**a loss of the 1.5× bar** on the open meshes); **a loss** on the double-walled soup (0.04×)",
+              "ours ÷ FCPW in the steady state **1.43–3.05×** on abc1, abc5, the teapot and the bunny (two runs), "
+              "closest on abc1 (1.43× and 1.60×); a first call, which also makes our winding sign's per-leaf data, "
+              "1.05–1.83× (**a loss of the 1.5× bar** on the open meshes); **a loss** on the double-walled soup (0.04×)",
               "P", prose("results/python.md", "measured 2026-12-05, quiet machine")))
 
     # ---- point-cloud-utils and trimesh
