@@ -99,8 +99,8 @@ impl MeshDistance {
     /// [`map_points`](Self::map_points) for the order they are visited in). The winding
     /// sign's one-time data is made for the BVH leaves the points reach, as they reach them
     /// ([`prepare_sign`](Self::prepare_sign) makes all of it): on abc1, 50,000 points on one
-    /// thread took 0.78 s in a first call that made every leaf's and 0.23–0.29 s making only
-    /// theirs (0.14–0.20 s once made).
+    /// thread took 0.60–0.63 s in a first call that made every leaf's and 0.19–0.20 s making
+    /// only theirs (0.14 s once made; quiet machine, three runs).
     pub fn signed_distances(&self, points: &[Vec3]) -> Vec<f32> {
         self.map_points(points, |md, p| md.signed_distance(p))
     }
