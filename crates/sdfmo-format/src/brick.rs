@@ -35,10 +35,10 @@ use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
 use crate::header::{
     align8, field_in, plane_fraction_bits, private_group_leaves, private_group_size,
-    residual_widths, BrickRecord, Counts, V3Header, BRICK_LEVELS, BRICK_POINT_EDGE,
-    BRICK_RECORD_FIELDS, BRICK_RECORD_SIZE, CHECKSUM_SIZE, FLAG_CLIP_VOXELS, FLAG_MULTI_VOXEL,
-    FLAG_SURFACE_VOXELS, KNOWN_FLAGS, MAGIC, RESIDUAL_OFFSET_BITS, V31_MAX_LEAF_VOXELS,
-    V3_HEADER_SIZE, V3_VERSION_MAJOR, V3_VERSION_MINOR,
+    residual_widths, BrickRecord, Counts, V3Header, BRICK_LEVELS, BRICK_RECORD_FIELDS,
+    BRICK_RECORD_SIZE, CHECKSUM_SIZE, FLAG_CLIP_VOXELS, FLAG_MULTI_VOXEL, FLAG_SURFACE_VOXELS,
+    KNOWN_FLAGS, MAGIC, RESIDUAL_OFFSET_BITS, V31_MAX_LEAF_VOXELS, V3_HEADER_SIZE,
+    V3_VERSION_MAJOR, V3_VERSION_MINOR,
 };
 use crate::narrow::{
     corner_offset, fits_narrow, private_codes, private_leaf_at, put_private, slots, WIDE_BIT,
@@ -81,20 +81,41 @@ pub const fn cell_grid_index(cell: u32) -> u32 {
 /// corners in the 5³ grid (bit `25x + 5y + z`), i.e. the cells placed in the grid and dilated
 /// by one along +x, +y and +z. A point's rank among them is a popcount below its bit.
 // Always inlined: the tracer computes it per shared voxel fetch, and a call cost 6 % of a
-// frame (callgrind, abc1 depth 9 multi, paper view 0).
+// frame (callgrind, abc1 depth 9 multi, paper view 0). One table load per half-brick
+// ([`HALF_POINTS`]) instead of spreading the cells and dilating them: 3 % fewer instructions
+// per 3.1 frame (abc1 / abc5 depth 9 multi, paper view 0: 219.3 → 212.8 M, 308.8 → 299.6 M).
 #[inline(always)]
 pub fn point_mask(shared: u64) -> u128 {
-    let mut cells = 0u128;
+    let mut points = 0u128;
     for half in 0..8u32 {
-        let m = (shared >> (8 * half)) as u32 & 0xff;
-        // The eight cells of a half-brick sit at the corner offsets of its lowest cell.
-        let spread = (m & 0x3) | (m & 0xc) << 3 | (m & 0x30) << 21 | (m & 0xc0) << 24;
-        cells |= u128::from(spread) << cell_grid_index(half << 3);
+        let m = (shared >> (8 * half)) as usize & 0xff;
+        points |= u128::from(HALF_POINTS[m]) << cell_grid_index(half << 3);
     }
-    let d = cells | cells << 1;
-    let d = d | d << BRICK_POINT_EDGE;
-    d | d << (BRICK_POINT_EDGE * BRICK_POINT_EDGE)
+    points
 }
+
+/// `HALF_POINTS[m]`: the points (bit `25x + 5y + z` from the half-brick's lowest point, so
+/// within 63 bits) of the cells `m` (Morton bits) of one half-brick.
+const HALF_POINTS: [u64; 256] = {
+    let mut t = [0u64; 256];
+    let mut m = 0;
+    while m < 256 {
+        let mut cell = 0;
+        while cell < 8 {
+            if m >> cell & 1 != 0 {
+                let g = cell_grid_index(cell);
+                let mut k = 0;
+                while k < 8 {
+                    t[m] |= 1 << (g + CORNER_POINT_OFFSETS[k]);
+                    k += 1;
+                }
+            }
+            cell += 1;
+        }
+        m += 1;
+    }
+    t
+};
 
 /// Points of `mask` below grid index `g`.
 #[inline]

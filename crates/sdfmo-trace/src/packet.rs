@@ -87,8 +87,8 @@ pub fn intersect_packet<O: TracedOctree>(
     rays: &RayPacket,
 ) -> [Option<Hit<O::Voxel>>; PACKET_SIZE] {
     #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2.
+    if has_avx2_walk() {
+        // SAFETY: the CPU has AVX2, POPCNT, LZCNT, BMI1 and BMI2.
         return unsafe { packet_avx2(octree, rays) };
     }
     packet::<
@@ -121,10 +121,25 @@ const SSE2: u8 = 1;
 /// Inner-node steps of [`packet`]: AVX2, one register of eight lanes (x86-64 CPUs with AVX2).
 const AVX2: u8 = 2;
 
-/// [`packet`] with the AVX2 step, compiled for AVX2 CPUs (the rest in three-operand VEX form;
-/// Rust never fuses a multiply and an add by itself, so the same bits).
+/// Whether the CPU runs [`packet_avx2`]: AVX2 and the bit instructions every AVX2 CPU has
+/// (POPCNT, LZCNT, BMI1, BMI2; Intel since Haswell, AMD since Excavator).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[inline]
+fn has_avx2_walk() -> bool {
+    std::is_x86_feature_detected!("avx2")
+        && std::is_x86_feature_detected!("popcnt")
+        && std::is_x86_feature_detected!("lzcnt")
+        && std::is_x86_feature_detected!("bmi1")
+        && std::is_x86_feature_detected!("bmi2")
+}
+
+/// [`packet`] with the AVX2 step, compiled for AVX2 CPUs (the rest in three-operand VEX form;
+/// Rust never fuses a multiply and an add by itself, so the same bits). With POPCNT, LZCNT and
+/// BMI: without them a popcount (child indices, a 3.x voxel's point ranks) was some 15
+/// instructions in software; with them 5 % fewer instructions per 1.x frame and 3 % per 3.1
+/// frame (abc1 depth 9 multi, paper view 0, callgrind: 180.7 → 171.9 M, 219.5 → 212.8 M).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,popcnt,lzcnt,bmi1,bmi2")]
 unsafe fn packet_avx2<O: TracedOctree>(
     octree: &O,
     rays: &RayPacket,
@@ -390,9 +405,11 @@ impl<'a, O: TracedOctree> Children<'a, O> {
         }
     }
 
+    /// The present children among `candidates` (a mask of octants), farthest first (the
+    /// reverse of [`NEAR_TO_FAR`] from `near`).
     #[inline(always)]
-    fn present(&self, c: u32) -> bool {
-        self.mask >> c & 1 != 0
+    fn present_far_to_near(&self, candidates: u32) -> FarToNear {
+        FarToNear::new(self.mask & candidates, self.near)
     }
 
     /// The present child `c`, visited by `lanes` over their spans.
@@ -455,12 +472,71 @@ fn packet_step<O: TracedOctree>(children: &mut Children<'_, O>) {
         }
     }
 
-    for &flip in NEAR_TO_FAR.iter().rev() {
-        let c = children.near ^ flip;
+    let visited = (0..8).fold(0, |m, c| m | u32::from(visit[c] != 0) << c);
+    for c in children.present_far_to_near(visited) {
         let i = c as usize;
-        if visit[i] != 0 && children.present(c) {
+        if visit[i] != 0 {
             children.add(c, visit[i], t_enter[i], t_exit[i]);
         }
+    }
+}
+
+/// The set bits `c` of a child mask in the reverse of [`NEAR_TO_FAR`] from the octant `near`,
+/// by `leading_zeros` over the mask reordered by one table load ([`FAR_TO_NEAR_BITS`]), so
+/// that absent children cost nothing.
+///
+/// Why: testing all eight octants of [`NEAR_TO_FAR`] for presence, then for lanes, was the
+/// hottest loop of a frame (per 1024² frame of abc1 depth 9: 1.9 M octants tested, 1.0 M
+/// present, 0.34 M with lanes; callgrind). Skipping the absent ones and, with the octants the
+/// live lanes visit, the unvisited ones: 5 % fewer instructions per frame (190.6 → 180.7 M).
+struct FarToNear {
+    /// Bit `i` set when the child `near ^ NEAR_TO_FAR[i]` is in the mask.
+    rest: u32,
+    near: u32,
+}
+
+/// `FAR_TO_NEAR_BITS[near][mask]`: bit `i` set when bit `near ^ NEAR_TO_FAR[i]` of `mask` is.
+const FAR_TO_NEAR_BITS: [[u8; 256]; 8] = {
+    let mut t = [[0u8; 256]; 8];
+    let mut near = 0;
+    while near < 8 {
+        let mut mask = 0;
+        while mask < 256 {
+            let mut i = 0;
+            while i < 8 {
+                if mask >> (near ^ NEAR_TO_FAR[i]) & 1 != 0 {
+                    t[near as usize][mask as usize] |= 1 << i;
+                }
+                i += 1;
+            }
+            mask += 1;
+        }
+        near += 1;
+    }
+    t
+};
+
+impl FarToNear {
+    #[inline(always)]
+    fn new(mask: u32, near: u32) -> Self {
+        FarToNear {
+            rest: u32::from(FAR_TO_NEAR_BITS[near as usize & 7][mask as usize & 0xff]),
+            near,
+        }
+    }
+}
+
+impl Iterator for FarToNear {
+    type Item = u32;
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<u32> {
+        if self.rest == 0 {
+            return None;
+        }
+        let i = 31 - self.rest.leading_zeros();
+        self.rest ^= 1 << i;
+        Some(self.near ^ NEAR_TO_FAR[i as usize & 7])
     }
 }
 
@@ -541,6 +617,18 @@ const _: () = assert!(
     "two SSE registers or one AVX register of lanes"
 );
 
+/// The OR of the four u32 lanes of `x` (SSE2).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn or_across_128(x: __m128i) -> u32 {
+    // SAFETY: SSE2 is part of the x86-64 baseline.
+    unsafe {
+        let x = _mm_or_si128(x, _mm_shuffle_epi32(x, 0b01_00_11_10));
+        let x = _mm_or_si128(x, _mm_shuffle_epi32(x, 0b10_11_00_01));
+        _mm_cvtsi128_si32(x) as u32
+    }
+}
+
 /// An integer instruction on the lanes' bits: `int_op!(op, a, b, h)` applies an SSE2 `op` to
 /// each half of two [`Sse2`], `int_op!(op, a, b)` an AVX2 `op` to two [`Avx2`] (the casts
 /// reinterpret the bits; they emit no instruction).
@@ -607,6 +695,26 @@ lanes8! {
     fn movemask(a: Self) -> u32 {
         sse2: (_mm_movemask_ps(a.0[0]) | _mm_movemask_ps(a.0[1]) << 4) as u32,
         avx2: _mm256_movemask_ps(a.0) as u32
+    }
+    // `1 << a` of lanes `a` in 0..=8 (SSE2 has no variable shift: 2^a built as an f32's
+    // exponent and converted, exact).
+    fn octant_bit(a: Self) -> Self {
+        sse2: pair(|h| _mm_castsi128_ps(_mm_cvttps_epi32(_mm_castsi128_ps(_mm_slli_epi32(
+            _mm_add_epi32(_mm_castps_si128(a.0[h]), _mm_set1_epi32(127)),
+            23,
+        ))))),
+        avx2: Avx2(_mm256_castsi256_ps(_mm256_sllv_epi32(
+            _mm256_set1_epi32(1),
+            _mm256_castps_si256(a.0),
+        )))
+    }
+    // The OR of the eight lanes' bits.
+    fn or_across(a: Self) -> u32 {
+        sse2: or_across_128(_mm_or_si128(_mm_castps_si128(a.0[0]), _mm_castps_si128(a.0[1]))),
+        avx2: or_across_128(_mm_or_si128(
+            _mm256_castsi256_si128(_mm256_castps_si256(a.0)),
+            _mm256_extracti128_si256(_mm256_castps_si256(a.0), 1),
+        ))
     }
     // Operations on the lanes' bits as u32 (`int_op!`): the SSE2 and the AVX2 instruction.
     integer {
@@ -678,12 +786,17 @@ unsafe fn packet_step_wide<V: Lanes8, O: TracedOctree>(children: &mut Children<'
             V::sel(V::eq_u(b2, zero), none, o3),
         ];
         let b = [te, k0, k1, k2, tx];
+        // The octants some live lane visits (an absent p-th crossing, octant 8, falls outside
+        // the byte).
+        let lane_bit = V::load_u(&[1, 2, 4, 8, 16, 32, 64, 128]);
+        let live = V::eq_u(V::and_u(V::splat_u(children.lanes), lane_bit), lane_bit);
+        let octants = V::or_u(
+            V::or_u(V::octant_bit(seq[0]), V::octant_bit(seq[1])),
+            V::or_u(V::octant_bit(seq[2]), V::octant_bit(seq[3])),
+        );
+        let visited = V::or_across(V::and_u(live, octants));
 
-        for &flip in NEAR_TO_FAR.iter().rev() {
-            let c = children.near ^ flip;
-            if !children.present(c) {
-                continue;
-            }
+        for c in children.present_far_to_near(visited) {
             let cv = V::splat_u(c);
             let h = seq.map(|s| V::eq_u(s, cv));
             let visit = V::movemask(V::or(V::or(h[0], h[1]), V::or(h[2], h[3]))) & children.lanes;
@@ -717,6 +830,22 @@ unsafe fn packet_step_avx2<O: TracedOctree>(children: &mut Children<'_, O>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn far_to_near_lists_the_present_children_in_reverse_near_to_far_order() {
+        for mask in 0..256u32 {
+            for near in 0..8u32 {
+                let expected: Vec<u32> = NEAR_TO_FAR
+                    .iter()
+                    .rev()
+                    .map(|&flip| near ^ flip)
+                    .filter(|&c| mask >> c & 1 != 0)
+                    .collect();
+                let got: Vec<u32> = FarToNear::new(mask, near).collect();
+                assert_eq!(got, expected, "mask {mask:#010b}, near {near}");
+            }
+        }
+    }
     use crate::traversal::intersect;
     use crate::traversal::tests::{
         octree_from_sdfs, same_hit, same_hit_in, sphere_a, spheres_and_sheet, tilted_sheet,
