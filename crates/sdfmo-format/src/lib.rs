@@ -118,7 +118,7 @@ pub use lod::{
     SmoRead, SMO_HEAD_BYTES,
 };
 pub use octree::{NodeRef, Octree, PackedOctree, PackedOctreeView};
-pub use trace::{BrickVoxel, BrickVoxels, TracedOctree};
+pub use trace::{BrickCache, BrickVoxel, BrickVoxels, TracedOctree};
 
 /// Deepest supported octree (leaf coordinates up to 2^16 per axis).
 pub const MAX_DEPTH: u8 = 16;

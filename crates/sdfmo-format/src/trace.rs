@@ -36,6 +36,9 @@ pub trait TracedOctree {
     type Voxel: Copy + PartialEq + Debug;
     /// A leaf's voxels, in storage order.
     type Voxels: Iterator<Item = Self::Voxel> + Clone;
+    /// What a walk may keep from one leaf's voxels to the next for
+    /// [`TracedOctree::voxel_corners_with`] (`()` where nothing is worth keeping).
+    type LeafCache: Default;
 
     /// Depth, quantisation and normalisation transform.
     fn meta(&self) -> &OctreeMeta;
@@ -59,6 +62,13 @@ pub trait TracedOctree {
     fn any_clip_voxel(&self, voxels: &Self::Voxels) -> bool;
     /// The voxel's eight corner distances (`4x + 2y + z`), dequantised, normalised units.
     fn voxel_corners(&self, voxel: Self::Voxel) -> [f32; 8];
+    /// [`TracedOctree::voxel_corners`], reusing what `cache` (one walk's, made with
+    /// `Default`) keeps from the voxels fetched before: the same corners.
+    #[inline(always)]
+    fn voxel_corners_with(&self, voxel: Self::Voxel, cache: &mut Self::LeafCache) -> [f32; 8] {
+        let _ = cache;
+        self.voxel_corners(voxel)
+    }
     /// Whether the voxel is a surface (thin) voxel.
     fn voxel_is_surface(&self, voxel: Self::Voxel) -> bool;
     /// Whether the voxel has the clip bit.
@@ -68,6 +78,7 @@ pub trait TracedOctree {
 }
 
 impl<B: AsRef<[u8]>> TracedOctree for Octree<B> {
+    type LeafCache = ();
     type Node = NodeRef;
     /// The index of the first child.
     type Children = u32;
@@ -296,6 +307,31 @@ fn shared_residuals(bytes: &[u8], base: usize, w: u32, ranks: &[u32; 8]) -> [i32
     out
 }
 
+/// What a walk keeps of the brick whose shared voxel it fetched last
+/// ([`TracedOctree::voxel_corners_with`] of a [`BrickOctree`]): its point mask, plane and
+/// residuals' place. Opaque; made empty by `Default`.
+#[derive(Clone, Copy, Debug)]
+pub struct BrickCache {
+    /// The brick (`u32::MAX`: none yet; no file has that many bricks).
+    brick: u32,
+    points: u128,
+    plane: [i32; 4],
+    base: usize,
+    width: u32,
+}
+
+impl Default for BrickCache {
+    fn default() -> Self {
+        BrickCache {
+            brick: u32::MAX,
+            points: 0,
+            plane: [0; 4],
+            base: 0,
+            width: 0,
+        }
+    }
+}
+
 /// What a shared voxel's eight codes are made from ([`BrickOctree::shared_fetch`]).
 #[derive(Clone, Debug)]
 struct SharedFetch {
@@ -491,19 +527,30 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
         ))
     }
 
-    /// What the eight codes of the shared leaf in `cell` of `brick` are made from: the
-    /// brick's point mask once, one rank below the cell and a 32-bit window of points above
-    /// it, the plane at the cell's lowest corner, and where the residuals are.
+    /// What the codes of every shared leaf of `brick` are made from: its point mask, its plane
+    /// and where its residuals are (one read of the brick's record).
     #[inline(always)]
-    fn shared_fetch(&self, brick: u32, cell: u8) -> SharedFetch {
+    fn brick_fetch(&self, brick: u32) -> BrickCache {
         let s = self.traced_sections();
         let r = self.record(&s, brick);
         let shared = u64_in(&r, OCCUPANCY) & !u64_in(&r, PRIVATE);
-        let plane: [i32; 4] = core::array::from_fn(|i| {
-            i32::from(i16::from_le_bytes(bytes_at::<2>(&r, PLANE + 2 * i)))
-        });
         let word = u32_in(&r, RESIDUALS);
-        let points = point_mask(shared);
+        BrickCache {
+            brick,
+            points: point_mask(shared),
+            plane: core::array::from_fn(|i| {
+                i32::from(i16::from_le_bytes(bytes_at::<2>(&r, PLANE + 2 * i)))
+            }),
+            base: s.residuals + (word & ((1 << RESIDUAL_OFFSET_BITS) - 1)) as usize,
+            width: residual_widths(self.meta().bits)[(word >> RESIDUAL_OFFSET_BITS) as usize],
+        }
+    }
+
+    /// What the eight codes of the shared leaf in `cell` of the brick `b` describes are made
+    /// from: one rank below the cell and a 32-bit window of points above it, and the plane at
+    /// the cell's lowest corner.
+    #[inline(always)]
+    fn shared_fetch(&self, b: &BrickCache, cell: u8) -> SharedFetch {
         let g = cell_grid_index(u32::from(cell));
         let c = u32::from(cell);
         let (x, y, z) = (
@@ -511,33 +558,27 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
             ((c >> 4 & 1) * 2 + (c >> 1 & 1)) as i32,
             ((c >> 3 & 1) * 2 + (c & 1)) as i32,
         );
-        let bits = self.meta().bits;
+        let plane = b.plane;
         SharedFetch {
-            below: (points & ((1u128 << g) - 1)).count_ones(),
+            below: (b.points & ((1u128 << g) - 1)).count_ones(),
             // The corners lie within 31 points of the lowest one.
-            window: (points >> g) as u32,
+            window: (b.points >> g) as u32,
             t0: plane[0] + plane[1] * x + plane[2] * y + plane[3] * z,
             steps: [plane[1], plane[2], plane[3]],
-            base: s.residuals + (word & ((1 << RESIDUAL_OFFSET_BITS) - 1)) as usize,
-            width: residual_widths(bits)[(word >> RESIDUAL_OFFSET_BITS) as usize],
-            bits,
+            base: b.base,
+            width: b.width,
+            bits: self.meta().bits,
         }
     }
 
-    /// The eight codes of the shared leaf in `cell` of `brick`: what
-    /// [`BrickOctree::voxel_codes`] gives ([`shared_codes`] of [`Self::shared_fetch`]).
+    /// [`TracedOctree::voxel_corners`] of a shared voxel of the brick `b` describes: its codes
+    /// times the scale, all eight at once with AVX2 where the CPU has it and the residual span
+    /// lies in the bytes.
     #[inline(always)]
-    fn shared_codes(&self, brick: u32, cell: u8) -> [i32; 8] {
-        shared_codes(&self.shared_fetch(brick, cell), self.as_bytes())
-    }
-
-    /// [`TracedOctree::voxel_corners`] of a shared voxel: its codes times the scale, all eight
-    /// at once with AVX2 where the CPU has it and the residual span lies in the bytes.
-    #[inline(always)]
-    fn shared_corners(&self, brick: u32, cell: u8) -> [f32; 8] {
+    fn shared_corners(&self, b: &BrickCache, cell: u8) -> [f32; 8] {
         #[cfg(target_arch = "x86_64")]
         if std::is_x86_feature_detected!("avx2") {
-            let fetch = self.shared_fetch(brick, cell);
+            let fetch = self.shared_fetch(b, cell);
             // SAFETY: the CPU has AVX2.
             if let Some(corners) =
                 unsafe { avx2::shared_corners(&fetch, self.as_bytes(), self.dequant_scale()) }
@@ -546,7 +587,7 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
             }
         }
         let s = self.dequant_scale();
-        self.shared_codes(brick, cell).map(|c| c as f32 * s)
+        shared_codes(&self.shared_fetch(b, cell), self.as_bytes()).map(|c| c as f32 * s)
     }
 
     /// The two flag bits (surface, clip) of private voxel `v`.
@@ -565,6 +606,7 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
     type Children = (BrickNode, u32);
     type Voxel = BrickVoxel;
     type Voxels = BrickVoxels;
+    type LeafCache = BrickCache;
 
     #[inline(always)]
     fn meta(&self) -> &OctreeMeta {
@@ -686,7 +728,9 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
     fn voxel_corners(&self, voxel: BrickVoxel) -> [f32; 8] {
         let s = self.dequant_scale();
         match voxel {
-            BrickVoxel::Shared { brick, cell } => self.shared_corners(brick, cell),
+            BrickVoxel::Shared { brick, cell } => {
+                self.shared_corners(&self.brick_fetch(brick), cell)
+            }
             BrickVoxel::Private {
                 voxel,
                 wide_before,
@@ -703,6 +747,21 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
                 }
                 out
             }
+        }
+    }
+
+    /// A shared voxel's brick is read once while the walk's voxels stay in it (three in four
+    /// consecutive shared voxels of a paper view of abc1 depth 9 did).
+    #[inline(always)]
+    fn voxel_corners_with(&self, voxel: BrickVoxel, cache: &mut BrickCache) -> [f32; 8] {
+        match voxel {
+            BrickVoxel::Shared { brick, cell } => {
+                if cache.brick != brick {
+                    *cache = self.brick_fetch(brick);
+                }
+                self.shared_corners(cache, cell)
+            }
+            BrickVoxel::Private { .. } => TracedOctree::voxel_corners(self, voxel),
         }
     }
 
