@@ -82,7 +82,7 @@ use bvh4::Bvh4;
 use closest::LeafRecord;
 pub use pseudo_normals::PseudoNormals;
 use segments::SegmentTree;
-use winding::{solid_angle, TriangleDipole, WindingNode};
+use winding::{solid_angle, WindingNode, WindingPacket};
 
 /// Deepest BVH the fixed traversal stacks support. obvhs' PLOC trees over real meshes are far
 /// shallower (≈ 2 log₂ n; 30–40 for 10⁵ triangles); a deeper PLOC tree is rebuilt with the
@@ -203,9 +203,10 @@ pub struct MeshDistance {
     tri_boxes: Vec<(Vec3, Vec3)>,
     normals: PseudoNormals,
     winding: Vec<WindingNode>,
-    /// Per leaf slot: the triangle's own far-field data (centroid, (β·r)², area normal), so a
-    /// triangle of a near leaf that is itself far enough is taken as one dipole.
-    leaf_dipoles: Vec<TriangleDipole>,
+    /// The winding tree's leaves' triangles, four per packet, with each triangle's own
+    /// far-field data (centroid, (β·r)², area normal), so a triangle of a near leaf that is
+    /// itself far enough is taken as one dipole.
+    winding_packets: Vec<WindingPacket>,
     /// Winding mode only: the radii of the triangles' "clean" neighbourhoods (see
     /// [`clean`](mod@clean)), each BVH leaf's made by the first signed query that needs them.
     clean_radius: OnceLock<clean::CleanRadii>,
@@ -293,8 +294,7 @@ impl MeshDistance {
                 max: MAX_BVH_DEPTH,
             });
         }
-        let winding = winding::build_winding_nodes(&nodes, &leaf_tris, &order);
-        let leaf_dipoles = leaf_tris.iter().map(TriangleDipole::new).collect();
+        let (winding, winding_packets) = winding::build_winding_nodes(&nodes, &leaf_tris, &order);
         let normals = PseudoNormals::new(mesh.positions(), mesh.triangles());
         let sign = match sign {
             SignMode::Auto => {
@@ -321,7 +321,7 @@ impl MeshDistance {
             tris,
             normals,
             winding,
-            leaf_dipoles,
+            winding_packets,
             clean_radius: OnceLock::new(),
             depth,
             builder,

@@ -173,19 +173,16 @@ impl MeshDistance {
             if d2 > w.far2 * scale {
                 sum += w.far_field(d, d2);
             } else if w.count > 0 {
-                let start = w.first as usize;
-                let end = start + w.count as usize;
-                for (t, dp) in self.leaf_tris[start..end]
-                    .iter()
-                    .zip(&self.leaf_dipoles[start..end])
-                {
-                    let d = dp.center - p;
-                    let d2 = d.length_squared();
-                    if d2 > dp.far2 * scale {
-                        sum += dp.normal.dot(d) / (d2 * d2.sqrt());
-                    } else {
-                        sum += solid_angle(p, t[0], t[1], t[2]);
+                // Each triangle as a dipole when far enough, else exactly; four at a time
+                // (`WindingPacket`), summed one by one in the leaf's order.
+                let mut left = w.count as usize;
+                let first = w.first as usize;
+                for packet in &self.winding_packets[first..first + left.div_ceil(4)] {
+                    let lanes = packet.solid_angles(p, scale).to_array();
+                    for &v in &lanes[..left.min(4)] {
+                        sum += v;
                     }
+                    left = left.saturating_sub(4);
                 }
             } else {
                 stack[sp] = w.first;
