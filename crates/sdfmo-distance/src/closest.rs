@@ -152,6 +152,34 @@ impl MeshDistance {
         best_d2: f32,
         best: ClosestPoint,
     ) -> ClosestPoint {
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX (detected just above).
+            return unsafe { self.closest_bounded_avx(p, best_d2, best) };
+        }
+        self.closest_bounded_any(p, best_d2, best)
+    }
+
+    /// [`closest_bounded`](Self::closest_bounded) compiled with AVX enabled: the same code, in
+    /// VEX three-operand forms (no register copy before each SSE operation), which cut abc1's
+    /// signed query from 20,890 to 20,053 instructions per point (`examples/query_icount.rs`).
+    /// The same IEEE operations in the same order (no FMA: Rust never fuses a multiply and an
+    /// add of its own accord), so the same bits; `avx_builds_answer_like_the_generic_code`
+    /// compares the two.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn closest_bounded_avx(&self, p: Vec3, best_d2: f32, best: ClosestPoint) -> ClosestPoint {
+        self.closest_bounded_any(p, best_d2, best)
+    }
+
+    /// [`closest_bounded`](Self::closest_bounded) for any CPU.
+    #[inline(always)]
+    pub(crate) fn closest_bounded_any(
+        &self,
+        p: Vec3,
+        best_d2: f32,
+        best: ClosestPoint,
+    ) -> ClosestPoint {
         // The stack holds at most three entries per level. Zeroing the one for the deepest
         // supported tree (385 entries, 4.6 kB) cost as much as the rest of a query on abc5 in
         // instruction counts, so trees of ordinary depth get a small one.

@@ -162,6 +162,26 @@ impl MeshDistance {
     /// `scale`.
     #[inline]
     pub(crate) fn winding_number_scaled(&self, p: Vec3, scale: f32) -> f32 {
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX (detected just above).
+            return unsafe { self.winding_number_scaled_avx(p, scale) };
+        }
+        self.winding_number_scaled_any(p, scale)
+    }
+
+    /// [`winding_number_scaled`](Self::winding_number_scaled) compiled with AVX enabled, as
+    /// `closest_bounded_avx` and for the same reason: abc1's signed query 20,053 → 19,377
+    /// instructions per point, the same bits.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn winding_number_scaled_avx(&self, p: Vec3, scale: f32) -> f32 {
+        self.winding_number_scaled_any(p, scale)
+    }
+
+    /// [`winding_number_scaled`](Self::winding_number_scaled) for any CPU.
+    #[inline(always)]
+    pub(crate) fn winding_number_scaled_any(&self, p: Vec3, scale: f32) -> f32 {
         let mut stack = [0u32; MAX_BVH_DEPTH + 1];
         let mut sp = 1usize;
         let mut sum = 0.0f32;
