@@ -283,11 +283,19 @@ impl MeshDistance {
                 match (boxes & 0xF != 0, boxes & 0xF0 != 0) {
                     (true, true) => {
                         // SAFETY: as above.
-                        let lanes = unsafe {
-                            triangle_packet::avx::dist2_or_zero(&lo.triangles, &hi.triangles, p)
+                        let (lanes, below) = unsafe {
+                            let lanes = triangle_packet::avx::dist2_or_zero(
+                                &lo.triangles,
+                                &hi.triangles,
+                                p,
+                            );
+                            (
+                                lanes,
+                                triangle_packet::avx::lanes_below(&lanes, search.best_d2),
+                            )
                         };
-                        self.take_lanes(search, &lanes[..4], &lo.slots);
-                        self.take_lanes(search, &lanes[4..], &hi.slots);
+                        self.take_lanes(search, &lanes[..4], &lo.slots, below & 0xF);
+                        self.take_lanes(search, &lanes[4..], &hi.slots, below >> 4);
                     }
                     (true, false) => self.test_packet(search, lo),
                     (false, true) => self.test_packet(search, hi),
@@ -306,18 +314,25 @@ impl MeshDistance {
     /// The SIMD filter and the exact tests of one packet whose boxes were not all culled.
     #[inline(always)]
     fn test_packet(&self, search: &mut Search, packet: &LeafPacket) {
-        let lanes = packet.triangles.dist2_or_zero(search.p).to_array();
-        self.take_lanes(search, &lanes, &packet.slots);
+        let lanes = packet.triangles.dist2_or_zero(search.p);
+        let below = lanes.cmplt(Vec4::splat(search.best_d2)).bitmask();
+        self.take_lanes(search, &lanes.to_array(), &packet.slots, below);
     }
 
     /// Takes each lane of the filter (`lanes`, the leaf slots `slots`) that beats the best so
     /// far: a vertex or edge distance as it is, a face interior or degenerate triangle (0)
-    /// through its bounding sphere and the exact test.
+    /// through its bounding sphere and the exact test. Only the lanes of `below` are looked at
+    /// (bit i: lane i was below the best when the filter ran, NaN lanes not; a lane above it
+    /// cannot win, as the best only falls), in lane order. On abc1's uniform points most lanes
+    /// lose; skipping them in one SIMD comparison instead of one by one cut its signed query
+    /// from 19,377 to 18,378 instructions per point (`examples/query_icount.rs`).
     #[inline(always)]
-    fn take_lanes(&self, search: &mut Search, lanes: &[f32], slots: &[u32; 4]) {
+    fn take_lanes(&self, search: &mut Search, lanes: &[f32], slots: &[u32; 4], mut below: u32) {
         let p = search.p;
-        for (&d2, &slot) in lanes.iter().zip(slots) {
-            // (NaN lanes are skipped too.)
+        while below != 0 {
+            let lane = below.trailing_zeros() as usize;
+            below &= below - 1;
+            let (d2, slot) = (lanes[lane], slots[lane]);
             if d2.partial_cmp(&search.best_d2) != Some(std::cmp::Ordering::Less) {
                 continue;
             }

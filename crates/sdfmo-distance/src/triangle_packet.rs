@@ -197,6 +197,15 @@ pub(crate) mod avx {
         _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(d2, _mm256_set1_ps(bound))) as u32
     }
 
+    /// Bit `i` set: `lanes[i] < bound` (ordered: a NaN lane is not below).
+    #[inline]
+    #[target_feature(enable = "avx")]
+    pub(crate) fn lanes_below(lanes: &[f32; 8], bound: f32) -> u32 {
+        // SAFETY: `lanes` is 8 readable f32s; the load is unaligned.
+        let v = unsafe { _mm256_loadu_ps(lanes.as_ptr()) };
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(v, _mm256_set1_ps(bound))) as u32
+    }
+
     /// [`TrianglePacket::dist2_or_zero`] of both packets: lanes 0–3 `lo`'s, 4–7 `hi`'s.
     #[inline]
     #[target_feature(enable = "avx")]
@@ -347,6 +356,11 @@ mod tests {
             let (lanes, boxes) = unsafe {
                 (avx::dist2_or_zero(&lo, &hi, p), avx::boxes_within(&lo, &hi, p, bound))
             };
+            // SAFETY: as above.
+            let below = unsafe { avx::lanes_below(&lanes, bound) };
+            for (lane, d2) in lanes.iter().enumerate() {
+                prop_assert_eq!(below >> lane & 1 == 1, *d2 < bound, "lane {}", lane);
+            }
             let four = [lo.dist2_or_zero(p).to_array(), hi.dist2_or_zero(p).to_array()].concat();
             for (lane, (x, y)) in lanes.iter().zip(&four).enumerate() {
                 prop_assert_eq!(x.to_bits(), y.to_bits(), "lane {}", lane);
