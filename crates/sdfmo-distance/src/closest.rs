@@ -2,7 +2,7 @@
 //! (`closest_point`, `closest_point_within`, `closest_point_with_hint`, `unsigned_distance`).
 
 use super::*;
-use bvh4::LeafPacket;
+use triangle_packet::TrianglePacket;
 
 /// Depth of the 4-wide tree up to which the search uses a small stack (a 4-wide level spans
 /// about two BVH2 levels, and PLOC trees over real meshes are 30–40 levels deep).
@@ -238,8 +238,7 @@ impl MeshDistance {
                     ni = node.child[lane] as usize;
                     continue;
                 }
-                let first = node.child[lane] as usize;
-                self.search_leaf(&mut search, first..first + node.count[lane] as usize);
+                self.search_leaf(&mut search, node.child[lane], node.count[lane]);
             }
             while sp > 0 {
                 sp -= 1;
@@ -251,72 +250,71 @@ impl MeshDistance {
                     ni = child as usize;
                     continue 'descend;
                 }
-                let first = child as usize;
-                self.search_leaf(&mut search, first..first + count as usize);
+                self.search_leaf(&mut search, child, count);
             }
             break;
         }
         search.finish(&self.leaf_records)
     }
 
-    /// Tests the triangles of the leaf packets `packets` against the search's best so far: four
-    /// at a time, first their boxes, then the SIMD filter, then the exact test where the filter
-    /// leaves the distance open (face interior, degenerate triangle). A leaf of two packets
-    /// (five to eight triangles) takes both in one pass of 8-wide AVX where the CPU has it:
-    /// the same lanes to the bit, in the same order, so the same answer.
+    /// Tests the triangles of a leaf (`count` packets from packet `first`; two packets: pair
+    /// `first`) against the search's best so far: four at a time, first their boxes, then the
+    /// SIMD filter, then the exact test where the filter leaves the distance open (face
+    /// interior, degenerate triangle). A leaf of two packets (five to eight triangles) takes
+    /// both in one pass of 8-wide AVX where the CPU has it: the same lanes to the bit, in the
+    /// same order, so the same answer.
     #[inline(always)]
-    fn search_leaf(&self, search: &mut Search, packets: std::ops::Range<usize>) {
+    fn search_leaf(&self, search: &mut Search, first: u32, count: u32) {
         let p = search.p;
-        let leaf = &self.bvh4.packets[packets];
-        #[cfg(target_arch = "x86_64")]
-        if let [lo, hi] = leaf {
+        if count == 2 {
+            let pair = &self.bvh4.pairs[first as usize];
+            let t = &pair.triangles;
+            #[cfg(target_arch = "x86_64")]
             if std::is_x86_feature_detected!("avx") {
                 // SAFETY: the CPU has AVX (detected just above).
-                let boxes = unsafe {
-                    triangle_packet::avx::boxes_within(
-                        &lo.triangles,
-                        &hi.triangles,
-                        p,
-                        search.cull_d2,
-                    )
-                };
+                let boxes = unsafe { triangle_packet::avx::boxes_within(t, p, search.cull_d2) };
                 match (boxes & 0xF != 0, boxes & 0xF0 != 0) {
                     (true, true) => {
                         // SAFETY: as above.
                         let (lanes, below) = unsafe {
-                            let lanes = triangle_packet::avx::dist2_or_zero(
-                                &lo.triangles,
-                                &hi.triangles,
-                                p,
-                            );
+                            let lanes = triangle_packet::avx::dist2_or_zero(t, p);
                             (
                                 lanes,
                                 triangle_packet::avx::lanes_below(&lanes, search.best_d2),
                             )
                         };
-                        self.take_lanes(search, &lanes[..4], &lo.slots, below & 0xF);
-                        self.take_lanes(search, &lanes[4..], &hi.slots, below >> 4);
+                        self.take_lanes(search, &lanes[..4], &pair.slots[0], below & 0xF);
+                        self.take_lanes(search, &lanes[4..], &pair.slots[1], below >> 4);
                     }
-                    (true, false) => self.test_packet(search, lo),
-                    (false, true) => self.test_packet(search, hi),
+                    (true, false) => self.test_packet(search, &t.half(0), &pair.slots[0]),
+                    (false, true) => self.test_packet(search, &t.half(1), &pair.slots[1]),
                     (false, false) => {}
                 }
                 return;
             }
+            for (h, slots) in pair.slots.iter().enumerate() {
+                let half = t.half(h);
+                if half.any_box_within(p, search.cull_d2) {
+                    self.test_packet(search, &half, slots);
+                }
+            }
+            return;
         }
-        for packet in leaf {
+        let first = first as usize;
+        for packet in &self.bvh4.packets[first..first + count as usize] {
             if packet.triangles.any_box_within(p, search.cull_d2) {
-                self.test_packet(search, packet);
+                self.test_packet(search, &packet.triangles, &packet.slots);
             }
         }
     }
 
-    /// The SIMD filter and the exact tests of one packet whose boxes were not all culled.
+    /// The SIMD filter and the exact tests of one packet (`triangles`, leaf slots `slots`)
+    /// whose boxes were not all culled.
     #[inline(always)]
-    fn test_packet(&self, search: &mut Search, packet: &LeafPacket) {
-        let lanes = packet.triangles.dist2_or_zero(search.p);
+    fn test_packet(&self, search: &mut Search, triangles: &TrianglePacket, slots: &[u32; 4]) {
+        let lanes = triangles.dist2_or_zero(search.p);
         let below = lanes.cmplt(Vec4::splat(search.best_d2)).bitmask();
-        self.take_lanes(search, &lanes.to_array(), &packet.slots, below);
+        self.take_lanes(search, &lanes.to_array(), slots, below);
     }
 
     /// Takes each lane of the filter (`lanes`, the leaf slots `slots`) that beats the best so

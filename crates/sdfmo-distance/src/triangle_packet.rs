@@ -136,6 +136,63 @@ impl TrianglePacket {
     }
 }
 
+/// Two packets' triangles (a leaf of five to eight), each coordinate's eight lanes contiguous
+/// (lanes 0–3 the first packet's, 4–7 the second's) and 32-byte aligned: the AVX passes load
+/// each whole instead of joining two packets' halves (ten `vinsertf128` per filter pass, nine
+/// per box test): abc1's signed query 18,102 → 17,564 instructions per point, the bunny's
+/// 10,551 → 10,371. The 4-wide code reads either half.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub(crate) struct TrianglePair {
+    /// x, y, z of the first corners.
+    a: [[f32; 8]; 3],
+    /// x, y, z of the second corners.
+    b: [[f32; 8]; 3],
+    /// x, y, z of the third corners.
+    c: [[f32; 8]; 3],
+}
+
+impl TrianglePair {
+    /// `lo` in lanes 0–3, `hi` in lanes 4–7.
+    pub(crate) fn new(lo: &TrianglePacket, hi: &TrianglePacket) -> TrianglePair {
+        let join = |x: &[Vec4; 3], y: &[Vec4; 3]| {
+            std::array::from_fn(|k| {
+                let mut lanes = [0.0f32; 8];
+                x[k].write_to_slice(&mut lanes[..4]);
+                y[k].write_to_slice(&mut lanes[4..]);
+                lanes
+            })
+        };
+        TrianglePair {
+            a: join(&lo.a, &hi.a),
+            b: join(&lo.b, &hi.b),
+            c: join(&lo.c, &hi.c),
+        }
+    }
+
+    /// Half `h` (0: lanes 0–3, 1: lanes 4–7) as a 4-wide packet.
+    #[inline(always)]
+    pub(crate) fn half(&self, h: usize) -> TrianglePacket {
+        TrianglePacket {
+            a: half_lanes(&self.a, h),
+            b: half_lanes(&self.b, h),
+            c: half_lanes(&self.c, h),
+        }
+    }
+}
+
+/// Lanes `4h .. 4h + 4` of each coordinate. (A function, not a closure: the closure was left
+/// out of line in the AVX search, 143k instructions of the bunny's 36.9M.)
+#[inline(always)]
+fn half_lanes(x: &[[f32; 8]; 3], h: usize) -> [Vec4; 3] {
+    let lanes = 4 * h..4 * h + 4;
+    [
+        Vec4::from_slice(&x[0][lanes.clone()]),
+        Vec4::from_slice(&x[1][lanes.clone()]),
+        Vec4::from_slice(&x[2][lanes]),
+    ]
+}
+
 /// Two packets at once in 256-bit AVX lanes (a leaf holds up to eight triangles, two packets):
 /// the same operations in the same order as [`TrianglePacket::any_box_within`] and
 /// [`TrianglePacket::dist2_or_zero`], so every lane's bits are those of the 4-wide code (IEEE
@@ -145,18 +202,11 @@ impl TrianglePacket {
 pub(crate) mod avx {
     use std::arch::x86_64::*;
 
-    use glam::{Vec3, Vec4};
+    use glam::Vec3;
 
-    use super::TrianglePacket;
+    use super::TrianglePair;
 
-    /// Lanes 0–3 from `lo`, 4–7 from `hi`.
-    #[inline]
-    #[target_feature(enable = "avx")]
-    fn join(lo: Vec4, hi: Vec4) -> __m256 {
-        _mm256_set_m128(hi.into(), lo.into())
-    }
-
-    /// The two packets' corners, eight lanes per coordinate.
+    /// The pair's corners, eight lanes per coordinate.
     struct Pair {
         a: [__m256; 3],
         b: [__m256; 3],
@@ -166,29 +216,25 @@ pub(crate) mod avx {
     impl Pair {
         #[inline]
         #[target_feature(enable = "avx")]
-        fn new(lo: &TrianglePacket, hi: &TrianglePacket) -> Pair {
-            let both = |x: &[Vec4; 3], y: &[Vec4; 3]| {
-                [join(x[0], y[0]), join(x[1], y[1]), join(x[2], y[2])]
-            };
+        fn new(t: &TrianglePair) -> Pair {
+            // SAFETY: each `[f32; 8]` is 8 readable f32s, 32-byte aligned (the struct's
+            // alignment and the arrays' 32-byte size).
+            let lanes = |x: &[f32; 8]| unsafe { _mm256_load_ps(x.as_ptr()) };
+            let load = |x: &[[f32; 8]; 3]| [lanes(&x[0]), lanes(&x[1]), lanes(&x[2])];
             Pair {
-                a: both(&lo.a, &hi.a),
-                b: both(&lo.b, &hi.b),
-                c: both(&lo.c, &hi.c),
+                a: load(&t.a),
+                b: load(&t.b),
+                c: load(&t.c),
             }
         }
     }
 
     /// Bit `i` set: lane `i`'s triangle box lies within squared distance `bound` of `p`
-    /// ([`TrianglePacket::any_box_within`] per lane; lanes 4–7 are `hi`'s).
+    /// ([`TrianglePacket::any_box_within`](super::TrianglePacket::any_box_within) per lane).
     #[inline]
     #[target_feature(enable = "avx")]
-    pub(crate) fn boxes_within(
-        lo: &TrianglePacket,
-        hi: &TrianglePacket,
-        p: Vec3,
-        bound: f32,
-    ) -> u32 {
-        let t = Pair::new(lo, hi);
+    pub(crate) fn boxes_within(pair: &TrianglePair, p: Vec3, bound: f32) -> u32 {
+        let t = Pair::new(pair);
         let axis = |k: usize, v: f32| {
             let lo = _mm256_min_ps(_mm256_min_ps(t.a[k], t.b[k]), t.c[k]);
             let hi = _mm256_max_ps(_mm256_max_ps(t.a[k], t.b[k]), t.c[k]);
@@ -212,11 +258,12 @@ pub(crate) mod avx {
         _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(v, _mm256_set1_ps(bound))) as u32
     }
 
-    /// [`TrianglePacket::dist2_or_zero`] of both packets: lanes 0–3 `lo`'s, 4–7 `hi`'s.
+    /// [`TrianglePacket::dist2_or_zero`](super::TrianglePacket::dist2_or_zero) of all eight
+    /// lanes.
     #[inline]
     #[target_feature(enable = "avx")]
-    pub(crate) fn dist2_or_zero(lo: &TrianglePacket, hi: &TrianglePacket, p: Vec3) -> [f32; 8] {
-        let t = Pair::new(lo, hi);
+    pub(crate) fn dist2_or_zero(pair: &TrianglePair, p: Vec3) -> [f32; 8] {
+        let t = Pair::new(pair);
         let [ax, ay, az] = t.a;
         let [bx, by, bz] = t.b;
         let [cx, cy, cz] = t.c;
@@ -363,9 +410,14 @@ mod tests {
                 TrianglePacket::new(&t.iter().map(|&(a, b, c)| [a, b, c]).collect::<Vec<_>>())
             };
             let (lo, hi) = (pack(&lo), pack(&hi));
+            let pair = TrianglePair::new(&lo, &hi);
+            for (h, packet) in [lo, hi].iter().enumerate() {
+                let back = pair.half(h);
+                prop_assert_eq!((back.a, back.b, back.c), (packet.a, packet.b, packet.c));
+            }
             // SAFETY: AVX was detected above.
             let (lanes, boxes) = unsafe {
-                (avx::dist2_or_zero(&lo, &hi, p), avx::boxes_within(&lo, &hi, p, bound))
+                (avx::dist2_or_zero(&pair, p), avx::boxes_within(&pair, p, bound))
             };
             // SAFETY: as above.
             let below = unsafe { avx::lanes_below(&lanes, bound) };
