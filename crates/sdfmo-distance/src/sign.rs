@@ -197,7 +197,19 @@ impl MeshDistance {
                 // (`WindingPacket`), summed one by one in the leaf's order.
                 let mut left = w.count as usize;
                 let first = w.first as usize;
-                for packet in &self.winding_packets[first..first + left.div_ceil(4)] {
+                let packets = &self.winding_packets[first..first + left.div_ceil(4)];
+                #[cfg(target_arch = "x86_64")]
+                if let [lo, hi] = packets {
+                    if std::is_x86_feature_detected!("avx") {
+                        // SAFETY: the CPU has AVX (detected just above).
+                        let lanes = unsafe { winding::avx::solid_angles(lo, hi, p, scale) };
+                        for &v in &lanes[..left] {
+                            sum += v;
+                        }
+                        continue;
+                    }
+                }
+                for packet in packets {
                     let lanes = packet.solid_angles(p, scale).to_array();
                     for &v in &lanes[..left.min(4)] {
                         sum += v;
