@@ -2,6 +2,7 @@
 //! (`closest_point`, `closest_point_within`, `closest_point_with_hint`, `unsigned_distance`).
 
 use super::*;
+use bvh4::LeafPair;
 use triangle_packet::TrianglePacket;
 
 /// Depth of the 4-wide tree up to which the search uses a small stack (a 4-wide level spans
@@ -292,18 +293,24 @@ impl MeshDistance {
                 }
                 return;
             }
-            for (h, slots) in pair.slots.iter().enumerate() {
-                let half = t.half(h);
-                if half.any_box_within(p, search.cull_d2) {
-                    self.test_packet(search, &half, slots);
-                }
-            }
+            self.search_pair_4wide(search, pair);
             return;
         }
         let first = first as usize;
         for packet in &self.bvh4.packets[first..first + count as usize] {
             if packet.triangles.any_box_within(p, search.cull_d2) {
                 self.test_packet(search, &packet.triangles, &packet.slots);
+            }
+        }
+    }
+
+    /// A leaf of two packets on any CPU: each half as a 4-wide packet, the first first.
+    #[inline(always)]
+    fn search_pair_4wide(&self, search: &mut Search, pair: &LeafPair) {
+        for (h, slots) in pair.slots.iter().enumerate() {
+            let half = pair.triangles.half(h);
+            if half.any_box_within(search.p, search.cull_d2) {
+                self.test_packet(search, &half, slots);
             }
         }
     }
@@ -367,5 +374,48 @@ impl MeshDistance {
     /// Unsigned distance from `p` to the mesh.
     pub fn unsigned_distance(&self, p: Vec3) -> f32 {
         self.closest_point(p).distance
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tests::uniform_stream;
+
+    /// Every two-packet leaf leaves the search in the same state through its 4-wide halves
+    /// (the code of CPUs without AVX, which the searches on the test machines never take) as
+    /// through the AVX pass (`search_leaf` here), from bounds that cull nothing, some or most
+    /// of the lanes.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn pair_leaves_search_alike_in_both_widths() {
+        if !std::is_x86_feature_detected!("avx") {
+            return;
+        }
+        for mesh in [
+            sdfmo_mesh::procedural::open_sheet(1.0, 0.8, 24),
+            sdfmo_mesh::procedural::sphere(Vec3::ZERO, 0.5, 3),
+        ] {
+            let md = MeshDistance::new(&mesh, SignMode::Winding).unwrap();
+            assert!(md.bvh4.pairs.len() > 10, "{}", md.bvh4.pairs.len());
+            let mut next = uniform_stream(3, 2.4, 1.2);
+            for i in 0..100 {
+                let p = Vec3::new(next(), next(), next()) * if i % 2 == 0 { 1.0 } else { 0.3 };
+                let d = md.closest_point(p).distance;
+                for bound in [f32::INFINITY, (d * 3.0).powi(2), (d * 1.2).powi(2)] {
+                    for (k, pair) in md.bvh4.pairs.iter().enumerate() {
+                        let start = || Search::new(p, bound, ClosestPoint::NONE, md.bvh4.extent);
+                        let (mut avx, mut four) = (start(), start());
+                        md.search_leaf(&mut avx, k as u32, 2);
+                        md.search_pair_4wide(&mut four, pair);
+                        assert_eq!(
+                            (avx.best_d2.to_bits(), avx.best_slot, avx.best),
+                            (four.best_d2.to_bits(), four.best_slot, four.best),
+                            "{p:?}"
+                        );
+                    }
+                }
+            }
+        }
     }
 }
