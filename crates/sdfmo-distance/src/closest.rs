@@ -269,9 +269,9 @@ impl MeshDistance {
         let p = search.p;
         if count == 2 {
             let pair = &self.bvh4.pairs[first as usize];
-            let t = &pair.triangles;
             #[cfg(target_arch = "x86_64")]
             if std::is_x86_feature_detected!("avx") {
+                let t = &pair.triangles;
                 // SAFETY: the CPU has AVX (detected just above).
                 let boxes = unsafe { triangle_packet::avx::boxes_within(t, p, search.cull_d2) };
                 match (boxes & 0xF != 0, boxes & 0xF0 != 0) {
