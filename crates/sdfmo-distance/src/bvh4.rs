@@ -4,13 +4,14 @@
 //! of a binary tree, each a dependent load and an unpredictable branch. Collapsing every two
 //! levels into one node of four children with their boxes stored as structure of arrays
 //! (one `Vec4` per box coordinate) halves the visits and tests the four boxes in one SIMD
-//! pass. Each leaf's triangles are stored with it as one or two [`TrianglePacket`]s (four
-//! triangles in SIMD lanes), so a leaf is one or two contiguous loads.
+//! pass. Each leaf's triangles are stored with it as [`TrianglePacket`]s (four triangles in
+//! SIMD lanes), a leaf of two packets as one [`TrianglePair`] (eight lanes, for the AVX pass),
+//! so a leaf is one or two contiguous loads.
 
 use glam::{Vec3, Vec3A, Vec4};
 use obvhs::bvh2::node::Bvh2Node;
 
-use crate::triangle_packet::TrianglePacket;
+use crate::triangle_packet::{TrianglePacket, TrianglePair};
 
 /// Up to four triangles of one leaf and their leaf slots (a leaf of n triangles fills
 /// ⌈n/4⌉ packets; unused lanes repeat the leaf's last triangle and slot, which can never beat
@@ -24,6 +25,18 @@ pub(crate) struct LeafPacket {
     pub(crate) slots: [u32; 4],
 }
 
+/// A leaf of five to eight triangles: its two packets as one [`TrianglePair`], and the leaf
+/// slot of each lane (`slots[0]` lanes 0–3, `slots[1]` lanes 4–7; unused lanes as in
+/// [`LeafPacket`]).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub(crate) struct LeafPair {
+    /// The triangles (rotated corners, as in the leaf records).
+    pub(crate) triangles: TrianglePair,
+    /// The leaf slot of each lane, per half.
+    pub(crate) slots: [[u32; 4]; 2],
+}
+
 /// One node of four children. Unused lanes have an empty box (min +∞, max −∞), whose distance
 /// is +∞ for every point, so no search ever enters them.
 #[derive(Clone, Copy, Debug)]
@@ -33,9 +46,11 @@ pub(crate) struct Node4 {
     min: [Vec4; 3],
     /// x, y and z of the four children's box maxima.
     max: [Vec4; 3],
-    /// Per lane: the index of an inner child in the node array, or a leaf's first packet.
+    /// Per lane: the index of an inner child in the node array, or a leaf's first packet (its
+    /// pair, for a leaf of two packets).
     pub(crate) child: [u32; 4],
-    /// Per lane: 0 for an inner child, else the number of packets of the leaf.
+    /// Per lane: 0 for an inner child, else the number of packets of the leaf (2: the leaf is
+    /// in `Bvh4::pairs`).
     pub(crate) count: [u32; 4],
 }
 
@@ -66,8 +81,11 @@ impl Node4 {
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Bvh4 {
     pub(crate) nodes: Vec<Node4>,
-    /// The leaves' triangles, each leaf's packets contiguous, in the order of the search.
+    /// The triangles of the leaves of one packet or of more than two, each leaf's packets
+    /// contiguous.
     pub(crate) packets: Vec<LeafPacket>,
+    /// The triangles of the leaves of two packets.
+    pub(crate) pairs: Vec<LeafPair>,
     /// Levels of nodes (a root alone is 1): bounds the search's stack.
     pub(crate) depth: usize,
     /// Largest absolute coordinate of any triangle corner (the closest-point search's rounding
@@ -83,7 +101,8 @@ impl Bvh4 {
     pub(crate) fn from_bvh2(nodes: &[Bvh2Node], corners: &[[Vec3; 3]]) -> Bvh4 {
         let mut out = Bvh4 {
             nodes: Vec::with_capacity(nodes.len() / 3 + 1),
-            packets: Vec::with_capacity(corners.len() / 3 + 1),
+            packets: Vec::new(),
+            pairs: Vec::new(),
             depth: 1,
             extent: corners
                 .iter()
@@ -133,15 +152,28 @@ impl Bvh4 {
                 if nodes[k].prim_count > 0 {
                     let first = nodes[k].first_index as usize;
                     let slots = first..first + nodes[k].prim_count as usize;
-                    node.child[lane] = out.packets.len() as u32;
-                    node.count[lane] = slots.len().div_ceil(4) as u32;
-                    for start in slots.clone().step_by(4) {
-                        let chunk = start..(start + 4).min(slots.end);
-                        let last = chunk.end - 1;
-                        out.packets.push(LeafPacket {
-                            triangles: TrianglePacket::new(&corners[chunk]),
-                            slots: std::array::from_fn(|l| (start + l).min(last) as u32),
+                    let packets: Vec<LeafPacket> = slots
+                        .clone()
+                        .step_by(4)
+                        .map(|start| {
+                            let chunk = start..(start + 4).min(slots.end);
+                            let last = chunk.end - 1;
+                            LeafPacket {
+                                triangles: TrianglePacket::new(&corners[chunk]),
+                                slots: std::array::from_fn(|l| (start + l).min(last) as u32),
+                            }
+                        })
+                        .collect();
+                    node.count[lane] = packets.len() as u32;
+                    if let [lo, hi] = packets[..] {
+                        node.child[lane] = out.pairs.len() as u32;
+                        out.pairs.push(LeafPair {
+                            triangles: TrianglePair::new(&lo.triangles, &hi.triangles),
+                            slots: [lo.slots, hi.slots],
                         });
+                    } else {
+                        node.child[lane] = out.packets.len() as u32;
+                        out.packets.extend(packets);
                     }
                 } else {
                     let index = out.nodes.len();

@@ -82,7 +82,7 @@ use bvh4::Bvh4;
 use closest::LeafRecord;
 pub use pseudo_normals::PseudoNormals;
 use segments::SegmentTree;
-use winding::{solid_angle, TriangleDipole, WindingNode};
+use winding::{solid_angle, WindingNode, WindingPacket};
 
 /// Deepest BVH the fixed traversal stacks support. obvhs' PLOC trees over real meshes are far
 /// shallower (≈ 2 log₂ n; 30–40 for 10⁵ triangles); a deeper PLOC tree is rebuilt with the
@@ -203,9 +203,10 @@ pub struct MeshDistance {
     tri_boxes: Vec<(Vec3, Vec3)>,
     normals: PseudoNormals,
     winding: Vec<WindingNode>,
-    /// Per leaf slot: the triangle's own far-field data (centroid, (β·r)², area normal), so a
-    /// triangle of a near leaf that is itself far enough is taken as one dipole.
-    leaf_dipoles: Vec<TriangleDipole>,
+    /// The winding tree's leaves' triangles, four per packet, with each triangle's own
+    /// far-field data (centroid, (β·r)², area normal), so a triangle of a near leaf that is
+    /// itself far enough is taken as one dipole.
+    winding_packets: Vec<WindingPacket>,
     /// Winding mode only: the radii of the triangles' "clean" neighbourhoods (see
     /// [`clean`](mod@clean)), each BVH leaf's made by the first signed query that needs them.
     clean_radius: OnceLock<clean::CleanRadii>,
@@ -293,8 +294,7 @@ impl MeshDistance {
                 max: MAX_BVH_DEPTH,
             });
         }
-        let winding = winding::build_winding_nodes(&nodes, &leaf_tris, &order);
-        let leaf_dipoles = leaf_tris.iter().map(TriangleDipole::new).collect();
+        let (winding, winding_packets) = winding::build_winding_nodes(&nodes, &leaf_tris, &order);
         let normals = PseudoNormals::new(mesh.positions(), mesh.triangles());
         let sign = match sign {
             SignMode::Auto => {
@@ -321,7 +321,7 @@ impl MeshDistance {
             tris,
             normals,
             winding,
-            leaf_dipoles,
+            winding_packets,
             clean_radius: OnceLock::new(),
             depth,
             builder,
@@ -414,6 +414,48 @@ mod tests {
         let signed = md.signed_distances(&pts);
         for (&p, &d) in pts.iter().zip(&signed) {
             assert_eq!(d.to_bits(), md.signed_distance(p).to_bits(), "{p:?}");
+        }
+    }
+
+    #[test]
+    fn avx_builds_answer_like_the_generic_code() {
+        // The AVX-compiled closest-point search and winding number (taken on CPUs with AVX)
+        // give the generic code's bits: closest points near and far from an open sheet and a
+        // sphere, and the winding number at both of the sign's accuracies.
+        for mesh in [
+            sdfmo_mesh::procedural::open_sheet(1.0, 0.8, 24),
+            sdfmo_mesh::procedural::sphere(Vec3::ZERO, 0.5, 3),
+        ] {
+            let md = MeshDistance::new(&mesh, SignMode::Winding).unwrap();
+            let mut next = uniform_stream(5, 2.4, 1.2);
+            for i in 0..2000 {
+                let scale = if i % 2 == 0 { 1.0 } else { 0.05 };
+                let p = Vec3::new(next(), next(), next()) * scale;
+                let c = md.closest_point(p);
+                let g = md.closest_bounded_any(p, f32::INFINITY, ClosestPoint::NONE);
+                assert_eq!(
+                    (
+                        c.distance.to_bits(),
+                        c.triangle,
+                        c.feature,
+                        c.point.to_array()
+                    ),
+                    (
+                        g.distance.to_bits(),
+                        g.triangle,
+                        g.feature,
+                        g.point.to_array()
+                    ),
+                    "{p:?}"
+                );
+                for s in [1.0, COARSE_FAR_SCALE] {
+                    assert_eq!(
+                        md.winding_number_scaled(p, s).to_bits(),
+                        md.winding_number_scaled_any(p, s).to_bits(),
+                        "{p:?}"
+                    );
+                }
+            }
         }
     }
 

@@ -162,6 +162,26 @@ impl MeshDistance {
     /// `scale`.
     #[inline]
     pub(crate) fn winding_number_scaled(&self, p: Vec3, scale: f32) -> f32 {
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX (detected just above).
+            return unsafe { self.winding_number_scaled_avx(p, scale) };
+        }
+        self.winding_number_scaled_any(p, scale)
+    }
+
+    /// [`winding_number_scaled`](Self::winding_number_scaled) compiled with AVX enabled, as
+    /// `closest_bounded_avx` and for the same reason: abc1's signed query 20,053 → 19,377
+    /// instructions per point, the same bits.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn winding_number_scaled_avx(&self, p: Vec3, scale: f32) -> f32 {
+        self.winding_number_scaled_any(p, scale)
+    }
+
+    /// [`winding_number_scaled`](Self::winding_number_scaled) for any CPU.
+    #[inline(always)]
+    pub(crate) fn winding_number_scaled_any(&self, p: Vec3, scale: f32) -> f32 {
         let mut stack = [0u32; MAX_BVH_DEPTH + 1];
         let mut sp = 1usize;
         let mut sum = 0.0f32;
@@ -173,19 +193,28 @@ impl MeshDistance {
             if d2 > w.far2 * scale {
                 sum += w.far_field(d, d2);
             } else if w.count > 0 {
-                let start = w.first as usize;
-                let end = start + w.count as usize;
-                for (t, dp) in self.leaf_tris[start..end]
-                    .iter()
-                    .zip(&self.leaf_dipoles[start..end])
-                {
-                    let d = dp.center - p;
-                    let d2 = d.length_squared();
-                    if d2 > dp.far2 * scale {
-                        sum += dp.normal.dot(d) / (d2 * d2.sqrt());
-                    } else {
-                        sum += solid_angle(p, t[0], t[1], t[2]);
+                // Each triangle as a dipole when far enough, else exactly; four at a time
+                // (`WindingPacket`), summed one by one in the leaf's order.
+                let mut left = w.count as usize;
+                let first = w.first as usize;
+                let packets = &self.winding_packets[first..first + left.div_ceil(4)];
+                #[cfg(target_arch = "x86_64")]
+                if let [lo, hi] = packets {
+                    if std::is_x86_feature_detected!("avx") {
+                        // SAFETY: the CPU has AVX (detected just above).
+                        let lanes = unsafe { winding::avx::solid_angles(lo, hi, p, scale) };
+                        for &v in &lanes[..left] {
+                            sum += v;
+                        }
+                        continue;
                     }
+                }
+                for packet in packets {
+                    let lanes = packet.solid_angles(p, scale).to_array();
+                    for &v in &lanes[..left.min(4)] {
+                        sum += v;
+                    }
+                    left = left.saturating_sub(4);
                 }
             } else {
                 stack[sp] = w.first;
