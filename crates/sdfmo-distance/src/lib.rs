@@ -60,6 +60,8 @@ pub mod sample;
 mod segments;
 mod sign;
 mod subset;
+#[cfg(test)]
+mod test_points;
 mod triangle_packet;
 mod winding;
 

@@ -342,21 +342,8 @@ pub(crate) mod avx {
 mod tests {
     use super::*;
     use crate::point_triangle::{apex_rotation, closest_point_prerotated, Feature};
+    use crate::test_points::point;
     use proptest::prelude::*;
-
-    fn coord() -> impl Strategy<Value = f32> {
-        prop_oneof![
-            -2.0f32..2.0,
-            // Repeated values make degenerate and axis-aligned triangles.
-            Just(0.0f32),
-            Just(0.5f32),
-            -1e-3f32..1e-3,
-        ]
-    }
-
-    fn point() -> impl Strategy<Value = Vec3> {
-        (coord(), coord(), coord()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
-    }
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(4000))]

@@ -525,6 +525,7 @@ pub(crate) fn build_winding_nodes(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_points::point;
     use proptest::prelude::*;
 
     /// A BVH node over `prim_count` primitives from `first_index` (with `prim_count` 0, an inner
@@ -614,20 +615,6 @@ mod tests {
                 whole.sym
             );
         }
-    }
-
-    fn coord() -> impl Strategy<Value = f32> {
-        prop_oneof![
-            -2.0f32..2.0,
-            // Repeated values make degenerate triangles and queries on corners.
-            Just(0.0f32),
-            Just(0.5f32),
-            -1e-3f32..1e-3,
-        ]
-    }
-
-    fn point() -> impl Strategy<Value = Vec3> {
-        (coord(), coord(), coord()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
     }
 
     proptest! {
