@@ -14,3 +14,11 @@ pub(crate) fn coord() -> impl Strategy<Value = f32> {
 pub(crate) fn point() -> impl Strategy<Value = Vec3> {
     (coord(), coord(), coord()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
 }
+
+/// One to four triangles of [`point`]s: a packet's worth.
+pub(crate) fn packet_triangles() -> impl Strategy<Value = Vec<[Vec3; 3]>> {
+    prop::collection::vec(
+        (point(), point(), point()).prop_map(|(a, b, c)| [a, b, c]),
+        1..=4,
+    )
+}

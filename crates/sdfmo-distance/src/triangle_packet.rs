@@ -342,7 +342,7 @@ pub(crate) mod avx {
 mod tests {
     use super::*;
     use crate::point_triangle::{apex_rotation, closest_point_prerotated, Feature};
-    use crate::test_points::point;
+    use crate::test_points::{packet_triangles, point};
     use proptest::prelude::*;
 
     proptest! {
@@ -352,14 +352,13 @@ mod tests {
         /// a triangle the scalar search would have taken).
         #[test]
         fn lanes_match_the_scalar_test(
-            tris in prop::collection::vec((point(), point(), point()), 1..=4),
+            tris in packet_triangles(),
             p in point(),
         ) {
             let rotated: Vec<[Vec3; 3]> = tris
                 .iter()
-                .map(|&(a, b, c)| {
-                    let k = apex_rotation(a, b, c) as usize;
-                    let t = [a, b, c];
+                .map(|&t| {
+                    let k = apex_rotation(t[0], t[1], t[2]) as usize;
                     [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
                 })
                 .collect();
@@ -385,18 +384,15 @@ mod tests {
         #[cfg(target_arch = "x86_64")]
         #[test]
         fn avx_pairs_match_the_4_wide_code(
-            lo in prop::collection::vec((point(), point(), point()), 1..=4),
-            hi in prop::collection::vec((point(), point(), point()), 1..=4),
+            lo in packet_triangles(),
+            hi in packet_triangles(),
             p in point(),
             bound in prop_oneof![0.0f32..4.0, Just(f32::INFINITY)],
         ) {
             if !std::is_x86_feature_detected!("avx") {
                 return Ok(());
             }
-            let pack = |t: &[(Vec3, Vec3, Vec3)]| {
-                TrianglePacket::new(&t.iter().map(|&(a, b, c)| [a, b, c]).collect::<Vec<_>>())
-            };
-            let (lo, hi) = (pack(&lo), pack(&hi));
+            let (lo, hi) = (TrianglePacket::new(&lo), TrianglePacket::new(&hi));
             let pair = TrianglePair::new(&lo, &hi);
             for (h, packet) in [lo, hi].iter().enumerate() {
                 let back = pair.half(h);

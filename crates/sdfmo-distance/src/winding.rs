@@ -525,7 +525,7 @@ pub(crate) fn build_winding_nodes(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_points::point;
+    use crate::test_points::{packet_triangles, point};
     use proptest::prelude::*;
 
     /// A BVH node over `prim_count` primitives from `first_index` (with `prim_count` 0, an inner
@@ -624,11 +624,10 @@ mod tests {
         /// exact `solid_angle` (both NaN where the scalar value is NaN).
         #[test]
         fn packet_lanes_match_the_scalar_solid_angles(
-            tris in prop::collection::vec((point(), point(), point()), 1..=4),
+            tris in packet_triangles(),
             q in point(),
             scale in prop_oneof![Just(1.0f32), Just(crate::COARSE_FAR_SCALE), 0.0f32..4.0],
         ) {
-            let tris: Vec<[Vec3; 3]> = tris.iter().map(|&(a, b, c)| [a, b, c]).collect();
             let lanes = WindingPacket::new(&tris).solid_angles(q, scale).to_array();
             for (lane, t) in tris.iter().enumerate() {
                 let dp = TriangleDipole::new(t);
@@ -655,18 +654,15 @@ mod tests {
         #[cfg(target_arch = "x86_64")]
         #[test]
         fn avx_pairs_match_the_4_wide_code(
-            lo in prop::collection::vec((point(), point(), point()), 1..=4),
-            hi in prop::collection::vec((point(), point(), point()), 1..=4),
+            lo in packet_triangles(),
+            hi in packet_triangles(),
             q in point(),
             scale in prop_oneof![Just(1.0f32), Just(crate::COARSE_FAR_SCALE), 0.0f32..4.0],
         ) {
             if !std::is_x86_feature_detected!("avx") {
                 return Ok(());
             }
-            let pack = |t: &[(Vec3, Vec3, Vec3)]| {
-                WindingPacket::new(&t.iter().map(|&(a, b, c)| [a, b, c]).collect::<Vec<_>>())
-            };
-            let (lo, hi) = (pack(&lo), pack(&hi));
+            let (lo, hi) = (WindingPacket::new(&lo), WindingPacket::new(&hi));
             // SAFETY: AVX was detected above.
             let lanes = unsafe { avx::solid_angles(&lo, &hi, q, scale) };
             let four = [lo.solid_angles(q, scale).to_array(), hi.solid_angles(q, scale).to_array()]
