@@ -12,16 +12,17 @@
 
 use glam::{BVec4A, Vec3, Vec4};
 
-/// Four triangles (corners already rotated as in the leaf records), structure of arrays.
+/// Four triangles, structure of arrays: for the closest-point search with corners already
+/// rotated as in the leaf records, for the winding number in the mesh's order.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
 pub(crate) struct TrianglePacket {
     /// x, y, z of the first corners.
-    a: [Vec4; 3],
+    pub(crate) a: [Vec4; 3],
     /// x, y, z of the second corners.
-    b: [Vec4; 3],
+    pub(crate) b: [Vec4; 3],
     /// x, y, z of the third corners.
-    c: [Vec4; 3],
+    pub(crate) c: [Vec4; 3],
 }
 
 impl TrianglePacket {

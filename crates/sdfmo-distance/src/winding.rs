@@ -27,6 +27,8 @@
 use glam::{Mat3, Vec3, Vec4};
 use obvhs::bvh2::node::Bvh2Node;
 
+use crate::triangle_packet::TrianglePacket;
+
 /// Accuracy parameter β of the hierarchical winding number: a node is approximated by its dipole
 /// when the query is farther than β times its radius from its centre.
 pub const WINDING_BETA: f32 = 2.0;
@@ -115,12 +117,8 @@ impl TriangleDipole {
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
 pub(crate) struct WindingPacket {
-    /// x, y, z of the first corners.
-    a: [Vec4; 3],
-    /// x, y, z of the second corners.
-    b: [Vec4; 3],
-    /// x, y, z of the third corners.
-    c: [Vec4; 3],
+    /// The corners, in the mesh's order.
+    corners: TrianglePacket,
     /// x, y, z of the dipoles' centres ([`TriangleDipole::center`]).
     center: [Vec4; 3],
     /// [`TriangleDipole::far2`] per lane.
@@ -143,9 +141,7 @@ impl WindingPacket {
             ]
         };
         WindingPacket {
-            a: soa(std::array::from_fn(|l| tri(l)[0])),
-            b: soa(std::array::from_fn(|l| tri(l)[1])),
-            c: soa(std::array::from_fn(|l| tri(l)[2])),
+            corners: TrianglePacket::new(tris),
             center: soa(dipoles.map(|d| d.center)),
             far2: Vec4::from(dipoles.map(|d| d.far2)),
             normal: soa(dipoles.map(|d| d.normal)),
@@ -171,9 +167,10 @@ impl WindingPacket {
             return dipole;
         }
         // solid_angle, lane-wise.
-        let (ax, ay, az) = (self.a[0] - qx, self.a[1] - qy, self.a[2] - qz);
-        let (bx, by, bz) = (self.b[0] - qx, self.b[1] - qy, self.b[2] - qz);
-        let (cx, cy, cz) = (self.c[0] - qx, self.c[1] - qy, self.c[2] - qz);
+        let TrianglePacket { a, b, c } = &self.corners;
+        let (ax, ay, az) = (a[0] - qx, a[1] - qy, a[2] - qz);
+        let (bx, by, bz) = (b[0] - qx, b[1] - qy, b[2] - qz);
+        let (cx, cy, cz) = (c[0] - qx, c[1] - qy, c[2] - qz);
         let la = Vec4::sqrt(dot(ax, ay, az, ax, ay, az));
         let lb = Vec4::sqrt(dot(bx, by, bz, bx, by, bz));
         let lc = Vec4::sqrt(dot(cx, cy, cz, cx, cy, cz));
@@ -262,11 +259,11 @@ pub(crate) mod avx {
             return out;
         }
         // solid_angle, lane-wise.
-        let [ax, ay, az] = both(&lo.a, &hi.a);
+        let [ax, ay, az] = both(&lo.corners.a, &hi.corners.a);
         let (ax, ay, az) = (sub(ax, qx), sub(ay, qy), sub(az, qz));
-        let [bx, by, bz] = both(&lo.b, &hi.b);
+        let [bx, by, bz] = both(&lo.corners.b, &hi.corners.b);
         let (bx, by, bz) = (sub(bx, qx), sub(by, qy), sub(bz, qz));
-        let [cx, cy, cz] = both(&lo.c, &hi.c);
+        let [cx, cy, cz] = both(&lo.corners.c, &hi.corners.c);
         let (cx, cy, cz) = (sub(cx, qx), sub(cy, qy), sub(cz, qz));
         let la = sqrt(dot(ax, ay, az, ax, ay, az));
         let lb = sqrt(dot(bx, by, bz, bx, by, bz));
