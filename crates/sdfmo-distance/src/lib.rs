@@ -424,11 +424,7 @@ mod tests {
         // The AVX-compiled closest-point search and winding number (taken on CPUs with AVX)
         // give the generic code's bits: closest points near and far from an open sheet and a
         // sphere, and the winding number at both of the sign's accuracies.
-        for mesh in [
-            sdfmo_mesh::procedural::open_sheet(1.0, 0.8, 24),
-            sdfmo_mesh::procedural::sphere(Vec3::ZERO, 0.5, 3),
-        ] {
-            let md = MeshDistance::new(&mesh, SignMode::Winding).unwrap();
+        for md in sheet_and_sphere() {
             let mut next = uniform_stream(5, 2.4, 1.2);
             for i in 0..2000 {
                 let scale = if i % 2 == 0 { 1.0 } else { 0.05 };
@@ -461,6 +457,15 @@ mod tests {
         }
     }
 
+    /// An open sheet (w ≈ ±½ near its rim) and a closed sphere, with the winding sign.
+    fn sheet_and_sphere() -> [MeshDistance; 2] {
+        [
+            sdfmo_mesh::procedural::open_sheet(1.0, 0.8, 24),
+            sdfmo_mesh::procedural::sphere(Vec3::ZERO, 0.5, 3),
+        ]
+        .map(|mesh| MeshDistance::new(&mesh, SignMode::Winding).unwrap())
+    }
+
     /// A reproducible stream of values `u · scale − offset`, u uniform in [0, 1) (the project's
     /// `SplitMix64`).
     pub(crate) fn uniform_stream(seed: u64, scale: f32, offset: f32) -> impl FnMut() -> f32 {
@@ -472,11 +477,7 @@ mod tests {
     fn two_stage_winding_sign_matches_the_full_winding_number() {
         // An open sheet (w ≈ ±½ near its rim) and a closed sphere: wherever the full hierarchical
         // winding number is not within 0.02 of ½, the two-stage sign agrees with it.
-        for mesh in [
-            sdfmo_mesh::procedural::open_sheet(1.0, 0.8, 24),
-            sdfmo_mesh::procedural::sphere(Vec3::ZERO, 0.5, 3),
-        ] {
-            let md = MeshDistance::new(&mesh, SignMode::Winding).unwrap();
+        for md in sheet_and_sphere() {
             let mut next = uniform_stream(7, 1.6, 0.8);
             let mut near_half = 0;
             for _ in 0..3000 {

@@ -518,20 +518,15 @@ struct FarToNear {
 /// `FAR_TO_NEAR_BITS[near][mask]`: bit `i` set when bit `near ^ NEAR_TO_FAR[i]` of `mask` is.
 const FAR_TO_NEAR_BITS: [[u8; 256]; 8] = {
     let mut t = [[0u8; 256]; 8];
-    let mut near = 0;
-    while near < 8 {
-        let mut mask = 0;
-        while mask < 256 {
-            let mut i = 0;
-            while i < 8 {
-                if mask >> (near ^ NEAR_TO_FAR[i]) & 1 != 0 {
-                    t[near as usize][mask as usize] |= 1 << i;
-                }
-                i += 1;
-            }
-            mask += 1;
+    let mut k = 0;
+    while k < 8 * 256 {
+        let (near, mask) = (k / 256, k % 256);
+        let mut i = 0;
+        while i < 8 {
+            t[near][mask] |= (((mask >> (near as u32 ^ NEAR_TO_FAR[i])) & 1) << i) as u8;
+            i += 1;
         }
-        near += 1;
+        k += 1;
     }
     t
 };
