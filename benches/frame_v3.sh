@@ -3,7 +3,7 @@
 # abc5 at depth 9 (multi), the paper's views 0-3 at 1024², lambert, the two files interleaved
 # round by round (the cpu_frame example: median of 5 runs, CPU time from schedstat).
 #
-#   benches/frame_v3.sh > docs/results/format/frame-v3-vs-v1.txt
+#   benches/frame_v3.sh   (two builds side by side: benches/frame_v3_ab.sh)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DATA=${SDFMO_TEST_DATA:-../shared/data}

@@ -5,7 +5,7 @@
 #
 #   cargo build --release -p sdfmo-render --example cpu_frame
 #   VIEW=0 benches/frame_v3_icount.sh abc5-d9.smo abc5-d9.v3.smo
-# (docs/results/format/frame-v3-vs-v1-instructions.txt: views 0-3 of abc1/abc5 depth-9 multi,
+# (docs/results/format/frame-v31-instructions.txt: views 0-3 of abc1/abc5 depth-9 multi,
 # the 3.0 files written by `cpu_frame --write-v3 DIR FILE`.)
 set -euo pipefail
 BIN=${BIN:-$(dirname "$0")/../target/release/examples/cpu_frame}
