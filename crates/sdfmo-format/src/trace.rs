@@ -63,7 +63,8 @@ pub trait TracedOctree {
     /// The voxel's eight corner distances (`4x + 2y + z`), dequantised, normalised units.
     fn voxel_corners(&self, voxel: Self::Voxel) -> [f32; 8];
     /// [`TracedOctree::voxel_corners`], reusing what `cache` (one walk's, made with
-    /// `Default`) keeps from the voxels fetched before: the same corners.
+    /// `Default`) keeps from the voxels fetched before: the same corners. A cache filled by
+    /// another octree may give wrong corners or panic (as a voxel of another octree may).
     #[inline(always)]
     fn voxel_corners_with(&self, voxel: Self::Voxel, cache: &mut Self::LeafCache) -> [f32; 8] {
         let _ = cache;
