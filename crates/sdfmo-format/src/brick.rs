@@ -1455,14 +1455,7 @@ pub struct BrickSectionSizes {
     pub total: usize,
 }
 
-impl<A: AsRef<[u8]>, B: AsRef<[u8]>> PartialEq<BrickOctree<B>> for BrickOctree<A> {
-    /// Equal bytes.
-    fn eq(&self, other: &BrickOctree<B>) -> bool {
-        self.as_bytes() == other.as_bytes()
-    }
-}
-
-impl<B: AsRef<[u8]>> Eq for BrickOctree<B> {}
+equal_by_bytes!(BrickOctree);
 
 impl<B: AsRef<[u8]>> fmt::Debug for BrickOctree<B> {
     /// The header's content, not the bytes.

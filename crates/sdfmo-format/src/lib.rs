@@ -69,6 +69,22 @@ macro_rules! count_getters {
     )*};
 }
 
+/// `PartialEq` across buffer types and `Eq` for an octree type over bytes `B: AsRef<[u8]>`
+/// with an `as_bytes`: equal when their bytes are (the rest is derived from them). The 1.x
+/// octree and the 3.0 brick octree compare through it.
+macro_rules! equal_by_bytes {
+    ($octree:ident) => {
+        impl<A: AsRef<[u8]>, B: AsRef<[u8]>> PartialEq<$octree<B>> for $octree<A> {
+            /// Equal bytes (the rest is derived from them).
+            fn eq(&self, other: &$octree<B>) -> bool {
+                self.as_bytes() == other.as_bytes()
+            }
+        }
+
+        impl<B: AsRef<[u8]>> Eq for $octree<B> {}
+    };
+}
+
 mod brick;
 mod brick_lod;
 pub mod compressed;

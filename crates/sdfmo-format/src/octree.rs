@@ -700,14 +700,7 @@ impl<B: AsRef<[u8]>> Octree<B> {
     }
 }
 
-impl<A: AsRef<[u8]>, B: AsRef<[u8]>> PartialEq<Octree<B>> for Octree<A> {
-    /// Equal bytes (the rest is derived from them).
-    fn eq(&self, other: &Octree<B>) -> bool {
-        self.as_bytes() == other.as_bytes()
-    }
-}
-
-impl<B: AsRef<[u8]>> Eq for Octree<B> {}
+equal_by_bytes!(Octree);
 
 impl<B: AsRef<[u8]>> fmt::Debug for Octree<B> {
     /// The header's content, not the bytes.
