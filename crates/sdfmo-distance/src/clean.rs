@@ -26,6 +26,14 @@ use super::*;
 /// A clean leaf's probes must give a winding number within this of 0 in front and 1 behind.
 const CLEAN_PROBE_TOLERANCE: f32 = 0.2;
 
+/// Two triangles are tested for a crossing only where their boxes meet within this fraction of
+/// the largest coordinate of the leaf's box: far above the f32 rounding of the watertight test's
+/// hit point (a few units of 1e-7 relative), so a pair skipped for its boxes is one the test
+/// would not have found crossing. (A hit is a point of both triangles; only a triangle seen
+/// exactly edge-on, whose sheared projection has no area in f32, could be reported hit farther
+/// out, and the four test meshes' radii are bit-identical with and without this filter.)
+const CROSSING_BOX_MARGIN: f32 = 1e-4;
+
 /// What the other triangles do around a BVH leaf, for the winding sign's face-normal shortcut.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Surroundings {
@@ -209,6 +217,7 @@ impl MeshDistance {
         component: &[u32],
     ) -> Surroundings {
         let lb = leaf.aabb();
+        let (lb_min, lb_max) = (Vec3::from(lb.min), Vec3::from(lb.max));
         let own = component[self.leaf_ids[range.start] as usize];
         let mut other_shell_near = range
             .clone()
@@ -230,6 +239,20 @@ impl MeshDistance {
             let d = o.map(|v| n.dot(v - t[0]));
             d.iter().all(|&x| x > 0.0) || d.iter().all(|&x| x < 0.0)
         };
+        let tri_box = |t: &[Vec3; 3]| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+        // Two triangles whose boxes lie apart cannot cross: the pair tests below run only on
+        // boxes that meet within `margin` (see [`CROSSING_BOX_MARGIN`]). On the bunny's first
+        // call (20,000 points) 1 % of the pairs that share no vertex have boxes that meet, and
+        // the pair tests were 55 % of the first call's one-time instructions.
+        let margin = CROSSING_BOX_MARGIN * lb_min.abs().max(lb_max.abs()).max_element();
+        let (near_lo, near_hi) = (lb_min - margin, lb_max + margin);
+        let slot_boxes: Vec<(Vec3, Vec3)> = range
+            .clone()
+            .map(|slot| {
+                let (lo, hi) = tri_box(&self.leaf_tris[slot]);
+                (lo - margin, hi + margin)
+            })
+            .collect();
         let mut stack = vec![0usize];
         while let Some(ni) = stack.pop() {
             let node = &self.nodes[ni];
@@ -243,15 +266,17 @@ impl MeshDistance {
             }
             let start = node.first_index as usize;
             for other in start..start + node.prim_count as usize {
-                let oi = self.mesh.triangles()[self.leaf_ids[other] as usize];
                 let ot = &self.leaf_tris[other];
+                let (lo, hi) = tri_box(ot);
                 if !other_shell_near && component[self.leaf_ids[other] as usize] != own {
-                    let (lo, hi) = (ot[0].min(ot[1]).min(ot[2]), ot[0].max(ot[1]).max(ot[2]));
-                    other_shell_near =
-                        lo.cmple(lb.max.into()).all() && Vec3::from(lb.min).cmple(hi).all();
+                    other_shell_near = lo.cmple(lb_max).all() && lb_min.cmple(hi).all();
                 }
-                for slot in range.clone() {
-                    if slot == other {
+                if !(lo.cmple(near_hi).all() && near_lo.cmple(hi).all()) {
+                    continue;
+                }
+                let oi = self.mesh.triangles()[self.leaf_ids[other] as usize];
+                for (slot, &(slo, shi)) in range.clone().zip(&slot_boxes) {
+                    if slot == other || !(lo.cmple(shi).all() && slo.cmple(hi).all()) {
                         continue;
                     }
                     let li = self.mesh.triangles()[self.leaf_ids[slot] as usize];
