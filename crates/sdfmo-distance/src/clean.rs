@@ -49,13 +49,40 @@ enum Surroundings {
     OtherShellNear,
 }
 
+/// What every leaf's radii need from the mesh's topology: the chain-boundary edges' search tree
+/// and the connected component of each triangle. Made by `MeshDistance::new` in winding mode
+/// from the edge adjacency it builds for the pseudo-normals anyway: made on first use instead,
+/// a second adjacency (one sort of 3 records per triangle) was 67.8 M of the bunny's 638 M
+/// one-time instructions in a first call of 20,000 points.
+pub(crate) struct ChainBoundary {
+    tree: SegmentTree,
+    component: Vec<u32>,
+}
+
+impl ChainBoundary {
+    /// The chain boundary of `mesh` (`adjacency`: its edge adjacency); `None` when it has more
+    /// than [`MAX_CHAIN_BOUNDARY_EDGES`] edges (every radius 0).
+    pub(crate) fn new(mesh: &TriMesh, adjacency: &EdgeAdjacency) -> Option<ChainBoundary> {
+        let tris = mesh.triangles();
+        let positions = mesh.positions();
+        let mut chain = Vec::new();
+        for [a, b] in adjacency.chain_boundary(tris) {
+            chain.push((positions[a as usize], positions[b as usize]));
+            if chain.len() > MAX_CHAIN_BOUNDARY_EDGES {
+                return None;
+            }
+        }
+        let (component, _) = adjacency.components(tris.len(), false);
+        Some(ChainBoundary {
+            tree: SegmentTree::new(chain),
+            component,
+        })
+    }
+}
+
 /// The per-leaf radii of the face-normal shortcut, each leaf's made on first use (see the
-/// module's doc), with what every leaf needs: the chain boundary's search tree and the
-/// connected component of each triangle.
+/// module's doc), and where each triangle's are.
 pub(crate) struct CleanRadii {
-    /// The chain-boundary edges' tree and the component per triangle; `None` when the mesh has
-    /// more than [`MAX_CHAIN_BOUNDARY_EDGES`] such edges (every radius 0).
-    shared: Option<(SegmentTree, Vec<u32>)>,
     /// The BVH node of each leaf (indices into `MeshDistance::nodes`).
     leaf_nodes: Vec<u32>,
     /// Each leaf's radii by slot, once made.
@@ -67,25 +94,10 @@ pub(crate) struct CleanRadii {
 }
 
 impl CleanRadii {
-    /// The shared part; no leaf's radii yet. Sequential (no rayon inside): it runs inside a
-    /// `OnceLock` that any worker may be first to reach.
+    /// No leaf's radii yet. Sequential (no rayon inside): it runs inside a `OnceLock` that any
+    /// worker may be first to reach.
     fn new(md: &MeshDistance) -> CleanRadii {
         let tris = md.mesh.triangles();
-        let positions = md.mesh.positions();
-        let adjacency = EdgeAdjacency::of(&md.mesh);
-        let mut chain = Vec::new();
-        let mut too_many = false;
-        for [a, b] in adjacency.chain_boundary(tris) {
-            chain.push((positions[a as usize], positions[b as usize]));
-            if chain.len() > MAX_CHAIN_BOUNDARY_EDGES {
-                too_many = true;
-                break;
-            }
-        }
-        let shared = (!too_many).then(|| {
-            let (component, _) = adjacency.components(tris.len(), false);
-            (SegmentTree::new(chain), component)
-        });
         let mut leaf_nodes = Vec::new();
         let mut leaf_of_slot = vec![u32::MAX; md.leaf_ids.len()];
         for (i, node) in md.nodes.iter().enumerate() {
@@ -106,7 +118,6 @@ impl CleanRadii {
             slot_of_triangle[id as usize] = slot as u32;
         }
         CleanRadii {
-            shared,
             radii: leaf_nodes.iter().map(|_| OnceLock::new()).collect(),
             leaf_nodes,
             slot_of_triangle,
@@ -139,7 +150,7 @@ impl MeshDistance {
     fn leaf_radii<'a>(&self, clean: &'a CleanRadii, leaf: usize) -> &'a [f32] {
         clean.radii[leaf].get_or_init(|| {
             let node = &self.nodes[clean.leaf_nodes[leaf] as usize];
-            self.make_leaf_radii(node, clean)
+            self.make_leaf_radii(node)
         })
     }
 
@@ -158,10 +169,14 @@ impl MeshDistance {
     }
 
     /// The radii of one BVH leaf's slots (0 where the shortcut does not apply).
-    fn make_leaf_radii(&self, node: &Bvh2Node, clean: &CleanRadii) -> Box<[f32]> {
+    fn make_leaf_radii(&self, node: &Bvh2Node) -> Box<[f32]> {
         let range = node.first_index as usize..(node.first_index + node.prim_count) as usize;
         let mut out = vec![0.0f32; range.len()].into_boxed_slice();
-        let Some((chain, component)) = &clean.shared else {
+        let Some(ChainBoundary {
+            tree: chain,
+            component,
+        }) = &self.chain_boundary
+        else {
             return out;
         };
         let Some(n) = self.leaf_is_clean(&self.leaf_tris[range.clone()]) else {
