@@ -232,7 +232,7 @@ impl MeshDistance {
         component: &[u32],
     ) -> Surroundings {
         let lb = leaf.aabb();
-        let (lb_min, lb_max) = (Vec3::from(lb.min), Vec3::from(lb.max));
+        let (lb_min, lb_max) = (lb.min, lb.max);
         let own = component[self.leaf_ids[range.start] as usize];
         let mut other_shell_near = range
             .clone()
@@ -254,14 +254,19 @@ impl MeshDistance {
             let d = o.map(|v| n.dot(v - t[0]));
             d.iter().all(|&x| x > 0.0) || d.iter().all(|&x| x < 0.0)
         };
-        let tri_box = |t: &[Vec3; 3]| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+        // Boxes in SIMD registers (Vec3A): one compare and mask per test instead of three
+        // (bunny first call, 20,000 points: 25,546 -> 25,064 instructions per point).
+        let tri_box = |t: &[Vec3; 3]| {
+            let [a, b, c] = t.map(Vec3A::from);
+            (a.min(b).min(c), a.max(b).max(c))
+        };
         // Two triangles whose boxes lie apart cannot cross: the pair tests below run only on
         // boxes that meet within `margin` (see [`CROSSING_BOX_MARGIN`]). On the bunny's first
         // call (20,000 points) 1 % of the pairs that share no vertex have boxes that meet, and
         // the pair tests were 55 % of the first call's one-time instructions.
         let margin = CROSSING_BOX_MARGIN * lb_min.abs().max(lb_max.abs()).max_element();
         let (near_lo, near_hi) = (lb_min - margin, lb_max + margin);
-        let slot_boxes: Vec<(Vec3, Vec3)> = range
+        let slot_boxes: Vec<(Vec3A, Vec3A)> = range
             .clone()
             .map(|slot| {
                 let (lo, hi) = tri_box(&self.leaf_tris[slot]);
