@@ -19,7 +19,9 @@
 //! of its triangles is first asked about ([`CleanRadii`]): a query set that touches few leaves
 //! (a coarse octree level's corners: the build of abc1 at depth 6 spent 3.5 G of its 5.6 G
 //! instructions making every leaf's radii) pays for those only, and the answers are the same
-//! whichever leaves were made before.
+//! whichever leaves were made before. A query too far from the surface for the shortcut by an
+//! upper bound of the radius (the distance to the segments of one leaf of the chain boundary's
+//! tree) makes no leaf at all.
 
 use super::*;
 
@@ -144,6 +146,51 @@ impl MeshDistance {
         let leaf = clean.leaf_of_slot[slot] as usize;
         let first = self.nodes[clean.leaf_nodes[leaf] as usize].first_index as usize;
         Some(self.leaf_radii(clean, leaf)[slot - first])
+    }
+
+    /// Whether a query `distance` from the face interior of triangle `t` is within
+    /// [`CLEAN_DISTANCE_FRACTION`] of its clean radius (the face-normal shortcut applies):
+    /// `distance < radius × CLEAN_DISTANCE_FRACTION`, false for an index out of range. Where
+    /// the leaf's radii are not made yet, an upper bound of the radius is tried first (see
+    /// [`SegmentTree::distance_bound`]): a query beyond it, most points away from the surface,
+    /// gets the same `false` without making the leaf. The bunny's first call (20,000 points,
+    /// half of them uniform in the cube): 24,386 -> 23,667 instructions per point; a second
+    /// call on that lazily made structure pays the bound again where it ruled a leaf out
+    /// (10,437 -> 10,458), none once [`prepare_sign`](Self::prepare_sign) made every leaf
+    /// (`query_icount`: +0.4 per point).
+    #[inline]
+    pub(crate) fn within_clean_radius(&self, t: u32, distance: f32) -> bool {
+        let clean = self.clean();
+        let Some(&slot) = clean.slot_of_triangle.get(t as usize) else {
+            return false;
+        };
+        if slot == u32::MAX {
+            return distance < 0.0;
+        }
+        let slot = slot as usize;
+        let leaf = clean.leaf_of_slot[slot] as usize;
+        let first = self.nodes[clean.leaf_nodes[leaf] as usize].first_index as usize;
+        let radii = match clean.radii[leaf].get() {
+            Some(radii) => radii,
+            None => {
+                // The radius is (d − rad).max(0) ≤ d, d the minimum of `point_segment_distance`
+                // from this very centroid (the same expression as `make_leaf_radii`) over the
+                // chain's segments; the bound is the minimum over some of them, so bound ≥
+                // radius in f32, and a query not within the bound's fraction is not within the
+                // radius's.
+                let bound = self.chain_boundary.as_ref().map_or(0.0, |chain| {
+                    let tri = &self.leaf_tris[slot];
+                    chain.tree.distance_bound((tri[0] + tri[1] + tri[2]) / 3.0)
+                });
+                // (As the test below: false for a NaN distance too.)
+                let within_bound = distance < bound * CLEAN_DISTANCE_FRACTION;
+                if !within_bound {
+                    return false;
+                }
+                self.leaf_radii(clean, leaf)
+            }
+        };
+        distance < radii[slot - first] * CLEAN_DISTANCE_FRACTION
     }
 
     /// Leaf `leaf`'s radii by slot, made on first use.
@@ -399,6 +446,34 @@ mod tests {
         assert_eq!(lazy.made_leaves(), leaves);
         assert!(eager.clean_winding_radii().iter().any(|&r| r > 0.0));
         assert_eq!(lazy.clean_radius(n), None);
+    }
+
+    /// A query too far from the surface for the shortcut by the radius's upper bound makes no
+    /// leaf, and signs as it does where every leaf is made.
+    #[test]
+    fn far_queries_make_no_leaf() {
+        let a = sdfmo_mesh::procedural::sphere(Vec3::new(-0.2, 0.0, 0.0), 0.4, 3);
+        let mesh = TriMesh::merge(&[a, open_box(0.3, 0)]);
+        let lazy = MeshDistance::new(&mesh, SignMode::Winding).unwrap();
+        let eager = MeshDistance::new(&mesh, SignMode::Winding).unwrap();
+        eager.prepare_sign();
+        // 0.9 in front of the centroid of a face of the sphere's far side (x < -0.5), the
+        // open box's rim (x = 0.3) more than 0.8 from it.
+        let t = (0..mesh.triangle_count())
+            .map(|i| mesh.triangle(i))
+            .find(|t| t.iter().all(|v| v.x < -0.5))
+            .unwrap();
+        let normal = (t[1] - t[0]).cross(t[2] - t[0]).normalize();
+        let q = (t[0] + t[1] + t[2]) / 3.0 + normal * 0.9;
+        assert_eq!(lazy.closest_point(q).feature, Feature::Face);
+        assert_eq!(
+            lazy.signed_distance(q).to_bits(),
+            eager.signed_distance(q).to_bits()
+        );
+        assert_eq!(lazy.made_leaves(), 0);
+        // Near the same face the leaf is made.
+        lazy.signed_distance(Vec3::new(-0.61, 0.01, 0.02));
+        assert_eq!(lazy.made_leaves(), 1);
     }
 
     /// The cube [-h, h]³ without its face at `+h` along `axis`.

@@ -93,6 +93,30 @@ impl SegmentTree {
         SegmentTree { nodes, segments }
     }
 
+    /// An upper bound of [`nearest_distance`](Self::nearest_distance) at `p` (infinity when
+    /// there are no segments), never below it in f32: the minimum of [`point_segment_distance`]
+    /// over the segments of the one leaf reached by descending to the child whose box is
+    /// nearer at every node (a subset of the segments the search takes the minimum of). A few
+    /// hundred instructions where the search takes ~2,000 (the bunny).
+    pub(crate) fn distance_bound(&self, p: Vec3) -> f32 {
+        if self.segments.is_empty() {
+            return f32::INFINITY;
+        }
+        let mut node = &self.nodes[0];
+        while node.count == 0 {
+            let (l, r) = (
+                &self.nodes[node.first as usize],
+                &self.nodes[node.first as usize + 1],
+            );
+            node = if l.distance(p) <= r.distance(p) { l } else { r };
+        }
+        let start = node.first as usize;
+        self.segments[start..start + node.count as usize]
+            .iter()
+            .map(|&(a, b)| point_segment_distance(p, a, b))
+            .fold(f32::INFINITY, f32::min)
+    }
+
     /// The distance from `p` to the nearest segment (infinity when there are none): exactly the
     /// minimum of [`point_segment_distance`] over all of them.
     pub(crate) fn nearest_distance(&self, p: Vec3) -> f32 {
@@ -181,6 +205,7 @@ mod tests {
                     scan.to_bits(),
                     "{n} {p:?}"
                 );
+                assert!(tree.distance_bound(p) >= scan, "{n} {p:?}");
             }
         }
     }
