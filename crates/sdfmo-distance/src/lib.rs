@@ -70,7 +70,7 @@ use std::sync::OnceLock;
 use glam::{Vec3, Vec3A, Vec4};
 use obvhs::bvh2::node::Bvh2Node;
 use rayon::prelude::*;
-use sdfmo_mesh::{EdgeAdjacency, TriMesh};
+use sdfmo_mesh::{EdgeAdjacency, Topology, TriMesh};
 
 pub use bvh_build::{
     box_overlap, reshape_fans, BvhBuilder, MAX_PLOC_BOX_OVERLAP, MAX_PLOC_VALENCE, SAH_DEPTH_BOUND,
@@ -209,6 +209,9 @@ pub struct MeshDistance {
     /// far-field data (centroid, (β·r)², area normal), so a triangle of a near leaf that is
     /// itself far enough is taken as one dipole.
     winding_packets: Vec<WindingPacket>,
+    /// Winding mode only: the chain boundary and components the clean radii are made from
+    /// (`None` in pseudo-normal mode and past [`MAX_CHAIN_BOUNDARY_EDGES`]).
+    chain_boundary: Option<clean::ChainBoundary>,
     /// Winding mode only: the radii of the triangles' "clean" neighbourhoods (see
     /// [`clean`](mod@clean)), each BVH leaf's made by the first signed query that needs them.
     clean_radius: OnceLock<clean::CleanRadii>,
@@ -297,10 +300,16 @@ impl MeshDistance {
             });
         }
         let (winding, winding_packets) = winding::build_winding_nodes(&nodes, &leaf_tris, &order);
-        let normals = PseudoNormals::new(mesh.positions(), mesh.triangles());
+        // One edge adjacency for the pseudo-normals, the watertightness and the winding
+        // sign's chain boundary (each built its own before: three sorts of 3 records per
+        // triangle on a closed mesh, the third in the first signed query on an open one).
+        let adjacency = EdgeAdjacency::of(mesh);
+        let normals = PseudoNormals::with_adjacency(mesh.positions(), mesh.triangles(), &adjacency);
         let sign = match sign {
             SignMode::Auto => {
-                if normals.closed_and_oriented && mesh.topology().watertight {
+                if normals.closed_and_oriented
+                    && Topology::from_adjacency(mesh.triangle_count(), &adjacency).watertight
+                {
                     SignMode::PseudoNormal
                 } else {
                     SignMode::Winding
@@ -308,6 +317,10 @@ impl MeshDistance {
             }
             s => s,
         };
+        let chain_boundary = (sign == SignMode::Winding)
+            .then(|| clean::ChainBoundary::new(mesh, &adjacency))
+            .flatten();
+        drop(adjacency);
         let corners: Vec<[Vec3; 3]> = leaf_records.iter().map(|r| r.corners).collect();
         let bvh4 = Bvh4::from_bvh2(&nodes, &corners);
 
@@ -324,6 +337,7 @@ impl MeshDistance {
             normals,
             winding,
             winding_packets,
+            chain_boundary,
             clean_radius: OnceLock::new(),
             depth,
             builder,

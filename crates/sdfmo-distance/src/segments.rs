@@ -93,6 +93,30 @@ impl SegmentTree {
         SegmentTree { nodes, segments }
     }
 
+    /// An upper bound of [`nearest_distance`](Self::nearest_distance) at `p` (infinity when
+    /// there are no segments), never below it in f32: the minimum of [`point_segment_distance`]
+    /// over the segments of the one leaf reached by descending to the child whose box is
+    /// nearer at every node (a subset of the segments the search takes the minimum of). A few
+    /// hundred instructions where the search takes ~2,000 (the bunny).
+    pub(crate) fn distance_bound(&self, p: Vec3) -> f32 {
+        if self.segments.is_empty() {
+            return f32::INFINITY;
+        }
+        let mut node = &self.nodes[0];
+        while node.count == 0 {
+            let (l, r) = (
+                &self.nodes[node.first as usize],
+                &self.nodes[node.first as usize + 1],
+            );
+            node = if l.distance(p) <= r.distance(p) { l } else { r };
+        }
+        let start = node.first as usize;
+        self.segments[start..start + node.count as usize]
+            .iter()
+            .map(|&(a, b)| point_segment_distance(p, a, b))
+            .fold(f32::INFINITY, f32::min)
+    }
+
     /// The distance from `p` to the nearest segment (infinity when there are none): exactly the
     /// minimum of [`point_segment_distance`] over all of them.
     pub(crate) fn nearest_distance(&self, p: Vec3) -> f32 {
@@ -103,13 +127,18 @@ impl SegmentTree {
         // Median splits keep the tree ⌈log₂(n / LEAF_SEGMENTS)⌉ + 1 ≤ 20 levels deep for the
         // 2^20 edges allowed, and the walk holds at most one sibling per level: no allocation
         // per query (one query per triangle).
-        let mut stack = [0u32; 64];
+        // Each entry carries its node's box distance, computed when its parent was opened (both
+        // children's are needed there to order them): taking it again when the node is popped
+        // was 15 % of the bunny's searches (223 edges; 87.8 M -> 74.2 M instructions in the
+        // first call of 20,000 points).
+        let mut stack = [(0u32, 0.0f32); 64];
+        stack[0] = (0, self.nodes[0].distance(p));
         let mut len = 1;
         while len > 0 {
             len -= 1;
-            let i = stack[len];
+            let (i, box_distance) = stack[len];
             let node = &self.nodes[i as usize];
-            if node.distance(p) > best * (1.0 + RELATIVE_MARGIN) + ABSOLUTE_MARGIN {
+            if box_distance > best * (1.0 + RELATIVE_MARGIN) + ABSOLUTE_MARGIN {
                 continue;
             }
             if node.count > 0 {
@@ -125,7 +154,11 @@ impl SegmentTree {
                 self.nodes[l as usize].distance(p),
                 self.nodes[r as usize].distance(p),
             );
-            let (far, near) = if dl <= dr { (r, l) } else { (l, r) };
+            let (far, near) = if dl <= dr {
+                ((r, dr), (l, dl))
+            } else {
+                ((l, dl), (r, dr))
+            };
             stack[len] = far;
             stack[len + 1] = near;
             len += 2;
@@ -172,6 +205,7 @@ mod tests {
                     scan.to_bits(),
                     "{n} {p:?}"
                 );
+                assert!(tree.distance_bound(p) >= scan, "{n} {p:?}");
             }
         }
     }

@@ -60,13 +60,9 @@ impl MeshDistance {
     /// [`CLEAN_DISTANCE_FRACTION`] of the clean radius, else [`winding_inside`](Self::winding_inside).
     #[inline]
     pub(crate) fn winding_inside_near(&self, p: Vec3, c: &ClosestPoint) -> bool {
-        if c.feature == Feature::Face {
-            if let Some(r) = self.clean_radius(c.triangle) {
-                if c.distance < r * CLEAN_DISTANCE_FRACTION {
-                    let n = self.normals.face[c.triangle as usize];
-                    return (p - c.point).dot(n) < 0.0;
-                }
-            }
+        if c.feature == Feature::Face && self.within_clean_radius(c.triangle, c.distance) {
+            let n = self.normals.face[c.triangle as usize];
+            return (p - c.point).dot(n) < 0.0;
         }
         self.winding_inside(p)
     }
