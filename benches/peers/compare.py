@@ -126,10 +126,10 @@ def rows():
     R.append(("the paper (its reported numbers)", "median PSNR gain over the SVO",
               f"**not reached**: the paper reports about +5 dB; ours +{statistics.median(d9.values()):.2f} dB at depth 9",
               "S", sweep_src + "; the paper's figure quoted in " + link("results.md")))
-    quote("results/render.md", "| 1 thread, CPU ms / frame (`cpu_frame`, 9 runs) | 29.0 | 37.2 | 87.1 |")
+    quote("results/render.md", "| 1 thread, CPU ms / frame (median of 3 rounds) | 20.3 | 27.7 | 60.4 |")
     quote("results/render.md", "against the paper's ~100 ms")
     R.append(("the paper (its reported numbers)", "frame time per core, 1024², abc1 depth 9",
-              "ours 29.0 ms of CPU on one thread (quiet) against the paper's about 100 ms", "E",
+              "ours 20.3 ms of CPU on one thread (quiet) against the paper's about 100 ms", "E",
               prose("results/render.md", "measured 2026-12-05")))
 
     # ---- the authors' code (quoted: it is not in the repository)
@@ -144,9 +144,9 @@ def rows():
               f"ours {ours_b / 1e6:.2f} MB at 8 bits against 25.0 MB: **{25.0e6 / ours_b:.1f}× smaller**", "S, A",
               f"ours: {sweep_src}; theirs: {prose('results/format.md', 'measured 2026-11-23')}"))
     quote("results/render.md", "The authors' renderer takes 248 ms for this frame")
-    quote("results/render.md", "| 2 threads, wall ms (speed-up) | 14.9 (1.95×) | 19.6 (1.90×) | 44.2 (1.97×) |")
+    quote("results/render.md", "| 2 threads, wall ms (speed-up) | 15.2 (1.33×) | 14.5 (1.91×) | 31.2 (1.94×) |")
     R.append(("the authors' code", "frame time, abc1 depth 9, view 0, 1024², 2 threads",
-              "ours 14.9 ms (quiet) against 248 ms: **about 17× faster**", "E, A",
+              "ours 15.2 ms (quiet) against 248 ms: **about 16× faster**", "E, A",
               prose("results/render.md", "ours 2026-12-05, theirs 2026-11-23")))
 
     # ---- NGLOD
@@ -228,12 +228,12 @@ def rows():
                   f"3.1 file: {f3_txt('v3')}; compressed 3.1: {f3_txt('v3z')}", "V", vsrc))
 
     # ---- Embree
-    quote("results/render.md", "| **ours ÷ Embree** (target ≤ 0.6) | **0.76** | **0.94** | **1.21** |")
+    quote("results/render.md", "| **ours ÷ Embree** (target ≤ 0.6) | **0.64** | **0.83** | **0.99** |")
     quote("results/lod.md", "one thread **abc1 32.1–35.4 ms against Embree's 42.9 ms (0.75–0.83×), abc5\n"
           "44.1–44.9 ms against 44.2 ms (1.00–1.02×)**")
     R.append(("Embree 4 (embreex, `rtcIntersect1` on the mesh)",
               "CPU per 1024² primary frame, one thread, the same rays: our depth-9 multi-octree against the mesh",
-              "ours ÷ Embree **0.76×** (abc1), **0.94×** (abc5) and **1.21× (abc8: a loss)** on the quiet machine; "
+              "ours ÷ Embree **0.64×** (abc1), **0.83×** (abc5) and **0.99× (abc8: even)** on the quiet machine; "
               "under load abc1 0.75–0.83×, abc5 1.00–1.02× (even)", "E",
               prose("results/render.md", "quiet, 2026-12-05") + "; " + link("results/lod.md") + " (loaded, 2026-12-03)"))
 
@@ -252,16 +252,16 @@ def rows():
               prose("results/python.md", "measured 2026-12-03, load 1.4–2.4")))
 
     # ---- FCPW
-    quote("results/python.md", "| abc1.stl | **1.43× / 1.60×** (0.222 / 0.155) | 1.07× / 1.16× (0.163 / 0.152) |")
-    quote("results/python.md", "| abc5.stl | **1.87× / 1.82×** (1.549 / 0.830) | 1.83× / 1.80× (1.498 / 0.820) |")
-    quote("results/python.md", "| teapot.obj | **1.64× / 1.68×** (0.796 / 0.486) | 1.35× / 1.33× (0.662 / 0.489) |")
-    quote("results/python.md", "| stanford-bunny.obj | **2.34× / 3.05×** (0.454 / 0.194) | 1.05× / 1.34× (0.215 / 0.205) |")
-    quote("results/python.md", "The double-walled soup stays our\nknown slow case (0.04×")
+    quote("results/python.md", "| abc1.stl | **2.15× / 2.19×** (0.324 / 0.151) | 1.73× / 1.87× (0.260 / 0.150) |")
+    quote("results/python.md", "| abc5.stl | **1.94× / 1.92×** (1.591 / 0.818) | 1.94× / 1.89× (1.596 / 0.822) |")
+    quote("results/python.md", "| teapot.obj | **1.85× / 1.83×** (0.903 / 0.487) | 1.74× / 1.61× (0.792 / 0.455) |")
+    quote("results/python.md", "| stanford-bunny.obj | **2.32× / 2.24×** (0.467 / 0.201) | 1.35× / 1.36× (0.280 / 0.207) |")
+    quote("results/python.md", "The double-walled soup stays our\nknown slow case (0.05×")
     R.append(("FCPW 1.2 (vectorised BVH; unsigned closest point only)",
               "our signed distance against its unsigned closest point, points per core, same points",
-              "ours ÷ FCPW in the steady state **1.43–3.05×** on abc1, abc5, the teapot and the bunny (two runs), "
-              "closest on abc1 (1.43× and 1.60×); a first call, which also makes our winding sign's per-leaf data, "
-              "1.05–1.83× (**a loss of the 1.5× bar** on the open meshes); **a loss** on the double-walled soup (0.04×)",
+              "ours ÷ FCPW in the steady state **1.83–2.32×** on abc1, abc5, the teapot and the bunny (two runs); "
+              "a first call, which also makes our winding sign's per-leaf data, 1.61–1.94× on abc1, abc5 and the teapot "
+              "and 1.35–1.36× on the bunny (**a loss of the 1.5× bar** there); **a loss** on the double-walled soup (0.05×)",
               "P", prose("results/python.md", "measured 2026-12-05, quiet machine")))
 
     # ---- point-cloud-utils and trimesh
