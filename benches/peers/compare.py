@@ -252,16 +252,17 @@ def rows():
               prose("results/python.md", "measured 2026-12-03, load 1.4–2.4")))
 
     # ---- FCPW
-    quote("results/python.md", "| abc1.stl | **2.15× / 2.19×** (0.324 / 0.151) | 1.73× / 1.87× (0.260 / 0.150) |")
-    quote("results/python.md", "| abc5.stl | **1.94× / 1.92×** (1.591 / 0.818) | 1.94× / 1.89× (1.596 / 0.822) |")
-    quote("results/python.md", "| teapot.obj | **1.85× / 1.83×** (0.903 / 0.487) | 1.74× / 1.61× (0.792 / 0.455) |")
-    quote("results/python.md", "| stanford-bunny.obj | **2.32× / 2.24×** (0.467 / 0.201) | 1.35× / 1.36× (0.280 / 0.207) |")
-    quote("results/python.md", "The double-walled soup stays our\nknown slow case (0.05×")
+    quote("results/python.md", "| abc1.stl | **2.22 / 2.03 / 1.74×** (0.300 / 0.135) | 1.71 / 1.85 / 1.95 / 1.75× (0.262 / 0.153) |")
+    quote("results/python.md", "| abc5.stl | **1.94 / 1.96 / 1.84×** (1.606 / 0.827) | 2.17 / 1.57 / 1.85 / 1.83× (1.607 / 0.739) |")
+    quote("results/python.md", "| teapot.obj | **1.89 / 1.78 / 1.70×** (0.896 / 0.474) | 1.65 / 1.65 / 1.49 / 1.62× (0.807 / 0.490) |")
+    quote("results/python.md", "| stanford-bunny.obj | **2.84 / 2.37 / 2.41×** (0.469 / 0.165) | 1.48 / 1.51 / 1.46 / 1.59× (0.292 / 0.197) |")
+    quote("results/python.md", "The\ndouble-walled soup stays our known slow case (0.04–0.05×")
     R.append(("FCPW 1.2 (vectorised BVH; unsigned closest point only)",
               "our signed distance against its unsigned closest point, points per core, same points",
-              "ours ÷ FCPW in the steady state **1.83–2.32×** on abc1, abc5, the teapot and the bunny (two runs); "
-              "a first call, which also makes our winding sign's per-leaf data, 1.61–1.94× on abc1, abc5 and the teapot "
-              "and 1.35–1.36× on the bunny (**a loss of the 1.5× bar** there); **a loss** on the double-walled soup (0.05×)",
+              "ours ÷ FCPW in the steady state **1.70–2.84×** on abc1, abc5, the teapot and the bunny (three runs); "
+              "a first call, which also makes our winding sign's per-leaf data, 1.57–2.17× on abc1 and abc5, "
+              "1.49–1.65× on the teapot and 1.46–1.59× on the bunny (**straddling the 1.5× bar** there); "
+              "**a loss** on the double-walled soup (0.04–0.05×)",
               "P", prose("results/python.md", "measured 2026-12-05, quiet machine")))
 
     # ---- point-cloud-utils and trimesh
