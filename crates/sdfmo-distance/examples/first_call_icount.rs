@@ -17,8 +17,9 @@
 //! Morton sort included; first minus again is the one-time work the first call does).
 
 use glam::Vec3;
-use sdfmo_distance::sample::{near_surface_points, uniform_points};
-use sdfmo_distance::{MeshDistance, SignMode};
+use sdfmo_distance::MeshDistance;
+
+mod support;
 
 /// The first call: every reached leaf's radii are made here.
 #[inline(never)]
@@ -34,18 +35,12 @@ fn run_again(md: &MeshDistance, pts: &[Vec3]) -> Vec<f32> {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().collect();
-    let (Some(path), Some(n)) = (args.get(1), args.get(2)) else {
-        eprintln!("usage: first_call_icount MESH POINTS [OUT]");
-        std::process::exit(2);
-    };
-    let n: usize = n.parse()?;
-    let loaded = sdfmo_mesh::load_mesh(std::path::Path::new(path))?;
-    let (mesh, _) = loaded.mesh.normalized(0.05);
-    let md = MeshDistance::new(&mesh, SignMode::Auto)?;
-    let mut pts = near_surface_points(&mesh, n / 2, 0.02, 1);
-    pts.extend(uniform_points(n - n / 2, 2));
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    let support::Queries {
+        md,
+        points: pts,
+        out,
+        pool,
+    } = support::queries("first_call_icount")?;
     let first = pool.install(|| run_first(&md, &pts));
     let again = pool.install(|| run_again(&md, &pts));
     assert!(
@@ -55,7 +50,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .all(|(a, b)| a.to_bits() == b.to_bits()),
         "the first call's answers differ from the second's"
     );
-    if let Some(out) = args.get(3) {
+    if let Some(out) = out {
         let bytes: Vec<u8> = first
             .iter()
             .chain(&again)

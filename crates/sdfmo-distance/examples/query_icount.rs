@@ -16,8 +16,9 @@
 //! point, the Morton sort included.)
 
 use glam::Vec3;
-use sdfmo_distance::sample::{near_surface_points, uniform_points};
-use sdfmo_distance::{Feature, MeshDistance, SignMode};
+use sdfmo_distance::{Feature, MeshDistance};
+
+mod support;
 
 #[inline(never)]
 fn run_signed(md: &MeshDistance, pts: &[Vec3]) -> Vec<f32> {
@@ -38,22 +39,16 @@ fn run_closest(md: &MeshDistance, pts: &[Vec3]) -> Vec<(u32, u32, u8)> {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().collect();
-    let (Some(path), Some(n)) = (args.get(1), args.get(2)) else {
-        eprintln!("usage: query_icount MESH POINTS [OUT]");
-        std::process::exit(2);
-    };
-    let n: usize = n.parse()?;
-    let loaded = sdfmo_mesh::load_mesh(std::path::Path::new(path))?;
-    let (mesh, _) = loaded.mesh.normalized(0.05);
-    let md = MeshDistance::new(&mesh, SignMode::Auto)?;
+    let support::Queries {
+        md,
+        points: pts,
+        out,
+        pool,
+    } = support::queries("query_icount")?;
     md.prepare_sign();
-    let mut pts = near_surface_points(&mesh, n / 2, 0.02, 1);
-    pts.extend(uniform_points(n - n / 2, 2));
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let signed = pool.install(|| run_signed(&md, &pts));
     let closest = pool.install(|| run_closest(&md, &pts));
-    if let Some(out) = args.get(3) {
+    if let Some(out) = out {
         let mut bytes = Vec::with_capacity(pts.len() * 16);
         for (d, (c, t, f)) in signed.iter().zip(&closest) {
             bytes.extend(d.to_bits().to_le_bytes());

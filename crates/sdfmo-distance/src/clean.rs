@@ -471,16 +471,23 @@ mod tests {
     use super::*;
     use crate::tests::uniform_stream;
 
-    /// The radii are made per BVH leaf when a query first needs one: a few queries make a few
-    /// leaves, and every radius is the one `prepare_sign` makes for all leaves at once, whatever
-    /// the order the leaves were made in.
-    #[test]
-    fn radii_made_on_demand_equal_radii_made_at_once() {
+    /// A sphere beside an open box, its distance structure twice: with no radii made yet, and
+    /// with every leaf's made (`prepare_sign`).
+    fn sphere_and_open_box() -> (TriMesh, MeshDistance, MeshDistance) {
         let a = sdfmo_mesh::procedural::sphere(Vec3::new(-0.2, 0.0, 0.0), 0.4, 3);
         let mesh = TriMesh::merge(&[a, open_box(0.3, 0)]);
         let lazy = MeshDistance::new(&mesh, SignMode::Winding).unwrap();
         let eager = MeshDistance::new(&mesh, SignMode::Winding).unwrap();
         eager.prepare_sign();
+        (mesh, lazy, eager)
+    }
+
+    /// The radii are made per BVH leaf when a query first needs one: a few queries make a few
+    /// leaves, and every radius is the one `prepare_sign` makes for all leaves at once, whatever
+    /// the order the leaves were made in.
+    #[test]
+    fn radii_made_on_demand_equal_radii_made_at_once() {
+        let (mesh, lazy, eager) = sphere_and_open_box();
         let leaves = eager.made_leaves();
         assert!(leaves > 20, "{leaves}");
         // One signed query near a face of the sphere: its closest triangle's leaf only.
@@ -512,11 +519,7 @@ mod tests {
     /// leaf, and signs as it does where every leaf is made.
     #[test]
     fn far_queries_make_no_leaf() {
-        let a = sdfmo_mesh::procedural::sphere(Vec3::new(-0.2, 0.0, 0.0), 0.4, 3);
-        let mesh = TriMesh::merge(&[a, open_box(0.3, 0)]);
-        let lazy = MeshDistance::new(&mesh, SignMode::Winding).unwrap();
-        let eager = MeshDistance::new(&mesh, SignMode::Winding).unwrap();
-        eager.prepare_sign();
+        let (mesh, lazy, eager) = sphere_and_open_box();
         // 0.9 in front of the centroid of a face of the sphere's far side (x < -0.5), the
         // open box's rim (x = 0.3) more than 0.8 from it.
         let t = (0..mesh.triangle_count())
