@@ -35,14 +35,10 @@ fn run_again(md: &MeshDistance, pts: &[Vec3]) -> Vec<f32> {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let support::Queries {
-        md,
-        points: pts,
-        out,
-        pool,
-    } = support::queries("first_call_icount")?;
-    let first = pool.install(|| run_first(&md, &pts));
-    let again = pool.install(|| run_again(&md, &pts));
+    let q = support::queries("first_call_icount")?;
+    let (md, pts) = (&q.md, &q.points);
+    let first = q.pool.install(|| run_first(md, pts));
+    let again = q.pool.install(|| run_again(md, pts));
     assert!(
         first
             .iter()
@@ -50,7 +46,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .all(|(a, b)| a.to_bits() == b.to_bits()),
         "the first call's answers differ from the second's"
     );
-    if let Some(out) = out {
+    if let Some(out) = &q.out {
         let bytes: Vec<u8> = first
             .iter()
             .chain(&again)

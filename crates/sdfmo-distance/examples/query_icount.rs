@@ -39,16 +39,12 @@ fn run_closest(md: &MeshDistance, pts: &[Vec3]) -> Vec<(u32, u32, u8)> {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let support::Queries {
-        md,
-        points: pts,
-        out,
-        pool,
-    } = support::queries("query_icount")?;
+    let q = support::queries("query_icount")?;
+    let (md, pts) = (&q.md, &q.points);
     md.prepare_sign();
-    let signed = pool.install(|| run_signed(&md, &pts));
-    let closest = pool.install(|| run_closest(&md, &pts));
-    if let Some(out) = out {
+    let signed = q.pool.install(|| run_signed(md, pts));
+    let closest = q.pool.install(|| run_closest(md, pts));
+    if let Some(out) = &q.out {
         let mut bytes = Vec::with_capacity(pts.len() * 16);
         for (d, (c, t, f)) in signed.iter().zip(&closest) {
             bytes.extend(d.to_bits().to_le_bytes());
