@@ -239,10 +239,10 @@ fn packet<O: TracedOctree, const STEP: u8>(
 /// the hit, see [`Hit::corners`]).
 type LaneBest<V> = (V, bool, [f32; 8]);
 
-/// Each lane's ray in a leaf's frame and its nearest voxel so far: made once per packet and
-/// set for a leaf's lanes only (zeroing all eight lanes at every leaf visit cost ~ 0.4 % of a
-/// frame: callgrind, abc1 depth 9 multi, paper view 0).
-/// With the octree's [`TracedOctree::LeafCache`] for the packet's leaves.
+/// Each lane's ray in a leaf's frame and its nearest voxel so far, and the octree's
+/// [`TracedOctree::LeafCache`] for the packet's leaves: made once per packet and set for a
+/// leaf's lanes only (zeroing all eight lanes at every leaf visit cost ~ 0.4 % of a frame:
+/// callgrind, abc1 depth 9 multi, paper view 0).
 struct LeafLanes<O: TracedOctree> {
     local_o: [Vec3; PACKET_SIZE],
     local_d: [Vec3; PACKET_SIZE],
@@ -495,9 +495,7 @@ fn packet_step<O: TracedOctree>(children: &mut Children<'_, O>) {
     let visited = (0..8).fold(0, |m, c| m | u32::from(visit[c] != 0) << c);
     for c in children.present_far_to_near(visited) {
         let i = c as usize;
-        if visit[i] != 0 {
-            children.add(c, visit[i], t_enter[i], t_exit[i]);
-        }
+        children.add(c, visit[i], t_enter[i], t_exit[i]);
     }
 }
 
