@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 use sdfmo_format::{BrickOctree, SmoFile, SmoLevel};
-use sdfmo_trace::{eye_levels, pixel_angle, LevelChoice};
+use sdfmo_trace::{pixel_angle, LevelChoice};
 
 use crate::{Camera, LodScene, OctreeScene, RenderError};
 
@@ -93,22 +93,12 @@ impl<'a> LevelScene<'a> {
     }
 
     /// The levels the rays from `eye` (a camera's, normalised frame) are drawn at, `(coarsest,
-    /// finest)`: the one level, or by pixel error those [`eye_levels`] gives (every hit's level
-    /// lies between them).
+    /// finest)`: the one level, or by pixel error [`LodScene::levels`].
     pub fn levels(&self, eye: Vec3) -> (u8, u8) {
         match self {
             LevelScene::Level(s) => (s.0.depth(), s.0.depth()),
             LevelScene::Bricks(s) => (s.0.depth(), s.0.depth()),
-            LevelScene::PixelError(s) => match s.choice {
-                LevelChoice::PixelError {
-                    pixels,
-                    pixel_angle,
-                } => eye_levels(s.lod, eye, pixels, pixel_angle),
-                LevelChoice::Level(k) => {
-                    let k = k.clamp(s.lod.coarsest(), s.lod.depth());
-                    (k, k)
-                }
-            },
+            LevelScene::PixelError(s) => s.levels(eye),
         }
     }
 }
@@ -202,5 +192,60 @@ mod tests {
                 .levels(cam.eye),
             (4, 4)
         );
+    }
+
+    /// Primary rays are culled by the box of the levels the eye's distances choose: from far,
+    /// one level's (here each level a sphere of another radius, so the boxes differ), and the
+    /// render's depths are still every pixel's ray traced alone without any box.
+    #[test]
+    fn primary_rays_are_culled_by_the_box_of_the_levels_they_reach() {
+        use crate::Traceable;
+        let ball = |depth: u8| {
+            let meta = OctreeMeta::unit(depth, ValueBits::Eight);
+            let radius = 0.3 + 0.15 * f32::from(depth - 2);
+            PackedOctree::from_leaves(meta, sphere_leaves(depth, radius)).unwrap()
+        };
+        let lod = LodOctree::from_levels((2..=5).map(ball).collect()).unwrap();
+        let file = SmoFile::Levels(lod.clone());
+        let settings = RenderSettings::new(Mode::Depth);
+        let mut one_level = 0;
+        for radius in [1.5f32, 3.0, 6.0, 12.0] {
+            let cam = Camera::new(Vec3::new(0.3, 0.2, radius), Vec3::ZERO, 40.0, 48, 32);
+            let LevelScene::PixelError(scene) =
+                LevelRequest::PixelError(1.0).scene(&file, &cam).unwrap()
+            else {
+                panic!("not by pixel error")
+            };
+            let (coarsest, finest) = scene.levels(cam.eye);
+            let (lo, hi) = scene.primary_bounds(cam.eye).unwrap();
+            if coarsest == finest {
+                let alone = OctreeScene(lod.level(coarsest).unwrap()).occupied_bounds();
+                assert_eq!(Some((lo, hi)), alone, "radius {radius}");
+                if coarsest < lod.depth() {
+                    // Smaller than the finest level's sphere, which the union holds.
+                    one_level += 1;
+                    assert_ne!(scene.occupied_bounds(), alone, "radius {radius}");
+                }
+            }
+            let image = render(&scene, &cam, &settings).unwrap();
+            let depth = image.depth.unwrap();
+            for py in 0..cam.height {
+                for px in 0..cam.width {
+                    let (o, d) = cam.primary_ray(px, py);
+                    let t = scene.first_hit(o, d, 0.0, f32::INFINITY).map(|h| h.hit.t);
+                    let at = depth[(py * cam.width + px) as usize];
+                    assert_eq!(
+                        t.unwrap_or(f32::INFINITY),
+                        at,
+                        "radius {radius} ({px},{py})"
+                    );
+                    if let Some(t) = t {
+                        let p = o + d * t;
+                        assert!(p.cmpge(lo - 1e-3).all() && p.cmple(hi + 1e-3).all());
+                    }
+                }
+            }
+        }
+        assert!(one_level >= 1, "{one_level} eyes drew one coarse level");
     }
 }

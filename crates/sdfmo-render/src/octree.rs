@@ -3,8 +3,8 @@
 use glam::Vec3;
 use sdfmo_format::{cell_size, LodOctree, PackedOctree, TracedOctree};
 use sdfmo_trace::{
-    hit_normal, intersect, intersect_lod, intersect_lod_packet, intersect_packet, occluded,
-    occupied_bounds, Hit, LevelChoice, LodHit, Ray, RayPacket,
+    eye_levels, hit_normal, intersect, intersect_lod, intersect_lod_packet, intersect_packet,
+    occluded, occupied_bounds, Hit, LevelChoice, LodHit, Ray, RayPacket,
 };
 
 use crate::scene::{Traceable, PACKET};
@@ -94,6 +94,33 @@ pub struct LodScene<'a> {
     pub choice: LevelChoice,
 }
 
+impl LodScene<'_> {
+    /// The levels the rays from `eye` (normalised frame) are traced at, `(coarsest, finest)`:
+    /// by pixel error those [`eye_levels`] gives (every hit's level lies between them), or the
+    /// one level chosen (clamped to the file's levels).
+    pub fn levels(&self, eye: Vec3) -> (u8, u8) {
+        match self.choice {
+            LevelChoice::PixelError {
+                pixels,
+                pixel_angle,
+            } => eye_levels(self.lod, eye, pixels, pixel_angle),
+            LevelChoice::Level(k) => {
+                let k = k.clamp(self.lod.coarsest(), self.lod.depth());
+                (k, k)
+            }
+        }
+    }
+
+    /// The union of the occupied boxes ([`OCCUPIED_LEVELS`] below the root) of the levels
+    /// `coarsest..=finest`.
+    fn occupied_bounds_of(&self, coarsest: u8, finest: u8) -> Option<(Vec3, Vec3)> {
+        (coarsest..=finest)
+            .filter_map(|k| self.lod.level(k))
+            .filter_map(|l| occupied_bounds(l, OCCUPIED_LEVELS))
+            .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
+    }
+}
+
 impl Traceable for LodScene<'_> {
     type Hit = LodHit;
 
@@ -134,11 +161,15 @@ impl Traceable for LodScene<'_> {
     /// The union of every level's occupied cells [`OCCUPIED_LEVELS`] below the root (a
     /// level's leaves need not lie within a coarser level's: each build keeps its own cells).
     fn occupied_bounds(&self) -> Option<(Vec3, Vec3)> {
-        self.lod
-            .levels()
-            .iter()
-            .filter_map(|l| occupied_bounds(l, OCCUPIED_LEVELS))
-            .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
+        self.occupied_bounds_of(self.lod.coarsest(), self.lod.depth())
+    }
+
+    /// The union of the occupied cells of the levels rays from `eye` are traced at
+    /// ([`LodScene::levels`]): from far, one level's walk instead of every level's (abc5 with
+    /// levels 6–10 from radius 12: 0.10 M instructions a frame instead of 0.49 M).
+    fn primary_bounds(&self, eye: Vec3) -> Option<(Vec3, Vec3)> {
+        let (coarsest, finest) = self.levels(eye);
+        self.occupied_bounds_of(coarsest, finest)
     }
 
     /// The finest level's epsilon (the smallest).

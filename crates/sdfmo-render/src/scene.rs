@@ -62,6 +62,16 @@ pub trait Traceable: Sync {
     fn occupied_bounds(&self) -> Option<(Vec3, Vec3)> {
         None
     }
+
+    /// A box every hit of a primary ray from `eye` ([`Traceable::first_hits`] with that
+    /// origin) lies in, `(min, max)`, padded and used as [`Traceable::occupied_bounds`] is, for
+    /// the primary rays of a render that traces no other rays. By default the occupied box; a
+    /// scene whose rays from `eye` see only part of it (a file with levels seen from far: the
+    /// levels its distances choose) returns that part's box, found with less work.
+    fn primary_bounds(&self, eye: Vec3) -> Option<(Vec3, Vec3)> {
+        let _ = eye;
+        self.occupied_bounds()
+    }
 }
 
 /// Padding of [`Traceable::occupied_bounds`] before rays are tested against it, normalised
