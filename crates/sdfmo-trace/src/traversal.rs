@@ -274,12 +274,18 @@ pub(crate) fn child_at<O: TracedOctree>(
     mid: Vec3,
 ) -> (O::Node, Vec3) {
     let node = octree.child_of(children, mask, oct);
-    // `min + 1·half` is `mid` and `min + 0·half` is `min` (never −0: cells start at −1 and grow
-    // by positive halves), so selecting is exact.
+    // Each coordinate is `mid`'s where the octant bit is set, else `min`'s, chosen by a bit mask:
+    // the compiler made `if` selects branches, which the octant order (the ray's) mispredicts
+    // a quarter of the time (callgrind's branch simulation: 184 k of the 1.24 M mispredictions
+    // of an abc1 paper-view frame).
+    let pick = |bit: u32, mid: f32, min: f32| {
+        let take_mid = 0u32.wrapping_sub(u32::from(oct & bit != 0));
+        f32::from_bits((mid.to_bits() & take_mid) | (min.to_bits() & !take_mid))
+    };
     let min = Vec3::new(
-        if oct & 4 != 0 { mid.x } else { min.x },
-        if oct & 2 != 0 { mid.y } else { min.y },
-        if oct & 1 != 0 { mid.z } else { min.z },
+        pick(4, mid.x, min.x),
+        pick(2, mid.y, min.y),
+        pick(1, mid.z, min.z),
     );
     (node, min)
 }
