@@ -432,6 +432,17 @@ impl<T: Traceable> Ctx<'_, T> {
         // Camera terms cached per tile: the same f64 sums as `CameraFrame::ray`, bit for bit.
         let columns: Vec<DVec3> = (x0..x0 + tw).map(|px| self.frame.column(px)).collect();
         let eye = self.frame.eye.as_vec3();
+        let primary = self.occupied.primary;
+        // Where the tile's four corner rays meet the box, every ray of the tile does (the rays
+        // from a point that meet a convex box make a convex cone, and a pixel's direction is an
+        // affine mix of the corners'): the per-ray test below is skipped. It only saves work (a
+        // ray that misses the box hits nothing), so no pixel changes; it took 5 % of a far
+        // view's instructions (abc5 from radius 12), most of them inside the object's outline.
+        let corner_rays = [(0, 0), (tw - 1, 0), (0, th - 1), (tw - 1, th - 1)];
+        let every_ray_meets = corner_rays.iter().all(|&(col, row)| {
+            let dir = columns[col as usize] + self.frame.row(y0 + row);
+            Self::meets_occupied(primary, eye, dir.as_vec3(), f32::INFINITY)
+        });
         // Packets of PACKET_COLS × PACKET_ROWS neighbouring pixels traced together (one octree
         // walk for all; each ray's hit is exactly its single-ray hit).
         for row0 in (0..th).step_by(PACKET_ROWS) {
@@ -458,13 +469,14 @@ impl<T: Traceable> Ctx<'_, T> {
                     // f64 normalisation: most pixels of a typical view never need their exact
                     // ray.
                     tile.counters.rays += 1;
-                    let primary = self.occupied.primary;
-                    if !Self::meets_occupied(
-                        primary,
-                        eye,
-                        (column + row_term).as_vec3(),
-                        f32::INFINITY,
-                    ) {
+                    if !every_ray_meets
+                        && !Self::meets_occupied(
+                            primary,
+                            eye,
+                            (column + row_term).as_vec3(),
+                            f32::INFINITY,
+                        )
+                    {
                         continue; // background (already there)
                     }
                     *dir = CameraFrame::direction(column, row_term);
