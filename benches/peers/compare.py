@@ -83,6 +83,14 @@ def prose(page: str, when: str) -> str:
     return f"prose of {link(page)} ({when}); data not committed"
 
 
+def quoted_row(peer: str, what: str, text: str, cmd: str, *, page: str, when: str, quotes: list[str]) -> tuple:
+    """A table row whose numbers only the prose of docs/`page` holds (measured `when`): each of
+    `quotes` is checked against the page (`quote`), and the page is the row's source."""
+    for excerpt in quotes:
+        quote(page, excerpt)
+    return (peer, what, text, cmd, prose(page, when))
+
+
 def rng(xs, fmt="{:.2f}"):
     return fmt.format(min(xs)) + "–" + fmt.format(max(xs))
 
@@ -115,22 +123,24 @@ def rows():
     R.append(("SVO", "build time, depth 9, 2 threads (one run each)",
               f"**a loss**: ours takes {rng(b9)}× the SVO's wall time (median {statistics.median(b9):.2f}×)",
               "S", sweep_src))
-    quote("results/render.md", "abc3 39.0 / 40.2 = 0.97, abc5 29.4 / 32.4 = 0.91, abc8 61.7 / 61.8 = 1.00")
-    quote("results/render.md", "abc1 27.3 / 27.8 = 0.98, teapot 45.4 / 45.8 = 0.99")
-    quote("results/render.md", "multi / SVO 39.5 / 38.1 = 1.04")
-    quote("results/render.md", "36.9 / 39.3 = 0.94 (with the gate)")
-    R.append(("SVO", "render time, depth 9, one thread, view 0 (9–11 interleaved runs, idle)",
-              "ours ÷ SVO **0.94–1.04**: abc1 0.98, abc3 0.97, abc5 0.94–1.04, abc8 1.00, teapot 0.99 (the same cost)",
-              "R", prose("results/render.md", "measured 2026-12-02")))
+    R.append(quoted_row(
+        "SVO", "render time, depth 9, one thread, view 0 (9–11 interleaved runs, idle)",
+        "ours ÷ SVO **0.94–1.04**: abc1 0.98, abc3 0.97, abc5 0.94–1.04, abc8 1.00, teapot 0.99 (the same cost)",
+        "R", page="results/render.md", when="measured 2026-12-02",
+        quotes=["abc3 39.0 / 40.2 = 0.97, abc5 29.4 / 32.4 = 0.91, abc8 61.7 / 61.8 = 1.00",
+                "abc1 27.3 / 27.8 = 0.98, teapot 45.4 / 45.8 = 0.99",
+                "multi / SVO 39.5 / 38.1 = 1.04",
+                "36.9 / 39.3 = 0.94 (with the gate)"]))
     quote("results.md", "(the paper reports about +5)")
     R.append(("the paper (its reported numbers)", "median PSNR gain over the SVO",
               f"**not reached**: the paper reports about +5 dB; ours +{statistics.median(d9.values()):.2f} dB at depth 9",
               "S", sweep_src + "; the paper's figure quoted in " + link("results.md")))
-    quote("results/render.md", "| 1 thread, CPU ms / frame (median of 3 rounds) | 20.3 | 27.7 | 60.4 |")
-    quote("results/render.md", "against the paper's ~100 ms")
-    R.append(("the paper (its reported numbers)", "frame time per core, 1024², abc1 depth 9",
-              "ours 20.3 ms of CPU on one thread (quiet) against the paper's about 100 ms", "E",
-              prose("results/render.md", "measured 2026-12-05")))
+    R.append(quoted_row(
+        "the paper (its reported numbers)", "frame time per core, 1024², abc1 depth 9",
+        "ours 20.3 ms of CPU on one thread (quiet) against the paper's about 100 ms",
+        "E", page="results/render.md", when="measured 2026-12-05",
+        quotes=["| 1 thread, CPU ms / frame (median of 3 rounds) | 20.3 | 27.7 | 60.4 |",
+                "against the paper's ~100 ms"]))
 
     # ---- the authors' code (quoted: it is not in the repository)
     quote("results/build.md", "The authors' code takes 3.5 s for this build on this machine.")
@@ -143,11 +153,12 @@ def rows():
     R.append(("the authors' code", "file size, abc1 depth 9",
               f"ours {ours_b / 1e6:.2f} MB at 8 bits against 25.0 MB: **{25.0e6 / ours_b:.1f}× smaller**", "S, A",
               f"ours: {sweep_src}; theirs: {prose('results/format.md', 'measured 2026-11-23')}"))
-    quote("results/render.md", "The authors' renderer takes 248 ms for this frame")
-    quote("results/render.md", "| 2 threads, wall ms (speed-up) | 15.2 (1.33×) | 14.5 (1.91×) | 31.2 (1.94×) |")
-    R.append(("the authors' code", "frame time, abc1 depth 9, view 0, 1024², 2 threads",
-              "ours 15.2 ms (quiet) against 248 ms: **about 16× faster**", "E, A",
-              prose("results/render.md", "ours 2026-12-05, theirs 2026-11-23")))
+    R.append(quoted_row(
+        "the authors' code", "frame time, abc1 depth 9, view 0, 1024², 2 threads",
+        "ours 15.2 ms (quiet) against 248 ms: **about 16× faster**",
+        "E, A", page="results/render.md", when="ours 2026-12-05, theirs 2026-11-23",
+        quotes=["The authors' renderer takes 248 ms for this frame",
+                "| 2 threads, wall ms (speed-up) | 15.2 (1.33×) | 14.5 (1.91×) | 31.2 (1.94×) |"]))
 
     # ---- NGLOD
     runs = load(os.path.join(DOCS, "results", "nglod", "runs.json"))
@@ -238,42 +249,46 @@ def rows():
               prose("results/render.md", "quiet, 2026-12-05") + "; " + link("results/lod.md") + " (loaded, 2026-12-03)"))
 
     # ---- libigl
-    quote("results/distance.md", "| abc1 near | 12.2× | 11.7× | 9.8× | **11.7×** |")
-    quote("results/distance.md", "| bunny uniform | 5.3× | 5.9× | 6.2× | **5.9×** |")
-    R.append(("libigl (`signed_distance`, pseudo-normal / winding number)",
-              "signed-distance points/s, Rust batch on 2 cores, same points and answers (within 1.3e-7)",
-              "ours ÷ libigl **5.9× (bunny uniform) to 11.7× (abc1 near)**, medians of 3 runs, idle", "L",
-              prose("results/distance.md", "measured 2026-11-23")))
-    quote("results/python.md", "| double-wall cubes | 0.048 M/s | libigl fast winding 0.196 M/s | 0.24× |")
-    R.append(("libigl, from Python", "signed distance per core, one pinned CPU, same 50,000 points",
-              "ours ÷ fastest exact signed peer (libigl pseudo-normal) **2.8–13.0×** on the six shared meshes; "
-              "**a loss** on a double-walled soup (two unwelded cubes sharing a face): 0.24× libigl's fast winding "
-              "number (ours 100 % right signs, its pseudo-normal 93 %)", "P",
-              prose("results/python.md", "measured 2026-12-03, load 1.4–2.4")))
+    R.append(quoted_row(
+        "libigl (`signed_distance`, pseudo-normal / winding number)",
+        "signed-distance points/s, Rust batch on 2 cores, same points and answers (within 1.3e-7)",
+        "ours ÷ libigl **5.9× (bunny uniform) to 11.7× (abc1 near)**, medians of 3 runs, idle",
+        "L", page="results/distance.md", when="measured 2026-11-23",
+        quotes=["| abc1 near | 12.2× | 11.7× | 9.8× | **11.7×** |",
+                "| bunny uniform | 5.3× | 5.9× | 6.2× | **5.9×** |"]))
+    R.append(quoted_row(
+        "libigl, from Python", "signed distance per core, one pinned CPU, same 50,000 points",
+        "ours ÷ fastest exact signed peer (libigl pseudo-normal) **2.8–13.0×** on the six shared meshes; "
+        "**a loss** on a double-walled soup (two unwelded cubes sharing a face): 0.24× libigl's fast winding "
+        "number (ours 100 % right signs, its pseudo-normal 93 %)",
+        "P", page="results/python.md", when="measured 2026-12-03, load 1.4–2.4",
+        quotes=["| double-wall cubes | 0.048 M/s | libigl fast winding 0.196 M/s | 0.24× |"]))
 
     # ---- FCPW
-    quote("results/python.md", "| abc1.stl | **2.22 / 2.03 / 1.74×** (0.300 / 0.135) | 1.71 / 1.85 / 1.95 / 1.75× (0.262 / 0.153) |")
-    quote("results/python.md", "| abc5.stl | **1.94 / 1.96 / 1.84×** (1.606 / 0.827) | 2.17 / 1.57 / 1.85 / 1.83× (1.607 / 0.739) |")
-    quote("results/python.md", "| teapot.obj | **1.89 / 1.78 / 1.70×** (0.896 / 0.474) | 1.65 / 1.65 / 1.49 / 1.62× (0.807 / 0.490) |")
-    quote("results/python.md", "| stanford-bunny.obj | **2.84 / 2.37 / 2.41×** (0.469 / 0.165) | 1.48 / 1.51 / 1.46 / 1.59× (0.292 / 0.197) |")
-    quote("results/python.md", "The\ndouble-walled soup stays our known slow case (0.04–0.05×")
-    R.append(("FCPW 1.2 (vectorised BVH; unsigned closest point only)",
-              "our signed distance against its unsigned closest point, points per core, same points",
-              "ours ÷ FCPW in the steady state **1.70–2.84×** on abc1, abc5, the teapot and the bunny (three runs); "
-              "a first call, which also makes our winding sign's per-leaf data, 1.57–2.17× on abc1 and abc5, "
-              "1.49–1.65× on the teapot and 1.46–1.59× on the bunny (**straddling the 1.5× bar** there); "
-              "**a loss** on the double-walled soup (0.04–0.05×)",
-              "P", prose("results/python.md", "measured 2026-12-05, quiet machine")))
+    R.append(quoted_row(
+        "FCPW 1.2 (vectorised BVH; unsigned closest point only)",
+        "our signed distance against its unsigned closest point, points per core, same points",
+        "ours ÷ FCPW in the steady state **1.70–2.84×** on abc1, abc5, the teapot and the bunny (three runs); "
+        "a first call, which also makes our winding sign's per-leaf data, 1.57–2.17× on abc1 and abc5, "
+        "1.49–1.65× on the teapot and 1.46–1.59× on the bunny (**straddling the 1.5× bar** there); "
+        "**a loss** on the double-walled soup (0.04–0.05×)",
+        "P", page="results/python.md", when="measured 2026-12-05, quiet machine",
+        quotes=["| abc1.stl | **2.22 / 2.03 / 1.74×** (0.300 / 0.135) | 1.71 / 1.85 / 1.95 / 1.75× (0.262 / 0.153) |",
+                "| abc5.stl | **1.94 / 1.96 / 1.84×** (1.606 / 0.827) | 2.17 / 1.57 / 1.85 / 1.83× (1.607 / 0.739) |",
+                "| teapot.obj | **1.89 / 1.78 / 1.70×** (0.896 / 0.474) | 1.65 / 1.65 / 1.49 / 1.62× (0.807 / 0.490) |",
+                "| stanford-bunny.obj | **2.84 / 2.37 / 2.41×** (0.469 / 0.165) | 1.48 / 1.51 / 1.46 / 1.59× (0.292 / 0.197) |",
+                "The\ndouble-walled soup stays our known slow case (0.04–0.05×"]))
 
     # ---- point-cloud-utils and trimesh
-    quote("results/python.md", "| abc1.stl | sdfmo (auto sign) | 0.149 M | 0.734 | 5.8e-08 |")
-    quote("results/python.md", "| stanford-bunny.obj | point-cloud-utils | 0.031 M | 0.245 | 5.3e-03 |")
-    quote("results/python.md", "| double-wall cubes | trimesh (subset) | 0.029 M | 0.049 | 4.2e-08 | 92.94 % of 170 |")
-    R.append(("point-cloud-utils, trimesh (Python)", "signed distance: error and signs",
-              "point-cloud-utils is not exact (errors up to 5.3e-3 of the diagonal; ours ≤ 5.8e-8); trimesh's "
-              "signs are 92.9 % right on the double-walled soup, 98.9 % on the open teapot (ours 100 % on every mesh); "
-              "both slower per point than ours and libigl on every shared mesh", "P",
-              prose("results/python.md", "measured 2026-12-03")))
+    R.append(quoted_row(
+        "point-cloud-utils, trimesh (Python)", "signed distance: error and signs",
+        "point-cloud-utils is not exact (errors up to 5.3e-3 of the diagonal; ours ≤ 5.8e-8); trimesh's "
+        "signs are 92.9 % right on the double-walled soup, 98.9 % on the open teapot (ours 100 % on every mesh); "
+        "both slower per point than ours and libigl on every shared mesh",
+        "P", page="results/python.md", when="measured 2026-12-03",
+        quotes=["| abc1.stl | sdfmo (auto sign) | 0.149 M | 0.734 | 5.8e-08 |",
+                "| stanford-bunny.obj | point-cloud-utils | 0.031 M | 0.245 | 5.3e-03 |",
+                "| double-wall cubes | trimesh (subset) | 0.029 M | 0.049 | 4.2e-08 | 92.94 % of 170 |"]))
     return R, F
 
 

@@ -94,6 +94,20 @@ fn wgsl_f32(v: f32) -> String {
     format!("{v:?}f")
 }
 
+/// The WGSL declaration `const name: f32 = value;`, the literal exact ([`wgsl_f32`]).
+fn const_f32(name: &str, value: f32) -> String {
+    format!("const {name}: f32 = {};", wgsl_f32(value))
+}
+
+/// The WGSL declaration `const name: u32 = valueu;`. Panics on a value a u32 cannot hold (a
+/// test generates every declaration).
+fn const_u32(name: &str, value: impl TryInto<u32>) -> String {
+    let value: u32 = value
+        .try_into()
+        .unwrap_or_else(|_| panic!("{name} does not fit a WGSL u32"));
+    format!("const {name}: u32 = {value}u;")
+}
+
 /// The `const` declarations the WGSL kernel shares with the CPU kernel, generated from the Rust
 /// values so the two cannot drift apart (issue 20): the kernel constants of
 /// [`sdfmo_format::kernel`], the clip bound [`sdfmo_format::MAX_CLIP_VOXELS_PER_LEAF`], the
@@ -101,20 +115,17 @@ fn wgsl_f32(v: f32) -> String {
 /// f32 limits. [`trace_wgsl`] is this followed by the library.
 pub fn kernel_constants_wgsl() -> String {
     use sdfmo_format::kernel::{CLIP_TOLERANCE, MAX_POLISH_STEPS, ROOT_REL_TOLERANCE, TINY_DIR};
-    let f = wgsl_f32;
+    use sdfmo_format::{MAX_CLIP_VOXELS_PER_LEAF, MAX_DEPTH};
     [
-        format!("const SMO_FAR: f32 = {};", f(SMO_FAR)),
-        format!("const SMO_MAX_FINITE: f32 = {};", f(f32::MAX)),
-        format!("const SMO_MIN_POSITIVE: f32 = {};", f(f32::MIN_POSITIVE)),
-        format!("const SMO_TINY_DIR: f32 = {};", f(TINY_DIR)),
-        format!("const SMO_MAX_DEPTH: u32 = {}u;", sdfmo_format::MAX_DEPTH),
-        format!("const SMO_MAX_POLISH_STEPS: u32 = {MAX_POLISH_STEPS}u;"),
-        format!("const SMO_REL_TOLERANCE: f32 = {};", f(ROOT_REL_TOLERANCE)),
-        format!("const SMO_CLIP_TOLERANCE: f32 = {};", f(CLIP_TOLERANCE)),
-        format!(
-            "const SMO_MAX_CLIP_VOXELS: u32 = {}u;",
-            sdfmo_format::MAX_CLIP_VOXELS_PER_LEAF
-        ),
+        const_f32("SMO_FAR", SMO_FAR),
+        const_f32("SMO_MAX_FINITE", f32::MAX),
+        const_f32("SMO_MIN_POSITIVE", f32::MIN_POSITIVE),
+        const_f32("SMO_TINY_DIR", TINY_DIR),
+        const_u32("SMO_MAX_DEPTH", MAX_DEPTH),
+        const_u32("SMO_MAX_POLISH_STEPS", MAX_POLISH_STEPS),
+        const_f32("SMO_REL_TOLERANCE", ROOT_REL_TOLERANCE),
+        const_f32("SMO_CLIP_TOLERANCE", CLIP_TOLERANCE),
+        const_u32("SMO_MAX_CLIP_VOXELS", MAX_CLIP_VOXELS_PER_LEAF),
     ]
     .into_iter()
     .chain(header_words_wgsl())
@@ -125,70 +136,86 @@ pub fn kernel_constants_wgsl() -> String {
     )
 }
 
-/// The header fields the kernel reads, as `(WGSL name, table, field)`: the word index of each
-/// comes from the format's field tables, never typed in the shader.
-const HEADER_WORDS: [(&str, &[sdfmo_format::HeaderField], &str); 37] = {
+/// Fields of one of the format's field tables, as `(table, [(WGSL name, field name)])`.
+type TableFields = (
+    &'static [sdfmo_format::HeaderField],
+    &'static [(&'static str, &'static str)],
+);
+
+/// The header fields the kernel reads, grouped by the format's field table that holds them: the
+/// word index of each comes from its table, never typed in the shader.
+const HEADER_WORDS: [TableFields; 5] = {
     use sdfmo_format::{
         BRICK_RECORD_FIELDS as BRICK, HEADER_FIELDS as V1, LOD_HEADER_FIELDS as V2,
         LOD_LEVEL_FIELDS as LEVEL, V3_HEADER_FIELDS as V3,
     };
     [
         // Every header starts with the magic and the major version (1.x, 2.0, 3.0 alike).
-        ("SMO_HEADER_VERSION_MAJOR", &V1, "version_major"),
-        ("SMO_HEADER_FLAGS", &V1, "flags"),
-        ("SMO_HEADER_DEPTH", &V1, "depth"),
-        ("SMO_HEADER_VALUE_BITS", &V1, "value_bits"),
-        ("SMO_HEADER_INNER_COUNT", &V1, "inner_node_count"),
-        ("SMO_HEADER_LEAF_COUNT", &V1, "leaf_count"),
-        ("SMO_HEADER_VOXEL_COUNT", &V1, "voxel_count"),
-        ("SMO_HEADER_NODES_OFFSET", &V1, "nodes_offset"),
-        ("SMO_HEADER_LEAVES_OFFSET", &V1, "leaves_offset"),
-        ("SMO_HEADER_SURFACE_OFFSET", &V1, "surface_offset"),
-        ("SMO_HEADER_CORNERS_OFFSET", &V1, "corners_offset"),
-        ("SMO_HEADER_CORNERS_SIZE", &V1, "corners_size"),
-        ("SMO_LOD_HEADER_DEPTH", &V2, "depth"),
-        ("SMO_LOD_HEADER_COARSEST", &V2, "coarsest"),
+        (
+            &V1,
+            &[
+                ("SMO_HEADER_VERSION_MAJOR", "version_major"),
+                ("SMO_HEADER_FLAGS", "flags"),
+                ("SMO_HEADER_DEPTH", "depth"),
+                ("SMO_HEADER_VALUE_BITS", "value_bits"),
+                ("SMO_HEADER_INNER_COUNT", "inner_node_count"),
+                ("SMO_HEADER_LEAF_COUNT", "leaf_count"),
+                ("SMO_HEADER_VOXEL_COUNT", "voxel_count"),
+                ("SMO_HEADER_NODES_OFFSET", "nodes_offset"),
+                ("SMO_HEADER_LEAVES_OFFSET", "leaves_offset"),
+                ("SMO_HEADER_SURFACE_OFFSET", "surface_offset"),
+                ("SMO_HEADER_CORNERS_OFFSET", "corners_offset"),
+                ("SMO_HEADER_CORNERS_SIZE", "corners_size"),
+            ],
+        ),
+        (
+            &V2,
+            &[
+                ("SMO_LOD_HEADER_DEPTH", "depth"),
+                ("SMO_LOD_HEADER_COARSEST", "coarsest"),
+            ],
+        ),
         // Relative to a level-table entry, which starts at word SMO_LOD_TABLE + i · SMO_LOD_ENTRY.
-        ("SMO_LOD_LEVEL_OFFSET", &LEVEL, "offset"),
-        ("SMO_V3_HEADER_FLAGS", &V3, "flags"),
-        ("SMO_V3_HEADER_VERSION_MINOR", &V3, "version_minor"),
-        ("SMO_V3_HEADER_DEPTH", &V3, "depth"),
-        ("SMO_V3_HEADER_VALUE_BITS", &V3, "value_bits"),
-        ("SMO_V3_HEADER_UPPER_COUNT", &V3, "upper_node_count"),
-        ("SMO_V3_HEADER_BRICK_COUNT", &V3, "brick_count"),
-        ("SMO_V3_HEADER_LEAF_COUNT", &V3, "leaf_count"),
+        (&LEVEL, &[("SMO_LOD_LEVEL_OFFSET", "offset")]),
         (
-            "SMO_V3_HEADER_PRIVATE_VOXEL_COUNT",
             &V3,
-            "private_voxel_count",
-        ),
-        ("SMO_V3_HEADER_NODES_OFFSET", &V3, "nodes_offset"),
-        ("SMO_V3_HEADER_BRICKS_OFFSET", &V3, "bricks_offset"),
-        ("SMO_V3_HEADER_RESIDUALS_OFFSET", &V3, "residuals_offset"),
-        (
-            "SMO_V3_HEADER_PRIVATE_LEAVES_OFFSET",
-            &V3,
-            "private_leaves_offset",
-        ),
-        (
-            "SMO_V3_HEADER_PRIVATE_FLAGS_OFFSET",
-            &V3,
-            "private_flags_offset",
-        ),
-        (
-            "SMO_V3_HEADER_PRIVATE_CORNERS_OFFSET",
-            &V3,
-            "private_corners_offset",
+            &[
+                ("SMO_V3_HEADER_FLAGS", "flags"),
+                ("SMO_V3_HEADER_VERSION_MINOR", "version_minor"),
+                ("SMO_V3_HEADER_DEPTH", "depth"),
+                ("SMO_V3_HEADER_VALUE_BITS", "value_bits"),
+                ("SMO_V3_HEADER_UPPER_COUNT", "upper_node_count"),
+                ("SMO_V3_HEADER_BRICK_COUNT", "brick_count"),
+                ("SMO_V3_HEADER_LEAF_COUNT", "leaf_count"),
+                ("SMO_V3_HEADER_PRIVATE_VOXEL_COUNT", "private_voxel_count"),
+                ("SMO_V3_HEADER_NODES_OFFSET", "nodes_offset"),
+                ("SMO_V3_HEADER_BRICKS_OFFSET", "bricks_offset"),
+                ("SMO_V3_HEADER_RESIDUALS_OFFSET", "residuals_offset"),
+                (
+                    "SMO_V3_HEADER_PRIVATE_LEAVES_OFFSET",
+                    "private_leaves_offset",
+                ),
+                ("SMO_V3_HEADER_PRIVATE_FLAGS_OFFSET", "private_flags_offset"),
+                (
+                    "SMO_V3_HEADER_PRIVATE_CORNERS_OFFSET",
+                    "private_corners_offset",
+                ),
+            ],
         ),
         // Relative to a brick record, which starts at word bricks_offset / 4 + b · SMO_BRICK_WORDS.
-        ("SMO_BRICK_OCCUPANCY", &BRICK, "occupancy"),
-        ("SMO_BRICK_PRIVATE", &BRICK, "private"),
-        ("SMO_BRICK_PLANE_A", &BRICK, "plane_a"),
-        ("SMO_BRICK_PLANE_B", &BRICK, "plane_b"),
-        ("SMO_BRICK_PLANE_C", &BRICK, "plane_c"),
-        ("SMO_BRICK_PLANE_D", &BRICK, "plane_d"),
-        ("SMO_BRICK_RESIDUALS", &BRICK, "residuals"),
-        ("SMO_BRICK_FIRST_PRIVATE_LEAF", &BRICK, "first_private_leaf"),
+        (
+            &BRICK,
+            &[
+                ("SMO_BRICK_OCCUPANCY", "occupancy"),
+                ("SMO_BRICK_PRIVATE", "private"),
+                ("SMO_BRICK_PLANE_A", "plane_a"),
+                ("SMO_BRICK_PLANE_B", "plane_b"),
+                ("SMO_BRICK_PLANE_C", "plane_c"),
+                ("SMO_BRICK_PLANE_D", "plane_d"),
+                ("SMO_BRICK_RESIDUALS", "residuals"),
+                ("SMO_BRICK_FIRST_PRIVATE_LEAF", "first_private_leaf"),
+            ],
+        ),
     ]
 };
 
@@ -203,28 +230,14 @@ pub const MAX_GPU_BRICKS: u32 = 1 << 25;
 fn brick_constants_wgsl() -> Vec<String> {
     use sdfmo_format::quant::max_code;
     use sdfmo_format::{plane_fraction_bits, residual_widths, ValueBits};
+    use sdfmo_format::{BRICK_LEVELS, BRICK_POINT_EDGE, BRICK_RECORD_SIZE, RESIDUAL_OFFSET_BITS};
     let mut lines = vec![
-        format!(
-            "const SMO_V3_MAJOR: u32 = {}u;",
-            sdfmo_format::V3_VERSION_MAJOR
-        ),
-        format!(
-            "const SMO_BRICK_WORDS: u32 = {}u;",
-            sdfmo_format::BRICK_RECORD_SIZE / 4
-        ),
-        format!(
-            "const SMO_BRICK_LEVELS: u32 = {}u;",
-            sdfmo_format::BRICK_LEVELS
-        ),
-        format!(
-            "const SMO_BRICK_POINT_EDGE: u32 = {}u;",
-            sdfmo_format::BRICK_POINT_EDGE
-        ),
-        format!(
-            "const SMO_RESIDUAL_OFFSET_BITS: u32 = {}u;",
-            sdfmo_format::RESIDUAL_OFFSET_BITS
-        ),
-        format!("const SMO_SHARED_VOXEL: u32 = {}u;", MAX_GPU_BRICKS * 64),
+        const_u32("SMO_V3_MAJOR", sdfmo_format::V3_VERSION_MAJOR),
+        const_u32("SMO_BRICK_WORDS", BRICK_RECORD_SIZE / 4),
+        const_u32("SMO_BRICK_LEVELS", BRICK_LEVELS),
+        const_u32("SMO_BRICK_POINT_EDGE", BRICK_POINT_EDGE),
+        const_u32("SMO_RESIDUAL_OFFSET_BITS", RESIDUAL_OFFSET_BITS),
+        const_u32("SMO_SHARED_VOXEL", MAX_GPU_BRICKS * 64),
     ];
     for bits in [ValueBits::Eight, ValueBits::Sixteen] {
         let n = bits.bits();
@@ -235,9 +248,9 @@ fn brick_constants_wgsl() -> Vec<String> {
         lines.push(format!(
             "const SMO_RESIDUAL_WIDTHS_{n}: u32 = {widths:#010x}u;"
         ));
-        lines.push(format!(
-            "const SMO_PLANE_FRACTION_BITS_{n}: u32 = {}u;",
-            plane_fraction_bits(bits)
+        lines.push(const_u32(
+            &format!("SMO_PLANE_FRACTION_BITS_{n}"),
+            plane_fraction_bits(bits),
         ));
         lines.push(format!(
             "const SMO_MAX_CODE_{n}: i32 = {}i;",
@@ -251,32 +264,23 @@ fn brick_constants_wgsl() -> Vec<String> {
 /// a 64-bit field) and, for a field narrower than a word, its bit shift (`NAME_SHIFT`); then the
 /// level table's start and stride in words. Panics on a name not in its table (a test runs it).
 fn header_words_wgsl() -> Vec<String> {
+    use sdfmo_format::{FLAG_CLIP_VOXELS, LOD_HEADER_FIXED, LOD_LEVEL_ENTRY};
     let mut lines = Vec::new();
-    for (wgsl, table, name) in HEADER_WORDS {
-        let field = table
-            .iter()
-            .find(|f| f.name == name)
-            .unwrap_or_else(|| panic!("no header field {name}"));
-        lines.push(format!("const {wgsl}: u32 = {}u;", field.offset / 4));
-        if field.size < 4 {
-            lines.push(format!(
-                "const {wgsl}_SHIFT: u32 = {}u;",
-                field.offset % 4 * 8
-            ));
+    for (table, words) in HEADER_WORDS {
+        for &(wgsl, name) in words {
+            let field = table
+                .iter()
+                .find(|f| f.name == name)
+                .unwrap_or_else(|| panic!("no header field {name}"));
+            lines.push(const_u32(wgsl, field.offset / 4));
+            if field.size < 4 {
+                lines.push(const_u32(&format!("{wgsl}_SHIFT"), field.offset % 4 * 8));
+            }
         }
     }
-    lines.push(format!(
-        "const SMO_LOD_TABLE: u32 = {}u;",
-        sdfmo_format::LOD_HEADER_FIXED / 4
-    ));
-    lines.push(format!(
-        "const SMO_LOD_ENTRY: u32 = {}u;",
-        sdfmo_format::LOD_LEVEL_ENTRY / 4
-    ));
-    lines.push(format!(
-        "const SMO_FLAG_CLIP_VOXELS: u32 = {}u;",
-        sdfmo_format::FLAG_CLIP_VOXELS
-    ));
+    lines.push(const_u32("SMO_LOD_TABLE", LOD_HEADER_FIXED / 4));
+    lines.push(const_u32("SMO_LOD_ENTRY", LOD_LEVEL_ENTRY / 4));
+    lines.push(const_u32("SMO_FLAG_CLIP_VOXELS", FLAG_CLIP_VOXELS));
     lines
 }
 

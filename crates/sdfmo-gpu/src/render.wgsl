@@ -108,43 +108,62 @@ fn smo_to_u8(value: f32) -> u32 {
     return u32(floor(clamp(value, 0.0, 1.0) * 255.0 + 0.5));
 }
 
-/// The pixel this invocation draws: (x, y, 1), or (0, 0, 0) past the tile list or the image.
-fn smo_tile_pixel(wg: vec3<u32>, groups: vec3<u32>, local: vec3<u32>) -> vec3<u32> {
-    let k = wg.y * groups.x + wg.x;
+/// The built-in inputs of both entry points: the workgroup (which listed tile), the dispatch's
+/// workgroup count, and the invocation's place in its tile.
+struct SmoTileInvocation {
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_id) local: vec3<u32>,
+}
+
+/// The pixel an invocation draws: its coordinates and its index in `pixels` and `colors`;
+/// `drawn` is false past the tile list or the image (the invocation draws nothing).
+struct SmoTilePixel {
+    x: u32,
+    y: u32,
+    index: u32,
+    drawn: bool,
+}
+
+/// The pixel `inv` draws.
+fn smo_tile_pixel(inv: SmoTileInvocation) -> SmoTilePixel {
+    let k = inv.wg.y * inv.groups.x + inv.wg.x;
     if k >= arrayLength(&tiles) {
-        return vec3<u32>(0u);
+        return SmoTilePixel(0u, 0u, 0u, false);
     }
-    let x = (tiles[k] & 0xffffu) * 8u + local.x;
-    let y = (tiles[k] >> 16u) * 8u + local.y;
+    let x = (tiles[k] & 0xffffu) * 8u + inv.local.x;
+    let y = (tiles[k] >> 16u) * 8u + inv.local.y;
     if x >= params.width || y >= params.height {
-        return vec3<u32>(0u);
+        return SmoTilePixel(0u, 0u, 0u, false);
     }
-    return vec3<u32>(x, y, 1u);
+    return SmoTilePixel(x, y, y * params.width + x, true);
+}
+
+/// Writes the background at pixel `index`: no normal, t = SMO_FAR, black.
+fn smo_write_background(index: u32) {
+    pixels[index] = SmoPixel(vec3<f32>(0.0), SMO_FAR);
+    colors[index] = 0u;
 }
 
 /// Background for every pixel of the listed tiles (tiles no primary ray of which meets the
 /// occupied box).
 @compute @workgroup_size(8, 8, 1)
-fn smo_background(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
-                  @builtin(local_invocation_id) local: vec3<u32>) {
-    let at = smo_tile_pixel(wg, groups, local);
-    if at.z == 0u {
+fn smo_background(inv: SmoTileInvocation) {
+    let at = smo_tile_pixel(inv);
+    if !at.drawn {
         return;
     }
-    let index = at.y * params.width + at.x;
-    pixels[index] = SmoPixel(vec3<f32>(0.0), SMO_FAR);
-    colors[index] = 0u;
+    smo_write_background(at.index);
 }
 
 /// One primary ray per pixel of the listed tiles, traced and shaded.
 @compute @workgroup_size(8, 8, 1)
-fn smo_render(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
-              @builtin(local_invocation_id) local: vec3<u32>) {
-    let at = smo_tile_pixel(wg, groups, local);
-    if at.z == 0u {
+fn smo_render(inv: SmoTileInvocation) {
+    let at = smo_tile_pixel(inv);
+    if !at.drawn {
         return;
     }
-    let index = at.y * params.width + at.x;
+    let index = at.index;
     let dir = smo_primary_dir(at.x, at.y);
     let ray = SmoRay(params.eye, dir);
 
@@ -178,8 +197,7 @@ fn smo_render(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) gro
         }
     }
     if !hit.hit {
-        pixels[index] = SmoPixel(vec3<f32>(0.0), SMO_FAR);
-        colors[index] = 0u;
+        smo_write_background(index);
         return;
     }
     var n = vec3<f32>(0.0);

@@ -159,6 +159,44 @@ pub fn non_finite_error(name: &str, i: usize, p: DVec3) -> PyErr {
     ))
 }
 
+/// Runs `each_chunk` over the points of `view`, [`run::chunk_len`] at a time, with the index
+/// of the chunk's first point. Every point of a chunk is checked before the chunk is handed
+/// on: a non-finite one is a `ValueError` naming `name[i]`, and `check` turns each finite one
+/// into what `each_chunk` receives (the query's own frame) or the error to raise. Stops
+/// between chunks when `cancel` is set.
+pub fn for_checked_chunks<Q>(
+    view: PointsView<'_>,
+    name: &str,
+    cancel: &Cancel,
+    mut check: impl FnMut(usize, DVec3) -> PyResult<Q>,
+    mut each_chunk: impl FnMut(usize, &[Q]),
+) -> Result<PyResult<()>, Cancelled> {
+    let n = view.len();
+    let chunk = run::chunk_len();
+    let mut checked: Vec<Q> = Vec::with_capacity(chunk.min(n));
+    let mut start = 0;
+    while start < n {
+        if cancel.is_set() {
+            return Err(Cancelled);
+        }
+        let end = (start + chunk).min(n);
+        checked.clear();
+        for i in start..end {
+            let p = view.get(i);
+            if !p.is_finite() {
+                return Ok(Err(non_finite_error(name, i, p)));
+            }
+            match check(i, p) {
+                Ok(q) => checked.push(q),
+                Err(e) => return Ok(Err(e)),
+            }
+        }
+        each_chunk(start, &checked);
+        start = end;
+    }
+    Ok(Ok(()))
+}
+
 /// `numpy.zeros(shape, dtype)`, C-ordered. numpy's own allocation: a failure is numpy's
 /// `MemoryError` ("Unable to allocate … for an array with shape …"), where rust-numpy's
 /// constructors panic (a `PanicException` before issue 32).

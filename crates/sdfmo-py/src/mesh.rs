@@ -146,42 +146,24 @@ fn too_far_error(data: &MeshData, name: &str, i: usize, p: DVec3) -> PyErr {
     ))
 }
 
-/// Runs `f` over the points of `view` chunk by chunk: each chunk converted to the normalised
-/// frame of `data` (a non-finite point, or one farther than
-/// [`MAX_QUERY_COORDINATE`] in the normalised frame, is a `ValueError` naming its index), then
-/// handed to `f` with the index of its first point. Stops between chunks when `cancel` is set.
+/// Runs `f` over the points of `view` chunk by chunk ([`arrays::for_checked_chunks`]), each
+/// chunk converted to the normalised frame of `data`: a non-finite point, or one farther than
+/// [`MAX_QUERY_COORDINATE`] in the normalised frame, is a `ValueError` naming its index.
 pub fn for_chunks(
     data: &MeshData,
     view: PointsView<'_>,
     name: &str,
     cancel: &Cancel,
-    mut f: impl FnMut(usize, &[Vec3]),
+    f: impl FnMut(usize, &[Vec3]),
 ) -> Result<PyResult<()>, Cancelled> {
-    let n = view.len();
-    let chunk = run::chunk_len();
-    let mut pts: Vec<Vec3> = Vec::with_capacity(chunk.min(n));
-    let mut start = 0;
-    while start < n {
-        if cancel.is_set() {
-            return Err(Cancelled);
+    let normalized = |i: usize, p: DVec3| -> PyResult<Vec3> {
+        let q = data.to_normalized(p);
+        if q.abs().max_element() > MAX_QUERY_COORDINATE {
+            return Err(too_far_error(data, name, i, p));
         }
-        let end = (start + chunk).min(n);
-        pts.clear();
-        for i in start..end {
-            let p = view.get(i);
-            if !p.is_finite() {
-                return Ok(Err(arrays::non_finite_error(name, i, p)));
-            }
-            let q = data.to_normalized(p);
-            if q.abs().max_element() > MAX_QUERY_COORDINATE {
-                return Ok(Err(too_far_error(data, name, i, p)));
-            }
-            pts.push(q);
-        }
-        f(start, &pts);
-        start = end;
-    }
-    Ok(Ok(()))
+        Ok(q)
+    };
+    arrays::for_checked_chunks(view, name, cancel, normalized, f)
 }
 
 /// A triangle mesh in model units, with exact distance queries.

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use glam::Vec3;
+use glam::DVec3;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
@@ -21,7 +21,6 @@ use sdf_multioctree::{Device, Renderer};
 use crate::arrays;
 use crate::errors;
 use crate::render::{RenderArgs, RenderCall, RenderOptions};
-use crate::run::{self, Cancelled};
 
 /// A sparse octree of trilinear signed-distance voxels (the ``.smo`` format), as built by
 /// ``Mesh.build`` or loaded by ``Octree.load``; a loaded file may have levels of detail
@@ -313,32 +312,19 @@ impl Octree {
         let frame = sdf_multioctree::octree_frame(self.finest());
         let octree = self.finest();
         arrays::f32_per_point(py, points, threads, |view, d, cancel| {
-            let n = view.len();
-            let chunk = run::chunk_len();
-            for start in (0..n).step_by(chunk) {
-                if cancel.is_set() {
-                    return Err(Cancelled);
-                }
-                let end = (start + chunk).min(n);
-                for i in start..end {
-                    let p = view.get(i);
-                    if !p.is_finite() {
-                        return Ok(Err(arrays::non_finite_error("points", i, p)));
-                    }
-                }
-                d[start..end]
+            let normalized = |_, p: DVec3| Ok(frame.point_to_normalized(p));
+            arrays::for_checked_chunks(view, "points", cancel, normalized, |start, pts| {
+                d[start..start + pts.len()]
                     .par_iter_mut()
-                    .enumerate()
+                    .zip(pts)
                     .with_min_len(256)
-                    .for_each(|(k, o)| {
-                        let p: Vec3 = frame.point_to_normalized(view.get(start + k));
+                    .for_each(|(o, &p)| {
                         *o = match octree.stored_distance(p) {
                             Some(d) => frame.length_to_model(d),
                             None => f32::NAN,
                         };
                     });
-            }
-            Ok(Ok(()))
+            })
         })
     }
 

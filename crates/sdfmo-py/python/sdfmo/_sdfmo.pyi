@@ -29,6 +29,9 @@ _Mode = Literal["lambert", "mask", "depth", "normal"]
 _F32 = npt.NDArray[np.float32]
 _I64 = npt.NDArray[np.int64]
 _U8 = npt.NDArray[np.uint8]
+# What `signed_distance` and `unsigned_distance` return: the distances, then the closest points
+# (`return_closest`) and the faces (`return_face`) when asked for.
+_Distances = Union[_F32, Tuple[_F32, _F32], Tuple[_F32, _I64], Tuple[_F32, _F32, _I64]]
 
 class FormatError(ValueError):
     """A ``.smo`` file that is truncated, corrupt, of an unknown version or inconsistent."""
@@ -123,7 +126,7 @@ class Mesh:
         return_closest: bool = False,
         return_face: bool = False,
         threads: Optional[int] = None,
-    ) -> Union[_F32, Tuple[_F32, _F32], Tuple[_F32, _I64], Tuple[_F32, _F32, _I64]]:
+    ) -> _Distances:
         """Exact signed distance (negative inside), model units."""
     @overload
     def unsigned_distance(
@@ -142,7 +145,7 @@ class Mesh:
         return_closest: bool = False,
         return_face: bool = False,
         threads: Optional[int] = None,
-    ) -> Union[_F32, Tuple[_F32, _F32], Tuple[_F32, _I64], Tuple[_F32, _F32, _I64]]:
+    ) -> _Distances:
         """Exact unsigned distance, model units."""
     def winding_number(self, points: _Points, *, threads: Optional[int] = None) -> _F32:
         """Generalised winding number at each point."""
