@@ -223,19 +223,19 @@ impl From<BrickRecord> for Brick {
 
 /// The counts a 3.0 header declares.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-struct V3Counts {
-    upper: u32,
-    bricks: u32,
-    leaves: u32,
-    voxels: u32,
-    surface: u32,
-    clip: u32,
-    private_leaves: u32,
-    private_voxels: u32,
+pub(crate) struct V3Counts {
+    pub(crate) upper: u32,
+    pub(crate) bricks: u32,
+    pub(crate) leaves: u32,
+    pub(crate) voxels: u32,
+    pub(crate) surface: u32,
+    pub(crate) clip: u32,
+    pub(crate) private_leaves: u32,
+    pub(crate) private_voxels: u32,
     /// Minor version: 0 (every private voxel wide, groups of 8) or 1 (groups of 16).
-    minor: u16,
+    pub(crate) minor: u16,
     /// Wide private voxels (all of them in 3.0); in 3.1 implied by the private corners' size.
-    wide_voxels: u32,
+    pub(crate) wide_voxels: u32,
 }
 
 impl V3Counts {
@@ -298,7 +298,7 @@ impl V3Counts {
 
 /// Where every section of a 3.0 file sits: `(offset, size)`, each at a multiple of 8.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct V3Layout {
+pub(crate) struct V3Layout {
     nodes: (u64, u64),
     bricks: (u64, u64),
     residuals: (u64, u64),
@@ -306,7 +306,7 @@ struct V3Layout {
     private_flags: (u64, u64),
     private_corners: (u64, u64),
     checksum_offset: u64,
-    file_size: u64,
+    pub(crate) file_size: u64,
 }
 
 impl V3Layout {
@@ -342,7 +342,9 @@ impl V3Layout {
         }
     }
 
-    fn sections(&self) -> [(u64, u64); 6] {
+    /// `(offset, size)` of nodes, bricks, residuals, private leaves, private flags and private
+    /// corners, in file order.
+    pub(crate) fn sections(&self) -> [(u64, u64); 6] {
         [
             self.nodes,
             self.bricks,
@@ -869,26 +871,15 @@ fn header(meta: &OctreeMeta, c: &V3Counts, l: &V3Layout) -> V3Header {
     }
 }
 
-/// The sections of a 3.0 file as a header declares them, for the compressed container, which
-/// stores each section as its own stream and puts it back at its offset.
+/// A 3.0 file as its header declares it, for the compressed container, which stores each
+/// section as its own stream and puts it back at its offset.
 pub(crate) struct V3Sections {
     /// Code width.
     pub(crate) bits: ValueBits,
-    /// Minor version (0 or 1): the private leaf groups' and corners' layout.
-    pub(crate) minor: u16,
-    /// Node groups above the bricks: how many nodes.
-    pub(crate) upper: u32,
-    /// Private leaves: how many.
-    pub(crate) private_leaves: u32,
-    /// Private voxels: how many.
-    pub(crate) private_voxels: u32,
-    /// Wide private voxels (3.0: all).
-    pub(crate) wide_voxels: u32,
-    /// `(offset, size)` of nodes, bricks, residuals, private leaves, private flags and private
-    /// corners, in file order.
-    pub(crate) sections: [(u64, u64); 6],
-    /// The whole file.
-    pub(crate) file_size: u64,
+    /// The declared counts (and minor version).
+    pub(crate) counts: V3Counts,
+    /// Where the sections sit ([`V3Layout::sections`] in file order) and the file's size.
+    pub(crate) layout: V3Layout,
 }
 
 /// Reads the sections of a 3.0 header (`header` holds at least [`V3_HEADER_SIZE`] bytes) and
@@ -935,13 +926,8 @@ pub(crate) fn v3_sections(header: &[u8], max_file: u64) -> Result<V3Sections> {
     }
     Ok(V3Sections {
         bits,
-        minor: c.minor,
-        upper: c.upper,
-        private_leaves: c.private_leaves,
-        private_voxels: c.private_voxels,
-        wide_voxels: c.wide_voxels,
-        sections: layout.sections(),
-        file_size: layout.file_size,
+        counts: c,
+        layout,
     })
 }
 
