@@ -960,12 +960,6 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
         })
     }
 
-    /// The whole file, header to checksum.
-    #[inline]
-    pub fn as_bytes(&self) -> &[u8] {
-        self.bytes.as_ref()
-    }
-
     /// The buffer back.
     pub fn into_bytes(self) -> B {
         self.bytes
@@ -982,17 +976,7 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
         }
     }
 
-    /// Depth, quantisation and normalisation transform.
-    #[inline]
-    pub fn meta(&self) -> &OctreeMeta {
-        &self.meta
-    }
-
-    /// Leaves sit at this level (≥ 2).
-    #[inline]
-    pub fn depth(&self) -> u8 {
-        self.meta.depth
-    }
+    buffer_accessors!();
 
     count_getters! {
         /// Nodes above the bricks (levels `0 … depth − 3`).
@@ -1011,12 +995,6 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
         private_leaf_count => private_leaves,
         /// Voxels of the private leaves.
         private_voxel_count => private_voxels,
-    }
-
-    /// `dmax / Q`: multiply a code by this to get a distance in normalised units.
-    #[inline]
-    pub fn dequant_scale(&self) -> f32 {
-        self.dequant
     }
 
     // ---- Traversal access ---------------------------------------------------------------
