@@ -78,6 +78,18 @@ pub trait TracedOctree {
     fn has_voxel(&self, voxel: Self::Voxel) -> bool;
 }
 
+/// Trait methods that answer with the octree's inherent method of the same name, one line each
+/// instead of a forwarding body each. `#[inline(always)]`, as every query of a walk: the trait
+/// adds no call to the inherent method's.
+macro_rules! inherent_queries {
+    ($octree:ident: $(fn $name:ident(&self $(, $arg:ident: $ty:ty)*) -> $ret:ty;)*) => {$(
+        #[inline(always)]
+        fn $name(&self $(, $arg: $ty)*) -> $ret {
+            $octree::$name(self $(, $arg)*)
+        }
+    )*};
+}
+
 impl<B: AsRef<[u8]>> TracedOctree for Octree<B> {
     type LeafCache = ();
     type Node = NodeRef;
@@ -87,24 +99,16 @@ impl<B: AsRef<[u8]>> TracedOctree for Octree<B> {
     type Voxel = u32;
     type Voxels = Range<u32>;
 
-    #[inline(always)]
-    fn meta(&self) -> &OctreeMeta {
-        Octree::meta(self)
-    }
-
-    #[inline(always)]
-    fn root(&self) -> Option<NodeRef> {
-        Octree::root(self)
-    }
-
-    #[inline(always)]
-    fn is_leaf(&self, node: NodeRef) -> bool {
-        Octree::is_leaf(self, node)
-    }
-
-    #[inline(always)]
-    fn child_mask(&self, node: NodeRef) -> u8 {
-        Octree::child_mask(self, node)
+    inherent_queries! { Octree:
+        fn meta(&self) -> &OctreeMeta;
+        fn root(&self) -> Option<NodeRef>;
+        fn is_leaf(&self, node: NodeRef) -> bool;
+        fn child_mask(&self, node: NodeRef) -> u8;
+        fn child(&self, node: NodeRef, octant: u8) -> Option<NodeRef>;
+        fn leaf_voxels(&self, node: NodeRef) -> Range<u32>;
+        fn voxel_corners(&self, voxel: u32) -> [f32; 8];
+        fn voxel_is_surface(&self, voxel: u32) -> bool;
+        fn voxel_is_clip(&self, voxel: u32) -> bool;
     }
 
     #[inline(always)]
@@ -120,33 +124,8 @@ impl<B: AsRef<[u8]>> TracedOctree for Octree<B> {
     }
 
     #[inline(always)]
-    fn child(&self, node: NodeRef, octant: u8) -> Option<NodeRef> {
-        Octree::child(self, node, octant)
-    }
-
-    #[inline(always)]
-    fn leaf_voxels(&self, node: NodeRef) -> Range<u32> {
-        Octree::leaf_voxels(self, node)
-    }
-
-    #[inline(always)]
     fn any_clip_voxel(&self, voxels: &Range<u32>) -> bool {
         Octree::any_clip_voxel(self, voxels.clone())
-    }
-
-    #[inline(always)]
-    fn voxel_corners(&self, voxel: u32) -> [f32; 8] {
-        Octree::voxel_corners(self, voxel)
-    }
-
-    #[inline(always)]
-    fn voxel_is_surface(&self, voxel: u32) -> bool {
-        Octree::voxel_is_surface(self, voxel)
-    }
-
-    #[inline(always)]
-    fn voxel_is_clip(&self, voxel: u32) -> bool {
-        Octree::voxel_is_clip(self, voxel)
     }
 
     #[inline(always)]
@@ -609,14 +588,10 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
     type Voxels = BrickVoxels;
     type LeafCache = BrickCache;
 
-    #[inline(always)]
-    fn meta(&self) -> &OctreeMeta {
-        BrickOctree::meta(self)
-    }
-
-    #[inline(always)]
-    fn root(&self) -> Option<BrickNode> {
-        BrickOctree::root(self)
+    inherent_queries! { BrickOctree:
+        fn meta(&self) -> &OctreeMeta;
+        fn root(&self) -> Option<BrickNode>;
+        fn child(&self, node: BrickNode, octant: u8) -> Option<BrickNode>;
     }
 
     #[inline(always)]
@@ -671,11 +646,6 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
             // A leaf has no children (its mask is 0, so no walk asks).
             BrickNode::Leaf { .. } => node,
         }
-    }
-
-    #[inline(always)]
-    fn child(&self, node: BrickNode, octant: u8) -> Option<BrickNode> {
-        BrickOctree::child(self, node, octant)
     }
 
     /// A shared leaf from one load of the brick's private mask; a private leaf's voxels from
