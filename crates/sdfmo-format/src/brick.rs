@@ -300,11 +300,11 @@ impl V3Counts {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct V3Layout {
     nodes: (u64, u64),
-    bricks: (u64, u64),
-    residuals: (u64, u64),
-    private_leaves: (u64, u64),
-    private_flags: (u64, u64),
-    private_corners: (u64, u64),
+    pub(crate) bricks: (u64, u64),
+    pub(crate) residuals: (u64, u64),
+    pub(crate) private_leaves: (u64, u64),
+    pub(crate) private_flags: (u64, u64),
+    pub(crate) private_corners: (u64, u64),
     checksum_offset: u64,
     pub(crate) file_size: u64,
 }
@@ -365,8 +365,10 @@ impl V3Layout {
 pub struct BrickOctree<B = Vec<u8>> {
     bytes: B,
     meta: OctreeMeta,
-    counts: V3Counts,
-    layout: V3Layout,
+    /// The validated header's counts (the tracer's queries bound their indices by them).
+    pub(crate) counts: V3Counts,
+    /// Where the sections are (the tracer's queries read them in place).
+    pub(crate) layout: V3Layout,
     dequant: f32,
 }
 
@@ -1084,24 +1086,6 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
         let at = self.layout.nodes.0 as usize + (k as usize >> 3) * 12;
         let (first_child, masks) = group_at(self.as_bytes(), at);
         first_child + low_bits(masks, (k & 7) * 8).count_ones()
-    }
-
-    /// Where the sections a tracer reads start, and the counts that bound them
-    /// ([`crate::trace`]).
-    #[inline(always)]
-    pub(crate) fn traced_sections(&self) -> crate::trace::BrickSections {
-        crate::trace::BrickSections {
-            bricks: self.layout.bricks.0 as usize,
-            residuals: self.layout.residuals.0 as usize,
-            private_leaves: self.layout.private_leaves.0 as usize,
-            private_flags: self.layout.private_flags.0 as usize,
-            private_corners: self.layout.private_corners.0 as usize,
-            minor: self.counts.minor,
-            brick_count: self.counts.bricks,
-            private_voxels: self.counts.private_voxels,
-            wide_voxels: self.counts.wide_voxels,
-            clip: self.counts.clip,
-        }
     }
 
     /// The child mask of upper node `k` (`k` < the upper node count, else a panic).

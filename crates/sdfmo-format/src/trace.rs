@@ -134,23 +134,6 @@ impl<B: AsRef<[u8]>> TracedOctree for Octree<B> {
     }
 }
 
-/// The byte offsets of the sections of a [`BrickOctree`] a tracer reads, and the counts that
-/// bound them (from the validated header).
-pub(crate) struct BrickSections {
-    pub(crate) bricks: usize,
-    pub(crate) residuals: usize,
-    pub(crate) private_leaves: usize,
-    pub(crate) private_flags: usize,
-    pub(crate) private_corners: usize,
-    /// Minor version: the layout of the private leaf groups and corners.
-    pub(crate) minor: u16,
-    pub(crate) brick_count: u32,
-    pub(crate) private_voxels: u32,
-    /// Wide private voxels (3.0: all).
-    pub(crate) wide_voxels: u32,
-    pub(crate) clip: u32,
-}
-
 const OCCUPANCY: usize = field_in(&BRICK_RECORD_FIELDS, "occupancy").offset;
 const PRIVATE: usize = field_in(&BRICK_RECORD_FIELDS, "private").offset;
 const PLANE: usize = field_in(&BRICK_RECORD_FIELDS, "plane_a").offset;
@@ -476,10 +459,10 @@ mod avx2 {
 impl<B: AsRef<[u8]>> BrickOctree<B> {
     /// The record of `brick` (one bounds-checked load of its 32 bytes).
     #[inline(always)]
-    fn record(&self, s: &BrickSections, brick: u32) -> [u8; BRICK_RECORD_SIZE] {
+    fn record(&self, brick: u32) -> [u8; BRICK_RECORD_SIZE] {
         bytes_at::<BRICK_RECORD_SIZE>(
             self.as_bytes(),
-            s.bricks + brick as usize * BRICK_RECORD_SIZE,
+            self.layout.bricks.0 as usize + brick as usize * BRICK_RECORD_SIZE,
         )
     }
 
@@ -500,10 +483,9 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
     /// The occupancy of `brick` (one load).
     #[inline(always)]
     fn occupancy(&self, brick: u32) -> u64 {
-        let s = self.traced_sections();
         u64::from_le_bytes(bytes_at::<8>(
             self.as_bytes(),
-            s.bricks + brick as usize * BRICK_RECORD_SIZE + OCCUPANCY,
+            self.layout.bricks.0 as usize + brick as usize * BRICK_RECORD_SIZE + OCCUPANCY,
         ))
     }
 
@@ -511,8 +493,7 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
     /// and where its residuals are (one read of the brick's record).
     #[inline(always)]
     fn brick_fetch(&self, brick: u32) -> BrickCache {
-        let s = self.traced_sections();
-        let r = self.record(&s, brick);
+        let r = self.record(brick);
         let shared = u64_in(&r, OCCUPANCY) & !u64_in(&r, PRIVATE);
         let word = u32_in(&r, RESIDUALS);
         BrickCache {
@@ -521,7 +502,8 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
             plane: core::array::from_fn(|i| {
                 i32::from(i16::from_le_bytes(bytes_at::<2>(&r, PLANE + 2 * i)))
             }),
-            base: s.residuals + (word & ((1 << RESIDUAL_OFFSET_BITS) - 1)) as usize,
+            base: self.layout.residuals.0 as usize
+                + (word & ((1 << RESIDUAL_OFFSET_BITS) - 1)) as usize,
             width: residual_widths(self.meta().bits)[(word >> RESIDUAL_OFFSET_BITS) as usize],
         }
     }
@@ -573,10 +555,9 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
     /// The two flag bits (surface, clip) of private voxel `v`.
     #[inline(always)]
     fn private_flags(&self, v: u32) -> u8 {
-        let s = self.traced_sections();
-        assert!(v < s.private_voxels, "voxel {v} out of range");
+        assert!(v < self.counts.private_voxels, "voxel {v} out of range");
         let bit = 2 * v as usize;
-        self.as_bytes()[s.private_flags + bit / 8] >> (bit % 8) & 3
+        self.as_bytes()[self.layout.private_flags.0 as usize + bit / 8] >> (bit % 8) & 3
     }
 }
 
@@ -661,8 +642,7 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
         let BrickNode::Leaf { brick, cell } = node else {
             return none;
         };
-        let s = self.traced_sections();
-        let r = self.record(&s, brick);
+        let r = self.record(brick);
         let cell = cell & 63;
         if u64_in(&r, OCCUPANCY) >> cell & 1 == 0 {
             return none;
@@ -677,7 +657,8 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
             };
         }
         let j = u32_in(&r, FIRST_PRIVATE_LEAF) + low_bits(private, u32::from(cell)).count_ones();
-        let span = private_leaf_at(self.as_bytes(), s.private_leaves, s.minor, j);
+        let leaves = self.layout.private_leaves.0 as usize;
+        let span = private_leaf_at(self.as_bytes(), leaves, self.counts.minor, j);
         BrickVoxels {
             shared: None,
             private: span.first..span.first + span.count,
@@ -688,7 +669,7 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
 
     #[inline(always)]
     fn any_clip_voxel(&self, voxels: &BrickVoxels) -> bool {
-        self.traced_sections().clip > 0
+        self.counts.clip > 0
             && voxels
                 .private
                 .clone()
@@ -707,10 +688,13 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
                 wide_before,
                 wide,
             } => {
-                let sec = self.traced_sections();
-                assert!(voxel < sec.private_voxels, "voxel {voxel} out of range");
+                assert!(
+                    voxel < self.counts.private_voxels,
+                    "voxel {voxel} out of range"
+                );
                 let bits = self.meta().bits;
-                let at = sec.private_corners + corner_offset(voxel, wide_before, bits);
+                let at = self.layout.private_corners.0 as usize
+                    + corner_offset(voxel, wide_before, bits);
                 let codes = private_codes(self.as_bytes(), at, wide, bits);
                 let mut out = [0.0f32; 8];
                 for (v, c) in out.iter_mut().zip(codes) {
@@ -753,11 +737,11 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
     }
 
     fn has_voxel(&self, voxel: BrickVoxel) -> bool {
-        let s = self.traced_sections();
+        let c = &self.counts;
         match voxel {
             BrickVoxel::Shared { brick, cell } => {
-                brick < s.brick_count && cell < 64 && {
-                    let r = self.record(&s, brick);
+                brick < c.bricks && cell < 64 && {
+                    let r = self.record(brick);
                     (u64_in(&r, OCCUPANCY) & !u64_in(&r, PRIVATE)) >> cell & 1 != 0
                 }
             }
@@ -768,11 +752,11 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
                 wide_before,
                 wide,
             } => {
-                voxel < s.private_voxels
+                voxel < c.private_voxels
                     && wide_before <= voxel
-                    && (s.minor > 0 || (wide && wide_before == voxel))
+                    && (c.minor > 0 || (wide && wide_before == voxel))
                     && 3 * u64::from(voxel) + u64::from(wide_before) + 3 + u64::from(wide)
-                        <= 3 * u64::from(s.private_voxels) + u64::from(s.wide_voxels)
+                        <= 3 * u64::from(c.private_voxels) + u64::from(c.wide_voxels)
             }
         }
     }
