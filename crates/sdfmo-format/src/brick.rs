@@ -29,8 +29,6 @@
 
 use std::fmt;
 
-use glam::Vec3;
-
 use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
 use crate::header::{
@@ -48,7 +46,8 @@ use crate::octree::{
 };
 use crate::quant::{dequant_scale, max_code};
 use crate::validate::{
-    check_codes, check_magic, check_major, check_sizes, validate_node_groups, walk_groups,
+    check_codes, check_grid, check_magic, check_major, check_sizes, validate_node_groups,
+    walk_groups,
 };
 use crate::{
     morton, LeafInput, NodeRef, Octree, OctreeMeta, PackedOctree, ValueBits, Voxel,
@@ -1469,25 +1468,14 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, V3Counts, V3Layout)> {
             format!("{depth} (must be {BRICK_LEVELS}..={MAX_DEPTH})"),
         );
     }
-    let Some(bits) = ValueBits::from_bits(h.value_bits) else {
-        return corrupt("value_bits", format!("{} (must be 8 or 16)", h.value_bits));
-    };
-    if h.reserved != 0 {
-        return corrupt("reserved", format!("{:#x} (must be 0)", h.reserved));
-    }
-    let center = Vec3::new(h.center_x, h.center_y, h.center_z);
-    if !center.is_finite() {
-        return corrupt("center", format!("{center:?} is not finite"));
-    }
-    if !h.scale.is_finite() || h.scale <= 0.0 {
-        return corrupt("scale", format!("{} (must be finite and > 0)", h.scale));
-    }
-    let meta = OctreeMeta {
+    let meta = check_grid(
         depth,
-        bits,
-        center,
-        scale: h.scale,
-    };
+        h.value_bits,
+        h.reserved,
+        [h.center_x, h.center_y, h.center_z],
+        h.scale,
+    )?;
+    let bits = meta.bits;
     let c = V3Counts::declared_by(&h, bits)?;
     let (upper, bricks, leaves) = (u64::from(c.upper), u64::from(c.bricks), u64::from(c.leaves));
     let (pl, pv) = (u64::from(c.private_leaves), u64::from(c.private_voxels));

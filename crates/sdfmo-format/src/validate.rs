@@ -131,6 +131,38 @@ pub(crate) fn check_sizes(
     Ok(())
 }
 
+/// The octree a 1.x or 3.x header's grid and transform describe, checked in this order (both
+/// versions report the first fault the same way): value bits 8 or 16, the reserved `u16`
+/// zero, the centre finite, the scale finite and > 0. The depth is taken as it is: its range
+/// differs by version, so the caller has checked it.
+pub(crate) fn check_grid(
+    depth: u8,
+    value_bits: u8,
+    reserved: u16,
+    center: [f32; 3],
+    scale: f32,
+) -> Result<OctreeMeta> {
+    let Some(bits) = ValueBits::from_bits(value_bits) else {
+        return corrupt("value_bits", format!("{value_bits} (must be 8 or 16)"));
+    };
+    if reserved != 0 {
+        return corrupt("reserved", format!("{reserved:#x} (must be 0)"));
+    }
+    let center = Vec3::from_array(center);
+    if !center.is_finite() {
+        return corrupt("center", format!("{center:?} is not finite"));
+    }
+    if !scale.is_finite() || scale <= 0.0 {
+        return corrupt("scale", format!("{scale} (must be finite and > 0)"));
+    }
+    Ok(OctreeMeta {
+        depth,
+        bits,
+        center,
+        scale,
+    })
+}
+
 /// The checks of [`Octree::new`], in order; on success the octree's description.
 fn validate(bytes: &[u8]) -> Result<(OctreeMeta, Counts, Sections)> {
     let len = bytes.len();
@@ -153,28 +185,14 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, Counts, Sections)> {
     if depth > MAX_DEPTH {
         return corrupt("depth", format!("{depth} > {MAX_DEPTH}"));
     }
-    let raw_bits = h.value_bits;
-    let Some(bits) = ValueBits::from_bits(raw_bits) else {
-        return corrupt("value_bits", format!("{raw_bits} (must be 8 or 16)"));
-    };
-    let reserved = h.reserved;
-    if reserved != 0 {
-        return corrupt("reserved", format!("{reserved:#x} (must be 0)"));
-    }
-    let center = Vec3::new(h.center_x, h.center_y, h.center_z);
-    let scale = h.scale;
-    let meta = OctreeMeta {
+    let meta = check_grid(
         depth,
-        bits,
-        center,
-        scale,
-    };
-    if !center.is_finite() {
-        return corrupt("center", format!("{center:?} is not finite"));
-    }
-    if !scale.is_finite() || scale <= 0.0 {
-        return corrupt("scale", format!("{scale} (must be finite and > 0)"));
-    }
+        h.value_bits,
+        h.reserved,
+        [h.center_x, h.center_y, h.center_z],
+        h.scale,
+    )?;
+    let bits = meta.bits;
     let has_clip = flags & FLAG_CLIP_VOXELS != 0;
     if has_clip && minor < minor_version(true) {
         return corrupt(
