@@ -1468,13 +1468,7 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, V3Counts, V3Layout)> {
             format!("{depth} (must be {BRICK_LEVELS}..={MAX_DEPTH})"),
         );
     }
-    let meta = check_grid(
-        depth,
-        h.value_bits,
-        h.reserved,
-        [h.center_x, h.center_y, h.center_z],
-        h.scale,
-    )?;
+    let meta = check_grid(bytes)?;
     let bits = meta.bits;
     let c = V3Counts::declared_by(&h, bits)?;
     let (upper, bricks, leaves) = (u64::from(c.upper), u64::from(c.bricks), u64::from(c.leaves));

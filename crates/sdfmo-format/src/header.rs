@@ -366,8 +366,41 @@ impl<const N: usize> FieldValue for [u8; N] {
 /// value up by name, so the order of the fields is written down once. Checked at compile time:
 /// every struct field is in the table with the size of its type, and the table has no other
 /// field.
+///
+/// A field group the tables share ([`PREAMBLE`], [`GRID`], [`TRANSFORM`]) is named by its table
+/// in the list and stands for its fields, whose types are written here once.
 macro_rules! header_values {
-    ($(#[$doc:meta])* $struct:ident, $table:ident, { $($name:ident: $ty:ty,)* }) => {
+    ($(#[$doc:meta])* $struct:ident, $table:ident, { $($fields:tt)* }) => {
+        header_values!(@expand [$(#[$doc])*] $struct, $table, [] $($fields)*);
+    };
+    (@expand $doc:tt $struct:ident, $table:ident, [$($done:tt)*] PREAMBLE, $($rest:tt)*) => {
+        header_values!(@expand $doc $struct, $table, [$($done)*
+            magic: [u8; 8],
+            version_major: u16,
+            version_minor: u16,
+            header_size: u32,
+            flags: u32,
+        ] $($rest)*);
+    };
+    (@expand $doc:tt $struct:ident, $table:ident, [$($done:tt)*] GRID, $($rest:tt)*) => {
+        header_values!(@expand $doc $struct, $table, [$($done)*
+            depth: u8,
+            value_bits: u8,
+            reserved: u16,
+        ] $($rest)*);
+    };
+    (@expand $doc:tt $struct:ident, $table:ident, [$($done:tt)*] TRANSFORM, $($rest:tt)*) => {
+        header_values!(@expand $doc $struct, $table, [$($done)*
+            center_x: f32,
+            center_y: f32,
+            center_z: f32,
+            scale: f32,
+        ] $($rest)*);
+    };
+    (@expand $doc:tt $struct:ident, $table:ident, [$($done:tt)*] $name:ident: $ty:ty, $($rest:tt)*) => {
+        header_values!(@expand $doc $struct, $table, [$($done)* $name: $ty,] $($rest)*);
+    };
+    (@expand [$(#[$doc:meta])*] $struct:ident, $table:ident, [$($name:ident: $ty:ty,)*]) => {
         $(#[$doc])*
         #[derive(Clone, Copy, Debug, Default, PartialEq)]
         pub(crate) struct $struct {
@@ -395,6 +428,9 @@ macro_rules! header_values {
             }
 
             /// Writes every field of the table into the bytes the table covers of `out`.
+            // Unused where the values are only read (`GridValues`: the writers put the grid
+            // in with the rest of their header).
+            #[allow(dead_code)]
             pub(crate) fn write(&self, out: &mut [u8]) {
                 for f in &$table {
                     let b = &mut out[f.offset..f.offset + f.size];
@@ -411,18 +447,9 @@ macro_rules! header_values {
 header_values! {
     /// The values of a 1.x header, one per [`HEADER_FIELDS`] entry of the same name.
     Header, HEADER_FIELDS, {
-    magic: [u8; 8],
-    version_major: u16,
-    version_minor: u16,
-    header_size: u32,
-    flags: u32,
-    depth: u8,
-    value_bits: u8,
-    reserved: u16,
-    center_x: f32,
-    center_y: f32,
-    center_z: f32,
-    scale: f32,
+    PREAMBLE,
+    GRID,
+    TRANSFORM,
     inner_node_count: u32,
     leaf_count: u32,
     voxel_count: u32,
@@ -441,19 +468,12 @@ header_values! {
 header_values! {
     /// The values of the fixed part of a 2.0 header, one per [`LOD_HEADER_FIELDS`] entry.
     LodHeaderValues, LOD_HEADER_FIELDS, {
-    magic: [u8; 8],
-    version_major: u16,
-    version_minor: u16,
-    header_size: u32,
-    flags: u32,
+    PREAMBLE,
     depth: u8,
     coarsest: u8,
     level_count: u8,
     value_bits: u8,
-    center_x: f32,
-    center_y: f32,
-    center_z: f32,
-    scale: f32,
+    TRANSFORM,
     file_size: u64,
     reserved: [u8; 16],
 }}
@@ -461,18 +481,9 @@ header_values! {
 header_values! {
     /// The values of a 3.0 header, one per [`V3_HEADER_FIELDS`] entry of the same name.
     V3Header, V3_HEADER_FIELDS, {
-    magic: [u8; 8],
-    version_major: u16,
-    version_minor: u16,
-    header_size: u32,
-    flags: u32,
-    depth: u8,
-    value_bits: u8,
-    reserved: u16,
-    center_x: f32,
-    center_y: f32,
-    center_z: f32,
-    scale: f32,
+    PREAMBLE,
+    GRID,
+    TRANSFORM,
     upper_node_count: u32,
     brick_count: u32,
     leaf_count: u32,
@@ -494,6 +505,17 @@ header_values! {
     private_flags_size: u64,
     private_corners_offset: u64,
     private_corners_size: u64,
+}}
+
+/// The grid and transform: bytes 20–40 of a 1.x and of a 3.x header alike.
+const GRID_TRANSFORM: [HeaderField; 7] = joined(&[&GRID, &TRANSFORM]);
+
+header_values! {
+    /// The values of the grid and transform fields ([`GRID_TRANSFORM`]) of a 1.x or a 3.x
+    /// header, which the readers of both check the same way.
+    GridValues, GRID_TRANSFORM, {
+    GRID,
+    TRANSFORM,
 }}
 
 header_values! {

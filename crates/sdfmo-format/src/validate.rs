@@ -5,8 +5,8 @@ use glam::Vec3;
 use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
 use crate::header::{
-    minor_version, Counts, Header, Layout, CHECKSUM_SIZE, FLAG_CLIP_VOXELS, FLAG_MULTI_VOXEL,
-    FLAG_SURFACE_VOXELS, FORMAT_VERSION_MAJOR, HEADER_SIZE, KNOWN_FLAGS, MAGIC,
+    minor_version, Counts, GridValues, Header, Layout, CHECKSUM_SIZE, FLAG_CLIP_VOXELS,
+    FLAG_MULTI_VOXEL, FLAG_SURFACE_VOXELS, FORMAT_VERSION_MAJOR, HEADER_SIZE, KNOWN_FLAGS, MAGIC,
 };
 use crate::octree::{bytes_at, low_bits, Octree, Sections};
 use crate::quant::max_code;
@@ -131,35 +131,31 @@ pub(crate) fn check_sizes(
     Ok(())
 }
 
-/// The octree a 1.x or 3.x header's grid and transform describe, checked in this order (both
-/// versions report the first fault the same way): value bits 8 or 16, the reserved `u16`
-/// zero, the centre finite, the scale finite and > 0. The depth is taken as it is: its range
-/// differs by version, so the caller has checked it.
-pub(crate) fn check_grid(
-    depth: u8,
-    value_bits: u8,
-    reserved: u16,
-    center: [f32; 3],
-    scale: f32,
-) -> Result<OctreeMeta> {
-    let Some(bits) = ValueBits::from_bits(value_bits) else {
-        return corrupt("value_bits", format!("{value_bits} (must be 8 or 16)"));
+/// The octree the grid and transform of a 1.x or 3.x header (`head`, at least the bytes they
+/// end at) describe, checked in this order (both versions report the first fault the same
+/// way): value bits 8 or 16, the reserved `u16` zero, the centre finite, the scale finite
+/// and positive. The depth is taken as it is: its range differs by version, so the caller
+/// has checked it.
+pub(crate) fn check_grid(head: &[u8]) -> Result<OctreeMeta> {
+    let g = GridValues::read(head);
+    let Some(bits) = ValueBits::from_bits(g.value_bits) else {
+        return corrupt("value_bits", format!("{} (must be 8 or 16)", g.value_bits));
     };
-    if reserved != 0 {
-        return corrupt("reserved", format!("{reserved:#x} (must be 0)"));
+    if g.reserved != 0 {
+        return corrupt("reserved", format!("{:#x} (must be 0)", g.reserved));
     }
-    let center = Vec3::from_array(center);
+    let center = Vec3::new(g.center_x, g.center_y, g.center_z);
     if !center.is_finite() {
         return corrupt("center", format!("{center:?} is not finite"));
     }
-    if !scale.is_finite() || scale <= 0.0 {
-        return corrupt("scale", format!("{scale} (must be finite and > 0)"));
+    if !g.scale.is_finite() || g.scale <= 0.0 {
+        return corrupt("scale", format!("{} (must be finite and > 0)", g.scale));
     }
     Ok(OctreeMeta {
-        depth,
+        depth: g.depth,
         bits,
         center,
-        scale,
+        scale: g.scale,
     })
 }
 
@@ -185,13 +181,7 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, Counts, Sections)> {
     if depth > MAX_DEPTH {
         return corrupt("depth", format!("{depth} > {MAX_DEPTH}"));
     }
-    let meta = check_grid(
-        depth,
-        h.value_bits,
-        h.reserved,
-        [h.center_x, h.center_y, h.center_z],
-        h.scale,
-    )?;
+    let meta = check_grid(bytes)?;
     let bits = meta.bits;
     let has_clip = flags & FLAG_CLIP_VOXELS != 0;
     if has_clip && minor < minor_version(true) {
