@@ -32,7 +32,7 @@ use std::fmt;
 use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
 use crate::header::{
-    align8, field_in, plane_fraction_bits, private_group_leaves, private_group_size,
+    align8, field_in, octree_header, plane_fraction_bits, private_group_leaves, private_group_size,
     residual_widths, BrickRecord, Counts, V3Header, BRICK_LEVELS, BRICK_RECORD_FIELDS,
     BRICK_RECORD_SIZE, CHECKSUM_SIZE, FLAG_CLIP_VOXELS, FLAG_MULTI_VOXEL, FLAG_SURFACE_VOXELS,
     KNOWN_FLAGS, MAGIC, RESIDUAL_OFFSET_BITS, V31_MAX_LEAF_VOXELS, V3_HEADER_SIZE,
@@ -835,19 +835,11 @@ impl BrickOctree<Vec<u8>> {
 
 /// The header the writer puts in front of a 3.x file.
 fn header(meta: &OctreeMeta, c: &V3Counts, l: &V3Layout) -> V3Header {
-    V3Header {
-        magic: MAGIC,
-        version_major: V3_VERSION_MAJOR,
-        version_minor: c.minor,
-        header_size: V3_HEADER_SIZE as u32,
+    octree_header! { V3Header {
+        version: (V3_VERSION_MAJOR, c.minor),
+        header_size: V3_HEADER_SIZE,
         flags: c.flags(),
-        depth: meta.depth,
-        value_bits: meta.bits.bits(),
-        reserved: 0,
-        center_x: meta.center.x,
-        center_y: meta.center.y,
-        center_z: meta.center.z,
-        scale: meta.scale,
+        meta: meta;
         upper_node_count: c.upper,
         brick_count: c.bricks,
         leaf_count: c.leaves,
@@ -869,7 +861,7 @@ fn header(meta: &OctreeMeta, c: &V3Counts, l: &V3Layout) -> V3Header {
         private_flags_size: l.private_flags.1,
         private_corners_offset: l.private_corners.0,
         private_corners_size: l.private_corners.1,
-    }
+    }}
 }
 
 /// A 3.0 file as its header declares it, for the compressed container, which stores each

@@ -545,18 +545,25 @@ header_values! {
     trailer_zero: u32,
 }}
 
-impl Header {
-    /// The header the writer puts in front of an octree with these counts: version 1.0 (1.1
-    /// with clip voxels), a [`HEADER_SIZE`]-byte header and the sections where [`Layout`] puts
-    /// them.
-    pub(crate) fn canonical(meta: &OctreeMeta, counts: Counts) -> Header {
-        let layout = Layout::new(HEADER_SIZE as u64, counts, meta.bits);
-        Header {
-            magic: MAGIC,
-            version_major: FORMAT_VERSION_MAJOR,
-            version_minor: minor_version(counts.clip > 0),
-            header_size: HEADER_SIZE as u32,
-            flags: counts.flags(),
+/// The values of a 1.x or 3.x header (`$header`: [`Header`] or [`V3Header`]) for an octree of
+/// `meta`: the preamble, grid and transform both start with (the [`MAGIC`], the version, the
+/// header's size, the flags, a zero reserved field, `meta`'s depth, value bits and
+/// transform), then the version's own fields as given.
+macro_rules! octree_header {
+    ($header:ident {
+        version: ($major:expr, $minor:expr),
+        header_size: $size:expr,
+        flags: $flags:expr,
+        meta: $meta:expr;
+        $($field:ident: $value:expr,)*
+    }) => {{
+        let meta: &$crate::OctreeMeta = $meta;
+        $header {
+            magic: $crate::header::MAGIC,
+            version_major: $major,
+            version_minor: $minor,
+            header_size: $size as u32,
+            flags: $flags,
             depth: meta.depth,
             value_bits: meta.bits.bits(),
             reserved: 0,
@@ -564,6 +571,23 @@ impl Header {
             center_y: meta.center.y,
             center_z: meta.center.z,
             scale: meta.scale,
+            $($field: $value,)*
+        }
+    }};
+}
+pub(crate) use octree_header;
+
+impl Header {
+    /// The header the writer puts in front of an octree with these counts: version 1.0 (1.1
+    /// with clip voxels), a [`HEADER_SIZE`]-byte header and the sections where [`Layout`] puts
+    /// them.
+    pub(crate) fn canonical(meta: &OctreeMeta, counts: Counts) -> Header {
+        let layout = Layout::new(HEADER_SIZE as u64, counts, meta.bits);
+        octree_header! { Header {
+            version: (FORMAT_VERSION_MAJOR, minor_version(counts.clip > 0)),
+            header_size: HEADER_SIZE,
+            flags: counts.flags(),
+            meta: meta;
             inner_node_count: counts.inner,
             leaf_count: counts.leaves,
             voxel_count: counts.voxels,
@@ -577,7 +601,7 @@ impl Header {
             surface_size: layout.surface.1,
             corners_offset: layout.corners.0,
             corners_size: layout.corners.1,
-        }
+        }}
     }
 
     /// The counts the header declares. The header has no clip count: `clip` is 1 when the
