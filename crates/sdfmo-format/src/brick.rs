@@ -31,11 +31,12 @@ use std::fmt;
 
 use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
+use crate::header::record::{FIRST_PRIVATE_LEAF, OCCUPANCY, PLANE, PRIVATE, RESIDUALS};
 use crate::header::{
-    align8, field_in, octree_header, plane_fraction_bits, private_group_leaves, private_group_size,
-    residual_widths, BrickRecord, Counts, V3Header, BRICK_LEVELS, BRICK_RECORD_FIELDS,
-    BRICK_RECORD_SIZE, CHECKSUM_SIZE, FLAG_CLIP_VOXELS, FLAG_MULTI_VOXEL, FLAG_SURFACE_VOXELS,
-    KNOWN_FLAGS, MAGIC, RESIDUAL_OFFSET_BITS, V31_MAX_LEAF_VOXELS, V3_HEADER_SIZE,
+    align8, octree_header, plane_fraction_bits, private_group_leaves, private_group_size,
+    residual_widths, BrickRecord, Counts, V3Header, BRICK_LEVELS, BRICK_RECORD_SIZE, CHECKSUM_SIZE,
+    FLAG_CLIP_VOXELS, FLAG_MULTI_VOXEL, FLAG_SURFACE_VOXELS, KNOWN_FLAGS, MAGIC,
+    RESIDUAL_OFFSET_BITS, RESIDUAL_OFFSET_MASK, V31_MAX_LEAF_VOXELS, V3_HEADER_SIZE,
     V3_VERSION_MAJOR, V3_VERSION_MINOR,
 };
 use crate::narrow::{
@@ -57,13 +58,6 @@ use crate::{
 /// Grid-index offsets of a cell's eight corners (`4x + 2y + z`) in a brick's 5³ point grid
 /// (point `(x, y, z)` has index `25x + 5y + z`).
 pub const CORNER_POINT_OFFSETS: [u32; 8] = [0, 1, 5, 6, 25, 26, 30, 31];
-
-const OCCUPANCY: usize = field_in(&BRICK_RECORD_FIELDS, "occupancy").offset;
-const PRIVATE: usize = field_in(&BRICK_RECORD_FIELDS, "private").offset;
-const PLANE: usize = field_in(&BRICK_RECORD_FIELDS, "plane_a").offset;
-const RESIDUALS: usize = field_in(&BRICK_RECORD_FIELDS, "residuals").offset;
-const FIRST_PRIVATE_LEAF: usize = field_in(&BRICK_RECORD_FIELDS, "first_private_leaf").offset;
-const OFFSET_MASK: u32 = (1 << RESIDUAL_OFFSET_BITS) - 1;
 
 /// The grid index (`25x + 5y + z`) of the lowest corner of the brick cell with Morton index
 /// `cell` (0..64: octant of the half-brick in bits 3–5, octant in it in bits 0–2).
@@ -199,7 +193,7 @@ impl Brick {
 
     #[inline]
     fn residual_offset(&self) -> usize {
-        (self.residuals & OFFSET_MASK) as usize
+        (self.residuals & RESIDUAL_OFFSET_MASK) as usize
     }
 
     #[inline]
@@ -717,10 +711,10 @@ impl BrickOctree<Vec<u8>> {
             );
             let (plane, width_code, residuals) = encode_points(&samples, bits);
             let offset = residual_bytes.len();
-            if offset > OFFSET_MASK as usize {
+            if offset > RESIDUAL_OFFSET_MASK as usize {
                 return Err(FormatError::Unrepresentable {
                     major: V3_VERSION_MAJOR,
-                    reason: format!("more than {OFFSET_MASK} bytes of residuals"),
+                    reason: format!("more than {RESIDUAL_OFFSET_MASK} bytes of residuals"),
                 });
             }
             put_residuals(

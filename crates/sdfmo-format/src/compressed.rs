@@ -22,10 +22,11 @@
 use crate::brick::{is_v3, v3_sections};
 use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
-use crate::header::{field_in, lod_header_size};
+use crate::header::lod_header_size;
+use crate::header::record::{FIRST_PRIVATE_LEAF, RESIDUALS};
 use crate::header::{
-    Header, Layout, BRICK_RECORD_FIELDS, BRICK_RECORD_SIZE, CHECKSUM_SIZE, FORMAT_VERSION_MAJOR,
-    HEADER_SIZE, MAGIC, RESIDUAL_OFFSET_BITS, V3_HEADER_SIZE,
+    Header, Layout, BRICK_RECORD_SIZE, CHECKSUM_SIZE, FORMAT_VERSION_MAJOR, HEADER_SIZE, MAGIC,
+    RESIDUAL_OFFSET_MASK, V3_HEADER_SIZE,
 };
 use crate::lod::{LodOctree, SmoFile};
 use crate::narrow::{slots, WIDE_BIT};
@@ -67,11 +68,6 @@ const MAX_STREAMS: usize = 1 + STREAMS_PER_LEVEL * (MAX_DEPTH as usize + 1);
 const LEVEL_HEADER_STREAM: usize = HEADER_SIZE + CHECKSUM_SIZE;
 /// The decoded prelude of a 3.0 file: its header and its trailing CRC-32.
 const BRICK_HEADER_STREAM: usize = V3_HEADER_SIZE + CHECKSUM_SIZE;
-/// Where a brick record's residual word and first private leaf sit.
-const RECORD_RESIDUALS: usize = field_in(&BRICK_RECORD_FIELDS, "residuals").offset;
-const RECORD_FIRST: usize = field_in(&BRICK_RECORD_FIELDS, "first_private_leaf").offset;
-/// The residual word's offset bits (the rest is the width code).
-const RESIDUAL_OFFSET: u32 = (1 << RESIDUAL_OFFSET_BITS) - 1;
 /// No neighbour leaf along an axis.
 const NONE: u32 = u32::MAX;
 
@@ -732,15 +728,15 @@ fn stream_to_records(stream: &[u8], records: &mut [u8]) {
 fn delta_step(records: &mut [u8], i: usize, op: fn(u32, u32) -> u32) {
     let (before, here) = records.split_at_mut(i * BRICK_RECORD_SIZE);
     let prev = &before[(i - 1) * BRICK_RECORD_SIZE..];
-    let (p_res, p_first) = (u32_at(prev, RECORD_RESIDUALS), u32_at(prev, RECORD_FIRST));
-    let (res, first) = (u32_at(here, RECORD_RESIDUALS), u32_at(here, RECORD_FIRST));
-    let offset = op(res & RESIDUAL_OFFSET, p_res & RESIDUAL_OFFSET);
+    let (p_res, p_first) = (u32_at(prev, RESIDUALS), u32_at(prev, FIRST_PRIVATE_LEAF));
+    let (res, first) = (u32_at(here, RESIDUALS), u32_at(here, FIRST_PRIVATE_LEAF));
+    let offset = op(res & RESIDUAL_OFFSET_MASK, p_res & RESIDUAL_OFFSET_MASK);
     put_u32(
         here,
-        RECORD_RESIDUALS,
-        res & !RESIDUAL_OFFSET | offset & RESIDUAL_OFFSET,
+        RESIDUALS,
+        res & !RESIDUAL_OFFSET_MASK | offset & RESIDUAL_OFFSET_MASK,
     );
-    put_u32(here, RECORD_FIRST, op(first, p_first));
+    put_u32(here, FIRST_PRIVATE_LEAF, op(first, p_first));
 }
 
 /// Private voxels' codes (eight per voxel) to residuals, in place: corner `o > 0` minus corner

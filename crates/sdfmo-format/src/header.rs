@@ -243,6 +243,24 @@ pub const BRICK_RECORD_FIELDS: [HeaderField; 8] = [
     field("first_private_leaf", 28, 4),
 ];
 
+/// Byte offsets in a brick record of the fields its readers load in place (the 3.0 reader,
+/// the tracer's queries, the compressed container), from [`BRICK_RECORD_FIELDS`].
+pub(crate) mod record {
+    use super::{field_in, BRICK_RECORD_FIELDS};
+
+    /// The occupancy mask (`u64`).
+    pub(crate) const OCCUPANCY: usize = field_in(&BRICK_RECORD_FIELDS, "occupancy").offset;
+    /// The private mask (`u64`).
+    pub(crate) const PRIVATE: usize = field_in(&BRICK_RECORD_FIELDS, "private").offset;
+    /// The plane's four `i16` terms, `a` first.
+    pub(crate) const PLANE: usize = field_in(&BRICK_RECORD_FIELDS, "plane_a").offset;
+    /// The residual word (`u32`).
+    pub(crate) const RESIDUALS: usize = field_in(&BRICK_RECORD_FIELDS, "residuals").offset;
+    /// The first private leaf (`u32`).
+    pub(crate) const FIRST_PRIVATE_LEAF: usize =
+        field_in(&BRICK_RECORD_FIELDS, "first_private_leaf").offset;
+}
+
 /// Leaf cells per brick edge: a brick is the node at `depth − 2`, 4 × 4 × 4 leaf cells.
 pub const BRICK_EDGE: u32 = 4;
 /// Octree levels a brick spans (`BRICK_EDGE = 2^BRICK_LEVELS`): the shallowest 3.0 depth.
@@ -252,6 +270,8 @@ pub const BRICK_LEVELS: u8 = 2;
 pub const BRICK_POINT_EDGE: u32 = BRICK_EDGE + 1;
 /// Bits of the residual word that hold the byte offset (the rest is the width code).
 pub const RESIDUAL_OFFSET_BITS: u32 = 30;
+/// The residual word's offset bits, as a mask.
+pub(crate) const RESIDUAL_OFFSET_MASK: u32 = (1 << RESIDUAL_OFFSET_BITS) - 1;
 
 /// The residual widths in bits a brick may use, indexed by its 2-bit width code: 0, 2, 4, 8
 /// for 8-bit codes; 0, 4, 8, 16 for 16-bit ones. The widest is the code width: with it any

@@ -11,9 +11,10 @@
 use core::fmt::Debug;
 use core::ops::Range;
 
+use crate::header::record::{FIRST_PRIVATE_LEAF, OCCUPANCY, PLANE, PRIVATE, RESIDUALS};
 use crate::header::{
-    field_in, plane_fraction_bits, residual_widths, BRICK_RECORD_FIELDS, BRICK_RECORD_SIZE,
-    RESIDUAL_OFFSET_BITS,
+    plane_fraction_bits, residual_widths, BRICK_RECORD_SIZE, RESIDUAL_OFFSET_BITS,
+    RESIDUAL_OFFSET_MASK,
 };
 use crate::narrow::{corner_offset, private_codes, private_leaf_at};
 use crate::octree::{bytes_at, low_bits};
@@ -133,12 +134,6 @@ impl<B: AsRef<[u8]>> TracedOctree for Octree<B> {
         (voxel as usize) < self.voxel_count()
     }
 }
-
-const OCCUPANCY: usize = field_in(&BRICK_RECORD_FIELDS, "occupancy").offset;
-const PRIVATE: usize = field_in(&BRICK_RECORD_FIELDS, "private").offset;
-const PLANE: usize = field_in(&BRICK_RECORD_FIELDS, "plane_a").offset;
-const RESIDUALS: usize = field_in(&BRICK_RECORD_FIELDS, "residuals").offset;
-const FIRST_PRIVATE_LEAF: usize = field_in(&BRICK_RECORD_FIELDS, "first_private_leaf").offset;
 
 /// A voxel of a [`BrickOctree`], as a hit names it: the one voxel of a shared leaf (its corners
 /// are points of the brick), or a private voxel by its index in the private sections.
@@ -502,8 +497,7 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
             plane: core::array::from_fn(|i| {
                 i32::from(i16::from_le_bytes(bytes_at::<2>(&r, PLANE + 2 * i)))
             }),
-            base: self.layout.residuals.0 as usize
-                + (word & ((1 << RESIDUAL_OFFSET_BITS) - 1)) as usize,
+            base: self.layout.residuals.0 as usize + (word & RESIDUAL_OFFSET_MASK) as usize,
             width: residual_widths(self.meta().bits)[(word >> RESIDUAL_OFFSET_BITS) as usize],
         }
     }
