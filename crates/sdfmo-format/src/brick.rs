@@ -349,6 +349,32 @@ impl V3Layout {
     }
 }
 
+/// The header fields of the sections' offsets, in file order (as [`V3Layout::sections`]): what
+/// a reader names when a section is not where the counts place it.
+const SECTION_OFFSET_FIELDS: [&str; 6] = [
+    "nodes_offset",
+    "bricks_offset",
+    "residuals_offset",
+    "private_leaves_offset",
+    "private_flags_offset",
+    "private_corners_offset",
+];
+
+impl V3Header {
+    /// `(offset, size)` of every section as the header declares them, in file order (as
+    /// [`V3Layout::sections`]).
+    fn sections(&self) -> [(u64, u64); 6] {
+        [
+            (self.nodes_offset, self.nodes_size),
+            (self.bricks_offset, self.bricks_size),
+            (self.residuals_offset, self.residuals_size),
+            (self.private_leaves_offset, self.private_leaves_size),
+            (self.private_flags_offset, self.private_flags_size),
+            (self.private_corners_offset, self.private_corners_size),
+        ]
+    }
+}
+
 /// A validated 3.0 brick file in a buffer `B`, read in place (see the module docs).
 ///
 /// Made only by [`BrickOctree::encode`] or [`BrickOctree::new`], so every index a traversal
@@ -891,15 +917,7 @@ pub(crate) fn v3_sections(header: &[u8], max_file: u64) -> Result<V3Sections> {
     }
     let c = V3Counts::declared_by(&h, bits)?;
     let layout = V3Layout::new(V3_HEADER_SIZE as u64, &c, h.residuals_size, bits);
-    let declared = [
-        (h.nodes_offset, h.nodes_size),
-        (h.bricks_offset, h.bricks_size),
-        (h.residuals_offset, h.residuals_size),
-        (h.private_leaves_offset, h.private_leaves_size),
-        (h.private_flags_offset, h.private_flags_size),
-        (h.private_corners_offset, h.private_corners_size),
-    ];
-    if declared != layout.sections()
+    if h.sections() != layout.sections()
         || h.file_size != layout.file_size
         || layout.file_size > max_file
     {
@@ -1521,28 +1539,9 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, V3Counts, V3Layout)> {
             format!("{}, but the counts imply {}", h.file_size, layout.file_size),
         );
     }
-    let stored = [
-        ("nodes_offset", h.nodes_offset, h.nodes_size),
-        ("bricks_offset", h.bricks_offset, h.bricks_size),
-        ("residuals_offset", h.residuals_offset, h.residuals_size),
-        (
-            "private_leaves_offset",
-            h.private_leaves_offset,
-            h.private_leaves_size,
-        ),
-        (
-            "private_flags_offset",
-            h.private_flags_offset,
-            h.private_flags_size,
-        ),
-        (
-            "private_corners_offset",
-            h.private_corners_offset,
-            h.private_corners_size,
-        ),
-    ];
+    let stored = SECTION_OFFSET_FIELDS.into_iter().zip(h.sections());
     let mut end = header_size;
-    for ((name, off, size), (want_off, want_size)) in stored.into_iter().zip(layout.sections()) {
+    for ((name, (off, size)), (want_off, want_size)) in stored.zip(layout.sections()) {
         if (off, size) != (want_off, want_size) {
             return corrupt(
                 name,
