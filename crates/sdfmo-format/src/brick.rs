@@ -29,15 +29,14 @@
 
 use std::fmt;
 
-use glam::Vec3;
-
 use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
+use crate::header::record::{FIRST_PRIVATE_LEAF, OCCUPANCY, PLANE, PRIVATE, RESIDUALS};
 use crate::header::{
-    align8, field_in, plane_fraction_bits, private_group_leaves, private_group_size,
-    residual_widths, BrickRecord, Counts, V3Header, BRICK_LEVELS, BRICK_RECORD_FIELDS,
-    BRICK_RECORD_SIZE, CHECKSUM_SIZE, FLAG_CLIP_VOXELS, FLAG_MULTI_VOXEL, FLAG_SURFACE_VOXELS,
-    KNOWN_FLAGS, MAGIC, RESIDUAL_OFFSET_BITS, V31_MAX_LEAF_VOXELS, V3_HEADER_SIZE,
+    align8, octree_header, plane_fraction_bits, private_group_leaves, private_group_size,
+    residual_widths, BrickRecord, Counts, V3Header, BRICK_LEVELS, BRICK_RECORD_SIZE, CHECKSUM_SIZE,
+    FLAG_CLIP_VOXELS, FLAG_MULTI_VOXEL, FLAG_SURFACE_VOXELS, KNOWN_FLAGS, MAGIC,
+    RESIDUAL_OFFSET_BITS, RESIDUAL_OFFSET_MASK, V31_MAX_LEAF_VOXELS, V3_HEADER_SIZE,
     V3_VERSION_MAJOR, V3_VERSION_MINOR,
 };
 use crate::narrow::{
@@ -48,7 +47,8 @@ use crate::octree::{
 };
 use crate::quant::{dequant_scale, max_code};
 use crate::validate::{
-    check_codes, check_magic, check_major, check_sizes, validate_node_groups, walk_groups,
+    check_codes, check_grid, check_magic, check_major, check_sizes, validate_node_groups,
+    walk_groups,
 };
 use crate::{
     morton, LeafInput, NodeRef, Octree, OctreeMeta, PackedOctree, ValueBits, Voxel,
@@ -58,13 +58,6 @@ use crate::{
 /// Grid-index offsets of a cell's eight corners (`4x + 2y + z`) in a brick's 5³ point grid
 /// (point `(x, y, z)` has index `25x + 5y + z`).
 pub const CORNER_POINT_OFFSETS: [u32; 8] = [0, 1, 5, 6, 25, 26, 30, 31];
-
-const OCCUPANCY: usize = field_in(&BRICK_RECORD_FIELDS, "occupancy").offset;
-const PRIVATE: usize = field_in(&BRICK_RECORD_FIELDS, "private").offset;
-const PLANE: usize = field_in(&BRICK_RECORD_FIELDS, "plane_a").offset;
-const RESIDUALS: usize = field_in(&BRICK_RECORD_FIELDS, "residuals").offset;
-const FIRST_PRIVATE_LEAF: usize = field_in(&BRICK_RECORD_FIELDS, "first_private_leaf").offset;
-const OFFSET_MASK: u32 = (1 << RESIDUAL_OFFSET_BITS) - 1;
 
 /// The grid index (`25x + 5y + z`) of the lowest corner of the brick cell with Morton index
 /// `cell` (0..64: octant of the half-brick in bits 3–5, octant in it in bits 0–2).
@@ -200,7 +193,7 @@ impl Brick {
 
     #[inline]
     fn residual_offset(&self) -> usize {
-        (self.residuals & OFFSET_MASK) as usize
+        (self.residuals & RESIDUAL_OFFSET_MASK) as usize
     }
 
     #[inline]
@@ -223,19 +216,19 @@ impl From<BrickRecord> for Brick {
 
 /// The counts a 3.0 header declares.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-struct V3Counts {
-    upper: u32,
-    bricks: u32,
-    leaves: u32,
-    voxels: u32,
-    surface: u32,
-    clip: u32,
-    private_leaves: u32,
-    private_voxels: u32,
+pub(crate) struct V3Counts {
+    pub(crate) upper: u32,
+    pub(crate) bricks: u32,
+    pub(crate) leaves: u32,
+    pub(crate) voxels: u32,
+    pub(crate) surface: u32,
+    pub(crate) clip: u32,
+    pub(crate) private_leaves: u32,
+    pub(crate) private_voxels: u32,
     /// Minor version: 0 (every private voxel wide, groups of 8) or 1 (groups of 16).
-    minor: u16,
+    pub(crate) minor: u16,
     /// Wide private voxels (all of them in 3.0); in 3.1 implied by the private corners' size.
-    wide_voxels: u32,
+    pub(crate) wide_voxels: u32,
 }
 
 impl V3Counts {
@@ -298,15 +291,15 @@ impl V3Counts {
 
 /// Where every section of a 3.0 file sits: `(offset, size)`, each at a multiple of 8.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct V3Layout {
+pub(crate) struct V3Layout {
     nodes: (u64, u64),
-    bricks: (u64, u64),
-    residuals: (u64, u64),
-    private_leaves: (u64, u64),
-    private_flags: (u64, u64),
-    private_corners: (u64, u64),
+    pub(crate) bricks: (u64, u64),
+    pub(crate) residuals: (u64, u64),
+    pub(crate) private_leaves: (u64, u64),
+    pub(crate) private_flags: (u64, u64),
+    pub(crate) private_corners: (u64, u64),
     checksum_offset: u64,
-    file_size: u64,
+    pub(crate) file_size: u64,
 }
 
 impl V3Layout {
@@ -342,7 +335,9 @@ impl V3Layout {
         }
     }
 
-    fn sections(&self) -> [(u64, u64); 6] {
+    /// `(offset, size)` of nodes, bricks, residuals, private leaves, private flags and private
+    /// corners, in file order.
+    pub(crate) fn sections(&self) -> [(u64, u64); 6] {
         [
             self.nodes,
             self.bricks,
@@ -350,6 +345,32 @@ impl V3Layout {
             self.private_leaves,
             self.private_flags,
             self.private_corners,
+        ]
+    }
+}
+
+/// The header fields of the sections' offsets, in file order (as [`V3Layout::sections`]): what
+/// a reader names when a section is not where the counts place it.
+const SECTION_OFFSET_FIELDS: [&str; 6] = [
+    "nodes_offset",
+    "bricks_offset",
+    "residuals_offset",
+    "private_leaves_offset",
+    "private_flags_offset",
+    "private_corners_offset",
+];
+
+impl V3Header {
+    /// `(offset, size)` of every section as the header declares them, in file order (as
+    /// [`V3Layout::sections`]).
+    fn sections(&self) -> [(u64, u64); 6] {
+        [
+            (self.nodes_offset, self.nodes_size),
+            (self.bricks_offset, self.bricks_size),
+            (self.residuals_offset, self.residuals_size),
+            (self.private_leaves_offset, self.private_leaves_size),
+            (self.private_flags_offset, self.private_flags_size),
+            (self.private_corners_offset, self.private_corners_size),
         ]
     }
 }
@@ -363,8 +384,10 @@ impl V3Layout {
 pub struct BrickOctree<B = Vec<u8>> {
     bytes: B,
     meta: OctreeMeta,
-    counts: V3Counts,
-    layout: V3Layout,
+    /// The validated header's counts (the tracer's queries bound their indices by them).
+    pub(crate) counts: V3Counts,
+    /// Where the sections are (the tracer's queries read them in place).
+    pub(crate) layout: V3Layout,
     dequant: f32,
 }
 
@@ -714,10 +737,10 @@ impl BrickOctree<Vec<u8>> {
             );
             let (plane, width_code, residuals) = encode_points(&samples, bits);
             let offset = residual_bytes.len();
-            if offset > OFFSET_MASK as usize {
+            if offset > RESIDUAL_OFFSET_MASK as usize {
                 return Err(FormatError::Unrepresentable {
                     major: V3_VERSION_MAJOR,
-                    reason: format!("more than {OFFSET_MASK} bytes of residuals"),
+                    reason: format!("more than {RESIDUAL_OFFSET_MASK} bytes of residuals"),
                 });
             }
             put_residuals(
@@ -832,19 +855,11 @@ impl BrickOctree<Vec<u8>> {
 
 /// The header the writer puts in front of a 3.x file.
 fn header(meta: &OctreeMeta, c: &V3Counts, l: &V3Layout) -> V3Header {
-    V3Header {
-        magic: MAGIC,
-        version_major: V3_VERSION_MAJOR,
-        version_minor: c.minor,
-        header_size: V3_HEADER_SIZE as u32,
+    octree_header! { V3Header {
+        version: (V3_VERSION_MAJOR, c.minor),
+        header_size: V3_HEADER_SIZE,
         flags: c.flags(),
-        depth: meta.depth,
-        value_bits: meta.bits.bits(),
-        reserved: 0,
-        center_x: meta.center.x,
-        center_y: meta.center.y,
-        center_z: meta.center.z,
-        scale: meta.scale,
+        meta: meta;
         upper_node_count: c.upper,
         brick_count: c.bricks,
         leaf_count: c.leaves,
@@ -866,29 +881,18 @@ fn header(meta: &OctreeMeta, c: &V3Counts, l: &V3Layout) -> V3Header {
         private_flags_size: l.private_flags.1,
         private_corners_offset: l.private_corners.0,
         private_corners_size: l.private_corners.1,
-    }
+    }}
 }
 
-/// The sections of a 3.0 file as a header declares them, for the compressed container, which
-/// stores each section as its own stream and puts it back at its offset.
+/// A 3.0 file as its header declares it, for the compressed container, which stores each
+/// section as its own stream and puts it back at its offset.
 pub(crate) struct V3Sections {
     /// Code width.
     pub(crate) bits: ValueBits,
-    /// Minor version (0 or 1): the private leaf groups' and corners' layout.
-    pub(crate) minor: u16,
-    /// Node groups above the bricks: how many nodes.
-    pub(crate) upper: u32,
-    /// Private leaves: how many.
-    pub(crate) private_leaves: u32,
-    /// Private voxels: how many.
-    pub(crate) private_voxels: u32,
-    /// Wide private voxels (3.0: all).
-    pub(crate) wide_voxels: u32,
-    /// `(offset, size)` of nodes, bricks, residuals, private leaves, private flags and private
-    /// corners, in file order.
-    pub(crate) sections: [(u64, u64); 6],
-    /// The whole file.
-    pub(crate) file_size: u64,
+    /// The declared counts (and minor version).
+    pub(crate) counts: V3Counts,
+    /// Where the sections sit ([`V3Layout::sections`] in file order) and the file's size.
+    pub(crate) layout: V3Layout,
 }
 
 /// Reads the sections of a 3.0 header (`header` holds at least [`V3_HEADER_SIZE`] bytes) and
@@ -913,15 +917,7 @@ pub(crate) fn v3_sections(header: &[u8], max_file: u64) -> Result<V3Sections> {
     }
     let c = V3Counts::declared_by(&h, bits)?;
     let layout = V3Layout::new(V3_HEADER_SIZE as u64, &c, h.residuals_size, bits);
-    let declared = [
-        (h.nodes_offset, h.nodes_size),
-        (h.bricks_offset, h.bricks_size),
-        (h.residuals_offset, h.residuals_size),
-        (h.private_leaves_offset, h.private_leaves_size),
-        (h.private_flags_offset, h.private_flags_size),
-        (h.private_corners_offset, h.private_corners_size),
-    ];
-    if declared != layout.sections()
+    if h.sections() != layout.sections()
         || h.file_size != layout.file_size
         || layout.file_size > max_file
     {
@@ -935,13 +931,8 @@ pub(crate) fn v3_sections(header: &[u8], max_file: u64) -> Result<V3Sections> {
     }
     Ok(V3Sections {
         bits,
-        minor: c.minor,
-        upper: c.upper,
-        private_leaves: c.private_leaves,
-        private_voxels: c.private_voxels,
-        wide_voxels: c.wide_voxels,
-        sections: layout.sections(),
-        file_size: layout.file_size,
+        counts: c,
+        layout,
     })
 }
 
@@ -974,12 +965,6 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
         })
     }
 
-    /// The whole file, header to checksum.
-    #[inline]
-    pub fn as_bytes(&self) -> &[u8] {
-        self.bytes.as_ref()
-    }
-
     /// The buffer back.
     pub fn into_bytes(self) -> B {
         self.bytes
@@ -996,17 +981,7 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
         }
     }
 
-    /// Depth, quantisation and normalisation transform.
-    #[inline]
-    pub fn meta(&self) -> &OctreeMeta {
-        &self.meta
-    }
-
-    /// Leaves sit at this level (≥ 2).
-    #[inline]
-    pub fn depth(&self) -> u8 {
-        self.meta.depth
-    }
+    buffer_accessors!();
 
     count_getters! {
         /// Nodes above the bricks (levels `0 … depth − 3`).
@@ -1025,12 +1000,6 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
         private_leaf_count => private_leaves,
         /// Voxels of the private leaves.
         private_voxel_count => private_voxels,
-    }
-
-    /// `dmax / Q`: multiply a code by this to get a distance in normalised units.
-    #[inline]
-    pub fn dequant_scale(&self) -> f32 {
-        self.dequant
     }
 
     // ---- Traversal access ---------------------------------------------------------------
@@ -1120,24 +1089,6 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
         let at = self.layout.nodes.0 as usize + (k as usize >> 3) * 12;
         let (first_child, masks) = group_at(self.as_bytes(), at);
         first_child + low_bits(masks, (k & 7) * 8).count_ones()
-    }
-
-    /// Where the sections a tracer reads start, and the counts that bound them
-    /// ([`crate::trace`]).
-    #[inline(always)]
-    pub(crate) fn traced_sections(&self) -> crate::trace::BrickSections {
-        crate::trace::BrickSections {
-            bricks: self.layout.bricks.0 as usize,
-            residuals: self.layout.residuals.0 as usize,
-            private_leaves: self.layout.private_leaves.0 as usize,
-            private_flags: self.layout.private_flags.0 as usize,
-            private_corners: self.layout.private_corners.0 as usize,
-            minor: self.counts.minor,
-            brick_count: self.counts.bricks,
-            private_voxels: self.counts.private_voxels,
-            wide_voxels: self.counts.wide_voxels,
-            clip: self.counts.clip,
-        }
     }
 
     /// The child mask of upper node `k` (`k` < the upper node count, else a panic).
@@ -1521,25 +1472,8 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, V3Counts, V3Layout)> {
             format!("{depth} (must be {BRICK_LEVELS}..={MAX_DEPTH})"),
         );
     }
-    let Some(bits) = ValueBits::from_bits(h.value_bits) else {
-        return corrupt("value_bits", format!("{} (must be 8 or 16)", h.value_bits));
-    };
-    if h.reserved != 0 {
-        return corrupt("reserved", format!("{:#x} (must be 0)", h.reserved));
-    }
-    let center = Vec3::new(h.center_x, h.center_y, h.center_z);
-    if !center.is_finite() {
-        return corrupt("center", format!("{center:?} is not finite"));
-    }
-    if !h.scale.is_finite() || h.scale <= 0.0 {
-        return corrupt("scale", format!("{} (must be finite and > 0)", h.scale));
-    }
-    let meta = OctreeMeta {
-        depth,
-        bits,
-        center,
-        scale: h.scale,
-    };
+    let meta = check_grid(bytes)?;
+    let bits = meta.bits;
     let c = V3Counts::declared_by(&h, bits)?;
     let (upper, bricks, leaves) = (u64::from(c.upper), u64::from(c.bricks), u64::from(c.leaves));
     let (pl, pv) = (u64::from(c.private_leaves), u64::from(c.private_voxels));
@@ -1605,28 +1539,9 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, V3Counts, V3Layout)> {
             format!("{}, but the counts imply {}", h.file_size, layout.file_size),
         );
     }
-    let stored = [
-        ("nodes_offset", h.nodes_offset, h.nodes_size),
-        ("bricks_offset", h.bricks_offset, h.bricks_size),
-        ("residuals_offset", h.residuals_offset, h.residuals_size),
-        (
-            "private_leaves_offset",
-            h.private_leaves_offset,
-            h.private_leaves_size,
-        ),
-        (
-            "private_flags_offset",
-            h.private_flags_offset,
-            h.private_flags_size,
-        ),
-        (
-            "private_corners_offset",
-            h.private_corners_offset,
-            h.private_corners_size,
-        ),
-    ];
+    let stored = SECTION_OFFSET_FIELDS.into_iter().zip(h.sections());
     let mut end = header_size;
-    for ((name, off, size), (want_off, want_size)) in stored.into_iter().zip(layout.sections()) {
+    for ((name, (off, size)), (want_off, want_size)) in stored.zip(layout.sections()) {
         if (off, size) != (want_off, want_size) {
             return corrupt(
                 name,

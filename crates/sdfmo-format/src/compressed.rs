@@ -22,10 +22,11 @@
 use crate::brick::{is_v3, v3_sections};
 use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
-use crate::header::{field_in, lod_header_size};
+use crate::header::lod_header_size;
+use crate::header::record::{FIRST_PRIVATE_LEAF, RESIDUALS};
 use crate::header::{
-    Header, Layout, BRICK_RECORD_FIELDS, BRICK_RECORD_SIZE, CHECKSUM_SIZE, FORMAT_VERSION_MAJOR,
-    HEADER_SIZE, MAGIC, RESIDUAL_OFFSET_BITS, V3_HEADER_SIZE,
+    Header, Layout, BRICK_RECORD_SIZE, CHECKSUM_SIZE, FORMAT_VERSION_MAJOR, HEADER_SIZE, MAGIC,
+    RESIDUAL_OFFSET_MASK, V3_HEADER_SIZE,
 };
 use crate::lod::{LodOctree, SmoFile};
 use crate::narrow::{slots, WIDE_BIT};
@@ -67,11 +68,6 @@ const MAX_STREAMS: usize = 1 + STREAMS_PER_LEVEL * (MAX_DEPTH as usize + 1);
 const LEVEL_HEADER_STREAM: usize = HEADER_SIZE + CHECKSUM_SIZE;
 /// The decoded prelude of a 3.0 file: its header and its trailing CRC-32.
 const BRICK_HEADER_STREAM: usize = V3_HEADER_SIZE + CHECKSUM_SIZE;
-/// Where a brick record's residual word and first private leaf sit.
-const RECORD_RESIDUALS: usize = field_in(&BRICK_RECORD_FIELDS, "residuals").offset;
-const RECORD_FIRST: usize = field_in(&BRICK_RECORD_FIELDS, "first_private_leaf").offset;
-/// The residual word's offset bits (the rest is the width code).
-const RESIDUAL_OFFSET: u32 = (1 << RESIDUAL_OFFSET_BITS) - 1;
 /// No neighbour leaf along an axis.
 const NONE: u32 = u32::MAX;
 
@@ -490,16 +486,17 @@ fn decode_level(streams: &[(&[u8], usize)], out: &mut [u8], start: usize) -> Res
 /// private leaves' counts, the private flags and the private corners ([`predict_voxels`]).
 fn encode_bricks(file: &[u8], raw: &mut Vec<Vec<u8>>) -> Result<()> {
     let v3 = v3_sections(file, file.len() as u64)?;
-    let [nodes, bricks, residuals, leaves, flags, corners] = v3.sections;
+    let c = &v3.counts;
+    let [nodes, bricks, residuals, leaves, flags, corners] = v3.layout.sections();
     let mut head = file[..V3_HEADER_SIZE].to_vec();
     head.extend_from_slice(&file[file.len() - CHECKSUM_SIZE..]);
     let mut codes = section(file, corners).to_vec();
-    let counts: Vec<u8> = slots(section(file, leaves), v3.minor)
-        .take(v3.private_leaves as usize)
-        .map(|(n, wide)| n as u8 | if wide && v3.minor > 0 { WIDE_BIT } else { 0 })
+    let counts: Vec<u8> = slots(section(file, leaves), c.minor)
+        .take(c.private_leaves as usize)
+        .map(|(n, wide)| n as u8 | if wide && c.minor > 0 { WIDE_BIT } else { 0 })
         .collect();
     match v3.bits {
-        _ if v3.minor > 0 => predict_corners31(&counts, &mut codes, &v3, false)?,
+        _ if c.minor > 0 => predict_corners31(&counts, &mut codes, &v3, false)?,
         ValueBits::Eight => predict_voxels(&mut codes),
         ValueBits::Sixteen => {
             let mut values = words(&codes);
@@ -509,7 +506,7 @@ fn encode_bricks(file: &[u8], raw: &mut Vec<Vec<u8>>) -> Result<()> {
     }
     raw.extend([
         head,
-        group_bytes(section(file, nodes), v3.upper),
+        group_bytes(section(file, nodes), c.upper),
         records_to_stream(section(file, bricks)),
         section(file, residuals).to_vec(),
         counts,
@@ -528,12 +525,13 @@ fn decode_bricks(streams: &[(&[u8], usize)], out: &mut [u8]) -> Result<usize> {
     let crc: [u8; CHECKSUM_SIZE] = bytes_at(out, V3_HEADER_SIZE);
     // The header's section sizes are checked against its counts; every stream against them.
     let v3 = v3_sections(&out[..V3_HEADER_SIZE], out.len() as u64)?;
-    if v3.file_size != out.len() as u64 {
+    let c = &v3.counts;
+    if v3.layout.file_size != out.len() as u64 {
         return Err(FormatError::corrupt(
             "compressed header stream",
             format!(
                 "a 3.0 file of {} bytes, the container declares {}",
-                v3.file_size,
+                v3.layout.file_size,
                 out.len()
             ),
         ));
@@ -542,12 +540,12 @@ fn decode_bricks(streams: &[(&[u8], usize)], out: &mut [u8]) -> Result<usize> {
     out[V3_HEADER_SIZE..BRICK_HEADER_STREAM].fill(0);
     let size = out.len();
     out[size - CHECKSUM_SIZE..].copy_from_slice(&crc);
-    let [nodes, bricks, residuals, leaves, flags, corners] = v3.sections;
+    let [nodes, bricks, residuals, leaves, flags, corners] = v3.layout.sections();
     let expect = [
-        (nodes_s.1, v3.upper as usize, "masks"),
+        (nodes_s.1, c.upper as usize, "masks"),
         (bricks_s.1, bricks.1 as usize, "bricks"),
         (residuals_s.1, residuals.1 as usize, "residuals"),
-        (leaves_s.1, v3.private_leaves as usize, "private leaves"),
+        (leaves_s.1, c.private_leaves as usize, "private leaves"),
         (flags_s.1, flags.1 as usize, "private flags"),
         (corners_s.1, corners.1 as usize, "private corners"),
     ];
@@ -577,7 +575,7 @@ fn decode_bricks(streams: &[(&[u8], usize)], out: &mut [u8]) -> Result<usize> {
     )?;
     let mut counts = vec![0u8; leaves_s.1];
     unpack(leaves_s.0, &mut counts, "compressed private leaves stream")?;
-    if v3.minor == 0 {
+    if c.minor == 0 {
         write_groups(section_mut(out, leaves), &counts, u64::from, 0)?;
     } else {
         write_groups31(section_mut(out, leaves), &counts, &v3)?;
@@ -590,7 +588,7 @@ fn decode_bricks(streams: &[(&[u8], usize)], out: &mut [u8]) -> Result<usize> {
     let codes = section_mut(out, corners);
     unpack(corners_s.0, codes, "compressed private corners stream")?;
     match v3.bits {
-        _ if v3.minor > 0 => predict_corners31(&counts, codes, &v3, true)?,
+        _ if c.minor > 0 => predict_corners31(&counts, codes, &v3, true)?,
         ValueBits::Eight => unpredict_voxels(codes),
         ValueBits::Sixteen => {
             let mut values = words(codes);
@@ -618,12 +616,12 @@ fn predict_corners31(
         .filter(|&&c| c & WIDE_BIT != 0)
         .map(|&c| u64::from(c & !WIDE_BIT))
         .sum();
-    if total != u64::from(v3.private_voxels) || wide != u64::from(v3.wide_voxels) {
+    if total != u64::from(v3.counts.private_voxels) || wide != u64::from(v3.counts.wide_voxels) {
         return Err(FormatError::corrupt(
             "compressed private leaves stream",
             format!(
                 "{total} voxels, {wide} wide; the header implies {} and {}",
-                v3.private_voxels, v3.wide_voxels
+                v3.counts.private_voxels, v3.counts.wide_voxels
             ),
         ));
     }
@@ -673,7 +671,7 @@ fn code_corners31<T: Code>(counts: &[u8], codes: &mut [T], forward: bool) {
 fn write_groups31(groups: &mut [u8], counts: &[u8], v3: &crate::brick::V3Sections) -> Result<()> {
     let (mut voxels, mut wide) = (0u64, 0u64);
     for (group, chunk) in groups.chunks_exact_mut(24).zip(counts.chunks(16)) {
-        if voxels > u64::from(v3.private_voxels) {
+        if voxels > u64::from(v3.counts.private_voxels) {
             break; // narrow_corners refuses the counts
         }
         group[..4].copy_from_slice(&(voxels as u32).to_le_bytes());
@@ -730,15 +728,15 @@ fn stream_to_records(stream: &[u8], records: &mut [u8]) {
 fn delta_step(records: &mut [u8], i: usize, op: fn(u32, u32) -> u32) {
     let (before, here) = records.split_at_mut(i * BRICK_RECORD_SIZE);
     let prev = &before[(i - 1) * BRICK_RECORD_SIZE..];
-    let (p_res, p_first) = (u32_at(prev, RECORD_RESIDUALS), u32_at(prev, RECORD_FIRST));
-    let (res, first) = (u32_at(here, RECORD_RESIDUALS), u32_at(here, RECORD_FIRST));
-    let offset = op(res & RESIDUAL_OFFSET, p_res & RESIDUAL_OFFSET);
+    let (p_res, p_first) = (u32_at(prev, RESIDUALS), u32_at(prev, FIRST_PRIVATE_LEAF));
+    let (res, first) = (u32_at(here, RESIDUALS), u32_at(here, FIRST_PRIVATE_LEAF));
+    let offset = op(res & RESIDUAL_OFFSET_MASK, p_res & RESIDUAL_OFFSET_MASK);
     put_u32(
         here,
-        RECORD_RESIDUALS,
-        res & !RESIDUAL_OFFSET | offset & RESIDUAL_OFFSET,
+        RESIDUALS,
+        res & !RESIDUAL_OFFSET_MASK | offset & RESIDUAL_OFFSET_MASK,
     );
-    put_u32(here, RECORD_FIRST, op(first, p_first));
+    put_u32(here, FIRST_PRIVATE_LEAF, op(first, p_first));
 }
 
 /// Private voxels' codes (eight per voxel) to residuals, in place: corner `o > 0` minus corner

@@ -243,6 +243,24 @@ pub const BRICK_RECORD_FIELDS: [HeaderField; 8] = [
     field("first_private_leaf", 28, 4),
 ];
 
+/// Byte offsets in a brick record of the fields its readers load in place (the 3.0 reader,
+/// the tracer's queries, the compressed container), from [`BRICK_RECORD_FIELDS`].
+pub(crate) mod record {
+    use super::{field_in, BRICK_RECORD_FIELDS};
+
+    /// The occupancy mask (`u64`).
+    pub(crate) const OCCUPANCY: usize = field_in(&BRICK_RECORD_FIELDS, "occupancy").offset;
+    /// The private mask (`u64`).
+    pub(crate) const PRIVATE: usize = field_in(&BRICK_RECORD_FIELDS, "private").offset;
+    /// The plane's four `i16` terms, `a` first.
+    pub(crate) const PLANE: usize = field_in(&BRICK_RECORD_FIELDS, "plane_a").offset;
+    /// The residual word (`u32`).
+    pub(crate) const RESIDUALS: usize = field_in(&BRICK_RECORD_FIELDS, "residuals").offset;
+    /// The first private leaf (`u32`).
+    pub(crate) const FIRST_PRIVATE_LEAF: usize =
+        field_in(&BRICK_RECORD_FIELDS, "first_private_leaf").offset;
+}
+
 /// Leaf cells per brick edge: a brick is the node at `depth − 2`, 4 × 4 × 4 leaf cells.
 pub const BRICK_EDGE: u32 = 4;
 /// Octree levels a brick spans (`BRICK_EDGE = 2^BRICK_LEVELS`): the shallowest 3.0 depth.
@@ -252,6 +270,8 @@ pub const BRICK_LEVELS: u8 = 2;
 pub const BRICK_POINT_EDGE: u32 = BRICK_EDGE + 1;
 /// Bits of the residual word that hold the byte offset (the rest is the width code).
 pub const RESIDUAL_OFFSET_BITS: u32 = 30;
+/// The residual word's offset bits, as a mask.
+pub(crate) const RESIDUAL_OFFSET_MASK: u32 = (1 << RESIDUAL_OFFSET_BITS) - 1;
 
 /// The residual widths in bits a brick may use, indexed by its 2-bit width code: 0, 2, 4, 8
 /// for 8-bit codes; 0, 4, 8, 16 for 16-bit ones. The widest is the code width: with it any
@@ -366,8 +386,41 @@ impl<const N: usize> FieldValue for [u8; N] {
 /// value up by name, so the order of the fields is written down once. Checked at compile time:
 /// every struct field is in the table with the size of its type, and the table has no other
 /// field.
+///
+/// A field group the tables share ([`PREAMBLE`], [`GRID`], [`TRANSFORM`]) is named by its table
+/// in the list and stands for its fields, whose types are written here once.
 macro_rules! header_values {
-    ($(#[$doc:meta])* $struct:ident, $table:ident, { $($name:ident: $ty:ty,)* }) => {
+    ($(#[$doc:meta])* $struct:ident, $table:ident, { $($fields:tt)* }) => {
+        header_values!(@expand [$(#[$doc])*] $struct, $table, [] $($fields)*);
+    };
+    (@expand $doc:tt $struct:ident, $table:ident, [$($done:tt)*] PREAMBLE, $($rest:tt)*) => {
+        header_values!(@expand $doc $struct, $table, [$($done)*
+            magic: [u8; 8],
+            version_major: u16,
+            version_minor: u16,
+            header_size: u32,
+            flags: u32,
+        ] $($rest)*);
+    };
+    (@expand $doc:tt $struct:ident, $table:ident, [$($done:tt)*] GRID, $($rest:tt)*) => {
+        header_values!(@expand $doc $struct, $table, [$($done)*
+            depth: u8,
+            value_bits: u8,
+            reserved: u16,
+        ] $($rest)*);
+    };
+    (@expand $doc:tt $struct:ident, $table:ident, [$($done:tt)*] TRANSFORM, $($rest:tt)*) => {
+        header_values!(@expand $doc $struct, $table, [$($done)*
+            center_x: f32,
+            center_y: f32,
+            center_z: f32,
+            scale: f32,
+        ] $($rest)*);
+    };
+    (@expand $doc:tt $struct:ident, $table:ident, [$($done:tt)*] $name:ident: $ty:ty, $($rest:tt)*) => {
+        header_values!(@expand $doc $struct, $table, [$($done)* $name: $ty,] $($rest)*);
+    };
+    (@expand [$(#[$doc:meta])*] $struct:ident, $table:ident, [$($name:ident: $ty:ty,)*]) => {
         $(#[$doc])*
         #[derive(Clone, Copy, Debug, Default, PartialEq)]
         pub(crate) struct $struct {
@@ -395,6 +448,9 @@ macro_rules! header_values {
             }
 
             /// Writes every field of the table into the bytes the table covers of `out`.
+            // Unused where the values are only read (`GridValues`: the writers put the grid
+            // in with the rest of their header).
+            #[allow(dead_code)]
             pub(crate) fn write(&self, out: &mut [u8]) {
                 for f in &$table {
                     let b = &mut out[f.offset..f.offset + f.size];
@@ -411,18 +467,9 @@ macro_rules! header_values {
 header_values! {
     /// The values of a 1.x header, one per [`HEADER_FIELDS`] entry of the same name.
     Header, HEADER_FIELDS, {
-    magic: [u8; 8],
-    version_major: u16,
-    version_minor: u16,
-    header_size: u32,
-    flags: u32,
-    depth: u8,
-    value_bits: u8,
-    reserved: u16,
-    center_x: f32,
-    center_y: f32,
-    center_z: f32,
-    scale: f32,
+    PREAMBLE,
+    GRID,
+    TRANSFORM,
     inner_node_count: u32,
     leaf_count: u32,
     voxel_count: u32,
@@ -441,19 +488,12 @@ header_values! {
 header_values! {
     /// The values of the fixed part of a 2.0 header, one per [`LOD_HEADER_FIELDS`] entry.
     LodHeaderValues, LOD_HEADER_FIELDS, {
-    magic: [u8; 8],
-    version_major: u16,
-    version_minor: u16,
-    header_size: u32,
-    flags: u32,
+    PREAMBLE,
     depth: u8,
     coarsest: u8,
     level_count: u8,
     value_bits: u8,
-    center_x: f32,
-    center_y: f32,
-    center_z: f32,
-    scale: f32,
+    TRANSFORM,
     file_size: u64,
     reserved: [u8; 16],
 }}
@@ -461,18 +501,9 @@ header_values! {
 header_values! {
     /// The values of a 3.0 header, one per [`V3_HEADER_FIELDS`] entry of the same name.
     V3Header, V3_HEADER_FIELDS, {
-    magic: [u8; 8],
-    version_major: u16,
-    version_minor: u16,
-    header_size: u32,
-    flags: u32,
-    depth: u8,
-    value_bits: u8,
-    reserved: u16,
-    center_x: f32,
-    center_y: f32,
-    center_z: f32,
-    scale: f32,
+    PREAMBLE,
+    GRID,
+    TRANSFORM,
     upper_node_count: u32,
     brick_count: u32,
     leaf_count: u32,
@@ -494,6 +525,17 @@ header_values! {
     private_flags_size: u64,
     private_corners_offset: u64,
     private_corners_size: u64,
+}}
+
+/// The grid and transform: bytes 20–40 of a 1.x and of a 3.x header alike.
+const GRID_TRANSFORM: [HeaderField; 7] = joined(&[&GRID, &TRANSFORM]);
+
+header_values! {
+    /// The values of the grid and transform fields ([`GRID_TRANSFORM`]) of a 1.x or a 3.x
+    /// header, which the readers of both check the same way.
+    GridValues, GRID_TRANSFORM, {
+    GRID,
+    TRANSFORM,
 }}
 
 header_values! {
@@ -523,18 +565,25 @@ header_values! {
     trailer_zero: u32,
 }}
 
-impl Header {
-    /// The header the writer puts in front of an octree with these counts: version 1.0 (1.1
-    /// with clip voxels), a [`HEADER_SIZE`]-byte header and the sections where [`Layout`] puts
-    /// them.
-    pub(crate) fn canonical(meta: &OctreeMeta, counts: Counts) -> Header {
-        let layout = Layout::new(HEADER_SIZE as u64, counts, meta.bits);
-        Header {
-            magic: MAGIC,
-            version_major: FORMAT_VERSION_MAJOR,
-            version_minor: minor_version(counts.clip > 0),
-            header_size: HEADER_SIZE as u32,
-            flags: counts.flags(),
+/// The values of a 1.x or 3.x header (`$header`: [`Header`] or [`V3Header`]) for an octree of
+/// `meta`: the preamble, grid and transform both start with (the [`MAGIC`], the version, the
+/// header's size, the flags, a zero reserved field, `meta`'s depth, value bits and
+/// transform), then the version's own fields as given.
+macro_rules! octree_header {
+    ($header:ident {
+        version: ($major:expr, $minor:expr),
+        header_size: $size:expr,
+        flags: $flags:expr,
+        meta: $meta:expr;
+        $($field:ident: $value:expr,)*
+    }) => {{
+        let meta: &$crate::OctreeMeta = $meta;
+        $header {
+            magic: $crate::header::MAGIC,
+            version_major: $major,
+            version_minor: $minor,
+            header_size: $size as u32,
+            flags: $flags,
             depth: meta.depth,
             value_bits: meta.bits.bits(),
             reserved: 0,
@@ -542,6 +591,23 @@ impl Header {
             center_y: meta.center.y,
             center_z: meta.center.z,
             scale: meta.scale,
+            $($field: $value,)*
+        }
+    }};
+}
+pub(crate) use octree_header;
+
+impl Header {
+    /// The header the writer puts in front of an octree with these counts: version 1.0 (1.1
+    /// with clip voxels), a [`HEADER_SIZE`]-byte header and the sections where [`Layout`] puts
+    /// them.
+    pub(crate) fn canonical(meta: &OctreeMeta, counts: Counts) -> Header {
+        let layout = Layout::new(HEADER_SIZE as u64, counts, meta.bits);
+        octree_header! { Header {
+            version: (FORMAT_VERSION_MAJOR, minor_version(counts.clip > 0)),
+            header_size: HEADER_SIZE,
+            flags: counts.flags(),
+            meta: meta;
             inner_node_count: counts.inner,
             leaf_count: counts.leaves,
             voxel_count: counts.voxels,
@@ -555,7 +621,7 @@ impl Header {
             surface_size: layout.surface.1,
             corners_offset: layout.corners.0,
             corners_size: layout.corners.1,
-        }
+        }}
     }
 
     /// The counts the header declares. The header has no clip count: `clip` is 1 when the

@@ -69,6 +69,37 @@ macro_rules! count_getters {
     )*};
 }
 
+/// The accessors of an octree type over bytes `B: AsRef<[u8]>` that read its `bytes`, `meta`
+/// and `dequant` fields as they are: the 1.x octree and the 3.0 brick octree have them alike.
+macro_rules! buffer_accessors {
+    () => {
+        /// The whole `.smo` file, header to checksum.
+        #[inline]
+        pub fn as_bytes(&self) -> &[u8] {
+            self.bytes.as_ref()
+        }
+
+        /// Depth, quantisation and normalisation transform.
+        #[inline]
+        pub fn meta(&self) -> &OctreeMeta {
+            &self.meta
+        }
+
+        /// Leaves sit at this level (in a brick octree at least
+        /// [`BRICK_LEVELS`](crate::BRICK_LEVELS), 2).
+        #[inline]
+        pub fn depth(&self) -> u8 {
+            self.meta.depth
+        }
+
+        /// `dmax / Q`: multiply a stored code by this to get a distance in normalised units.
+        #[inline]
+        pub fn dequant_scale(&self) -> f32 {
+            self.dequant
+        }
+    };
+}
+
 /// `PartialEq` across buffer types and `Eq` for an octree type over bytes `B: AsRef<[u8]>`
 /// with an `as_bytes`: equal when their bytes are (the rest is derived from them). The 1.x
 /// octree and the 3.0 brick octree compare through it.

@@ -387,12 +387,6 @@ impl<B> Octree<B> {
 }
 
 impl<B: AsRef<[u8]>> Octree<B> {
-    /// The whole `.smo` file, header to checksum.
-    #[inline]
-    pub fn as_bytes(&self) -> &[u8] {
-        self.bytes.as_ref()
-    }
-
     /// The same octree over borrowed bytes (no copy, no validation).
     #[inline]
     pub fn as_view(&self) -> PackedOctreeView<'_> {
@@ -442,17 +436,7 @@ impl<B: AsRef<[u8]>> Octree<B> {
         Octree::from_parts(out, self.meta, self.counts, Sections::of(&layout))
     }
 
-    /// Depth, quantisation and normalisation transform.
-    #[inline]
-    pub fn meta(&self) -> &OctreeMeta {
-        &self.meta
-    }
-
-    /// Leaves sit at this level.
-    #[inline]
-    pub fn depth(&self) -> u8 {
-        self.meta.depth
-    }
+    buffer_accessors!();
 
     /// Inner nodes plus leaves.
     #[inline]
@@ -478,12 +462,6 @@ impl<B: AsRef<[u8]>> Octree<B> {
     #[inline]
     pub fn has_clip_voxels(&self) -> bool {
         self.counts.clip > 0
-    }
-
-    /// `dmax / Q`: multiply a stored code by this to get a distance in normalised units.
-    #[inline]
-    pub fn dequant_scale(&self) -> f32 {
-        self.dequant
     }
 
     // ---- Traversal access (sdfmo-trace) -------------------------------------------------

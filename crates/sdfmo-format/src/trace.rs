@@ -11,9 +11,10 @@
 use core::fmt::Debug;
 use core::ops::Range;
 
+use crate::header::record::{FIRST_PRIVATE_LEAF, OCCUPANCY, PLANE, PRIVATE, RESIDUALS};
 use crate::header::{
-    field_in, plane_fraction_bits, residual_widths, BRICK_RECORD_FIELDS, BRICK_RECORD_SIZE,
-    RESIDUAL_OFFSET_BITS,
+    plane_fraction_bits, residual_widths, BRICK_RECORD_SIZE, RESIDUAL_OFFSET_BITS,
+    RESIDUAL_OFFSET_MASK,
 };
 use crate::narrow::{corner_offset, private_codes, private_leaf_at};
 use crate::octree::{bytes_at, low_bits};
@@ -78,6 +79,18 @@ pub trait TracedOctree {
     fn has_voxel(&self, voxel: Self::Voxel) -> bool;
 }
 
+/// Trait methods that answer with the octree's inherent method of the same name, one line each
+/// instead of a forwarding body each. `#[inline(always)]`, as every query of a walk: the trait
+/// adds no call to the inherent method's.
+macro_rules! inherent_queries {
+    ($octree:ident: $(fn $name:ident(&self $(, $arg:ident: $ty:ty)*) -> $ret:ty;)*) => {$(
+        #[inline(always)]
+        fn $name(&self $(, $arg: $ty)*) -> $ret {
+            $octree::$name(self $(, $arg)*)
+        }
+    )*};
+}
+
 impl<B: AsRef<[u8]>> TracedOctree for Octree<B> {
     type LeafCache = ();
     type Node = NodeRef;
@@ -87,24 +100,16 @@ impl<B: AsRef<[u8]>> TracedOctree for Octree<B> {
     type Voxel = u32;
     type Voxels = Range<u32>;
 
-    #[inline(always)]
-    fn meta(&self) -> &OctreeMeta {
-        Octree::meta(self)
-    }
-
-    #[inline(always)]
-    fn root(&self) -> Option<NodeRef> {
-        Octree::root(self)
-    }
-
-    #[inline(always)]
-    fn is_leaf(&self, node: NodeRef) -> bool {
-        Octree::is_leaf(self, node)
-    }
-
-    #[inline(always)]
-    fn child_mask(&self, node: NodeRef) -> u8 {
-        Octree::child_mask(self, node)
+    inherent_queries! { Octree:
+        fn meta(&self) -> &OctreeMeta;
+        fn root(&self) -> Option<NodeRef>;
+        fn is_leaf(&self, node: NodeRef) -> bool;
+        fn child_mask(&self, node: NodeRef) -> u8;
+        fn child(&self, node: NodeRef, octant: u8) -> Option<NodeRef>;
+        fn leaf_voxels(&self, node: NodeRef) -> Range<u32>;
+        fn voxel_corners(&self, voxel: u32) -> [f32; 8];
+        fn voxel_is_surface(&self, voxel: u32) -> bool;
+        fn voxel_is_clip(&self, voxel: u32) -> bool;
     }
 
     #[inline(always)]
@@ -120,33 +125,8 @@ impl<B: AsRef<[u8]>> TracedOctree for Octree<B> {
     }
 
     #[inline(always)]
-    fn child(&self, node: NodeRef, octant: u8) -> Option<NodeRef> {
-        Octree::child(self, node, octant)
-    }
-
-    #[inline(always)]
-    fn leaf_voxels(&self, node: NodeRef) -> Range<u32> {
-        Octree::leaf_voxels(self, node)
-    }
-
-    #[inline(always)]
     fn any_clip_voxel(&self, voxels: &Range<u32>) -> bool {
         Octree::any_clip_voxel(self, voxels.clone())
-    }
-
-    #[inline(always)]
-    fn voxel_corners(&self, voxel: u32) -> [f32; 8] {
-        Octree::voxel_corners(self, voxel)
-    }
-
-    #[inline(always)]
-    fn voxel_is_surface(&self, voxel: u32) -> bool {
-        Octree::voxel_is_surface(self, voxel)
-    }
-
-    #[inline(always)]
-    fn voxel_is_clip(&self, voxel: u32) -> bool {
-        Octree::voxel_is_clip(self, voxel)
     }
 
     #[inline(always)]
@@ -154,29 +134,6 @@ impl<B: AsRef<[u8]>> TracedOctree for Octree<B> {
         (voxel as usize) < self.voxel_count()
     }
 }
-
-/// The byte offsets of the sections of a [`BrickOctree`] a tracer reads, and the counts that
-/// bound them (from the validated header).
-pub(crate) struct BrickSections {
-    pub(crate) bricks: usize,
-    pub(crate) residuals: usize,
-    pub(crate) private_leaves: usize,
-    pub(crate) private_flags: usize,
-    pub(crate) private_corners: usize,
-    /// Minor version: the layout of the private leaf groups and corners.
-    pub(crate) minor: u16,
-    pub(crate) brick_count: u32,
-    pub(crate) private_voxels: u32,
-    /// Wide private voxels (3.0: all).
-    pub(crate) wide_voxels: u32,
-    pub(crate) clip: u32,
-}
-
-const OCCUPANCY: usize = field_in(&BRICK_RECORD_FIELDS, "occupancy").offset;
-const PRIVATE: usize = field_in(&BRICK_RECORD_FIELDS, "private").offset;
-const PLANE: usize = field_in(&BRICK_RECORD_FIELDS, "plane_a").offset;
-const RESIDUALS: usize = field_in(&BRICK_RECORD_FIELDS, "residuals").offset;
-const FIRST_PRIVATE_LEAF: usize = field_in(&BRICK_RECORD_FIELDS, "first_private_leaf").offset;
 
 /// A voxel of a [`BrickOctree`], as a hit names it: the one voxel of a shared leaf (its corners
 /// are points of the brick), or a private voxel by its index in the private sections.
@@ -497,10 +454,10 @@ mod avx2 {
 impl<B: AsRef<[u8]>> BrickOctree<B> {
     /// The record of `brick` (one bounds-checked load of its 32 bytes).
     #[inline(always)]
-    fn record(&self, s: &BrickSections, brick: u32) -> [u8; BRICK_RECORD_SIZE] {
+    fn record(&self, brick: u32) -> [u8; BRICK_RECORD_SIZE] {
         bytes_at::<BRICK_RECORD_SIZE>(
             self.as_bytes(),
-            s.bricks + brick as usize * BRICK_RECORD_SIZE,
+            self.layout.bricks.0 as usize + brick as usize * BRICK_RECORD_SIZE,
         )
     }
 
@@ -521,10 +478,9 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
     /// The occupancy of `brick` (one load).
     #[inline(always)]
     fn occupancy(&self, brick: u32) -> u64 {
-        let s = self.traced_sections();
         u64::from_le_bytes(bytes_at::<8>(
             self.as_bytes(),
-            s.bricks + brick as usize * BRICK_RECORD_SIZE + OCCUPANCY,
+            self.layout.bricks.0 as usize + brick as usize * BRICK_RECORD_SIZE + OCCUPANCY,
         ))
     }
 
@@ -532,8 +488,7 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
     /// and where its residuals are (one read of the brick's record).
     #[inline(always)]
     fn brick_fetch(&self, brick: u32) -> BrickCache {
-        let s = self.traced_sections();
-        let r = self.record(&s, brick);
+        let r = self.record(brick);
         let shared = u64_in(&r, OCCUPANCY) & !u64_in(&r, PRIVATE);
         let word = u32_in(&r, RESIDUALS);
         BrickCache {
@@ -542,7 +497,7 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
             plane: core::array::from_fn(|i| {
                 i32::from(i16::from_le_bytes(bytes_at::<2>(&r, PLANE + 2 * i)))
             }),
-            base: s.residuals + (word & ((1 << RESIDUAL_OFFSET_BITS) - 1)) as usize,
+            base: self.layout.residuals.0 as usize + (word & RESIDUAL_OFFSET_MASK) as usize,
             width: residual_widths(self.meta().bits)[(word >> RESIDUAL_OFFSET_BITS) as usize],
         }
     }
@@ -594,10 +549,9 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
     /// The two flag bits (surface, clip) of private voxel `v`.
     #[inline(always)]
     fn private_flags(&self, v: u32) -> u8 {
-        let s = self.traced_sections();
-        assert!(v < s.private_voxels, "voxel {v} out of range");
+        assert!(v < self.counts.private_voxels, "voxel {v} out of range");
         let bit = 2 * v as usize;
-        self.as_bytes()[s.private_flags + bit / 8] >> (bit % 8) & 3
+        self.as_bytes()[self.layout.private_flags.0 as usize + bit / 8] >> (bit % 8) & 3
     }
 }
 
@@ -609,14 +563,10 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
     type Voxels = BrickVoxels;
     type LeafCache = BrickCache;
 
-    #[inline(always)]
-    fn meta(&self) -> &OctreeMeta {
-        BrickOctree::meta(self)
-    }
-
-    #[inline(always)]
-    fn root(&self) -> Option<BrickNode> {
-        BrickOctree::root(self)
+    inherent_queries! { BrickOctree:
+        fn meta(&self) -> &OctreeMeta;
+        fn root(&self) -> Option<BrickNode>;
+        fn child(&self, node: BrickNode, octant: u8) -> Option<BrickNode>;
     }
 
     #[inline(always)]
@@ -673,11 +623,6 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
         }
     }
 
-    #[inline(always)]
-    fn child(&self, node: BrickNode, octant: u8) -> Option<BrickNode> {
-        BrickOctree::child(self, node, octant)
-    }
-
     /// A shared leaf from one load of the brick's private mask; a private leaf's voxels from
     /// its leaf group (one popcount, one byte sum), as [`BrickOctree::leaf`] finds them.
     #[inline(always)]
@@ -691,8 +636,7 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
         let BrickNode::Leaf { brick, cell } = node else {
             return none;
         };
-        let s = self.traced_sections();
-        let r = self.record(&s, brick);
+        let r = self.record(brick);
         let cell = cell & 63;
         if u64_in(&r, OCCUPANCY) >> cell & 1 == 0 {
             return none;
@@ -707,7 +651,8 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
             };
         }
         let j = u32_in(&r, FIRST_PRIVATE_LEAF) + low_bits(private, u32::from(cell)).count_ones();
-        let span = private_leaf_at(self.as_bytes(), s.private_leaves, s.minor, j);
+        let leaves = self.layout.private_leaves.0 as usize;
+        let span = private_leaf_at(self.as_bytes(), leaves, self.counts.minor, j);
         BrickVoxels {
             shared: None,
             private: span.first..span.first + span.count,
@@ -718,7 +663,7 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
 
     #[inline(always)]
     fn any_clip_voxel(&self, voxels: &BrickVoxels) -> bool {
-        self.traced_sections().clip > 0
+        self.counts.clip > 0
             && voxels
                 .private
                 .clone()
@@ -737,10 +682,13 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
                 wide_before,
                 wide,
             } => {
-                let sec = self.traced_sections();
-                assert!(voxel < sec.private_voxels, "voxel {voxel} out of range");
+                assert!(
+                    voxel < self.counts.private_voxels,
+                    "voxel {voxel} out of range"
+                );
                 let bits = self.meta().bits;
-                let at = sec.private_corners + corner_offset(voxel, wide_before, bits);
+                let at = self.layout.private_corners.0 as usize
+                    + corner_offset(voxel, wide_before, bits);
                 let codes = private_codes(self.as_bytes(), at, wide, bits);
                 let mut out = [0.0f32; 8];
                 for (v, c) in out.iter_mut().zip(codes) {
@@ -783,11 +731,11 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
     }
 
     fn has_voxel(&self, voxel: BrickVoxel) -> bool {
-        let s = self.traced_sections();
+        let c = &self.counts;
         match voxel {
             BrickVoxel::Shared { brick, cell } => {
-                brick < s.brick_count && cell < 64 && {
-                    let r = self.record(&s, brick);
+                brick < c.bricks && cell < 64 && {
+                    let r = self.record(brick);
                     (u64_in(&r, OCCUPANCY) & !u64_in(&r, PRIVATE)) >> cell & 1 != 0
                 }
             }
@@ -798,11 +746,11 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
                 wide_before,
                 wide,
             } => {
-                voxel < s.private_voxels
+                voxel < c.private_voxels
                     && wide_before <= voxel
-                    && (s.minor > 0 || (wide && wide_before == voxel))
+                    && (c.minor > 0 || (wide && wide_before == voxel))
                     && 3 * u64::from(voxel) + u64::from(wide_before) + 3 + u64::from(wide)
-                        <= 3 * u64::from(s.private_voxels) + u64::from(s.wide_voxels)
+                        <= 3 * u64::from(c.private_voxels) + u64::from(c.wide_voxels)
             }
         }
     }

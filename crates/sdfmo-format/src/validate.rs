@@ -5,8 +5,8 @@ use glam::Vec3;
 use crate::crc32::crc32;
 use crate::error::{FormatError, Result};
 use crate::header::{
-    minor_version, Counts, Header, Layout, CHECKSUM_SIZE, FLAG_CLIP_VOXELS, FLAG_MULTI_VOXEL,
-    FLAG_SURFACE_VOXELS, FORMAT_VERSION_MAJOR, HEADER_SIZE, KNOWN_FLAGS, MAGIC,
+    minor_version, Counts, GridValues, Header, Layout, CHECKSUM_SIZE, FLAG_CLIP_VOXELS,
+    FLAG_MULTI_VOXEL, FLAG_SURFACE_VOXELS, FORMAT_VERSION_MAJOR, HEADER_SIZE, KNOWN_FLAGS, MAGIC,
 };
 use crate::octree::{bytes_at, low_bits, Octree, Sections};
 use crate::quant::max_code;
@@ -131,6 +131,34 @@ pub(crate) fn check_sizes(
     Ok(())
 }
 
+/// The octree the grid and transform of a 1.x or 3.x header (`head`, at least the bytes they
+/// end at) describe, checked in this order (both versions report the first fault the same
+/// way): value bits 8 or 16, the reserved `u16` zero, the centre finite, the scale finite
+/// and positive. The depth is taken as it is: its range differs by version, so the caller
+/// has checked it.
+pub(crate) fn check_grid(head: &[u8]) -> Result<OctreeMeta> {
+    let g = GridValues::read(head);
+    let Some(bits) = ValueBits::from_bits(g.value_bits) else {
+        return corrupt("value_bits", format!("{} (must be 8 or 16)", g.value_bits));
+    };
+    if g.reserved != 0 {
+        return corrupt("reserved", format!("{:#x} (must be 0)", g.reserved));
+    }
+    let center = Vec3::new(g.center_x, g.center_y, g.center_z);
+    if !center.is_finite() {
+        return corrupt("center", format!("{center:?} is not finite"));
+    }
+    if !g.scale.is_finite() || g.scale <= 0.0 {
+        return corrupt("scale", format!("{} (must be finite and > 0)", g.scale));
+    }
+    Ok(OctreeMeta {
+        depth: g.depth,
+        bits,
+        center,
+        scale: g.scale,
+    })
+}
+
 /// The checks of [`Octree::new`], in order; on success the octree's description.
 fn validate(bytes: &[u8]) -> Result<(OctreeMeta, Counts, Sections)> {
     let len = bytes.len();
@@ -153,28 +181,8 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, Counts, Sections)> {
     if depth > MAX_DEPTH {
         return corrupt("depth", format!("{depth} > {MAX_DEPTH}"));
     }
-    let raw_bits = h.value_bits;
-    let Some(bits) = ValueBits::from_bits(raw_bits) else {
-        return corrupt("value_bits", format!("{raw_bits} (must be 8 or 16)"));
-    };
-    let reserved = h.reserved;
-    if reserved != 0 {
-        return corrupt("reserved", format!("{reserved:#x} (must be 0)"));
-    }
-    let center = Vec3::new(h.center_x, h.center_y, h.center_z);
-    let scale = h.scale;
-    let meta = OctreeMeta {
-        depth,
-        bits,
-        center,
-        scale,
-    };
-    if !center.is_finite() {
-        return corrupt("center", format!("{center:?} is not finite"));
-    }
-    if !scale.is_finite() || scale <= 0.0 {
-        return corrupt("scale", format!("{scale} (must be finite and > 0)"));
-    }
+    let meta = check_grid(bytes)?;
+    let bits = meta.bits;
     let has_clip = flags & FLAG_CLIP_VOXELS != 0;
     if has_clip && minor < minor_version(true) {
         return corrupt(
