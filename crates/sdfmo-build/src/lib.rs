@@ -136,6 +136,19 @@ pub struct BuildSettings {
     pub fit_corners: bool,
 }
 
+/// Builder methods `name(field: Type)` that return the same value with that one field replaced
+/// (each with the doc comment written above it).
+macro_rules! with_setters {
+    ($($(#[$doc:meta])* $name:ident($field:ident: $ty:ty);)*) => {
+        $(
+            $(#[$doc])*
+            pub fn $name(self, $field: $ty) -> Self {
+                Self { $field, ..self }
+            }
+        )*
+    };
+}
+
 impl BuildSettings {
     /// The settings of a build at `depth` with `method`, defaults otherwise.
     pub fn new(depth: u8, method: Method) -> BuildSettings {
@@ -146,42 +159,22 @@ impl BuildSettings {
         }
     }
 
-    /// The same settings at `depth`.
-    pub fn with_depth(self, depth: u8) -> BuildSettings {
-        BuildSettings { depth, ..self }
-    }
-
-    /// The same settings with `method`.
-    pub fn with_method(self, method: Method) -> BuildSettings {
-        BuildSettings { method, ..self }
-    }
-
-    /// The same settings with corners of `bits`.
-    pub fn with_bits(self, bits: ValueBits) -> BuildSettings {
-        BuildSettings { bits, ..self }
-    }
-
-    /// The same settings with the normalisation `margin`.
-    pub fn with_margin(self, margin: f32) -> BuildSettings {
-        BuildSettings { margin, ..self }
-    }
-
-    /// The same settings signed by `sign`.
-    pub fn with_sign(self, sign: SignMode) -> BuildSettings {
-        BuildSettings { sign, ..self }
-    }
-
-    /// The same settings with the leaf decision's thresholds `leaf`.
-    pub fn with_leaf(self, leaf: LeafParams) -> BuildSettings {
-        BuildSettings { leaf, ..self }
-    }
-
-    /// The same settings with corners fitted to the surface or not ([`BuildSettings::fit_corners`]).
-    pub fn with_fit_corners(self, fit_corners: bool) -> BuildSettings {
-        BuildSettings {
-            fit_corners,
-            ..self
-        }
+    with_setters! {
+        /// The same settings at `depth`.
+        with_depth(depth: u8);
+        /// The same settings with `method`.
+        with_method(method: Method);
+        /// The same settings with corners of `bits`.
+        with_bits(bits: ValueBits);
+        /// The same settings with the normalisation `margin`.
+        with_margin(margin: f32);
+        /// The same settings signed by `sign`.
+        with_sign(sign: SignMode);
+        /// The same settings with the leaf decision's thresholds `leaf`.
+        with_leaf(leaf: LeafParams);
+        /// The same settings with corners fitted to the surface or not
+        /// ([`BuildSettings::fit_corners`]).
+        with_fit_corners(fit_corners: bool);
     }
 }
 

@@ -149,35 +149,21 @@ fn submit_sh_asks_slurm_for_the_memory_the_builds_may_use() {
         assert!(text.contains("--mem=8G --array=0-7"), "{text}");
         std::fs::remove_file(&calls).unwrap();
     }
-    for (flags, m, says) in [
-        (
-            &["--max-memory", "6G"][..],
-            "4G",
-            "is more than SDFMO_MEM_PER_TASK=4G",
-        ),
-        (
-            &["--max-memory", "6.5G"][..],
-            "6000",
-            "is more than SDFMO_MEM_PER_TASK=6000",
-        ),
-        (&[][..], "8G", "needs the sweep's --max-memory"),
-        (
-            &["--max-memory", "lots"][..],
-            "8G",
-            "cannot read --max-memory 'lots'",
-        ),
-        (
-            &["--max-memory", "1G"][..],
-            "8 G",
-            "SDFMO_MEM_PER_TASK must be a memory size",
-        ),
-        (
-            &["--max-memory", "1G"][..],
-            "$(id)",
-            "SDFMO_MEM_PER_TASK must be a memory size",
-        ),
+    // The sweep's --max-memory (none: not given), SDFMO_MEM_PER_TASK, and the refusal.
+    let not_a_size = "SDFMO_MEM_PER_TASK must be a memory size";
+    for (max_memory, m, says) in [
+        (Some("6G"), "4G", "is more than SDFMO_MEM_PER_TASK=4G"),
+        (Some("6.5G"), "6000", "is more than SDFMO_MEM_PER_TASK=6000"),
+        (None, "8G", "needs the sweep's --max-memory"),
+        (Some("lots"), "8G", "cannot read --max-memory 'lots'"),
+        (Some("1G"), "8 G", not_a_size),
+        (Some("1G"), "$(id)", not_a_size),
     ] {
-        let o = submit_with(t.path(), "8", flags, &mem(m));
+        let flags: Vec<&str> = max_memory
+            .iter()
+            .flat_map(|&v| ["--max-memory", v])
+            .collect();
+        let o = submit_with(t.path(), "8", &flags, &mem(m));
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{flags:?} {m}: {err}");
         assert!(err.contains(says), "{flags:?} {m}: {err}");

@@ -22,3 +22,52 @@ pub(crate) fn packet_triangles() -> impl Strategy<Value = Vec<[Vec3; 3]>> {
         1..=4,
     )
 }
+
+/// A proptest of an 8-wide AVX pass against the 4-wide code it pairs: `fn name(lo, hi, more
+/// arguments in their strategies) { body }` runs `body` on 2,000 cases with `lo` and `hi` two
+/// [`packet_triangles`], on x86-64 only, and passes at once on a CPU without AVX (the searches
+/// never call the pass there).
+macro_rules! avx_pair_proptest {
+    (
+        $(#[$doc:meta])*
+        fn $name:ident($lo:ident, $hi:ident, $($arg:ident in $strategy:expr),+ $(,)?) $body:block
+    ) => {
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(2000))]
+            $(#[$doc])*
+            #[cfg(target_arch = "x86_64")]
+            #[test]
+            fn $name(
+                $lo in $crate::test_points::packet_triangles(),
+                $hi in $crate::test_points::packet_triangles(),
+                $($arg in $strategy),+
+            ) {
+                if !std::is_x86_feature_detected!("avx") {
+                    return Ok(());
+                }
+                $body
+            }
+        }
+    };
+}
+pub(crate) use avx_pair_proptest;
+
+/// Checks that an 8-wide pass's `lanes` are, to the bit, the 4-wide code's lanes of the low
+/// packet then those of the high one (NaN wherever the 4-wide lane is NaN, whatever its bits:
+/// the solid angle of a degenerate triangle).
+pub(crate) fn lanes_match_4_wide(
+    lanes: &[f32; 8],
+    lo: [f32; 4],
+    hi: [f32; 4],
+) -> Result<(), TestCaseError> {
+    for (lane, (x, y)) in lanes.iter().zip(lo.iter().chain(&hi)).enumerate() {
+        prop_assert!(
+            x.to_bits() == y.to_bits() || x.is_nan() && y.is_nan(),
+            "lane {}: {} vs {}",
+            lane,
+            x,
+            y
+        );
+    }
+    Ok(())
+}

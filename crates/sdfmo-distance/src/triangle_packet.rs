@@ -343,7 +343,7 @@ pub(crate) mod avx {
 mod tests {
     use super::*;
     use crate::point_triangle::{apex_rotation, closest_point_prerotated, Feature};
-    use crate::test_points::{packet_triangles, point};
+    use crate::test_points::{avx_pair_proptest, lanes_match_4_wide, packet_triangles, point};
     use proptest::prelude::*;
 
     proptest! {
@@ -378,28 +378,22 @@ mod tests {
         }
     }
 
-    proptest! {
-        #![proptest_config(ProptestConfig::with_cases(2000))]
+    avx_pair_proptest! {
         /// The 8-wide AVX pass gives each packet's lanes to the bit and the same box verdicts
         /// as the 4-wide code (on a CPU without AVX the search never calls it).
-        #[cfg(target_arch = "x86_64")]
-        #[test]
         fn avx_pairs_match_the_4_wide_code(
-            lo in packet_triangles(),
-            hi in packet_triangles(),
+            lo,
+            hi,
             p in point(),
             bound in prop_oneof![0.0f32..4.0, Just(f32::INFINITY)],
         ) {
-            if !std::is_x86_feature_detected!("avx") {
-                return Ok(());
-            }
             let (lo, hi) = (TrianglePacket::new(&lo), TrianglePacket::new(&hi));
             let pair = TrianglePair::new(&lo, &hi);
             for (h, packet) in [lo, hi].iter().enumerate() {
                 let back = pair.half(h);
                 prop_assert_eq!((back.a, back.b, back.c), (packet.a, packet.b, packet.c));
             }
-            // SAFETY: AVX was detected above.
+            // SAFETY: `avx_pair_proptest!` returns before the body without AVX.
             let (lanes, boxes) = unsafe {
                 (avx::dist2_or_zero(&pair, p), avx::boxes_within(&pair, p, bound))
             };
@@ -408,10 +402,8 @@ mod tests {
             for (lane, d2) in lanes.iter().enumerate() {
                 prop_assert_eq!(below >> lane & 1 == 1, *d2 < bound, "lane {}", lane);
             }
-            let four = [lo.dist2_or_zero(p).to_array(), hi.dist2_or_zero(p).to_array()].concat();
-            for (lane, (x, y)) in lanes.iter().zip(&four).enumerate() {
-                prop_assert_eq!(x.to_bits(), y.to_bits(), "lane {}", lane);
-            }
+            let four = |packet: &TrianglePacket| packet.dist2_or_zero(p).to_array();
+            lanes_match_4_wide(&lanes, four(&lo), four(&hi))?;
             prop_assert_eq!(boxes & 0xF != 0, lo.any_box_within(p, bound));
             prop_assert_eq!(boxes & 0xF0 != 0, hi.any_box_within(p, bound));
         }

@@ -522,7 +522,7 @@ pub(crate) fn build_winding_nodes(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_points::{packet_triangles, point};
+    use crate::test_points::{avx_pair_proptest, lanes_match_4_wide, packet_triangles, point};
     use proptest::prelude::*;
 
     /// A BVH node over `prim_count` primitives from `first_index` (with `prim_count` 0, an inner
@@ -644,32 +644,20 @@ mod tests {
         }
     }
 
-    proptest! {
-        #![proptest_config(ProptestConfig::with_cases(2000))]
+    avx_pair_proptest! {
         /// The 8-wide AVX pass gives each packet's lanes to the bit (on a CPU without AVX the
         /// winding number never calls it).
-        #[cfg(target_arch = "x86_64")]
-        #[test]
         fn avx_pairs_match_the_4_wide_code(
-            lo in packet_triangles(),
-            hi in packet_triangles(),
+            lo,
+            hi,
             q in point(),
             scale in prop_oneof![Just(1.0f32), Just(crate::COARSE_FAR_SCALE), 0.0f32..4.0],
         ) {
-            if !std::is_x86_feature_detected!("avx") {
-                return Ok(());
-            }
             let (lo, hi) = (WindingPacket::new(&lo), WindingPacket::new(&hi));
-            // SAFETY: AVX was detected above.
+            // SAFETY: `avx_pair_proptest!` returns before the body without AVX.
             let lanes = unsafe { avx::solid_angles(&lo, &hi, q, scale) };
-            let four = [lo.solid_angles(q, scale).to_array(), hi.solid_angles(q, scale).to_array()]
-                .concat();
-            for (lane, (x, y)) in lanes.iter().zip(&four).enumerate() {
-                prop_assert!(
-                    x.to_bits() == y.to_bits() || x.is_nan() && y.is_nan(),
-                    "lane {}: {} vs {}", lane, x, y
-                );
-            }
+            let four = |packet: &WindingPacket| packet.solid_angles(q, scale).to_array();
+            lanes_match_4_wide(&lanes, four(&lo), four(&hi))?;
         }
     }
 
