@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Far view against full depth (issue 35): `sdfmo render FILE --eye 0,0,12 --pixel-error 1`
-# against the same render at full depth, one thread, 1024², `render_ms` (the median of 5 frames
+# against the same render at full depth, one thread, 1024², `render_ms` (the median of FRAMES (default 5) frames
 # each), ROUNDS interleaved rounds of every binary given; prints each binary's medians and the
 # ratio pixel error ÷ full depth.
 #
@@ -17,7 +17,7 @@ for ((r = 0; r < rounds; r++)); do
             extra=()
             [ "$pe" = pe ] && extra=(--pixel-error 1)
             ms=$("$bin" render "$file" --eye 0,0,12 --target 0,0,0 --normalized --fov 60 \
-                --threads 1 "${extra[@]}" --frames 5 --json -o /tmp/far_view_$$.png |
+                --threads 1 "${extra[@]}" --frames "${FRAMES:-5}" --json -o /tmp/far_view_$$.png |
                 python3 -c 'import json,sys; print(json.load(sys.stdin)["render_ms"])')
             times["$bin $pe"]+="$ms "
         done

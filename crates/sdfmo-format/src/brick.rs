@@ -940,6 +940,30 @@ fn corrupt<T>(field: &'static str, reason: impl Into<String>) -> Result<T> {
     Err(FormatError::corrupt(field, reason))
 }
 
+/// Refuses `section` unless every total counted in the data equals the header's count, each
+/// `(what, counted, declared)`: "3 leaves and 1 private leaves, the header says 4 and 1".
+fn check_counted(section: &'static str, totals: &[(&str, u64, u32)]) -> Result<()> {
+    if totals
+        .iter()
+        .all(|&(_, n, declared)| n == u64::from(declared))
+    {
+        return Ok(());
+    }
+    let counted: Vec<String> = totals
+        .iter()
+        .map(|(what, n, _)| format!("{n} {what}"))
+        .collect();
+    let declared: Vec<String> = totals.iter().map(|(_, _, d)| d.to_string()).collect();
+    corrupt(
+        section,
+        format!(
+            "{}, the header says {}",
+            counted.join(" and "),
+            declared.join(" and ")
+        ),
+    )
+}
+
 impl<B: AsRef<[u8]>> BrickOctree<B> {
     /// Validates `bytes` as a 3.0 or 3.1 brick file and reads it in place. Checked before
     /// anything is used, in this order: magic, major version (3), header size, declared file size
@@ -1682,15 +1706,13 @@ fn validate_bricks(records: &[u8], residuals: &[u8], c: &V3Counts, bits: ValueBi
         private += u64::from(r.private.count_ones());
         offset += size;
     }
-    if leaves != u64::from(c.leaves) || private != u64::from(c.private_leaves) {
-        return corrupt(
-            "bricks",
-            format!(
-                "{leaves} leaves, {private} private; the header says {} and {}",
-                c.leaves, c.private_leaves
-            ),
-        );
-    }
+    check_counted(
+        "bricks",
+        &[
+            ("leaves", leaves, c.leaves),
+            ("private leaves", private, c.private_leaves),
+        ],
+    )?;
     if offset != residuals.len() as u64 {
         return corrupt(
             "residuals_size",
@@ -1761,13 +1783,7 @@ fn validate_private_v31(
             }
         }
     }
-    if voxel != u64::from(c.private_voxels) {
-        let w = c.private_voxels;
-        return corrupt(
-            "private_leaves",
-            format!("{voxel} voxels, the header says {w}"),
-        );
-    }
+    check_counted("private_leaves", &[("voxels", voxel, c.private_voxels)])?;
     // (The wide voxels are implied by the private corners' size.)
     if wide != u64::from(c.wide_voxels) {
         let size_says = c.wide_voxels;
@@ -1795,15 +1811,13 @@ fn validate_flags(flags: &[u8], private_leaves: &[u8], c: &V3Counts) -> Result<(
         surface += u64::from((x & 0x5555_5555_5555_5555).count_ones());
         clip += u64::from((x & 0xaaaa_aaaa_aaaa_aaaa).count_ones());
     }
-    if surface != u64::from(c.surface) || clip != u64::from(c.clip) {
-        return corrupt(
-            "private_flags",
-            format!(
-                "{surface} surface and {clip} clip bits, the header says {} and {}",
-                c.surface, c.clip
-            ),
-        );
-    }
+    check_counted(
+        "private_flags",
+        &[
+            ("surface bits", surface, c.surface),
+            ("clip bits", clip, c.clip),
+        ],
+    )?;
     if c.clip == 0 {
         return Ok(());
     }

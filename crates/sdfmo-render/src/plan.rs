@@ -160,6 +160,12 @@ impl RenderPlan {
         Ok(plan)
     }
 
+    /// The plan with tiles of `tile_size` × `tile_size` pixels (the image is the same for
+    /// every size ≥ 1; [`RenderPlan::validate`] refuses 0).
+    pub fn with_tile_size(self, tile_size: u32) -> RenderPlan {
+        RenderPlan { tile_size, ..self }
+    }
+
     /// Checks the plan: at most [`MAX_AO_SAMPLES`] occlusion rays, tile size ≥ 1, normals
     /// evaluated whenever lambert, normal mode, shadows, occlusion or kept normals need them.
     ///

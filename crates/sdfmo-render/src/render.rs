@@ -94,8 +94,7 @@ pub fn render<T: Traceable>(
 /// let scene = Spheres::one(Vec3::ZERO, 0.5);
 /// let camera = Camera::paper_view(0, 64, 64);
 /// let settings = RenderSettings::new(Mode::Lambert);
-/// let mut plan = RenderPlan::new(&settings)?;
-/// plan.tile_size = 16;
+/// let plan = RenderPlan::new(&settings)?.with_tile_size(16);
 /// let done = AtomicU32::new(0);
 /// let progress = |f: f32| { done.fetch_max(f.to_bits(), Ordering::Relaxed); };
 /// let image = RenderRequest::new(&scene, &camera, &settings)
@@ -660,8 +659,7 @@ mod tests {
             37,
         );
         let settings = RenderSettings::new(Mode::Depth);
-        let mut plan = RenderPlan::new(&settings).unwrap();
-        plan.tile_size = 16;
+        let plan = RenderPlan::new(&settings).unwrap().with_tile_size(16);
         let r = RenderRequest::new(&DirectionProbe, &camera, &settings)
             .plan(plan)
             .render()
@@ -695,8 +693,9 @@ mod tests {
                 Camera::new(Vec3::new(0.3, 1.9, -2.2), Vec3::ZERO, 75.0, 53, 64)
             };
             let frame = camera.frame().unwrap();
-            let mut plan = RenderPlan::new(&RenderSettings::new(Mode::Mask)).unwrap();
-            plan.tile_size = 5;
+            let plan = RenderPlan::new(&RenderSettings::new(Mode::Mask))
+                .unwrap()
+                .with_tile_size(5);
             let ctx = Ctx {
                 scene: &DirectionProbe,
                 frame,

@@ -326,8 +326,7 @@ fn skipping_rays_outside_the_occupied_box_changes_no_pixel() {
             assert_eq!(fast.rgb, full.rgb, "view {view}");
             assert_eq!(fast.counters, full.counters, "view {view}");
             // Small tiles: many of them lie wholly outside the box and are skipped.
-            let mut plan = RenderPlan::new(&s).unwrap();
-            plan.tile_size = 4;
+            let plan = RenderPlan::new(&s).unwrap().with_tile_size(4);
             let small = RenderRequest::new(&scene, &camera, &s)
                 .plan(plan)
                 .render()

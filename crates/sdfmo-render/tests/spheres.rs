@@ -97,15 +97,14 @@ fn image_and_counters_do_not_depend_on_the_thread_count() {
 fn tile_size_does_not_change_the_image() {
     let scene = shadow_pair();
     let s = settings(Mode::Lambert, true, 3);
-    let mut plan = RenderPlan::new(&s).unwrap();
+    let plan = RenderPlan::new(&s).unwrap();
     let camera = cam(45);
     let a = RenderRequest::new(&scene, &camera, &s)
         .plan(plan)
         .render()
         .unwrap();
-    plan.tile_size = 7;
     let b = RenderRequest::new(&scene, &camera, &s)
-        .plan(plan)
+        .plan(plan.with_tile_size(7))
         .render()
         .unwrap();
     assert_eq!(a.rgb, b.rgb);
