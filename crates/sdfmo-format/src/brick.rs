@@ -30,7 +30,7 @@
 use std::fmt;
 
 use crate::crc32::crc32;
-use crate::error::{FormatError, Result};
+use crate::error::{corrupt, FormatError, Result};
 use crate::header::record::{FIRST_PRIVATE_LEAF, OCCUPANCY, PLANE, PRIVATE, RESIDUALS};
 use crate::header::{
     align8, octree_header, plane_fraction_bits, private_group_leaves, private_group_size,
@@ -934,10 +934,6 @@ pub(crate) fn v3_sections(header: &[u8], max_file: u64) -> Result<V3Sections> {
         counts: c,
         layout,
     })
-}
-
-fn corrupt<T>(field: &'static str, reason: impl Into<String>) -> Result<T> {
-    Err(FormatError::corrupt(field, reason))
 }
 
 /// Refuses `section` unless every total counted in the data equals the header's count, each

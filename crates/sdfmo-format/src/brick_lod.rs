@@ -21,7 +21,7 @@ use crate::brick::{
     put_residuals, rank_below, residual_at, wrap, CORNER_POINT_OFFSETS,
 };
 use crate::crc32::crc32;
-use crate::error::{FormatError, Result};
+use crate::error::{corrupt, FormatError, Result};
 use crate::header::{align8, lod_header_size, residual_widths, BRICK_LEVELS, CHECKSUM_SIZE};
 use crate::lod::{read_prefix, write_header, LevelsVersion};
 use crate::narrow::{fits_narrow, private_codes, put_private};
@@ -553,10 +553,6 @@ fn decode_prefix(bytes: &[u8], stats: &mut Vec<LevelBlockStats>) -> Result<LodPr
         stats.push(st);
         Ok(octree)
     })
-}
-
-fn corrupt<T>(field: &'static str, reason: impl Into<String>) -> Result<T> {
-    Err(FormatError::corrupt(field, reason))
 }
 
 /// A bounds-checked reader over one section of a level block.

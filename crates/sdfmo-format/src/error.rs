@@ -169,5 +169,10 @@ impl FormatError {
     }
 }
 
+/// `Err(`[`FormatError::Corrupt`]`)` naming the field and why, for the readers' checks.
+pub(crate) fn corrupt<T>(field: &'static str, reason: impl Into<String>) -> Result<T> {
+    Err(FormatError::corrupt(field, reason))
+}
+
 /// Result alias of this crate.
 pub type Result<T, E = FormatError> = std::result::Result<T, E>;

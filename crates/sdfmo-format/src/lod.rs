@@ -10,7 +10,7 @@ use std::path::Path;
 use glam::Vec3;
 
 use crate::crc32::crc32;
-use crate::error::{FormatError, Result};
+use crate::error::{corrupt, FormatError, Result};
 use crate::header::{
     align8, lod_header_size, LevelValues, LodHeaderValues, TrailerValues, LOD_HEADER_FIXED,
     LOD_HEADER_TRAILER, LOD_LEVEL_ENTRY, LOD_VERSION_MAJOR, LOD_VERSION_MINOR, MAGIC,
@@ -116,10 +116,6 @@ pub(crate) fn levels_version(bytes: &[u8]) -> Option<LevelsVersion> {
         crate::brick_lod::BRICK_LOD_VERSION_MAJOR => Some(crate::brick_lod::LEVELS_V4),
         _ => None,
     }
-}
-
-fn corrupt<T>(field: &'static str, reason: impl Into<String>) -> Result<T> {
-    Err(FormatError::corrupt(field, reason))
 }
 
 /// The fixed part of a 2.0 header read from `bytes` zero-padded to [`LOD_HEADER_FIXED`]: a

@@ -3,7 +3,7 @@
 use glam::Vec3;
 
 use crate::crc32::crc32;
-use crate::error::{FormatError, Result};
+use crate::error::{corrupt, FormatError, Result};
 use crate::header::{
     minor_version, Counts, GridValues, Header, Layout, CHECKSUM_SIZE, FLAG_CLIP_VOXELS,
     FLAG_MULTI_VOXEL, FLAG_SURFACE_VOXELS, FORMAT_VERSION_MAJOR, HEADER_SIZE, KNOWN_FLAGS, MAGIC,
@@ -11,10 +11,6 @@ use crate::header::{
 use crate::octree::{bytes_at, low_bits, Octree, Sections};
 use crate::quant::max_code;
 use crate::{OctreeMeta, ValueBits, MAX_CLIP_VOXELS_PER_LEAF, MAX_DEPTH};
-
-fn corrupt<T>(field: &'static str, reason: impl Into<String>) -> Result<T> {
-    Err(FormatError::corrupt(field, reason))
-}
 
 #[inline]
 fn u32_at(b: &[u8], at: usize) -> u32 {
