@@ -197,34 +197,39 @@ impl SegmentTree {
         // children's are needed there to order them): taking it again when the node is popped
         // was 15 % of the bunny's searches (223 edges; 87.8 M -> 74.2 M instructions in the
         // first call of 20,000 points).
+        // The nearer child of an opened node is taken at once, the farther kept for after it
+        // (the order pushing both gave): one push and pop fewer per node.
         let mut stack = [(0u32, 0.0f32); 64];
-        stack[0] = (0, self.nodes[0].distance(p));
-        let mut len = 1;
-        while len > 0 {
-            len -= 1;
-            let (i, box_distance) = stack[len];
+        let mut len = 0;
+        let mut next = (0, self.nodes[0].distance(p));
+        loop {
+            let (i, box_distance) = next;
             let node = &self.nodes[i as usize];
-            if box_distance > best * (1.0 + RELATIVE_MARGIN) + ABSOLUTE_MARGIN {
-                continue;
-            }
-            if node.count > 0 {
+            // (Not `<=`: a NaN box distance is not skipped.)
+            let skip = box_distance > best * (1.0 + RELATIVE_MARGIN) + ABSOLUTE_MARGIN;
+            if !skip && node.count > 0 {
                 best = self.quads[node.first as usize].nearest(p, node.count as usize, best);
+            } else if !skip {
+                let (l, r) = (node.first, node.first + 1);
+                let (dl, dr) = (
+                    self.nodes[l as usize].distance(p),
+                    self.nodes[r as usize].distance(p),
+                );
+                let (far, near) = if dl <= dr {
+                    ((r, dr), (l, dl))
+                } else {
+                    ((l, dl), (r, dr))
+                };
+                stack[len] = far;
+                len += 1;
+                next = near;
                 continue;
             }
-            // The nearer child last, so it is visited first.
-            let (l, r) = (node.first, node.first + 1);
-            let (dl, dr) = (
-                self.nodes[l as usize].distance(p),
-                self.nodes[r as usize].distance(p),
-            );
-            let (far, near) = if dl <= dr {
-                ((r, dr), (l, dl))
-            } else {
-                ((l, dl), (r, dr))
-            };
-            stack[len] = far;
-            stack[len + 1] = near;
-            len += 2;
+            if len == 0 {
+                break;
+            }
+            len -= 1;
+            next = stack[len];
         }
         best
     }
