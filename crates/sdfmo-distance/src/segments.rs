@@ -1,9 +1,10 @@
 //! Distance from a point to the nearest of a set of segments (the winding sign's chain
 //! boundary, see the `clean` module), through a small bounding-box tree.
 //!
-//! The answer is, bit for bit, the minimum of [`point_segment_distance`] over every segment: a
-//! subtree is skipped only when its box is farther than the best distance so far by a margin
-//! far above f32 rounding, and the minimum of a set does not depend on the order it is taken in.
+//! The answer is, bit for bit, the minimum of `point_segment_distance` (the scalar reference
+//! the SIMD lanes of a leaf follow) over every segment: a subtree is skipped only when its box
+//! is farther than the best distance so far by a margin far above f32 rounding, and the
+//! minimum of a set does not depend on the order it is taken in.
 //! Per query the tree visits O(log n) of the n segments where a scan visits all of them
 //! (the Stanford bunny: 69 451 triangles against 223 boundary edges).
 
@@ -64,9 +65,10 @@ impl SegmentQuad {
         q
     }
 
-    /// The distance from `p` to each lane's segment, as `point_segment_distance`. glam's `Vec3` dot product
-    /// adds left to right, `f32::max` returns the other operand for a NaN and `f32::clamp`
-    /// keeps a NaN and a −0: the lanes do the same with compares and selects.
+    /// The distance from `p` to each lane's segment, as `point_segment_distance`. glam's
+    /// `Vec3` dot product adds left to right, `f32::max` returns the other operand for a NaN
+    /// and `f32::clamp` keeps a NaN and a −0: the lanes do the same with compares and
+    /// selects.
     #[inline]
     fn distances(&self, p: Vec3) -> [f32; 4] {
         let [ax, ay, az] = self.a;
@@ -164,7 +166,7 @@ impl SegmentTree {
     }
 
     /// An upper bound of [`nearest_distance`](Self::nearest_distance) at `p` (infinity when
-    /// there are no segments), never below it in f32: the minimum of [`point_segment_distance`]
+    /// there are no segments), never below it in f32: the minimum of `point_segment_distance`
     /// over the segments of the one leaf reached by descending to the child whose box is
     /// nearer at every node (a subset of the segments the search takes the minimum of). A few
     /// hundred instructions where the search takes ~2,000 (the bunny).
@@ -184,7 +186,7 @@ impl SegmentTree {
     }
 
     /// The distance from `p` to the nearest segment (infinity when there are none): exactly the
-    /// minimum of [`point_segment_distance`] over all of them.
+    /// minimum of `point_segment_distance` over all of them.
     pub(crate) fn nearest_distance(&self, p: Vec3) -> f32 {
         let mut best = f32::INFINITY;
         if self.quads.is_empty() {
@@ -198,7 +200,8 @@ impl SegmentTree {
         // was 15 % of the bunny's searches (223 edges; 87.8 M -> 74.2 M instructions in the
         // first call of 20,000 points).
         // The nearer child of an opened node is taken at once, the farther kept for after it
-        // (the order pushing both gave): one push and pop fewer per node.
+        // (the order pushing both gave): one push and pop fewer per node (bunny first call of
+        // 50,000 points, 812.8 -> 810.4 M instructions).
         let mut stack = [(0u32, 0.0f32); 64];
         let mut len = 0;
         let mut next = (0, self.nodes[0].distance(p));

@@ -181,7 +181,8 @@ impl MeshDistance {
         // Depth first, the second child of an opened node taken at once and the first one
         // kept for after its subtree: the order the sum has always been taken in (pushing both
         // and popping the second straight away), without that push and pop. At most one entry
-        // per level.
+        // per level. Bunny, 50,000 points: first call 839.0 -> 815.4 M instructions (its
+        // coarse probes 159.0 -> 142.0 M), second call 522.8 -> 516.2 M.
         let mut stack = [0u32; MAX_BVH_DEPTH + 1];
         let mut sp = 0usize;
         let mut node = 0u32;
