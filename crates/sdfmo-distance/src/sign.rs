@@ -178,12 +178,17 @@ impl MeshDistance {
     /// [`winding_number_scaled`](Self::winding_number_scaled) for any CPU.
     #[inline(always)]
     pub(crate) fn winding_number_scaled_any(&self, p: Vec3, scale: f32) -> f32 {
+        // Depth first, the second child of an opened node taken at once and the first one
+        // kept for after its subtree: the order the sum has always been taken in (pushing both
+        // and popping the second straight away), without that push and pop. At most one entry
+        // per level. Bunny, 50,000 points: first call 839.0 -> 815.4 M instructions (its
+        // coarse probes 159.0 -> 142.0 M), second call 522.8 -> 516.2 M.
         let mut stack = [0u32; MAX_BVH_DEPTH + 1];
-        let mut sp = 1usize;
+        let mut sp = 0usize;
+        let mut node = 0u32;
         let mut sum = 0.0f32;
-        while sp > 0 {
-            sp -= 1;
-            let w = &self.winding[stack[sp] as usize];
+        loop {
+            let w = &self.winding[node as usize];
             let d = w.center - p;
             let d2 = d.length_squared();
             if d2 > w.far2 * scale {
@@ -191,32 +196,42 @@ impl MeshDistance {
             } else if w.count > 0 {
                 // Each triangle as a dipole when far enough, else exactly; four at a time
                 // (`WindingPacket`), summed one by one in the leaf's order.
-                let mut left = w.count as usize;
+                let count = w.count as usize;
                 let first = w.first as usize;
-                let packets = &self.winding_packets[first..first + left.div_ceil(4)];
+                let packets = &self.winding_packets[first..first + count.div_ceil(4)];
+                let mut summed = false;
                 #[cfg(target_arch = "x86_64")]
                 if let [lo, hi] = packets {
                     if std::is_x86_feature_detected!("avx") {
                         // SAFETY: the CPU has AVX (detected just above).
                         let lanes = unsafe { winding::avx::solid_angles(lo, hi, p, scale) };
-                        for &v in &lanes[..left] {
+                        for &v in &lanes[..count] {
                             sum += v;
                         }
-                        continue;
+                        summed = true;
                     }
                 }
-                for packet in packets {
-                    let lanes = packet.solid_angles(p, scale).to_array();
-                    for &v in &lanes[..left.min(4)] {
-                        sum += v;
+                if !summed {
+                    let mut left = count;
+                    for packet in packets {
+                        let lanes = packet.solid_angles(p, scale).to_array();
+                        for &v in &lanes[..left.min(4)] {
+                            sum += v;
+                        }
+                        left = left.saturating_sub(4);
                     }
-                    left = left.saturating_sub(4);
                 }
             } else {
                 stack[sp] = w.first;
-                stack[sp + 1] = w.first + 1;
-                sp += 2;
+                sp += 1;
+                node = w.first + 1;
+                continue;
             }
+            if sp == 0 {
+                break;
+            }
+            sp -= 1;
+            node = stack[sp];
         }
         sum / (4.0 * std::f32::consts::PI)
     }
