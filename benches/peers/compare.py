@@ -268,16 +268,16 @@ def rows():
     R.append(quoted_row(
         "FCPW 1.2 (vectorised BVH; unsigned closest point only)",
         "our signed distance against its unsigned closest point, points per core, same points",
-        "ours ÷ FCPW in the steady state **1.70–2.84×** on abc1, abc5, the teapot and the bunny (three runs); "
-        "a first call, which also makes our winding sign's per-leaf data, 1.57–2.17× on abc1 and abc5, "
-        "1.49–1.65× on the teapot and 1.46–1.59× on the bunny (**straddling the 1.5× bar** there); "
+        "ours ÷ FCPW in the steady state **1.71–2.64×** on abc1, abc5, the teapot and the bunny (three runs), "
+        "and **1.57–1.95×** on a first call, which also makes our winding sign's per-leaf data (four runs): "
+        "the 1.5× bar held in every run; "
         "**a loss** on the double-walled soup (0.04–0.05×)",
         "P", page="results/python.md", when="measured 2026-12-05, quiet machine",
-        quotes=["| abc1.stl | **2.22 / 2.03 / 1.74×** (0.300 / 0.135) | 1.71 / 1.85 / 1.95 / 1.75× (0.262 / 0.153) |",
-                "| abc5.stl | **1.94 / 1.96 / 1.84×** (1.606 / 0.827) | 2.17 / 1.57 / 1.85 / 1.83× (1.607 / 0.739) |",
-                "| teapot.obj | **1.89 / 1.78 / 1.70×** (0.896 / 0.474) | 1.65 / 1.65 / 1.49 / 1.62× (0.807 / 0.490) |",
-                "| stanford-bunny.obj | **2.84 / 2.37 / 2.41×** (0.469 / 0.165) | 1.48 / 1.51 / 1.46 / 1.59× (0.292 / 0.197) |",
-                "The\ndouble-walled soup stays our known slow case (0.04–0.05×"]))
+        quotes=["| abc1.stl | **2.10 / 2.30 / 2.15×** (0.321 / 0.153) | **1.82 / 1.88 / 1.81 / 1.84×** (0.258 / 0.142) |",
+                "| abc5.stl | **1.89 / 1.89 / 1.95×** (1.547 / 0.818) | **1.91 / 1.88 / 1.76 / 1.88×** (1.493 / 0.783) |",
+                "| teapot.obj | **1.83 / 1.71 / 1.94×** (0.870 / 0.476) | **1.62 / 1.66 / 1.75 / 1.65×** (0.792 / 0.489) |",
+                "| stanford-bunny.obj | **2.64 / 2.49 / 2.47×** (0.476 / 0.180) | **1.75 / 1.57 / 1.65 / 1.95×** (0.326 / 0.186) |",
+                "The double-walled soup stays our known\nslow case (0.04–0.05×"]))
 
     # ---- point-cloud-utils and trimesh
     R.append(quoted_row(
