@@ -137,8 +137,8 @@ impl<'a, T: Traceable> RenderRequest<'a, T> {
     }
 
     /// Calls `progress` with the fraction of the image's tiles done so far, once per band of
-    /// tiles (a row of tiles, 8 pixels high by default), from the worker threads (so not in order: keep the largest, as a progress bar's
-    /// position does).
+    /// tiles (a row of tiles, 8 pixels high by default), from the worker threads (so not in
+    /// order: keep the largest, as a progress bar's position does).
     pub fn progress(mut self, progress: &'a (dyn Fn(f32) + Sync)) -> Self {
         self.progress = Some(progress);
         self
@@ -231,7 +231,7 @@ struct Ctx<'a, T> {
     eps: f32,
     /// The padded boxes the rays are tested against (`None`: trace every ray).
     occupied: OccupiedBoxes,
-    /// Called with the fraction of tiles done after each tile.
+    /// Called with the fraction of tiles done after each band of tiles.
     progress: Option<&'a (dyn Fn(f32) + Sync)>,
     /// Tiles done so far (for `progress`).
     tiles_done: AtomicUsize,
@@ -619,8 +619,8 @@ mod tests {
         }
     }
 
-    /// Progress: once per band of tiles, the largest report 1, and the image and counters those of
-    /// `render` (occlusion rays included), on 2 threads.
+    /// Progress: once per band of tiles, the largest report 1, and the image and counters those
+    /// of `render` (occlusion rays included), on 2 threads.
     #[test]
     fn progress_counts_every_band_and_changes_nothing() {
         use std::sync::Mutex;
