@@ -5,8 +5,9 @@
 
 Standard library only (CI runs --check without a venv). Every number is computed here from
 committed data (the octree sweep, NGLOD's runs, OpenVDB's claims), except the rows whose numbers
-no committed file holds: those are quoted from their results page, and the quote is checked
-against the page's text, so the row fails to generate once the page says something else.
+no committed file holds: those rows are data (quoted.json: the row, its page and the excerpts of the
+page it rests on), and each excerpt is checked against the page's text, so the row fails to
+generate once the page says something else.
 """
 
 from __future__ import annotations
@@ -83,12 +84,17 @@ def prose(page: str, when: str) -> str:
     return f"prose of {link(page)} ({when}); data not committed"
 
 
-def quoted_row(peer: str, what: str, text: str, cmd: str, *, page: str, when: str, quotes: list[str]) -> tuple:
-    """A table row whose numbers only the prose of docs/`page` holds (measured `when`): each of
-    `quotes` is checked against the page (`quote`), and the page is the row's source."""
-    for excerpt in quotes:
-        quote(page, excerpt)
-    return (peer, what, text, cmd, prose(page, when))
+QUOTED = os.path.join(HERE, "quoted.json")
+
+
+def quoted_row(key: str) -> tuple:
+    """The table row `key` of quoted.json: a claim whose numbers only the prose of docs/`page`
+    holds (measured `when`). Each of its `quotes` is checked against the page (`quote`), and the
+    page is the row's source."""
+    r = load(QUOTED)[key]
+    for excerpt in r["quotes"]:
+        quote(r["page"], excerpt)
+    return (r["peer"], r["what"], r["text"], r["cmd"], prose(r["page"], r["when"]))
 
 
 def rng(xs, fmt="{:.2f}"):
@@ -123,24 +129,12 @@ def rows():
     R.append(("SVO", "build time, depth 9, 2 threads (one run each)",
               f"**a loss**: ours takes {rng(b9)}× the SVO's wall time (median {statistics.median(b9):.2f}×)",
               "S", sweep_src))
-    R.append(quoted_row(
-        "SVO", "render time, depth 9, one thread, view 0 (9–11 interleaved runs, idle)",
-        "ours ÷ SVO **0.94–1.04**: abc1 0.98, abc3 0.97, abc5 0.94–1.04, abc8 1.00, teapot 0.99 (the same cost)",
-        "R", page="results/render.md", when="measured 2026-12-02",
-        quotes=["abc3 39.0 / 40.2 = 0.97, abc5 29.4 / 32.4 = 0.91, abc8 61.7 / 61.8 = 1.00",
-                "abc1 27.3 / 27.8 = 0.98, teapot 45.4 / 45.8 = 0.99",
-                "multi / SVO 39.5 / 38.1 = 1.04",
-                "36.9 / 39.3 = 0.94 (with the gate)"]))
+    R.append(quoted_row("svo-render-time"))
     quote("results.md", "(the paper reports about +5)")
     R.append(("the paper (its reported numbers)", "median PSNR gain over the SVO",
               f"**not reached**: the paper reports about +5 dB; ours +{statistics.median(d9.values()):.2f} dB at depth 9",
               "S", sweep_src + "; the paper's figure quoted in " + link("results.md")))
-    R.append(quoted_row(
-        "the paper (its reported numbers)", "frame time per core, 1024², abc1 depth 9",
-        "ours 20.5 ms of CPU on one thread (quiet) against the paper's about 100 ms",
-        "E", page="results/render.md", when="measured 2026-12-05",
-        quotes=["| 1 thread, CPU ms / frame (median of the rounds) | 20.5 | 26.7 | 58.3 |",
-                "against the paper's ~100 ms"]))
+    R.append(quoted_row("paper-frame-time"))
 
     # ---- the authors' code (quoted: it is not in the repository)
     quote("results/build.md", "The authors' code takes 3.5 s for this build on this machine.")
@@ -153,12 +147,7 @@ def rows():
     R.append(("the authors' code", "file size, abc1 depth 9",
               f"ours {ours_b / 1e6:.2f} MB at 8 bits against 25.0 MB: **{25.0e6 / ours_b:.1f}× smaller**", "S, A",
               f"ours: {sweep_src}; theirs: {prose('results/format.md', 'measured 2026-11-23')}"))
-    R.append(quoted_row(
-        "the authors' code", "frame time, abc1 depth 9, view 0, 1024², 2 threads",
-        "ours 12.1 ms (quiet) against 248 ms: **about 20× faster**",
-        "E, A", page="results/render.md", when="ours 2026-12-05, theirs 2026-11-23",
-        quotes=["The authors' renderer takes 248 ms for this frame",
-                "| 2 threads, wall ms (speed-up) | 12.1 (1.69×) | 19.1 (1.40×) | 29.1 (2.00×) |"]))
+    R.append(quoted_row("authors-frame-time"))
 
     # ---- NGLOD
     runs = load(os.path.join(DOCS, "results", "nglod", "runs.json"))
@@ -249,46 +238,14 @@ def rows():
               prose("results/render.md", "quiet, 2026-12-05") + "; " + link("results/lod.md") + " (loaded, 2026-12-03)"))
 
     # ---- libigl
-    R.append(quoted_row(
-        "libigl (`signed_distance`, pseudo-normal / winding number)",
-        "signed-distance points/s, Rust batch on 2 cores, same points and answers (within 1.3e-7)",
-        "ours ÷ libigl **5.9× (bunny uniform) to 11.7× (abc1 near)**, medians of 3 runs, idle",
-        "L", page="results/distance.md", when="measured 2026-11-23",
-        quotes=["| abc1 near | 12.2× | 11.7× | 9.8× | **11.7×** |",
-                "| bunny uniform | 5.3× | 5.9× | 6.2× | **5.9×** |"]))
-    R.append(quoted_row(
-        "libigl, from Python", "signed distance per core, one pinned CPU, same 50,000 points",
-        "ours ÷ fastest exact signed peer (libigl pseudo-normal) **2.8–13.0×** on the six shared meshes; "
-        "**a loss** on a double-walled soup (two unwelded cubes sharing a face): 0.24× libigl's fast winding "
-        "number (ours 100 % right signs, its pseudo-normal 93 %)",
-        "P", page="results/python.md", when="measured 2026-12-03, load 1.4–2.4",
-        quotes=["| double-wall cubes | 0.048 M/s | libigl fast winding 0.196 M/s | 0.24× |"]))
+    R.append(quoted_row("libigl-rust-batch"))
+    R.append(quoted_row("libigl-python"))
 
     # ---- FCPW
-    R.append(quoted_row(
-        "FCPW 1.2 (vectorised BVH; unsigned closest point only)",
-        "our signed distance against its unsigned closest point, points per core, same points",
-        "ours ÷ FCPW in the steady state **1.71–2.64×** on abc1, abc5, the teapot and the bunny (three runs), "
-        "and **1.57–1.95×** on a first call, which also makes our winding sign's per-leaf data (four runs): "
-        "the 1.5× bar held in every run; "
-        "**a loss** on the double-walled soup (0.04–0.05×)",
-        "P", page="results/python.md", when="measured 2026-12-05, quiet machine",
-        quotes=["| abc1.stl | **2.10 / 2.30 / 2.15×** (0.321 / 0.153) | **1.82 / 1.88 / 1.81 / 1.84×** (0.258 / 0.142) |",
-                "| abc5.stl | **1.89 / 1.89 / 1.95×** (1.547 / 0.818) | **1.91 / 1.88 / 1.76 / 1.88×** (1.493 / 0.783) |",
-                "| teapot.obj | **1.83 / 1.71 / 1.94×** (0.870 / 0.476) | **1.62 / 1.66 / 1.75 / 1.65×** (0.792 / 0.489) |",
-                "| stanford-bunny.obj | **2.64 / 2.49 / 2.47×** (0.476 / 0.180) | **1.75 / 1.57 / 1.65 / 1.95×** (0.326 / 0.186) |",
-                "The double-walled soup stays our known\nslow case (0.04–0.05×"]))
+    R.append(quoted_row("fcpw"))
 
     # ---- point-cloud-utils and trimesh
-    R.append(quoted_row(
-        "point-cloud-utils, trimesh (Python)", "signed distance: error and signs",
-        "point-cloud-utils is not exact (errors up to 5.3e-3 of the diagonal; ours ≤ 5.8e-8); trimesh's "
-        "signs are 92.9 % right on the double-walled soup, 98.9 % on the open teapot (ours 100 % on every mesh); "
-        "both slower per point than ours and libigl on every shared mesh",
-        "P", page="results/python.md", when="measured 2026-12-03",
-        quotes=["| abc1.stl | sdfmo (auto sign) | 0.149 M | 0.734 | 5.8e-08 |",
-                "| stanford-bunny.obj | point-cloud-utils | 0.031 M | 0.245 | 5.3e-03 |",
-                "| double-wall cubes | trimesh (subset) | 0.029 M | 0.049 | 4.2e-08 | 92.94 % of 170 |"]))
+    R.append(quoted_row("pcu-trimesh"))
     return R, F
 
 

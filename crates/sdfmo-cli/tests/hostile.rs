@@ -13,6 +13,17 @@ use std::time::{Duration, Instant};
 
 const SDFMO: &str = env!("CARGO_BIN_EXE_sdfmo");
 
+/// What [`precious_file`] holds.
+const PRECIOUS: &[u8] = b"precious";
+
+/// Writes `victim.txt` into `dir`, the file planted links point at: a writer that followed
+/// one would change it.
+fn precious_file(dir: &Path) -> PathBuf {
+    let victim = dir.join("victim.txt");
+    std::fs::write(&victim, PRECIOUS).unwrap();
+    victim
+}
+
 /// What the victim files hold: three valid vertices, so that a loader that did read one
 /// would succeed (exit 0) and the case would fail.
 fn triangle_bytes() -> Vec<u8> {
@@ -306,8 +317,7 @@ fn hostile_catalogue() {
     // 5. Links planted at the temporary names the old writers used (`.NAME.tmp-PID`,
     //    `.NAME.tmp.PID.0`) for the next few hundred process ids: a writer that followed them
     //    would overwrite the victim.
-    let victim = root.join("victim.txt");
-    std::fs::write(&victim, b"precious").unwrap();
+    let victim = precious_file(root);
     let next_pid: u32 = std::fs::read_to_string("/proc/sys/kernel/ns_last_pid")
         .ok()
         .and_then(|s| s.trim().parse().ok())
@@ -386,7 +396,7 @@ fn hostile_catalogue() {
             String::from_utf8_lossy(&o.stderr)
         );
     }
-    assert_eq!(std::fs::read(&victim).unwrap(), b"precious");
+    assert_eq!(std::fs::read(&victim).unwrap(), PRECIOUS);
 
     // Nothing changed but the three planted outputs: the model folder and everything outside
     // `out` as they were, FIFOs still FIFOs, no temporary or partial file left in `out`.
@@ -671,8 +681,7 @@ fn fan_triangulated_parts_build_render_and_answer() {
 fn derived_outputs_never_follow_links() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let victim = d.join("victim.txt");
-    std::fs::write(&victim, b"precious").unwrap();
+    let victim = precious_file(d);
     let victim_dir = d.join("victim_dir");
     std::fs::create_dir(&victim_dir).unwrap();
 
@@ -722,7 +731,7 @@ fn derived_outputs_never_follow_links() {
     assert!(std::fs::symlink_metadata(rv.join("out_2.png"))
         .unwrap()
         .is_file());
-    assert_eq!(std::fs::read(&victim).unwrap(), b"precious");
+    assert_eq!(std::fs::read(&victim).unwrap(), PRECIOUS);
 
     // The path the user names is still followed, as a shell's `>` does.
     let named = d.join("named.png");

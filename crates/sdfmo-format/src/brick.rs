@@ -217,13 +217,14 @@ impl From<BrickRecord> for Brick {
 /// The counts a 3.0 header declares.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(crate) struct V3Counts {
-    pub(crate) upper: u32,
+    /// The counts a 1.x file would declare, its inner nodes being the upper nodes (the inner
+    /// nodes above the bricks).
+    pub(crate) tree: Counts,
+    /// Bricks.
     pub(crate) bricks: u32,
-    pub(crate) leaves: u32,
-    pub(crate) voxels: u32,
-    pub(crate) surface: u32,
-    pub(crate) clip: u32,
+    /// Leaves with private corners.
     pub(crate) private_leaves: u32,
+    /// Their voxels.
     pub(crate) private_voxels: u32,
     /// Minor version: 0 (every private voxel wide, groups of 8) or 1 (groups of 16).
     pub(crate) minor: u16,
@@ -266,26 +267,21 @@ impl V3Counts {
         Ok(V3Counts {
             minor: h.version_minor,
             wide_voxels,
-            upper: h.upper_node_count,
+            tree: Counts {
+                inner: h.upper_node_count,
+                leaves: h.leaf_count,
+                voxels: h.voxel_count,
+                surface: h.surface_voxel_count,
+                clip: h.clip_voxel_count,
+            },
             bricks: h.brick_count,
-            leaves: h.leaf_count,
-            voxels: h.voxel_count,
-            surface: h.surface_voxel_count,
-            clip: h.clip_voxel_count,
             private_leaves: h.private_leaf_count,
             private_voxels: h.private_voxel_count,
         })
     }
 
     fn flags(&self) -> u32 {
-        Counts {
-            inner: self.upper,
-            leaves: self.leaves,
-            voxels: self.voxels,
-            surface: self.surface,
-            clip: self.clip,
-        }
-        .flags()
+        self.tree.flags()
     }
 }
 
@@ -307,7 +303,7 @@ impl V3Layout {
     /// u32 counts and a residual size ≤ the file's length: no overflow).
     fn new(header_size: u64, c: &V3Counts, residual_bytes: u64, bits: ValueBits) -> V3Layout {
         let sizes = [
-            u64::from(c.upper).div_ceil(8) * 12,
+            u64::from(c.tree.inner).div_ceil(8) * 12,
             u64::from(c.bricks) * BRICK_RECORD_SIZE as u64,
             residual_bytes,
             u64::from(c.private_leaves).div_ceil(private_group_leaves(c.minor) as u64)
@@ -763,23 +759,28 @@ impl BrickOctree<Vec<u8>> {
 
         let private_voxels: u64 = private_leaves.iter().map(|r| r.len() as u64).sum();
         let mut counts = V3Counts {
+            tree: Counts {
+                inner: 0, // set below, once the upper levels are known
+                leaves: octree.leaf_count() as u32,
+                voxels: octree.voxel_count() as u32,
+                surface: octree.surface_voxel_count() as u32,
+                clip: octree.clip_voxel_count() as u32,
+            },
             bricks: to_u32(bricks.len() as u64, "bricks")?,
-            leaves: octree.leaf_count() as u32,
-            voxels: octree.voxel_count() as u32,
-            surface: octree.surface_voxel_count() as u32,
-            clip: octree.clip_voxel_count() as u32,
             private_leaves: to_u32(private_leaves.len() as u64, "private leaves")?,
             private_voxels: to_u32(private_voxels, "private voxels")?,
             minor,
             wide_voxels: wide_voxels as u32,
-            ..V3Counts::default()
         };
         let levels = inner_levels(
             bricks.iter().map(|b| b.code).collect(),
             depth - BRICK_LEVELS,
         );
-        counts.upper = to_u32(levels.iter().map(|l| l.len() as u64).sum(), "upper nodes")?;
-        to_u32(u64::from(counts.upper) + u64::from(counts.bricks), "nodes")?;
+        counts.tree.inner = to_u32(levels.iter().map(|l| l.len() as u64).sum(), "upper nodes")?;
+        to_u32(
+            u64::from(counts.tree.inner) + u64::from(counts.bricks),
+            "nodes",
+        )?;
 
         let layout = V3Layout::new(
             V3_HEADER_SIZE as u64,
@@ -860,12 +861,12 @@ fn header(meta: &OctreeMeta, c: &V3Counts, l: &V3Layout) -> V3Header {
         header_size: V3_HEADER_SIZE,
         flags: c.flags(),
         meta: meta;
-        upper_node_count: c.upper,
+        upper_node_count: c.tree.inner,
         brick_count: c.bricks,
-        leaf_count: c.leaves,
-        voxel_count: c.voxels,
-        surface_voxel_count: c.surface,
-        clip_voxel_count: c.clip,
+        leaf_count: c.tree.leaves,
+        voxel_count: c.tree.voxels,
+        surface_voxel_count: c.tree.surface,
+        clip_voxel_count: c.tree.clip,
         private_leaf_count: c.private_leaves,
         private_voxel_count: c.private_voxels,
         file_size: l.file_size,
@@ -1005,17 +1006,17 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
 
     count_getters! {
         /// Nodes above the bricks (levels `0 … depth − 3`).
-        upper_node_count => upper,
+        upper_node_count => tree.inner,
         /// Bricks (nodes at level `depth − 2`).
         brick_count => bricks,
         /// Leaves (level `depth`).
-        leaf_count => leaves,
+        leaf_count => tree.leaves,
         /// Voxels in all leaves (a shared leaf holds one).
-        voxel_count => voxels,
+        voxel_count => tree.voxels,
         /// Voxels flagged surface (all private).
-        surface_voxel_count => surface,
+        surface_voxel_count => tree.surface,
         /// Voxels with the clip bit (all private).
-        clip_voxel_count => clip,
+        clip_voxel_count => tree.clip,
         /// Leaves whose voxels are stored whole.
         private_leaf_count => private_leaves,
         /// Voxels of the private leaves.
@@ -1036,7 +1037,7 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
     /// The node with breadth-first index `k` of the upper tree: a brick from `upper` on.
     #[inline]
     pub(crate) fn node(&self, k: u32) -> BrickNode {
-        match k.checked_sub(self.counts.upper) {
+        match k.checked_sub(self.counts.tree.inner) {
             Some(b) => BrickNode::Brick(b),
             None => BrickNode::Upper(k),
         }
@@ -1053,7 +1054,7 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
     pub fn child_mask(&self, node: BrickNode) -> u8 {
         match node {
             BrickNode::Upper(k) => {
-                assert!(k < self.counts.upper, "node {k} out of range");
+                assert!(k < self.counts.tree.inner, "node {k} out of range");
                 let at = self.layout.nodes.0 as usize + (k as usize >> 3) * 12;
                 self.as_bytes()[at + 4 + (k as usize & 7)]
             }
@@ -1080,7 +1081,7 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
         }
         match node {
             BrickNode::Upper(k) => {
-                assert!(k < self.counts.upper, "node {k} out of range");
+                assert!(k < self.counts.tree.inner, "node {k} out of range");
                 let at = self.layout.nodes.0 as usize + (k as usize >> 3) * 12;
                 let (first_child, masks) = group_at(self.as_bytes(), at);
                 let bit = (k & 7) * 8 + u32::from(octant);
@@ -1105,7 +1106,7 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
     /// children are that index plus the popcount of its mask below their octant (as in 1.x).
     #[inline(always)]
     pub(crate) fn first_child_index(&self, k: u32) -> u32 {
-        assert!(k < self.counts.upper, "node {k} out of range");
+        assert!(k < self.counts.tree.inner, "node {k} out of range");
         let at = self.layout.nodes.0 as usize + (k as usize >> 3) * 12;
         let (first_child, masks) = group_at(self.as_bytes(), at);
         first_child + low_bits(masks, (k & 7) * 8).count_ones()
@@ -1115,7 +1116,7 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
     #[inline(always)]
     pub(crate) fn upper_child_mask(&self, k: u32) -> u8 {
         let at = self.layout.nodes.0 as usize + (k as usize >> 3) * 12;
-        assert!(k < self.counts.upper, "node {k} out of range");
+        assert!(k < self.counts.tree.inner, "node {k} out of range");
         self.as_bytes()[at + 4 + (k as usize & 7)]
     }
 
@@ -1251,7 +1252,7 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
     /// Whether any voxel of `leaf` has the clip bit (the test that picks the clip rule).
     #[inline]
     pub fn any_clip_voxel(&self, leaf: &BrickLeaf) -> bool {
-        self.counts.clip > 0 && (0..leaf.voxel_count()).any(|k| self.voxel_is_clip(leaf, k))
+        self.counts.tree.clip > 0 && (0..leaf.voxel_count()).any(|k| self.voxel_is_clip(leaf, k))
     }
 
     // ---- Whole-octree helpers -----------------------------------------------------------
@@ -1264,7 +1265,7 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
         }
         coords.push([0, 0, 0]);
         // Breadth first: appending each node's children in order reproduces the numbering.
-        for k in 0..self.counts.upper {
+        for k in 0..self.counts.tree.inner {
             let parent = coords[k as usize];
             let mask = self.child_mask(BrickNode::Upper(k));
             for o in 0..8u8 {
@@ -1273,7 +1274,7 @@ impl<B: AsRef<[u8]>> BrickOctree<B> {
                 }
             }
         }
-        coords.drain(..self.counts.upper as usize);
+        coords.drain(..self.counts.tree.inner as usize);
         coords
     }
 
@@ -1495,7 +1496,11 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, V3Counts, V3Layout)> {
     let meta = check_grid(bytes)?;
     let bits = meta.bits;
     let c = V3Counts::declared_by(&h, bits)?;
-    let (upper, bricks, leaves) = (u64::from(c.upper), u64::from(c.bricks), u64::from(c.leaves));
+    let (upper, bricks, leaves) = (
+        u64::from(c.tree.inner),
+        u64::from(c.bricks),
+        u64::from(c.tree.leaves),
+    );
     let (pl, pv) = (u64::from(c.private_leaves), u64::from(c.private_voxels));
     if upper + bricks > u64::from(u32::MAX) {
         return corrupt("upper_node_count", "nodes exceed 2^32 - 1");
@@ -1512,22 +1517,22 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, V3Counts, V3Layout)> {
             format!("{pv} private voxels in {pl} private leaves of {leaves}"),
         );
     }
-    if u64::from(c.voxels) != leaves - pl + pv {
+    if u64::from(c.tree.voxels) != leaves - pl + pv {
         return corrupt(
             "voxel_count",
             format!(
                 "{}, but {} shared leaves and {pv} private voxels",
-                c.voxels,
+                c.tree.voxels,
                 leaves - pl
             ),
         );
     }
-    if u64::from(c.surface) > pv || u64::from(c.clip) > pv {
+    if u64::from(c.tree.surface) > pv || u64::from(c.tree.clip) > pv {
         return corrupt(
             "surface_voxel_count",
             format!(
                 "{} surface, {} clip of {pv} private voxels",
-                c.surface, c.clip
+                c.tree.surface, c.tree.clip
             ),
         );
     }
@@ -1539,9 +1544,13 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, V3Counts, V3Layout)> {
         );
     }
     for (bit, name, set) in [
-        (FLAG_MULTI_VOXEL, "multi-voxel", c.voxels > c.leaves),
-        (FLAG_SURFACE_VOXELS, "surface", c.surface > 0),
-        (FLAG_CLIP_VOXELS, "clip", c.clip > 0),
+        (
+            FLAG_MULTI_VOXEL,
+            "multi-voxel",
+            c.tree.voxels > c.tree.leaves,
+        ),
+        (FLAG_SURFACE_VOXELS, "surface", c.tree.surface > 0),
+        (FLAG_CLIP_VOXELS, "clip", c.tree.clip > 0),
     ] {
         if (h.flags & bit != 0) != set {
             return corrupt("flags", format!("{name} bit disagrees with the counts"));
@@ -1584,7 +1593,7 @@ fn validate(bytes: &[u8]) -> Result<(OctreeMeta, V3Counts, V3Layout)> {
     }
     let section = |(off, size): (u64, u64)| &bytes[off as usize..(off + size) as usize];
 
-    validate_node_groups(section(layout.nodes), top, c.upper, c.bricks)?;
+    validate_node_groups(section(layout.nodes), top, c.tree.inner, c.bricks)?;
     validate_bricks(section(layout.bricks), section(layout.residuals), &c, bits)?;
     let private_leaves = section(layout.private_leaves);
     if c.minor > 0 {
@@ -1705,7 +1714,7 @@ fn validate_bricks(records: &[u8], residuals: &[u8], c: &V3Counts, bits: ValueBi
     check_counted(
         "bricks",
         &[
-            ("leaves", leaves, c.leaves),
+            ("leaves", leaves, c.tree.leaves),
             ("private leaves", private, c.private_leaves),
         ],
     )?;
@@ -1810,11 +1819,11 @@ fn validate_flags(flags: &[u8], private_leaves: &[u8], c: &V3Counts) -> Result<(
     check_counted(
         "private_flags",
         &[
-            ("surface bits", surface, c.surface),
-            ("clip bits", clip, c.clip),
+            ("surface bits", surface, c.tree.surface),
+            ("clip bits", clip, c.tree.clip),
         ],
     )?;
-    if c.clip == 0 {
+    if c.tree.clip == 0 {
         return Ok(());
     }
     let mut v = 0u64;

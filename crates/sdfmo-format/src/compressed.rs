@@ -506,7 +506,7 @@ fn encode_bricks(file: &[u8], raw: &mut Vec<Vec<u8>>) -> Result<()> {
     }
     raw.extend([
         head,
-        group_bytes(section(file, nodes), c.upper),
+        group_bytes(section(file, nodes), c.tree.inner),
         records_to_stream(section(file, bricks)),
         section(file, residuals).to_vec(),
         counts,
@@ -542,7 +542,7 @@ fn decode_bricks(streams: &[(&[u8], usize)], out: &mut [u8]) -> Result<usize> {
     out[size - CHECKSUM_SIZE..].copy_from_slice(&crc);
     let [nodes, bricks, residuals, leaves, flags, corners] = v3.layout.sections();
     let expect = [
-        (nodes_s.1, c.upper as usize, "masks"),
+        (nodes_s.1, c.tree.inner as usize, "masks"),
         (bricks_s.1, bricks.1 as usize, "bricks"),
         (residuals_s.1, residuals.1 as usize, "residuals"),
         (leaves_s.1, c.private_leaves as usize, "private leaves"),

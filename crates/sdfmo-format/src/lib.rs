@@ -56,15 +56,15 @@
 
 #![deny(missing_docs)]
 
-/// Public getters of an octree's counts, one per `doc name => field` row: `name` returns
-/// `self.counts.field` (a `u32`) as `usize`. The 1.x octree and the 3.0 brick octree list theirs
+/// Public getters of an octree's counts, one per `doc name => field` row (`field` a path such
+/// as `tree.leaves`): `name` returns `self.counts.field` (a `u32`) as `usize`. The 1.x octree and the 3.0 brick octree list theirs
 /// through it.
 macro_rules! count_getters {
-    ($($(#[$doc:meta])* $name:ident => $field:ident,)*) => {$(
+    ($($(#[$doc:meta])* $name:ident => $($field:ident).+,)*) => {$(
         $(#[$doc])*
         #[inline]
         pub fn $name(&self) -> usize {
-            self.counts.$field as usize
+            self.counts.$($field).+ as usize
         }
     )*};
 }

@@ -663,7 +663,7 @@ impl<B: AsRef<[u8]>> TracedOctree for BrickOctree<B> {
 
     #[inline(always)]
     fn any_clip_voxel(&self, voxels: &BrickVoxels) -> bool {
-        self.counts.clip > 0
+        self.counts.tree.clip > 0
             && voxels
                 .private
                 .clone()

@@ -352,21 +352,13 @@ pub enum MergeError {
     },
     /// Two folders ran with other settings.
     #[error(
-        "{} ran with other settings than {} (settings {hash} against {first_hash}): merge shards \
-         of one run",
-        dir.display(),
-        first.display()
+        "{} ran with other settings than {} (settings {} against {}): merge shards of one run",
+        .0.dir.display(),
+        .0.first.display(),
+        .0.hash,
+        .0.first_hash
     )]
-    OtherSettings {
-        /// The folder.
-        dir: PathBuf,
-        /// The first folder.
-        first: PathBuf,
-        /// Its settings hash.
-        hash: String,
-        /// The first folder's.
-        first_hash: String,
-    },
+    OtherSettings(HashPair),
     /// Two folders are shards of manifests of other lengths or other shard counts.
     #[error(
         "{} is shard {shard} of a manifest of {entries} models, {} is shard {first_shard} of \
@@ -390,21 +382,14 @@ pub enum MergeError {
     },
     /// Two folders ran on other versions of the manifest.
     #[error(
-        "{} and {} ran on different versions of the manifest (fingerprints {hash} and \
-         {first_hash}): rerun the older shard with the current manifest",
-        dir.display(),
-        first.display()
+        "{} and {} ran on different versions of the manifest (fingerprints {} and {}): rerun the \
+         older shard with the current manifest",
+        .0.dir.display(),
+        .0.first.display(),
+        .0.hash,
+        .0.first_hash
     )]
-    ManifestVersions {
-        /// The folder.
-        dir: PathBuf,
-        /// The first folder.
-        first: PathBuf,
-        /// Its manifest fingerprint.
-        hash: String,
-        /// The first folder's.
-        first_hash: String,
-    },
+    ManifestVersions(HashPair),
     /// A shard is given twice.
     #[error("shard {shard} is given twice ({} and {})", first.display(), second.display())]
     ShardTwice {
@@ -455,6 +440,20 @@ pub enum MergeError {
 /// [`sdf_multioctree::error_chain`]), for the error texts the harness keeps: a manifest line's
 /// problem, the crops' note on the page.
 pub use sdf_multioctree::error_chain as error_line;
+
+/// A fingerprint that differs between two shard folders ([`MergeError::OtherSettings`],
+/// [`MergeError::ManifestVersions`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct HashPair {
+    /// The folder.
+    pub dir: PathBuf,
+    /// The first folder.
+    pub first: PathBuf,
+    /// Its fingerprint.
+    pub hash: String,
+    /// The first folder's.
+    pub first_hash: String,
+}
 
 #[cfg(test)]
 mod tests {

@@ -39,7 +39,7 @@ use super::report::extra::{row_problem, MAX_DEPTH};
 use super::report::{dataset_page, results_json, Provenance, Report};
 use super::shard::{ShardInfo, MAX_SHARD_FILE_BYTES, SHARD_FILE};
 use super::{heatmap_file, image_rel, reference_file, view_file, Model, Row, SweepSettings};
-use crate::error::{HarnessError, MergeError, Result};
+use crate::error::{HarnessError, HashPair, MergeError, Result};
 use crate::files::write_derived;
 use crate::{Outcome, SweepMethod, SweepOptions};
 
@@ -168,6 +168,38 @@ fn record_problem(r: &Record, settings: &SweepSettings) -> Option<String> {
     None
 }
 
+/// Checks that shard folder `s` belongs to the run of the `first`: the same settings, the same
+/// manifest length and shard count, the same manifest.
+fn same_run(first: &ShardDir, s: &ShardDir) -> Result<()> {
+    let (a, b) = (&first.info, &s.info);
+    let pair = |hash: &str, first_hash: &str| HashPair {
+        dir: s.dir.clone(),
+        first: first.dir.clone(),
+        hash: hash.to_owned(),
+        first_hash: first_hash.to_owned(),
+    };
+    if b.settings_hash != a.settings_hash || b.settings != a.settings {
+        let hashes = pair(&b.settings_hash, &a.settings_hash);
+        return Err(MergeError::OtherSettings(hashes).into());
+    }
+    if b.manifest_entries != a.manifest_entries || b.shard.count != a.shard.count {
+        return Err(MergeError::OtherRun {
+            dir: s.dir.clone(),
+            shard: b.shard,
+            entries: b.manifest_entries,
+            first: first.dir.clone(),
+            first_shard: a.shard,
+            first_entries: a.manifest_entries,
+        }
+        .into());
+    }
+    if b.manifest_hash != a.manifest_hash {
+        let hashes = pair(&b.manifest_hash, &a.manifest_hash);
+        return Err(MergeError::ManifestVersions(hashes).into());
+    }
+    Ok(())
+}
+
 /// Reads the shards' folders and checks they make one whole run.
 fn read_shards(dirs: &[PathBuf]) -> Result<Vec<ShardDir>> {
     let mut out: Vec<ShardDir> = Vec::new();
@@ -212,40 +244,10 @@ fn read_shards(dirs: &[PathBuf]) -> Result<Vec<ShardDir>> {
             records,
         });
     }
-    let first = &out[0].info;
     for s in &out[1..] {
-        if s.info.settings_hash != first.settings_hash || s.info.settings != first.settings {
-            return Err(MergeError::OtherSettings {
-                dir: s.dir.clone(),
-                first: out[0].dir.clone(),
-                hash: s.info.settings_hash.clone(),
-                first_hash: first.settings_hash.clone(),
-            }
-            .into());
-        }
-        if s.info.manifest_entries != first.manifest_entries
-            || s.info.shard.count != first.shard.count
-        {
-            return Err(MergeError::OtherRun {
-                dir: s.dir.clone(),
-                shard: s.info.shard,
-                entries: s.info.manifest_entries,
-                first: out[0].dir.clone(),
-                first_shard: first.shard,
-                first_entries: first.manifest_entries,
-            }
-            .into());
-        }
-        if s.info.manifest_hash != first.manifest_hash {
-            return Err(MergeError::ManifestVersions {
-                dir: s.dir.clone(),
-                first: out[0].dir.clone(),
-                hash: s.info.manifest_hash.clone(),
-                first_hash: first.manifest_hash.clone(),
-            }
-            .into());
-        }
+        same_run(&out[0], s)?;
     }
+    let first = &out[0].info;
     let count = first.shard.count;
     let mut seen: HashMap<usize, &Path> = HashMap::new();
     for s in &out {
