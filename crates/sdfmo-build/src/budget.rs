@@ -17,6 +17,12 @@ const BYTES_PER_CELL_SVO: f64 = 220.0;
 /// Peak bytes per predicted candidate leaf of a multi-octree build (gathered triangles, a
 /// component split per leaf; measured 171–184 at depth 11).
 const BYTES_PER_CELL_MULTI: f64 = 230.0;
+/// Peak bytes per predicted candidate leaf that [`BuildSettings::fit_corners`] adds (each
+/// fitted leaf's normal equations, point and slot tables, the solver's vectors, and the shared
+/// points kept until the fit: measured 212–336 at depth 10 on abc1, abc3, abc5 and abc8, SVO and
+/// multi, peak RSS with the fit less the estimate without it; rounded up by a fifth). Without
+/// it abc3 depth 10 with the fit was predicted 0.96 GB and took 2.2 GB.
+const BYTES_PER_CELL_FIT: f64 = 400.0;
 /// Bytes per triangle of the mesh copies and distance structures (BVH, packets, topology).
 const BYTES_PER_TRIANGLE: f64 = 600.0;
 /// Fixed cost: the process, the thread pool, the progress bar.
@@ -53,6 +59,10 @@ pub fn estimate_memory(mesh: &TriMesh, settings: &BuildSettings) -> MemoryEstima
     let per_cell = match settings.method {
         Method::Svo => BYTES_PER_CELL_SVO,
         Method::Multi { .. } => BYTES_PER_CELL_MULTI,
+    } + if settings.fit_corners {
+        BYTES_PER_CELL_FIT
+    } else {
+        0.0
     };
     let bytes = BASE_BYTES
         + candidate_cells * per_cell
@@ -95,4 +105,30 @@ pub fn physical_memory() -> Option<u64> {
 /// platform does not say how much there is.
 pub fn default_memory_budget() -> Option<u64> {
     physical_memory().map(|b| b / 2)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    #[test]
+    fn the_fit_is_counted_per_candidate_leaf() {
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+        let mesh = TriMesh::new(p, vec![[0, 1, 2]], vec![0]).unwrap();
+        for method in [Method::Svo, BuildSettings::default().method] {
+            let exact = BuildSettings::default().with_depth(9).with_method(method);
+            let fitted = exact.with_fit_corners(true);
+            let (a, b) = (
+                estimate_memory(&mesh, &exact),
+                estimate_memory(&mesh, &fitted),
+            );
+            assert_eq!(a.candidate_cells, b.candidate_cells);
+            let extra = (b.bytes - a.bytes) as f64 / a.candidate_cells;
+            assert!(
+                (extra - BYTES_PER_CELL_FIT).abs() < 1.0,
+                "{extra} bytes per cell"
+            );
+        }
+    }
 }
