@@ -10,8 +10,8 @@ use rayon::prelude::*;
 use sdf_multioctree::build::BuildStats;
 use sdf_multioctree::format::compressed::{compress_with_level, is_compressed};
 use sdf_multioctree::format::{
-    is_brick_levels, is_v3, FormatError, PackedOctree, SmoFile, SmoLevel, SmoPrefix, ValueBits,
-    FILE_EXTENSION, MAX_DEPTH, MAX_FILE_SIZE,
+    is_brick_levels, is_v3, FormatError, LodOctree, PackedOctree, SmoFile, SmoLevel, SmoPrefix,
+    ValueBits, FILE_EXTENSION, MAX_DEPTH, MAX_FILE_SIZE,
 };
 use sdf_multioctree::io::Naming;
 use sdf_multioctree::render::LevelRequest;
@@ -38,7 +38,15 @@ pub struct Octree {
 impl Octree {
     /// Wraps an octree and, when it was just built, the builder's statistics.
     pub fn new(octree: PackedOctree, stats: Option<BuildStats>) -> Octree {
-        let file = SmoFile::Octree(octree);
+        Octree::of_file(SmoFile::Octree(octree), stats)
+    }
+
+    /// Wraps levels of detail just built and the statistics of their finest level.
+    pub fn from_levels(levels: LodOctree, finest: Option<BuildStats>) -> Octree {
+        Octree::of_file(SmoFile::Levels(levels), finest)
+    }
+
+    fn of_file(file: SmoFile, stats: Option<BuildStats>) -> Octree {
         let declared = file.level_range();
         Octree {
             data: SmoPrefix { file, declared },

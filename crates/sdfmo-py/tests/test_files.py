@@ -8,7 +8,7 @@ import pytest
 
 import sdfmo
 import reference
-from conftest import SHARED_MESHES
+from conftest import SHARED_MESHES, run_cli
 
 
 @pytest.fixture(scope="module")
@@ -173,3 +173,31 @@ def test_corrupt_octree_files_raise_format_error(meshes, tmp_path):
             sdfmo.Octree.from_bytes(bad)
     with pytest.raises(FileNotFoundError):
         sdfmo.Octree.load(tmp_path / "none.smo")
+
+
+def test_fitted_corners_and_levels_equal_the_cli(meshes, data_dir, cli, tmp_path):
+    """``Mesh.build(fit_corners=True)`` and ``Mesh.build(coarsest=...)`` write the bytes of
+    ``sdfmo build --fit-corners`` and ``sdfmo build --lod --coarsest``."""
+    mesh_path = data_dir / "abc5.stl"
+    m = meshes["abc5.stl"]
+    exact = m.build(6)
+    fitted = m.build(6, fit_corners=True)
+    out = tmp_path / "fit.smo"
+    run_cli(cli, "build", mesh_path, "--depth", "6", "--fit-corners", "-o", out)
+    assert fitted.to_bytes() == out.read_bytes()
+    # The same leaves and voxels, other corner values.
+    for key in ("leaves", "voxels", "surface_voxels", "bytes"):
+        assert fitted.stats[key] == exact.stats[key], key
+    assert fitted.to_bytes() != exact.to_bytes()
+
+    levels = m.build(6, coarsest=4, fit_corners=True)
+    assert levels.levels == levels.file_levels == [4, 5, 6]
+    assert levels.stats["depth"] == 6 and levels.stats["voxels"] == fitted.stats["voxels"]
+    out = tmp_path / "levels.smo"
+    run_cli(cli, "build", mesh_path, "--depth", "6", "--lod", "--coarsest", "4", "--fit-corners",
+            "-o", out)
+    assert levels.to_bytes() == out.read_bytes()
+    np.testing.assert_array_equal(levels.render(32, lod=6), fitted.render(32))
+    for bad in (0, 7, -1, 300):
+        with pytest.raises(ValueError, match=f"coarsest must be in 1..=6 \\(the depth\\), got {bad}"):
+            m.build(6, coarsest=bad)

@@ -168,10 +168,12 @@ class Mesh:
         max_voxels: int = 8,
         bits: Literal[8, 16] = 8,
         sign: _Sign = "auto",
+        fit_corners: bool = False,
+        coarsest: Optional[int] = None,
         threads: Optional[int] = None,
         max_memory: Optional[int] = None,
     ) -> "Octree":
-        """Builds the sparse SDF octree."""
+        """Builds the sparse SDF octree (with ``coarsest``: levels ``coarsest..=depth``)."""
     def render(
         self,
         width: int = 1024,
