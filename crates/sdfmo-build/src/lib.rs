@@ -126,10 +126,10 @@ pub struct BuildSettings {
     /// least-squares fit of the trilinear interpolant's zero set to the mesh inside those
     /// leaves, each within six quantisation steps of the exact distance (an inside value at
     /// most one step deeper), instead of the exact distance itself: depth-9 multi-octree on the
-    /// five shared models +0.90 to +1.22 dB (median +1.13), 49 of the 50 cells of the paper
+    /// five shared models +0.90 to +1.21 dB (median +1.13), 49 of the 50 cells of the paper
     /// sweep gain and none loses more than 0.01 dB (`docs/results/sweep.md`). Off by default:
-    /// it costs about 2.7× the build's CPU time at depth 9, and 8 % more bytes in format 3.0
-    /// (fitted values lie less on a plane). Each grid point keeps one value for every voxel
+    /// it costs 1.3–1.8× the build's CPU time at depth 9 (abc5, abc1) and 8–9 % more bytes in
+    /// format 3.1 (fitted values lie less on a plane). Each grid point keeps one value for every voxel
     /// around it; private corners (component, surface, plane and clip voxels) and the corners of dropped
     /// cells keep their exact values. The leaf decisions are those of the exact corners, so
     /// the octree's leaves and voxels, and its size, are the same as without the fit.
