@@ -33,6 +33,13 @@
 //! corners before the fit: the leaves and voxels, and so the bytes, are the same with or
 //! without it.
 //!
+//! Format 3.x's bytes too ([`FitParams::keep_brick_widths`]): it stores a brick's shared points
+//! as a plane and residuals of a width per brick, and fitted values lie less on a plane. So
+//! the points of a brick whose residuals the fitted codes would widen keep their exact values,
+//! as do the points of single-voxel leaves that format 3.x may store as shared (a component's
+//! volume voxel) and the leaves of surface voxels (private there, and narrow where their codes
+//! vary little): the 3.1 file of a fitted octree is 0.997–1.001× the exact one's.
+//!
 //! Deterministic: the per-leaf systems are functions of their leaf, the point sums run over
 //! each point's leaves in leaf order, the dot products sum fixed chunks in a fixed order, and
 //! the code descent moves one parity class of grid points at a time (points of one class share
@@ -90,6 +97,12 @@ pub(crate) struct FitParams {
     /// Largest move of an inside value (exact distance at or below zero) below its exact code,
     /// in codes.
     pub max_inside_drop_steps: i32,
+    /// Keep exact the points of every brick whose residuals the fitted codes would widen, so
+    /// that format 3.x stores the fitted octree in the bytes of the exact one: without it the
+    /// 3.1 file grew by 8–9 % (abc1, abc5 depth 9 multi), with it 0.997–1.001× on the 30 cells
+    /// of depths 8–10, for a depth-9 multi median of +1.03 dB instead of +1.13
+    /// (`docs/results/sweep.md`).
+    pub keep_brick_widths: bool,
 }
 
 impl FitParams {
@@ -100,6 +113,7 @@ impl FitParams {
         max_shift_steps: 6.0,
         code_sweeps: 4,
         max_inside_drop_steps: 1,
+        keep_brick_widths: true,
     };
 }
 
@@ -225,8 +239,8 @@ pub(crate) struct SharedPoints<'a> {
 }
 
 /// The fitted values of the shared grid points `pts`: `fitted` are the cells whose voxel is the
-/// shared one (ascending), `frozen` the cells (dropped candidates) whose points keep their exact
-/// value.
+/// shared one (ascending), `frozen` the cells whose points keep their exact value (dropped
+/// candidates, and the leaves the caller keeps as they are for format 3.x).
 pub(crate) fn fit_values(
     p: &Params,
     fp: &FitParams,
@@ -485,12 +499,100 @@ pub(crate) fn fit_values(
             }
         }
     }
+    if fp.keep_brick_widths {
+        let exact = |i: usize| code_of(values[i]);
+        keep_brick_widths(&mut free, &codes, &exact, fitted, sub, &leaf_points, p.bits);
+    }
     codes
         .par_iter()
         .zip(values.par_iter())
         .zip(free.par_iter())
         .map(|((&c, &d), &free)| if free { value_of(c) } else { d })
         .collect()
+}
+
+/// Unfrees every point of a brick (the 4³ leaves of a node at `depth − 2`: format 3.x's unit
+/// of residual widths, [`sdfmo_format::brick_residual_bits`]) that the fitted codes would store
+/// with wider residuals than the exact codes, so that such a brick's points keep their exact
+/// values; round after round, all wide bricks at once (a point kept exact can widen a brick
+/// beside it), until none widens. Returns how many points it kept exact.
+fn keep_brick_widths(
+    free: &mut [bool],
+    codes: &[i32],
+    exact: &(dyn Fn(usize) -> i32 + Sync),
+    fitted: &[u32],
+    sub: &Subdivision,
+    leaf_points: &[[u32; 8]],
+    bits: sdfmo_format::ValueBits,
+) -> usize {
+    const NONE: u32 = u32::MAX;
+    // Each brick's grid points (index `25 x + 5 y + z`, as the encoder orders them), bricks in
+    // key order.
+    let mut by_key: std::collections::BTreeMap<[u32; 3], [u32; 125]> = Default::default();
+    for (j, &c) in fitted.iter().enumerate() {
+        let coord = sub.cells[c as usize].coord;
+        let grid = by_key.entry(coord.map(|v| v >> 2)).or_insert([NONE; 125]);
+        for (k, &q) in leaf_points[j].iter().enumerate() {
+            let o = corner_offset(k);
+            let l = [
+                (coord[0] & 3) + o.x as u32,
+                (coord[1] & 3) + o.y as u32,
+                (coord[2] & 3) + o.z as u32,
+            ];
+            grid[(25 * l[0] + 5 * l[1] + l[2]) as usize] = q;
+        }
+    }
+    let bricks: Vec<[u32; 125]> = by_key.into_values().collect();
+    let width = |grid: &[u32; 125], code: &dyn Fn(usize) -> i32| -> u32 {
+        let samples: Vec<([u32; 3], i32)> = (0..125u32)
+            .filter(|&g| grid[g as usize] != NONE)
+            .map(|g| ([g / 25, g / 5 % 5, g % 5], code(grid[g as usize] as usize)))
+            .collect();
+        sdfmo_format::brick_residual_bits(&samples, bits)
+    };
+    let exact_width: Vec<u32> = bricks.par_iter().map(|b| width(b, exact)).collect();
+    // Each point's bricks (a point on a brick's face or edge is in two to eight), as
+    // `(point, brick)` pairs sorted by point: after a round only the bricks of the points it
+    // kept exact are measured again.
+    let mut pairs: Vec<(u32, u32)> = bricks
+        .iter()
+        .enumerate()
+        .flat_map(|(b, grid)| {
+            grid.iter()
+                .filter(|&&q| q != NONE)
+                .map(move |&q| (q, b as u32))
+        })
+        .collect();
+    pairs.sort_unstable();
+    let mut check: Vec<u32> = (0..bricks.len() as u32).collect();
+    let mut kept = 0;
+    while !check.is_empty() {
+        let now = |i: usize| if free[i] { codes[i] } else { exact(i) };
+        let wide: Vec<u32> = check
+            .par_iter()
+            .copied()
+            .filter(|&b| width(&bricks[b as usize], &now) > exact_width[b as usize])
+            .collect();
+        let mut next = Vec::new();
+        for b in wide {
+            for &q in bricks[b as usize].iter().filter(|&&q| q != NONE) {
+                if std::mem::replace(&mut free[q as usize], false) {
+                    kept += 1;
+                    let from = pairs.partition_point(|&(p, _)| p < q);
+                    next.extend(
+                        pairs[from..]
+                            .iter()
+                            .take_while(|&&(p, _)| p == q)
+                            .map(|&(_, b)| b),
+                    );
+                }
+            }
+        }
+        next.sort_unstable();
+        next.dedup();
+        check = next;
+    }
+    kept
 }
 
 #[cfg(test)]

@@ -126,13 +126,14 @@ pub struct BuildSettings {
     /// least-squares fit of the trilinear interpolant's zero set to the mesh inside those
     /// leaves, each within six quantisation steps of the exact distance (an inside value at
     /// most one step deeper), instead of the exact distance itself: depth-9 multi-octree on the
-    /// five shared models +0.90 to +1.21 dB (median +1.13), 49 of the 50 cells of the paper
+    /// five shared models +0.83 to +1.17 dB (median +1.03), 49 of the 50 cells of the paper
     /// sweep gain and none loses more than 0.01 dB (`docs/results/sweep.md`). Off by default:
-    /// it costs 1.3–1.8× the build's CPU time at depth 9 (abc5, abc1) and 8–9 % more bytes in
-    /// format 3.1 (fitted values lie less on a plane). Each grid point keeps one value for every voxel
-    /// around it; private corners (component, surface, plane and clip voxels) and the corners of dropped
-    /// cells keep their exact values. The leaf decisions are those of the exact corners, so
-    /// the octree's leaves and voxels, and its size, are the same as without the fit.
+    /// it costs 1.4–1.9× the build's CPU time at depth 9 (abc5, abc1). Each grid point keeps
+    /// one value for every voxel around it; private corners (component, surface, plane and
+    /// clip voxels), the corners of dropped cells and the points format 3.x needs as they are
+    /// (a brick whose residuals would widen) keep their exact values. The leaf decisions are
+    /// those of the exact corners, so the octree's leaves and voxels, and its size, are the
+    /// same as without the fit, and its format 3.1 file 0.997–1.001× the exact one's.
     pub fit_corners: bool,
 }
 
@@ -740,9 +741,11 @@ fn build_level(
     let mut cap_hits = 0usize;
     let mut histogram = vec![0usize; max_voxels + 1];
     // For the fit: the cells whose one voxel is the shared one (with its index in `leaves`),
-    // and the dropped cells.
+    // and the cells whose points keep their exact values (dropped cells, and others below).
     let mut fitted: Vec<(u32, usize)> = Vec::new();
-    let mut dropped: Vec<u32> = Vec::new();
+    let mut frozen: Vec<u32> = Vec::new();
+    // With `keep_brick_widths`, what format 3.x would store otherwise also stays as it is.
+    let keep_3x_bytes = cornerfit::FitParams::DEFAULT.keep_brick_widths;
     const CHUNK: usize = 1 << 14;
     let mut start = 0;
     while start < n {
@@ -773,10 +776,16 @@ fn build_level(
             cap_hits += r.cap_hit as usize;
             if shared.is_some() {
                 match r.voxels.as_slice() {
-                    [] => dropped.push(i as u32),
-                    [v] if !v.clip && v.corners == corners[i] => {
+                    [] => frozen.push(i as u32),
+                    // A surface voxel is private in format 3.x, stored narrow where its codes
+                    // vary little: fitted values widen some (teapot depth 8: 184 bytes).
+                    [v] if !v.clip && v.corners == corners[i] && !(keep_3x_bytes && v.surface) => {
                         fitted.push((i as u32, leaves.len()));
                     }
+                    // A volume voxel of its own (a component's) is stored by format 3.x as a
+                    // shared leaf where its codes agree with its neighbours': moving its points
+                    // made 2,207 more leaves private on abc5 depth 9 (+1.3 % bytes).
+                    [v] if keep_3x_bytes && !v.clip && !v.surface => frozen.push(i as u32),
                     _ => {}
                 }
             }
@@ -807,7 +816,7 @@ fn build_level(
                 point_of_slot: &point_of_slot,
             },
             &cells,
-            &dropped,
+            &frozen,
         );
         for &(c, at) in &fitted {
             leaves[at].voxels[0].corners =

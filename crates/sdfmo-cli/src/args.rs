@@ -203,8 +203,8 @@ pub struct BuildArgs {
     pub compress: Option<Option<i32>>,
     /// Corners fitted to the surface: the shared corner values chosen so that the voxels' zero
     /// set follows the mesh (a least-squares fit within a few quantisation steps of the exact
-    /// distance) instead of the exact distance: +1.13 dB median at depth 9 (multi), the same
-    /// leaves and voxels, 1.3–1.8× the build's CPU time at depth 9.
+    /// distance) instead of the exact distance: +1.03 dB median at depth 9 (multi), the same
+    /// leaves, voxels and bytes, 1.4–1.9× the build's CPU time at depth 9.
     #[arg(long)]
     pub fit_corners: bool,
     /// Print one JSON object on stdout instead of the human summary.

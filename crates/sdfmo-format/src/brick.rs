@@ -561,6 +561,14 @@ pub(crate) fn encode_points(
     }
 }
 
+/// The residual width in bits (one of [`residual_widths`](crate::residual_widths)) a brick
+/// whose shared grid points hold `samples` (`(point in 0..=4 per axis, code)`) is written with:
+/// the width of [`BrickOctree::encode`]'s choice of plane. For a builder that changes codes and
+/// would keep the file's size.
+pub fn brick_residual_bits(samples: &[([u32; 3], i32)], bits: ValueBits) -> u32 {
+    residual_widths(bits)[encode_points(samples, bits).1 as usize]
+}
+
 /// Appends `residuals` at `w` bits each (LSB first, two's complement; 16 bits little-endian)
 /// to `out`, starting at a new byte.
 pub(crate) fn put_residuals(out: &mut Vec<u8>, residuals: &[i32], w: u32) {

@@ -138,8 +138,8 @@ mod validate;
 use glam::Vec3;
 
 pub use brick::{
-    cell_grid_index, fit_brick_plane, is_v3, plane_predict, point_mask, BrickLeaf, BrickNode,
-    BrickOctree, BrickOctreeView, BrickSectionSizes, CORNER_POINT_OFFSETS,
+    brick_residual_bits, cell_grid_index, fit_brick_plane, is_v3, plane_predict, point_mask,
+    BrickLeaf, BrickNode, BrickOctree, BrickOctreeView, BrickSectionSizes, CORNER_POINT_OFFSETS,
 };
 pub use brick_lod::{
     decode_levels, decode_levels_prefix, decode_levels_stats, encode_levels, is_brick_levels,
