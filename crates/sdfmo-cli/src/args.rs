@@ -490,6 +490,10 @@ pub struct SweepSettingsArgs {
     /// Most voxels per leaf of the multi-octree, 1..=255.
     #[arg(long, value_name = "N", default_value_t = 8, value_parser = clap::value_parser!(u8).range(1..))]
     pub max_voxels: u8,
+    /// Corners fitted to the surface in every build (as `build --fit-corners`): the rows show
+    /// what the fit gains and what it costs in build time.
+    #[arg(long)]
+    pub fit_corners: bool,
     /// Memory budget of each build (as for `build --max-memory`); checked for the deepest
     /// depth of every mesh before any work.
     #[arg(long, value_name = "SIZE", value_parser = parse_memory)]

@@ -600,6 +600,46 @@ fn shared_data_parts_and_sign() {
     assert!(j["boundary_edges"].as_u64().unwrap() > 0);
 }
 
+/// `sweep --fit-corners`: every build of the sweep fitted (each row's octree the one
+/// `build --fit-corners` writes), the setting recorded in `results.json` and in the settings
+/// hash; rows of the same sizes as without, other PSNR.
+#[test]
+fn a_sweep_with_fitted_corners_records_them() {
+    let dir = tmp("sweep-fit");
+    let common = os![
+        "--depths",
+        "5",
+        "--size",
+        "48",
+        "--methods",
+        "svo",
+        "--threads",
+        "2"
+    ];
+    let (_, exact) = sweep_ok(&common, &dir.join("exact"));
+    let fit = [&common[..], &os!["--fit-corners"][..]].concat();
+    let (_, fitted) = sweep_ok(&fit, &dir.join("fitted"));
+    assert_eq!(fitted["settings"]["fit_corners"], true);
+    assert!(exact["settings"].get("fit_corners").is_none());
+    let (a, b) = (&exact["rows"][0], &fitted["rows"][0]);
+    assert_eq!(a["bytes"], b["bytes"]);
+    assert_ne!(a["psnr"], b["psnr"]);
+    let fitted_build = dir.join("fitted.smo");
+    let built = json_ok(&os![
+        "build",
+        "-d",
+        "5",
+        "--method",
+        "svo",
+        "--fit-corners",
+        "-o",
+        fitted_build
+    ]);
+    assert_eq!(built["bytes"], b["bytes"]);
+    let table = std::fs::read_to_string(dir.join("fitted").join("table.md")).unwrap();
+    assert!(table.contains("corners fitted to the surface"), "{table}");
+}
+
 /// `build --fit-corners`: the same leaves, voxels and bytes as without, other corner values,
 /// and a `fit` phase before `pack`.
 #[test]

@@ -64,12 +64,13 @@ impl Record {
     }
 }
 
-/// The hash of what decides a sweep's rows: depths, methods, image size, voxel cap, views and
-/// the program's version (not the thread count, which changes no row, nor the limits, which
+/// The hash of what decides a sweep's rows: depths, methods, image size, voxel cap, views,
+/// fitted corners (only when on, so that earlier ledgers keep their hash) and the program's
+/// version (not the thread count, which changes no row, nor the limits, which
 /// only decide whether a model fails). CRC-32 of the settings' JSON, 8 hex digits: a
 /// fingerprint to tell runs apart, not a defence against forgery.
 pub fn settings_hash(settings: &SweepSettings) -> String {
-    let key = serde_json::json!({
+    let mut key = serde_json::json!({
         "version": env!("CARGO_PKG_VERSION"),
         "depths": settings.depths,
         "methods": settings.methods,
@@ -77,6 +78,9 @@ pub fn settings_hash(settings: &SweepSettings) -> String {
         "max_voxels": settings.max_voxels,
         "views": settings.views,
     });
+    if settings.fit_corners {
+        key["fit_corners"] = serde_json::Value::Bool(true);
+    }
     format!("{:08x}", crc32fast::hash(key.to_string().as_bytes()))
 }
 

@@ -96,6 +96,7 @@ fn sweep_settings(args: &SweepOptions) -> SweepSettings {
             .collect(),
         size: args.size,
         max_voxels: args.max_voxels,
+        fit_corners: args.fit_corners,
         // Provenance: the number of workers actually used, never `null`.
         threads: Some(args.threads.unwrap_or_else(rayon::current_num_threads)),
         views: Camera::paper_views(args.size, args.size).len(),
@@ -220,6 +221,7 @@ fn build_settings(args: &SweepOptions, method: SweepMethod, depth: u8) -> BuildS
         .with_bits(sdf_multioctree::format::ValueBits::Eight)
         .with_margin(sdf_multioctree::DEFAULT_MARGIN)
         .with_sign(SignMode::Auto)
+        .with_fit_corners(args.fit_corners)
 }
 
 /// Makes the report of the models and rows so far (with the extra rows).

@@ -98,6 +98,8 @@ pub struct SweepOptions {
     pub size: u32,
     /// Most voxels per leaf of the multi-octree, 1..=255.
     pub max_voxels: u8,
+    /// Corners fitted to the surface in every build (`BuildSettings::fit_corners`).
+    pub fit_corners: bool,
     /// Memory budget of each build in bytes (default: the builder's).
     pub max_memory: Option<u64>,
     /// Worker threads for builds and renders (default: all cores).

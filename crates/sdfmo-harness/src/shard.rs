@@ -298,6 +298,9 @@ fn child_args(args: &SweepOptions, path: &Path, name: &str) -> Vec<OsString> {
     v.push(format!("--methods={}", methods.join(",")).into());
     v.push(format!("--size={}", args.size).into());
     v.push(format!("--max-voxels={}", args.max_voxels).into());
+    if args.fit_corners {
+        v.push("--fit-corners".into());
+    }
     v.push(format!("--frames={}", args.frames).into());
     if args.levels {
         v.push("--levels".into());

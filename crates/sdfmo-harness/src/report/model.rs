@@ -95,6 +95,10 @@ pub struct SweepSettings {
     pub size: u32,
     /// Voxel cap of the multi-octree.
     pub max_voxels: u8,
+    /// Corners fitted to the surface in every build (`BuildSettings::fit_corners`; absent,
+    /// `false`, in results written before the setting).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub fit_corners: bool,
     /// Worker threads (`None`: all cores).
     pub threads: Option<usize>,
     /// Views per configuration.
@@ -111,6 +115,7 @@ impl SweepSettings {
             methods: vec!["svo".into(), "multi".into()],
             size,
             max_voxels: 8,
+            fit_corners: false,
             threads: Some(1),
             views: 4,
         }

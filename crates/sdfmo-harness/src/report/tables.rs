@@ -272,7 +272,7 @@ pub fn protocol(report: &Report) -> String {
          fov 60°), lambert shading, compared with the source mesh rendered by the same renderer. \
          PSNR (dB, higher is better) and FLIP (lower is better) are means over the views; MB = \
          10^6 bytes of the packed 8-bit octree file; build ms = whole build; render ms = mean per \
-         view{}. Multi-octree voxel cap {}; threads {}. ΔPSNR = multi − SVO; × = multi / SVO. \
+         view{}. Multi-octree voxel cap {}{}; threads {}. ΔPSNR = multi − SVO; × = multi / SVO. \
          ∞ = identical images.",
         settings.views,
         settings.size,
@@ -282,6 +282,11 @@ pub fn protocol(report: &Report) -> String {
             n => format!(" of each view's median over {n} frames"),
         },
         settings.max_voxels,
+        if settings.fit_corners {
+            "; corners fitted to the surface"
+        } else {
+            ""
+        },
         settings
             .threads
             .map_or("all cores".to_owned(), |t| t.to_string())
