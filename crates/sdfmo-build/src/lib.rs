@@ -128,7 +128,7 @@ pub struct BuildSettings {
     /// most one step deeper), instead of the exact distance itself: depth-9 multi-octree on the
     /// five shared models +0.83 to +1.17 dB (median +1.03), 49 of the 50 cells of the paper
     /// sweep gain and none loses more than 0.01 dB (`docs/results/sweep.md`). Off by default:
-    /// it costs 1.4–1.9× the build's CPU time at depth 9 (abc5, abc1). Each grid point keeps
+    /// it costs 1.5–3.5× the build time at depth 9 (multi, the five models). Each grid point keeps
     /// one value for every voxel around it; private corners (component, surface, plane and
     /// clip voxels), the corners of dropped cells and the points format 3.x needs as they are
     /// (a brick whose residuals would widen) keep their exact values. The leaf decisions are

@@ -204,7 +204,7 @@ pub struct BuildArgs {
     /// Corners fitted to the surface: the shared corner values chosen so that the voxels' zero
     /// set follows the mesh (a least-squares fit within a few quantisation steps of the exact
     /// distance) instead of the exact distance: +1.03 dB median at depth 9 (multi), the same
-    /// leaves, voxels and bytes, 1.4–1.9× the build's CPU time at depth 9.
+    /// leaves, voxels and bytes, 1.5–3.5× the build time at depth 9.
     #[arg(long)]
     pub fit_corners: bool,
     /// Print one JSON object on stdout instead of the human summary.

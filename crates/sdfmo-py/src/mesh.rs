@@ -681,7 +681,7 @@ impl Mesh {
     /// edge 2/2^depth of the normalised root cube); corners quantised to ``bits`` (8 or 16).
     /// ``fit_corners``: the shared corner values fitted to the surface instead of the exact
     /// distances (``sdfmo build --fit-corners``: the same leaves, voxels and bytes, about +1 dB
-    /// at depth 9, a build 1.4–1.9× as long). ``coarsest``: levels of detail ``coarsest..=depth``
+    /// at depth 9, a build 1.5–3.5× as long). ``coarsest``: levels of detail ``coarsest..=depth``
     /// (``sdfmo build --lod --coarsest``; ``levels``, ``save`` and ``render(lod=...)`` see them
     /// all, ``distance`` and ``stats`` the finest). The output is the same for any ``threads``. The build is refused with ``MemoryError``
     /// when its predicted peak memory exceeds ``max_memory`` bytes (default: half the physical
