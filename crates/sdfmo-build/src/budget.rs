@@ -19,9 +19,10 @@ const BYTES_PER_CELL_SVO: f64 = 220.0;
 const BYTES_PER_CELL_MULTI: f64 = 230.0;
 /// Peak bytes per predicted candidate leaf that [`BuildSettings::fit_corners`] adds (each
 /// fitted leaf's normal equations, point and slot tables, the solver's vectors, and the shared
-/// points kept until the fit: measured 212–336 at depth 10 on abc1, abc3, abc5 and abc8, SVO and
-/// multi, peak RSS with the fit less the estimate without it; rounded up by a fifth). Without
-/// it abc3 depth 10 with the fit was predicted 0.96 GB and took 2.2 GB.
+/// points kept until the fit: measured 208–338 at depth 10 on abc1, abc3, abc5 and abc8, multi,
+/// peak RSS with the fit less the estimate without it, the solver's vectors freed before the
+/// brick pass; rounded up by a fifth). Without it abc3 depth 10 with the fit was predicted
+/// 0.96 GB and took 2.2 GB.
 const BYTES_PER_CELL_FIT: f64 = 400.0;
 /// Bytes per triangle of the mesh copies and distance structures (BVH, packets, topology).
 const BYTES_PER_TRIANGLE: f64 = 600.0;

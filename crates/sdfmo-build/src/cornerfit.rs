@@ -394,6 +394,8 @@ pub(crate) fn fit_values(
             .for_each(|(d, z)| *d = z + beta * *d);
         rz = rz_new;
     }
+    // The solver's vectors go before the code descent and the brick pass (the fit's peak).
+    drop((r, z, dir, ad, per_slot, inv_diag));
 
     // Quantisation: each free point's code, chosen within its range by greedy descent of the
     // same energy, starting from the rounded continuous fit.
@@ -434,6 +436,7 @@ pub(crate) fn fit_values(
             }
         })
         .collect();
+    drop(x);
     if fp.code_sweeps > 0 {
         let inv_h = 1.0 / h;
         let mut xs: Vec<f32> = codes
