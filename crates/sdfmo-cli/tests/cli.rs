@@ -625,16 +625,14 @@ fn a_sweep_with_fitted_corners_records_them() {
     assert_eq!(a["bytes"], b["bytes"]);
     assert_ne!(a["psnr"], b["psnr"]);
     let fitted_build = dir.join("fitted.smo");
-    let built = json_ok(&os![
-        "build",
-        "-d",
-        "5",
-        "--method",
-        "svo",
-        "--fit-corners",
-        "-o",
-        fitted_build
-    ]);
+    let depth5 = os!["-d", "5", "--method", "svo"];
+    let args = [
+        &os!["build"][..],
+        &depth5,
+        &os!["--fit-corners", "-o", fitted_build],
+    ]
+    .concat();
+    let built = json_ok(&args);
     assert_eq!(built["bytes"], b["bytes"]);
     let table = std::fs::read_to_string(dir.join("fitted").join("table.md")).unwrap();
     assert!(table.contains("corners fitted to the surface"), "{table}");

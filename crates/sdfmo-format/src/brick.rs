@@ -215,7 +215,7 @@ impl From<BrickRecord> for Brick {
 }
 
 /// The counts a 3.0 header declares.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(crate) struct V3Counts {
     /// The counts a 1.x file would declare, its inner nodes being the upper nodes (the inner
     /// nodes above the bricks).
