@@ -535,23 +535,19 @@ fn keep_brick_widths(
     for (j, &c) in fitted.iter().enumerate() {
         let coord = sub.cells[c as usize].coord;
         let grid = by_key.entry(coord.map(|v| v >> 2)).or_insert([NONE; 125]);
-        for (k, &q) in leaf_points[j].iter().enumerate() {
-            let o = corner_offset(k);
-            let l = [
-                (coord[0] & 3) + o.x as u32,
-                (coord[1] & 3) + o.y as u32,
-                (coord[2] & 3) + o.z as u32,
-            ];
-            grid[(25 * l[0] + 5 * l[1] + l[2]) as usize] = q;
+        // The leaf's lowest corner in the brick's 5³ grid (`25x + 5y + z`).
+        let low = 25 * (coord[0] & 3) + 5 * (coord[1] & 3) + (coord[2] & 3);
+        for (&q, offset) in leaf_points[j]
+            .iter()
+            .zip(sdfmo_format::CORNER_POINT_OFFSETS)
+        {
+            grid[(low + offset) as usize] = q;
         }
     }
     let bricks: Vec<[u32; 125]> = by_key.into_values().collect();
     let width = |grid: &[u32; 125], code: &dyn Fn(usize) -> i32| -> u32 {
-        let samples: Vec<([u32; 3], i32)> = (0..125u32)
-            .filter(|&g| grid[g as usize] != NONE)
-            .map(|g| ([g / 25, g / 5 % 5, g % 5], code(grid[g as usize] as usize)))
-            .collect();
-        sdfmo_format::brick_residual_bits(&samples, bits)
+        let points = grid.map(|q| (q != NONE).then(|| code(q as usize)));
+        sdfmo_format::brick_residual_bits(&points, bits)
     };
     let exact_width: Vec<u32> = bricks.par_iter().map(|b| width(b, exact)).collect();
     // Each point's bricks (a point on a brick's face or edge is in two to eight), as

@@ -561,12 +561,20 @@ pub(crate) fn encode_points(
     }
 }
 
-/// The residual width in bits (one of [`residual_widths`](crate::residual_widths)) a brick
-/// whose shared grid points hold `samples` (`(point in 0..=4 per axis, code)`) is written with:
-/// the width of [`BrickOctree::encode`]'s choice of plane. For a builder that changes codes and
-/// would keep the file's size.
-pub fn brick_residual_bits(samples: &[([u32; 3], i32)], bits: ValueBits) -> u32 {
-    residual_widths(bits)[encode_points(samples, bits).1 as usize]
+/// A brick's shared points (`points[25x + 5y + z]`, the codes its shared leaves put there) as
+/// `(point, code)` samples in grid order: what its plane and residuals are made from.
+fn point_samples(points: &[Option<i32>; 125]) -> Vec<([u32; 3], i32)> {
+    (0..125u32)
+        .filter_map(|g| points[g as usize].map(|c| (grid_point(g), c)))
+        .collect()
+}
+
+/// The residual width in bits (one of [`residual_widths`](crate::residual_widths)) that
+/// [`BrickOctree::encode`] writes a brick with whose shared grid points hold `points`
+/// (`points[25x + 5y + z]`, `None` where no shared leaf has a corner; see
+/// [`CORNER_POINT_OFFSETS`]). For a builder that changes codes and would keep the file's size.
+pub fn brick_residual_bits(points: &[Option<i32>; 125], bits: ValueBits) -> u32 {
+    residual_widths(bits)[encode_points(&point_samples(points), bits).1 as usize]
 }
 
 /// Appends `residuals` at `w` bits each (LSB first, two's complement; 16 bits little-endian)
@@ -732,9 +740,7 @@ impl BrickOctree<Vec<u8>> {
         let mut residual_bytes: Vec<u8> = Vec::new();
         let mut first_private_leaf = 0u32;
         for b in &bricks {
-            let samples: Vec<([u32; 3], i32)> = (0..125u32)
-                .filter_map(|g| b.points[g as usize].map(|c| (grid_point(g), c)))
-                .collect();
+            let samples = point_samples(&b.points);
             debug_assert_eq!(
                 samples.len() as u32,
                 point_mask(b.occupancy & !b.private).count_ones()
